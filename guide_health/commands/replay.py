@@ -1,0 +1,130 @@
+"""`guide-health replay BAG --params FILE`: offline analysis of a bag with the live node's model objects."""
+from __future__ import annotations
+
+import csv
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from guide_health.models.precision import LEVEL_NAMES, PrecisionMonitor
+from guide_health.params import wear_monitor_params
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("bag", help="rosbag2 directory (sqlite3 or mcap)")
+    parser.add_argument("--params", required=True, help="ROS 2 parameters YAML (wear_monitor section)")
+    parser.add_argument("--out", help="report directory (default: <bag>.report beside the bag)")
+    parser.add_argument("--namespace", default=None, help="topic namespace in the bag (default: detect)")
+    parser.add_argument("--no-plot", action="store_true", help="skip the PNG plot")
+    parser.add_argument("--progress", action="store_true", help="force the progress bar even without a TTY")
+
+
+def analyse(run, params: dict, progress=None) -> tuple[PrecisionMonitor, dict]:
+    """Run the precision model over a MachineRun; returns the monitor and its report."""
+    monitor = PrecisionMonitor(params)
+    monitor.process_run(run, progress=progress)
+    report = monitor.report()
+    report["messages"] = run.messages
+    report["duration_h"] = run.duration_s / 3600.0
+    return monitor, report
+
+
+def model_curve(monitor: PrecisionMonitor) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(t [h] from the first joint sample, measured [um], model [um]) at the measurement times."""
+    est = monitor.estimator
+    t0 = monitor.integrator.first_t_ns or 0
+    t_h = (np.asarray(est.measurement_t_ns, dtype=np.int64) - t0) * 1e-9 / 3600.0
+    k = monitor.report()["wear_coefficient"]
+    model = (monitor.params["straightness_initial_m"] + k * monitor.measurement_losses_per_k_m()) * 1e6
+    return t_h, np.asarray(est.measurement_m) * 1e6, model
+
+
+def write_outputs(out: Path, monitor: PrecisionMonitor, report: dict, plot: bool) -> dict[str, str]:
+    out.mkdir(parents=True, exist_ok=True)
+    files = {"json": str(out / "report.json"), "csv": str(out / "straightness.csv")}
+    Path(files["json"]).write_text(json.dumps(report, indent=2, allow_nan=True) + "\n")
+    t_h, measured, model = model_curve(monitor)
+    with open(files["csv"], "w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["time_h", "straightness_measured_um", "straightness_model_um", "residual_um"])
+        for row in zip(t_h, measured, model, measured - model):
+            writer.writerow([f"{v:.6f}" for v in row])
+    if plot:
+        files["png"] = str(out / "straightness.png")
+        plot_report(Path(files["png"]), monitor, report, t_h, measured, model)
+    return files
+
+
+def plot_report(path: Path, monitor: PrecisionMonitor, report: dict, t_h, measured, model) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2))
+    ax1.plot(t_h, measured, "o", ms=4, label="measured")
+    ax1.plot(t_h, model, "-", label=f"model (K = {report['wear_coefficient']:.3g})")
+    ax1.axhline(report["straightness_limit_um"], color="r", ls="--", label="limit")
+    ax1.set_xlabel("time [h]")
+    ax1.set_ylabel("straightness [um]")
+    life = report["remaining_life_h"]
+    ax1.set_title(f"remaining precision life {life:.0f} h "
+                  f"[{report['remaining_life_h_low']:.0f}, {report['remaining_life_h_high']:.0f}]"
+                  if math.isfinite(life) else "straightness")
+    ax1.legend()
+    ax1.grid(alpha=0.3)
+    u = monitor.geometry.bin_centres_m()
+    depth_um = report["wear_coefficient"] * monitor.integrator.profile_depth_per_k_m() * 1e6
+    ax2.plot(u * 1e3, -depth_um)
+    ax2.set_xlabel("rail position [mm]")
+    ax2.set_ylabel("wear profile [um]")
+    ax2.set_title("wear along the rail (profile model)")
+    ax2.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def run(args) -> dict:
+    from guide_health.bags import ProgressBar, read_machine_bag
+
+    params = wear_monitor_params(args.params)
+    bag = Path(args.bag)
+    t0 = time.perf_counter()
+    bar = ProgressBar("read", force=args.progress)
+    machine = read_machine_bag(bag, joint=params["joint"], namespace=args.namespace, progress=bar)
+    bar.close()
+    t_read = time.perf_counter() - t0
+    bar = ProgressBar("wear", force=args.progress)
+    monitor, report = analyse(machine, params, progress=bar)
+    bar.close()
+    t_model = time.perf_counter() - t0 - t_read
+    out = Path(args.out) if args.out else bag.with_name(bag.name + ".report")
+    report["level_name"] = LEVEL_NAMES[report["level"]]
+    report["read_s"] = t_read
+    report["model_s"] = t_model
+    report["files"] = write_outputs(out, monitor, report, plot=not args.no_plot)
+    print(f"{report['messages']} messages in {t_read + t_model:.2f} s "
+          f"({report['messages'] / max(t_read + t_model, 1e-9):,.0f} msg/s); report in {out}", file=sys.stderr)
+    return report
+
+
+def format_text(report: dict) -> str:
+    return "\n".join([
+        f"guide precision report ({report['duration_h']:.2f} h, {report['messages']} messages)",
+        f"  status:                {report['level_name']}: {report['message']}",
+        f"  straightness (model):  {report['straightness_um']:.2f} um   (last measured "
+        f"{report['straightness_measured_um']:.2f} um, limit {report['straightness_limit_um']:.0f} um)",
+        f"  remaining life:        {report['remaining_life_h']:.1f} h   (90 %: "
+        f"{report['remaining_life_h_low']:.1f} .. {report['remaining_life_h_high']:.1f} h)",
+        f"  wear coefficient K:    {report['wear_coefficient']:.4g}   (configured "
+        f"{report['wear_coefficient_configured']:.4g}, {report['measurements']} measurements)",
+        f"  wear volume:           {report['wear_volume_mm3']:.3f} mm^3 over {report['sliding_distance_m']:.1f} m",
+        f"  strokes:               {report['strokes']} between {report['stroke_min_m'] * 1e3:.1f} and "
+        f"{report['stroke_max_m'] * 1e3:.1f} mm",
+        f"  files:                 {', '.join(report['files'].values())}",
+    ])

@@ -1,0 +1,1 @@
+"""Model-versus-measurement discrepancy workflow."""

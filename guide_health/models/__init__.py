@@ -1,0 +1,1 @@
+"""Pure physics: numpy/scipy only, SI units, no ROS, no I/O."""

@@ -1,0 +1,243 @@
+"""The precision-retention model of one guide: the single object behind the live node and offline replay.
+
+It validates samples (bad ones are rejected with a reason and never change the state), integrates the
+Archard work (:class:`~guide_health.models.wear.WearIntegrator`), updates K from measured straightness
+(:class:`~guide_health.models.calibration.WearCoefficientEstimator`) and reports straightness, wear and
+remaining precision life (seed 000 Eqs. 7, 10, 11, 12) with a 90 % interval.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any, Callable
+
+import numpy as np
+
+from guide_health.models.calibration import WearCoefficientEstimator, remaining_life_s
+from guide_health.models.wear import WearGeometry, WearIntegrator, straightness_from_wear_volume_m
+
+OK, WARN, ERROR, STALE = 0, 1, 2, 3
+LEVEL_NAMES = {OK: "OK", WARN: "WARN", ERROR: "ERROR", STALE: "STALE"}
+
+
+class PrecisionMonitor:
+    """Sliding-guide precision monitor (parameters: guide_health.params.WEAR_MONITOR_DEFAULTS)."""
+
+    STATE_VERSION = 1
+
+    def __init__(self, params: dict[str, Any]):
+        self.params = dict(params)
+        self.geometry = WearGeometry.from_params(params)
+        self.integrator = WearIntegrator(self.geometry)
+        self.estimator = WearCoefficientEstimator(
+            prior_wear_coefficient=params["wear_coefficient"],
+            prior_rel_sd=params["wear_coefficient_prior_rel_sd"],
+            noise_sd_m=params["straightness_noise_m"],
+            straightness_initial_m=params["straightness_initial_m"],
+        )
+        self.load_n = math.nan           # latest accepted load
+        self.load_t_ns: int | None = None
+        self.rejected: dict[str, int] = {}
+
+    # --- input validation + live updates (O(1) per sample) ---------------------------------------
+    def _reject(self, reason: str) -> str:
+        self.rejected[reason] = self.rejected.get(reason, 0) + 1
+        return reason
+
+    def on_joint(self, t_ns: int, position_m: float, velocity_m_s: float = 0.0) -> str | None:
+        """Axis sample; returns the rejection reason or None when accepted."""
+        if not (math.isfinite(position_m) and math.isfinite(velocity_m_s)):
+            return self._reject("non-finite joint position/velocity")
+        last = self.integrator.last_t_ns
+        if last is not None and t_ns <= last:
+            return self._reject("joint_states time going backwards")
+        self.integrator.advance(t_ns, position_m, self.load_n)
+        return None
+
+    def on_load(self, t_ns: int, load_n: float) -> str | None:
+        if not math.isfinite(load_n):
+            return self._reject("non-finite load")
+        if load_n < 0:
+            return self._reject("negative load (tension on the guide)")
+        if self.load_t_ns is not None and t_ns <= self.load_t_ns:
+            return self._reject("load time going backwards")
+        self.load_n = float(load_n)
+        self.load_t_ns = int(t_ns)
+        return None
+
+    def on_straightness(self, t_ns: int, straightness_m: float) -> str | None:
+        if not math.isfinite(straightness_m):
+            return self._reject("non-finite straightness")
+        if straightness_m < 0:
+            return self._reject("negative straightness")
+        if self.estimator.measurement_t_ns and t_ns < self.estimator.measurement_t_ns[-1]:
+            return self._reject("straightness time going backwards")
+        self.estimator.add(t_ns, straightness_m, self.integrator.straightness_loss_per_k_m(),
+                           self.integrator.archard_work_nm)
+        return None
+
+    # --- offline, vectorised ----------------------------------------------------------------------
+    def process_run(self, run, progress: Callable[[int, int], None] | None = None) -> None:
+        """Feed a whole :class:`~guide_health.runs.MachineRun` with the same rules as the live callbacks.
+
+        Samples are filtered with the live validation rules (vectorised), the latest load at each joint
+        sample is found by binary search, and the integration is split at the measurement times so each
+        measurement sees the wear state at its own time.
+        """
+        jt = np.asarray(run.joint_t_ns, dtype=np.int64)
+        jx = np.asarray(run.joint_position_m, dtype=float)
+        jv = np.asarray(run.joint_velocity_m_s, dtype=float)
+        ok = np.isfinite(jx)
+        if jv.size == jx.size:
+            ok &= np.isfinite(jv)
+        self._count_rejected("non-finite joint position/velocity", int((~ok).sum()))
+        jt, jx = jt[ok], jx[ok]
+        jt, jx = self._monotonic(jt, jx, self.integrator.last_t_ns, "joint_states time going backwards")
+
+        lt = np.asarray(run.load_t_ns, dtype=np.int64)
+        lw = np.asarray(run.load_n, dtype=float)
+        finite = np.isfinite(lw)
+        self._count_rejected("non-finite load", int((~finite).sum()))
+        lt, lw = lt[finite], lw[finite]
+        negative = lw < 0
+        self._count_rejected("negative load (tension on the guide)", int(negative.sum()))
+        lt, lw = lt[~negative], lw[~negative]
+        lt, lw = self._monotonic(lt, lw, self.load_t_ns, "load time going backwards")
+        # latest accepted load at (or before) each joint sample; the carried-over load before the first
+        if self.load_t_ns is not None:
+            lt = np.concatenate(([self.load_t_ns], lt))
+            lw = np.concatenate(([self.load_n], lw))
+        idx = np.searchsorted(lt, jt, side="right") - 1
+        load_at_joint = np.where(idx >= 0, lw[np.clip(idx, 0, None)] if lw.size else np.nan, np.nan)
+
+        st = np.asarray(run.straightness_t_ns, dtype=np.int64)
+        sm = np.asarray(run.straightness_m, dtype=float)
+        total = int(jt.size)
+        done = 0
+        start = 0
+        for t_meas, value in zip(st.tolist(), sm.tolist()):
+            stop = int(np.searchsorted(jt, t_meas, side="right"))
+            if stop > start:
+                self.integrator.advance_many(jt[start:stop], jx[start:stop], load_at_joint[start:stop])
+                done += stop - start
+                if progress:
+                    progress(done, total)
+            start = max(start, stop)
+            self.on_straightness(t_meas, value)
+        if total > start:
+            # chunks bound the temporaries of the vectorised profile update
+            for lo in range(start, total, 500_000):
+                hi = min(total, lo + 500_000)
+                self.integrator.advance_many(jt[lo:hi], jx[lo:hi], load_at_joint[lo:hi])
+                if progress:
+                    progress(hi, total)
+        if lt.size:
+            self.load_t_ns = int(lt[-1])
+            self.load_n = float(lw[-1])
+
+    def _count_rejected(self, reason: str, count: int) -> None:
+        if count:
+            self.rejected[reason] = self.rejected.get(reason, 0) + count
+
+    def _monotonic(self, t: np.ndarray, values: np.ndarray, last_t: int | None, reason: str):
+        """Keep samples whose stamp exceeds every earlier accepted stamp (the live rule)."""
+        if t.size == 0:
+            return t, values
+        previous_max = np.maximum.accumulate(np.concatenate(([np.iinfo(np.int64).min if last_t is None
+                                                               else last_t], t[:-1])))
+        keep = t > previous_max
+        self._count_rejected(reason, int((~keep).sum()))
+        return t[keep], values[keep]
+
+    # --- results ------------------------------------------------------------------------------------
+    def measurement_losses_per_k_m(self) -> np.ndarray:
+        """g_j of each measurement: for Eq. 7 recomputed with the present stroke estimate."""
+        est = self.estimator
+        if self.geometry.straightness_model == "eq7":
+            l_min, l_max = self.integrator.stroke_range_m()
+            volume = np.asarray(est.measurement_work_nm) / self.geometry.hardness_pa
+            return straightness_from_wear_volume_m(volume, self.geometry.contact_width_m, l_min, l_max)
+        return np.asarray(est.measurement_loss_per_k_m, dtype=float)
+
+    def report(self) -> dict[str, Any]:
+        """The numbers of the `<joint> precision` status (INTERFACES.md keys) plus level and message."""
+        p = self.params
+        g_meas = self.measurement_losses_per_k_m()
+        k_low, k, k_high = self.estimator.interval90(g_meas)
+        loss_per_k = self.integrator.straightness_loss_per_k_m()
+        rate_per_k = self.integrator.straightness_rate_per_k_m_s()
+        a0 = p["straightness_initial_m"]
+        limit = p["straightness_limit_m"]
+        straightness = a0 + k * loss_per_k if math.isfinite(loss_per_k) else math.nan
+        life = remaining_life_s(limit, a0, loss_per_k, rate_per_k, k)
+        life_low = remaining_life_s(limit, a0, loss_per_k, rate_per_k, k_high)
+        life_high = remaining_life_s(limit, a0, loss_per_k, rate_per_k, k_low) if k_low > 0 else math.inf
+        l_min, l_max = self.integrator.stroke_range_m()
+        measured = self.estimator.measurement_m[-1] if self.estimator.count else math.nan
+        result = {
+            "straightness_um": straightness * 1e6,
+            "straightness_measured_um": measured * 1e6,
+            "straightness_limit_um": limit * 1e6,
+            "remaining_life_h": life / 3600.0,
+            "remaining_life_h_low": life_low / 3600.0,
+            "remaining_life_h_high": life_high / 3600.0,
+            "wear_volume_mm3": k * self.integrator.wear_volume_per_k_m3() * 1e9,
+            "sliding_distance_m": self.integrator.sliding_distance_m,
+            "wear_coefficient": k,
+            "wear_coefficient_low": k_low,
+            "wear_coefficient_high": k_high,
+            "wear_coefficient_configured": p["wear_coefficient"],
+            "measurements": self.estimator.count,
+            "duty_load_speed_w": self.integrator.duty_work_rate_w(),
+            "stroke_min_m": l_min,
+            "stroke_max_m": l_max,
+            "strokes": self.integrator.strokes.stroke_count,
+            "straightness_model": self.geometry.straightness_model,
+            "samples": self.integrator.samples,
+            "rejected_samples": int(sum(self.rejected.values())),
+        }
+        result["level"], result["message"] = self._judge(result)
+        return result
+
+    def _judge(self, r: dict) -> tuple[int, str]:
+        p = self.params
+        a = r["straightness_um"]
+        limit = r["straightness_limit_um"]
+        life = r["remaining_life_h"]
+        if math.isnan(a):
+            return WARN, "no wear estimate yet (waiting for motion and load)"
+        level = OK
+        if a >= limit:
+            return ERROR, f"straightness {a:.1f} um exceeds the limit {limit:.1f} um: precision lost"
+        if life < p["life_error_h"]:
+            level = ERROR
+        elif life < p["life_warn_h"] or a > p["straightness_warn_fraction"] * limit:
+            level = WARN
+        if math.isfinite(life):
+            text = f"remaining precision life {life:.0f} h at current duty (straightness {a:.1f} of {limit:.0f} um)"
+        else:
+            text = f"no wear at current duty (straightness {a:.1f} of {limit:.0f} um)"
+        return level, text
+
+    # --- persistence ----------------------------------------------------------------------------
+    def state(self) -> dict:
+        return {
+            "version": self.STATE_VERSION,
+            "integrator": self.integrator.state(),
+            "estimator": self.estimator.state(),
+            "load_n": self.load_n,
+            "load_t_ns": self.load_t_ns,
+        }
+
+    def restore(self, state: dict) -> None:
+        if state.get("version") != self.STATE_VERSION:
+            raise ValueError(f"unsupported state version {state.get('version')}")
+        self.integrator = WearIntegrator.from_state(self.geometry, state["integrator"])
+        est = state["estimator"]
+        self.estimator = WearCoefficientEstimator.from_state(est)
+        # parameters win over the saved prior (a user may re-tune them); measurements are kept
+        self.estimator.prior_wear_coefficient = self.params["wear_coefficient"]
+        self.estimator.prior_rel_sd = self.params["wear_coefficient_prior_rel_sd"]
+        self.estimator.noise_sd_m = self.params["straightness_noise_m"]
+        self.estimator.straightness_initial_m = self.params["straightness_initial_m"]
+        self.load_n = state["load_n"]
+        self.load_t_ns = state["load_t_ns"]

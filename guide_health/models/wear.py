@@ -1,0 +1,449 @@
+"""Sliding-guide wear and precision retention (seed 000: Tan et al. 2015).
+
+Closed forms (seed 000):
+    Eq. 7   V = A b (l_max + l_min) / 2           wear volume <-> straightness loss A
+    Eq. 10  V = K W v t / H                       Archard wear volume
+    Eq. 11  A = 2 K W v t / ((l_max + l_min) b H) straightness loss after sliding time t
+    Eq. 12  t = A_max (l_max + l_min) b H / (2 K W v)   precision life
+
+The integrator (:class:`WearIntegrator`) accumulates the K-free *Archard work* ``sum W |dx|`` [N m] from
+axis position and load samples (Eq. 10 in differential form, dV = K W ds / H), so the wear coefficient
+K can be updated from measurements afterwards without re-integrating (every wear quantity is linear in K).
+It serves the live node sample by sample (``advance``) and offline replay over whole arrays
+(``advance_many``), with identical arithmetic: the offline path is the same formulas vectorised.
+
+Two straightness models:
+- ``eq7``: seed 000 Eq. 7 with l_min / l_max from parameters or from the observed strokes.
+- ``profile``: the wear depth along the rail under a slider of length L_s with uniform pressure
+  W / (b L_s): h(u) = K / (H b) * w(u), where w(u) is the slider-averaged load-weighted traversal,
+  w(u) = (1 / L_s) * integral rho(s) 1{|s - u| < L_s / 2} ds, and rho(s) = sum_i W_i 1{s in segment i}.
+  The straightness is the minimum-zone width of the worn profile (two parallel lines enclosing it).
+  For a symmetric stroke distribution both models agree (the seed's j = 1/2 step in Eq. 5 is exact for a
+  symmetric distribution); for a skewed one Eq. 7 is biased (see test_wear_model.py).
+
+The straightness reported is A0 + A_wear: the initial form error and the wear dip are added, which is
+the seed's convention (its Fig. 9 curve starts at A0 = 15 um) and an upper bound for the minimum zone.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import ConvexHull, QhullError
+
+# ---------------------------------------------------------------------------------------------
+# Closed forms
+# ---------------------------------------------------------------------------------------------
+
+
+def archard_wear_volume_m3(wear_coefficient: float, load_n: float, sliding_distance_m: float,
+                           hardness_pa: float) -> float:
+    """Archard wear volume V = K W s / H [m^3], s = v t.  # seed 000 Eq. 10"""
+    return wear_coefficient * load_n * sliding_distance_m / hardness_pa
+
+
+def straightness_from_wear_volume_m(wear_volume_m3: float, contact_width_m: float,
+                                    stroke_min_m: float, stroke_max_m: float) -> float:
+    """Straightness loss A = 2 V / (b (l_max + l_min)) [m].  # seed 000 Eq. 7"""
+    return 2.0 * wear_volume_m3 / (contact_width_m * (stroke_max_m + stroke_min_m))
+
+
+def straightness_loss_eq11_m(wear_coefficient: float, load_n: float, speed_m_s: float, time_s: float,
+                             stroke_min_m: float, stroke_max_m: float, contact_width_m: float,
+                             hardness_pa: float) -> float:
+    """A = 2 K W v t / ((l_max + l_min) b H) [m].  # seed 000 Eq. 11"""
+    return (2.0 * wear_coefficient * load_n * speed_m_s * time_s
+            / ((stroke_max_m + stroke_min_m) * contact_width_m * hardness_pa))
+
+
+def precision_life_eq12_s(straightness_allowed_m: float, stroke_min_m: float, stroke_max_m: float,
+                          contact_width_m: float, hardness_pa: float, wear_coefficient: float,
+                          load_n: float, speed_m_s: float) -> float:
+    """t = A_max (l_max + l_min) b H / (2 K W v) [s].  # seed 000 Eq. 12"""
+    return (straightness_allowed_m * (stroke_max_m + stroke_min_m) * contact_width_m * hardness_pa
+            / (2.0 * wear_coefficient * load_n * speed_m_s))
+
+
+# ---------------------------------------------------------------------------------------------
+# Minimum-zone straightness
+# ---------------------------------------------------------------------------------------------
+
+
+def minimum_zone_straightness_m(position_m: np.ndarray, height_m: np.ndarray) -> float:
+    """Width of the narrowest pair of parallel lines enclosing the profile (u, h) [m] (minimum zone).
+
+    The optimal lines are parallel to an edge of the convex hull (rotating calipers), so the width is the
+    minimum over hull edges of the vertical spread of h - s u. Measured vertically (slopes are ~1e-5).
+    """
+    u = np.asarray(position_m, dtype=float)
+    h = np.asarray(height_m, dtype=float)
+    spread_h = float(np.ptp(h)) if h.size else 0.0
+    if h.size < 3 or spread_h == 0.0:
+        return spread_h
+    spread_u = float(np.ptp(u))
+    points = np.column_stack(((u - u.min()) / spread_u, (h - h.min()) / spread_h))
+    try:
+        hull = ConvexHull(points)
+    except QhullError:  # collinear: a straight (tilted) line has zero straightness error
+        return 0.0
+    vertices = points[hull.vertices]
+    best = math.inf
+    for i, j in hull.simplices:
+        du = points[j, 0] - points[i, 0]
+        if du == 0.0:
+            continue
+        slope = (points[j, 1] - points[i, 1]) / du
+        residual = vertices[:, 1] - slope * vertices[:, 0]
+        best = min(best, float(residual.max() - residual.min()))
+    return best * spread_h
+
+
+# ---------------------------------------------------------------------------------------------
+# Stroke tracking (zig-zag with hysteresis): shared by the live and offline paths
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass
+class StrokeTracker:
+    """Detects stroke reversals of an axis: a reversal is confirmed when the position retreats from its
+    running extreme by more than ``threshold_m``; a stroke is the distance between two confirmed extremes.
+
+    Feeding only the local extrema of a sample sequence gives the same strokes as feeding every sample
+    (between extrema the motion is monotonic), which is how :meth:`update_many` stays fast.
+    """
+
+    threshold_m: float = 0.005
+    direction: int = 0                    # +1 rising, -1 falling, 0 unknown
+    extreme_m: float = math.nan           # running extreme in the current direction
+    anchor_m: float = math.nan            # last confirmed extreme (start of the current stroke)
+    stroke_min_m: float = math.inf
+    stroke_max_m: float = 0.0
+    stroke_count: int = 0
+    stroke_sum_m: float = 0.0
+    stroke_sum_sq_m2: float = 0.0
+
+    def _confirm(self, extreme: float) -> None:
+        if not math.isnan(self.anchor_m):
+            stroke = abs(extreme - self.anchor_m)
+            if stroke >= self.threshold_m:
+                self.stroke_min_m = min(self.stroke_min_m, stroke)
+                self.stroke_max_m = max(self.stroke_max_m, stroke)
+                self.stroke_count += 1
+                self.stroke_sum_m += stroke
+                self.stroke_sum_sq_m2 += stroke * stroke
+        self.anchor_m = extreme
+
+    def update(self, position_m: float) -> None:
+        x = float(position_m)
+        if math.isnan(self.extreme_m):
+            self.extreme_m = x
+            self.anchor_m = x
+            return
+        if self.direction >= 0 and x >= self.extreme_m:
+            self.extreme_m = x
+            if self.direction == 0 and x - self.anchor_m > self.threshold_m:
+                self.direction = 1
+        elif self.direction <= 0 and x <= self.extreme_m:
+            self.extreme_m = x
+            if self.direction == 0 and self.anchor_m - x > self.threshold_m:
+                self.direction = -1
+        elif abs(x - self.extreme_m) > self.threshold_m:
+            # retreat beyond the hysteresis: the running extreme was a reversal
+            if self.direction != 0:
+                self._confirm(self.extreme_m)
+            self.direction = 1 if x > self.extreme_m else -1
+            self.extreme_m = x
+
+    def update_many(self, position_m: np.ndarray) -> None:
+        x = np.asarray(position_m, dtype=float)
+        if x.size <= 2:
+            for value in x:
+                self.update(value)
+            return
+        dx = np.diff(x)
+        sign = np.sign(dx)
+        nz = np.flatnonzero(sign)
+        # indices where the direction of motion changes (local extrema), plus both ends
+        if nz.size:
+            changes = nz[1:][sign[nz[1:]] != sign[nz[:-1]]]
+        else:
+            changes = np.empty(0, dtype=np.int64)
+        candidates = np.concatenate(([0], changes, [x.size - 1]))
+        for value in x[candidates]:
+            self.update(value)
+
+    def stroke_range_m(self) -> tuple[float, float]:
+        """(l_min, l_max) of completed strokes, NaN before the first one."""
+        if self.stroke_count == 0:
+            return math.nan, math.nan
+        return self.stroke_min_m, self.stroke_max_m
+
+    def state(self) -> dict:
+        return {k: getattr(self, k) for k in self.__dataclass_fields__}
+
+    @classmethod
+    def from_state(cls, state: dict) -> "StrokeTracker":
+        return cls(**state)
+
+
+# ---------------------------------------------------------------------------------------------
+# Wear integrator
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass
+class WearGeometry:
+    """Guide geometry and material of the worn surface (SI)."""
+
+    contact_width_m: float            # b
+    hardness_pa: float                # H
+    stroke_min_m: float = 0.0         # l_min, 0 = estimate from strokes
+    stroke_max_m: float = 0.0         # l_max, 0 = estimate from strokes
+    slider_length_m: float = 0.100    # L_s (profile model)
+    rail_start_m: float = -0.100
+    rail_length_m: float = 0.500
+    profile_bin_m: float = 0.001
+    straightness_model: str = "eq7"   # eq7 | profile
+    stroke_detect_min_m: float = 0.005
+    duty_window_s: float = 3600.0
+
+    @classmethod
+    def from_params(cls, params: dict) -> "WearGeometry":
+        return cls(**{k: params[k] for k in cls.__dataclass_fields__ if k in params})
+
+    def bin_centres_m(self) -> np.ndarray:
+        n = max(1, int(round(self.rail_length_m / self.profile_bin_m)))
+        return self.rail_start_m + (np.arange(n) + 0.5) * self.profile_bin_m
+
+
+DUTY_BUCKETS = 60
+
+
+def _ramp_sum(points: np.ndarray, starts: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """sum_i w_i * max(p - s_i, 0) for every p in ``points`` (sorted-prefix sums, O((n+m) log n))."""
+    order = np.argsort(starts, kind="stable")
+    s = starts[order]
+    w = weights[order]
+    cw = np.concatenate(([0.0], np.cumsum(w)))
+    cws = np.concatenate(([0.0], np.cumsum(w * s)))
+    k = np.searchsorted(s, points, side="right")
+    return cw[k] * points - cws[k]
+
+
+@dataclass
+class WearIntegrator:
+    """K-free Archard integration of a guide's motion and load (seed 000 Eq. 10 in differential form).
+
+    State (all persisted): last sample (t, x), sliding distance, Archard work sum W |dx| [N m],
+    slider-averaged work along the rail w(u) [N] (profile model), strokes, duty buckets.
+    """
+
+    geometry: WearGeometry
+    last_t_ns: int | None = None
+    last_position_m: float = math.nan
+    first_t_ns: int | None = None
+    sliding_distance_m: float = 0.0
+    archard_work_nm: float = 0.0             # sum W |dx|
+    profile_work_n: np.ndarray = field(default=None)   # w(u) at bin centres [N]
+    strokes: StrokeTracker = field(default=None)
+    duty_bucket_index: list = field(default_factory=list)
+    duty_bucket_work_nm: list = field(default_factory=list)
+    samples: int = 0
+
+    def __post_init__(self) -> None:
+        if self.profile_work_n is None:
+            self.profile_work_n = np.zeros(self.geometry.bin_centres_m().size)
+        if self.strokes is None:
+            self.strokes = StrokeTracker(self.geometry.stroke_detect_min_m)
+        self._bins = self.geometry.bin_centres_m()
+
+    # --- integration -------------------------------------------------------------------------
+    @property
+    def duty_bucket_s(self) -> float:
+        return self.geometry.duty_window_s / DUTY_BUCKETS
+
+    def _add_duty(self, bucket: int, work_nm: float) -> None:
+        if self.duty_bucket_index and self.duty_bucket_index[-1] == bucket:
+            self.duty_bucket_work_nm[-1] += work_nm
+        else:
+            self.duty_bucket_index.append(bucket)
+            self.duty_bucket_work_nm.append(work_nm)
+            while self.duty_bucket_index and self.duty_bucket_index[0] <= bucket - DUTY_BUCKETS:
+                self.duty_bucket_index.pop(0)
+                self.duty_bucket_work_nm.pop(0)
+
+    def advance(self, t_ns: int, position_m: float, load_n: float) -> None:
+        """One axis sample: slide from the last position to ``position_m`` under ``load_n`` (latest load).
+
+        ``load_n`` NaN means no load known yet: the distance counts, the wear does not.
+        Callers validate input (finite position, time strictly increasing, load >= 0).
+        """
+        x = float(position_m)
+        if self.last_t_ns is None:
+            self.first_t_ns = int(t_ns)
+        else:
+            self._segment(t_ns, self.last_position_m, x, load_n)
+        self.strokes.update(x)
+        self.last_t_ns = int(t_ns)
+        self.last_position_m = x
+        self.samples += 1
+
+    def _segment(self, t_ns: int, xa: float, xb: float, load_n: float) -> None:
+        ds = abs(xb - xa)
+        self.sliding_distance_m += ds
+        if ds == 0.0 or not load_n > 0.0:
+            if not math.isnan(load_n):
+                self._add_duty(int(t_ns * 1e-9 // self.duty_bucket_s), 0.0)
+            return
+        work = load_n * ds
+        self.archard_work_nm += work
+        self._add_duty(int(t_ns * 1e-9 // self.duty_bucket_s), work)
+        # profile: w(u) += W / L_s * |[a, b] ∩ [u - L_s/2, u + L_s/2]| on the bins it touches
+        half = 0.5 * self.geometry.slider_length_m
+        a, b = (xa, xb) if xa <= xb else (xb, xa)
+        lo = np.searchsorted(self._bins, a - half, side="left")
+        hi = np.searchsorted(self._bins, b + half, side="right")
+        if hi > lo:
+            u = self._bins[lo:hi]
+            overlap = np.minimum(b, u + half) - np.maximum(a, u - half)
+            self.profile_work_n[lo:hi] += (load_n / self.geometry.slider_length_m) * np.clip(overlap, 0.0, None)
+
+    def advance_many(self, t_ns: np.ndarray, position_m: np.ndarray, load_n: np.ndarray) -> None:
+        """Vectorised :meth:`advance` over arrays (same arithmetic, same results to rounding)."""
+        t_ns = np.asarray(t_ns, dtype=np.int64)
+        x = np.asarray(position_m, dtype=float)
+        w = np.asarray(load_n, dtype=float)
+        if x.size == 0:
+            return
+        if self.last_t_ns is None:
+            self.first_t_ns = int(t_ns[0])
+            xs = x
+            seg_t = t_ns[1:]
+            seg_w = w[1:]
+        else:
+            xs = np.concatenate(([self.last_position_m], x))
+            seg_t = t_ns
+            seg_w = w
+        xa, xb = xs[:-1], xs[1:]
+        ds = np.abs(xb - xa)
+        self.sliding_distance_m += float(ds.sum())
+        loaded = (ds > 0) & (seg_w > 0)
+        work = np.where(loaded, np.nan_to_num(seg_w) * ds, 0.0)
+        self.archard_work_nm += float(work.sum())
+        # duty buckets
+        counted = ~np.isnan(seg_w)
+        if counted.any():
+            buckets = (seg_t[counted] * 1e-9 // self.duty_bucket_s).astype(np.int64)
+            first_kept = buckets[-1] - DUTY_BUCKETS + 1
+            keep = buckets >= first_kept
+            uniq, inverse = np.unique(buckets[keep], return_inverse=True)
+            sums = np.bincount(inverse, weights=work[counted][keep], minlength=uniq.size)
+            for bucket, s in zip(uniq.tolist(), sums.tolist()):
+                self._add_duty(int(bucket), float(s))
+        # profile: w(u) = (1/L_s) * sum_i W_i |[a_i, b_i] ∩ [u - L_s/2, u + L_s/2]|
+        if loaded.any():
+            a = np.minimum(xa, xb)[loaded]
+            b = np.maximum(xa, xb)[loaded]
+            wl = seg_w[loaded]
+            half = 0.5 * self.geometry.slider_length_m
+            up, down = self._bins + half, self._bins - half
+            # |[a,b] ∩ (-inf, p]| summed with weights = ramp(p - a) - ramp(p - b)
+            cover_up = _ramp_sum(up, a, wl) - _ramp_sum(up, b, wl)
+            cover_down = _ramp_sum(down, a, wl) - _ramp_sum(down, b, wl)
+            self.profile_work_n += (cover_up - cover_down) / self.geometry.slider_length_m
+        self.strokes.update_many(x)
+        self.last_t_ns = int(t_ns[-1])
+        self.last_position_m = float(x[-1])
+        self.samples += int(x.size)
+
+    # --- derived quantities (K-free, per unit K) ------------------------------------------------
+    def stroke_range_m(self) -> tuple[float, float]:
+        g = self.geometry
+        if g.stroke_min_m > 0 and g.stroke_max_m > 0:
+            return g.stroke_min_m, g.stroke_max_m
+        return self.strokes.stroke_range_m()
+
+    def wear_volume_per_k_m3(self) -> float:
+        """V / K = sum W ds / H [m^3].  # seed 000 Eq. 10"""
+        return self.archard_work_nm / self.geometry.hardness_pa
+
+    def profile_depth_per_k_m(self) -> np.ndarray:
+        """Wear depth along the rail per unit K: h(u) / K = w(u) / (H b) [m]."""
+        return self.profile_work_n / (self.geometry.hardness_pa * self.geometry.contact_width_m)
+
+    def straightness_loss_per_k_m(self) -> float:
+        """Straightness loss A_wear / K [m] by the configured model (NaN when not yet defined)."""
+        g = self.geometry
+        if g.straightness_model == "profile":
+            return minimum_zone_straightness_m(self._bins, -self.profile_depth_per_k_m())
+        l_min, l_max = self.stroke_range_m()
+        if not (l_min + l_max > 0):
+            return math.nan
+        return straightness_from_wear_volume_m(self.wear_volume_per_k_m3(), g.contact_width_m, l_min, l_max)
+
+    def duty_work_rate_w(self) -> float:
+        """Current duty W v averaged over ``duty_window_s`` [N m/s = W] (Archard work rate)."""
+        if self.last_t_ns is None or not self.duty_bucket_index:
+            return math.nan
+        t_now = self.last_t_ns * 1e-9
+        bucket_now = int(t_now // self.duty_bucket_s)
+        window_start = max(self.first_t_ns * 1e-9, (bucket_now - DUTY_BUCKETS + 1) * self.duty_bucket_s)
+        span = t_now - window_start
+        if span <= 0:
+            return math.nan
+        work = sum(w for i, w in zip(self.duty_bucket_index, self.duty_bucket_work_nm)
+                   if i > bucket_now - DUTY_BUCKETS)
+        return work / span
+
+    def straightness_rate_per_k_m_s(self) -> float:
+        """dA/dt per unit K at the current duty [m/s].
+
+        dA/dt = (A_wear / V) dV/dt with dV/dt = K (W v) / H: exact for Eq. 7 (A/V = 2 / (b (l_max + l_min)))
+        and, for the profile model, the growth of the present profile shape at the present duty.
+        """
+        volume = self.wear_volume_per_k_m3()
+        rate = self.duty_work_rate_w()
+        g = self.geometry
+        if g.straightness_model == "eq7" or volume <= 0:
+            l_min, l_max = self.stroke_range_m()
+            if not (l_min + l_max > 0):
+                return math.nan
+            a_over_v = 2.0 / (g.contact_width_m * (l_min + l_max))
+        else:
+            a_over_v = self.straightness_loss_per_k_m() / volume
+        return a_over_v * rate / g.hardness_pa
+
+    # --- persistence ---------------------------------------------------------------------------
+    def state(self) -> dict:
+        return {
+            "last_t_ns": self.last_t_ns,
+            "last_position_m": self.last_position_m,
+            "first_t_ns": self.first_t_ns,
+            "sliding_distance_m": self.sliding_distance_m,
+            "archard_work_nm": self.archard_work_nm,
+            "profile_work_n": self.profile_work_n.tolist(),
+            "strokes": self.strokes.state(),
+            "duty_bucket_index": list(self.duty_bucket_index),
+            "duty_bucket_work_nm": list(self.duty_bucket_work_nm),
+            "samples": self.samples,
+        }
+
+    @classmethod
+    def from_state(cls, geometry: WearGeometry, state: dict) -> "WearIntegrator":
+        profile = np.asarray(state["profile_work_n"], dtype=float)
+        if profile.size != geometry.bin_centres_m().size:
+            raise ValueError("saved wear profile does not match the rail bins of the parameters")
+        return cls(
+            geometry=geometry,
+            last_t_ns=state["last_t_ns"],
+            last_position_m=state["last_position_m"],
+            first_t_ns=state["first_t_ns"],
+            sliding_distance_m=state["sliding_distance_m"],
+            archard_work_nm=state["archard_work_nm"],
+            profile_work_n=profile,
+            strokes=StrokeTracker.from_state(state["strokes"]),
+            duty_bucket_index=list(state["duty_bucket_index"]),
+            duty_bucket_work_nm=list(state["duty_bucket_work_nm"]),
+            samples=state["samples"],
+        )

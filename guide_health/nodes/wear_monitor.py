@@ -1,0 +1,167 @@
+"""`wear_monitor`: live precision monitor of a guideway (thin rclpy adapter around PrecisionMonitor).
+
+Subscribes `joint_states`, `guide/load`, `guide/straightness` (and `guide/temperature`), publishes
+`/diagnostics`, `guide/straightness_predicted` and `guide/remaining_life`. Time comes from header stamps,
+so a bag replayed at any rate gives the same numbers. State persists in SQLite (`state_file`).
+"""
+from __future__ import annotations
+
+import math
+import sys
+import time
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import WrenchStamped
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState, Temperature
+from std_msgs.msg import Float64
+
+from guide_health.diagnostics import EXTRA_PRECISION_KEYS, PRECISION_KEYS, make_array, make_status
+from guide_health.errors import InputError
+from guide_health.models.precision import STALE, PrecisionMonitor
+from guide_health.params import WEAR_MONITOR_DEFAULTS, declare_parameters, validate_wear_params
+from guide_health.state_store import StateStore
+
+DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+LOG_THROTTLE_S = 5.0
+
+
+def stamp_ns(header) -> int:
+    return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
+
+
+class WearMonitorNode(Node):
+    def __init__(self, **kwargs):
+        super().__init__("wear_monitor", **kwargs)
+        params = declare_parameters(self, WEAR_MONITOR_DEFAULTS)
+        validate_wear_params(params)
+        self.params = params
+        self.joint = params["joint"]
+        self.monitor = PrecisionMonitor(params)
+        self.state_key = f"{params['machine_id']}/{self.joint}/precision"
+        self.store = StateStore(params["state_file"]) if params["state_file"] else None
+        if self.store is not None:
+            saved = self.store.load(self.state_key)
+            if saved is not None:
+                self.monitor.restore(saved)
+                self.get_logger().info(
+                    f"resumed from {params['state_file']}: {self.monitor.integrator.sliding_distance_m:.1f} m slid, "
+                    f"{self.monitor.estimator.count} measurements")
+        self._last_arrival = {"joint_states": None, "guide/load": None}
+        self._last_log: dict[str, float] = {}
+        self._suppressed: dict[str, int] = {}
+        self.temperature_c = math.nan
+
+        self.create_subscription(JointState, "joint_states", self._on_joint, DATA_QOS)
+        self.create_subscription(WrenchStamped, "guide/load", self._on_load, DATA_QOS)
+        self.create_subscription(Float64, "guide/straightness", self._on_straightness, DATA_QOS)
+        self.create_subscription(Temperature, "guide/temperature", self._on_temperature, DATA_QOS)
+        self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.pred_pub = self.create_publisher(Float64, "guide/straightness_predicted", 10)
+        self.life_pub = self.create_publisher(Float64, "guide/remaining_life", 10)
+        self.create_timer(params["diagnostics_period_s"], self.publish_diagnostics)
+        if self.store is not None:
+            self.create_timer(params["checkpoint_period_s"], self.checkpoint)
+
+    # --- inputs ----------------------------------------------------------------------------------
+    def _rejected(self, reason: str | None) -> None:
+        if reason is None:
+            return
+        now = time.monotonic()
+        last = self._last_log.get(reason)
+        if last is None or now - last >= LOG_THROTTLE_S:
+            more = self._suppressed.pop(reason, 0)
+            suffix = f" (+{more} more since last report)" if more else ""
+            self.get_logger().warning(f"rejected input: {reason}{suffix}")
+            self._last_log[reason] = now
+        else:
+            self._suppressed[reason] = self._suppressed.get(reason, 0) + 1
+
+    def _on_joint(self, msg: JointState) -> None:
+        self._last_arrival["joint_states"] = time.monotonic()
+        if not msg.name or len(msg.position) == 0:
+            self._rejected(self.monitor._reject("empty joint_states arrays"))
+            return
+        try:
+            i = list(msg.name).index(self.joint)
+        except ValueError:
+            self._rejected(self.monitor._reject(f"joint '{self.joint}' not in joint_states"))
+            return
+        if i >= len(msg.position):
+            self._rejected(self.monitor._reject("joint_states position shorter than name"))
+            return
+        velocity = msg.velocity[i] if i < len(msg.velocity) else 0.0
+        self._rejected(self.monitor.on_joint(stamp_ns(msg.header), float(msg.position[i]), float(velocity)))
+
+    def _on_load(self, msg: WrenchStamped) -> None:
+        self._last_arrival["guide/load"] = time.monotonic()
+        self._rejected(self.monitor.on_load(stamp_ns(msg.header), float(msg.wrench.force.z)))
+
+    def _on_straightness(self, msg: Float64) -> None:
+        t = self.monitor.integrator.last_t_ns
+        if t is None:
+            self._rejected(self.monitor._reject("straightness before any joint_states (no time base)"))
+            return
+        self._rejected(self.monitor.on_straightness(t, float(msg.data)))
+
+    def _on_temperature(self, msg: Temperature) -> None:
+        if math.isfinite(msg.temperature):
+            self.temperature_c = float(msg.temperature)
+
+    # --- outputs ---------------------------------------------------------------------------------
+    def stale_inputs(self) -> list[str]:
+        now = time.monotonic()
+        timeout = self.params["input_timeout_s"]
+        return [topic for topic, t in self._last_arrival.items() if t is None or now - t > timeout]
+
+    def publish_diagnostics(self) -> None:
+        report = self.monitor.report()
+        level, message = report["level"], report["message"]
+        stale = self.stale_inputs()
+        if stale:
+            level = STALE
+            message = f"no data on {', '.join(stale)} for {self.params['input_timeout_s']:g} s; " + message
+        status = make_status(self.get_name(), f"{self.joint} precision", self.params["machine_id"], level,
+                             message, report, PRECISION_KEYS + EXTRA_PRECISION_KEYS)
+        self.diag_pub.publish(make_array(self.get_clock().now().to_msg(), [status]))
+        if math.isfinite(report["straightness_um"]):
+            self.pred_pub.publish(Float64(data=report["straightness_um"] * 1e-6))
+        if not math.isnan(report["remaining_life_h"]):
+            self.life_pub.publish(Float64(data=report["remaining_life_h"] * 3600.0))
+
+    def checkpoint(self) -> None:
+        if self.store is not None:
+            self.store.save({self.state_key: self.monitor.state()})
+
+    def close(self) -> None:
+        if self.store is not None:
+            self.checkpoint()
+            self.store.close()
+            self.store = None
+
+
+def main(argv: list[str] | None = None) -> int:
+    rclpy.init(args=argv)
+    node = None
+    try:
+        node = WearMonitorNode()
+        rclpy.spin(node)
+    except InputError as exc:
+        print(f"wear_monitor: error: {exc}", file=sys.stderr)
+        return 2
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            node.close()
+            node.destroy_node()
+        if rclpy.ok():
+            rclpy.shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
