@@ -104,6 +104,12 @@ def _coerce(name: str, value: Any, default: Any) -> Any:
             raise InputError(f"parameter {name} must be true/false, got {value!r}")
         return value
     if isinstance(default, float):
+        if isinstance(value, str):
+            # YAML 1.1 (PyYAML) reads 199.0e6 as a string; ROS's rcl parser reads it as a double
+            try:
+                value = float(value)
+            except ValueError:
+                raise InputError(f"parameter {name} must be a number, got {value!r}") from None
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise InputError(f"parameter {name} must be a number, got {value!r}")
         value = float(value)

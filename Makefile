@@ -1,0 +1,30 @@
+# Two commands on a fresh machine:  `make demo`  (bench demo ending in a health report)  and  `make test`.
+# Both create .venv, install ROS 2 Jazzy from PyPI (rclpy with Fast DDS, common_interfaces), rosbags,
+# numpy, scipy, matplotlib and this package (editable), then run.
+PYTHON ?= python3
+VENV   ?= .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.guide_health-installed
+PYTEST_ARGS ?=
+
+.PHONY: venv demo test test-all bench clean
+
+$(STAMP): setup.py setup.cfg package.xml requirements.txt
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --disable-pip-version-check -r requirements.txt
+	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation -e .
+	touch $(STAMP)
+
+venv: $(STAMP)
+
+demo: $(STAMP)
+	$(PY) -m guide_health.demo --out out/demo
+
+test: $(STAMP)
+	$(PY) -m pytest -q $(PYTEST_ARGS)
+
+test-all: $(STAMP)
+	$(PY) -m pytest -q -m "" $(PYTEST_ARGS)
+
+clean:
+	rm -rf out build install log *.egg-info

@@ -1,0 +1,185 @@
+"""wear_monitor node adapter in-process: bad input rejected without touching state, diagnostics keys and
+levels, STALE on silent inputs, SQLite checkpoints."""
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+rclpy = pytest.importorskip("rclpy")
+from geometry_msgs.msg import WrenchStamped  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+from sensor_msgs.msg import JointState  # noqa: E402
+from std_msgs.msg import Float64  # noqa: E402
+
+from guide_health.diagnostics import PRECISION_KEYS  # noqa: E402
+from guide_health.nodes.wear_monitor import WearMonitorNode  # noqa: E402
+
+T0 = 1_700_000_000
+
+
+@pytest.fixture
+def ros_context(monkeypatch):
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(np.random.randint(1, 100)))
+    context = rclpy.context.Context()
+    rclpy.init(context=context)
+    yield context
+    rclpy.shutdown(context=context)
+
+
+def make_node(context, tmp_path: Path, **overrides):
+    params = {"state_file": str(tmp_path / "state.db"), "joint": "x", "machine_id": "m1",
+              "straightness_limit_m": 100e-6, "input_timeout_s": 5.0}
+    params.update(overrides)
+    node = WearMonitorNode(context=context,
+                           parameter_overrides=[Parameter(k, value=v) for k, v in params.items()])
+    node.published = []
+    node.diag_pub.publish = node.published.append
+    return node
+
+
+def joint(t_s: float, position, names=("x",), velocity=None):
+    msg = JointState()
+    msg.header.stamp.sec = int(t_s)
+    msg.header.stamp.nanosec = int(round((t_s - int(t_s)) * 1e9))
+    msg.name = list(names)
+    msg.position = list(position)
+    msg.velocity = list(velocity) if velocity is not None else []
+    return msg
+
+
+def load(t_s: float, force_z: float):
+    msg = WrenchStamped()
+    msg.header.stamp.sec = int(t_s)
+    msg.header.stamp.nanosec = int(round((t_s - int(t_s)) * 1e9))
+    msg.wrench.force.z = force_z
+    return msg
+
+
+def feed_cycle(node, t_start: float, strokes=(0.1, 0.3, 0.2), dt=0.02, speed=0.05):
+    """Feed strokes home -> L -> home at ``speed`` with 6000 N; returns the end time."""
+    t = t_start
+    node._on_load(load(t, 6000.0))
+    x = 0.0
+    t += dt
+    node._on_joint(joint(t, [x]))
+    for stroke in strokes:
+        for target in (stroke, 0.0):
+            while abs(target - x) > 1e-12:
+                step = min(speed * dt, abs(target - x))
+                x += step if target > x else -step
+                t += dt
+                node._on_joint(joint(t, [x]))
+    return t
+
+
+def snapshot(node):
+    state = node.monitor.state()
+    state["integrator"] = {k: (list(v) if isinstance(v, list) else v) for k, v in state["integrator"].items()}
+    return repr(state)
+
+
+def test_bad_input_is_rejected_and_never_changes_state(ros_context, tmp_path):
+    node = make_node(ros_context, tmp_path)
+    try:
+        t = feed_cycle(node, T0 + 1.0)
+        before = snapshot(node)
+        bad = [
+            ("nan position", lambda: node._on_joint(joint(t + 1, [math.nan]))),
+            ("inf velocity", lambda: node._on_joint(joint(t + 1, [0.05], velocity=[math.inf]))),
+            ("time backwards", lambda: node._on_joint(joint(t - 5.0, [0.05]))),
+            ("unknown joint", lambda: node._on_joint(joint(t + 1, [0.05], names=("y",)))),
+            ("empty arrays", lambda: node._on_joint(joint(t + 1, [], names=()))),
+            ("names without positions", lambda: node._on_joint(joint(t + 1, [], names=("x",)))),
+            ("nan load", lambda: node._on_load(load(t + 1, math.nan))),
+            ("inf load", lambda: node._on_load(load(t + 1, math.inf))),
+            ("negative load", lambda: node._on_load(load(t + 1, -10.0))),
+            ("load time backwards", lambda: node._on_load(load(T0, 100.0))),
+            ("nan straightness", lambda: node._on_straightness(Float64(data=math.nan))),
+            ("negative straightness", lambda: node._on_straightness(Float64(data=-1e-6))),
+        ]
+        rejected_before = sum(node.monitor.rejected.values())
+        for label, action in bad:
+            action()
+            assert snapshot(node) == before, label
+        assert sum(node.monitor.rejected.values()) - rejected_before == len(bad)
+        # a good sample afterwards is still accepted and moves the state
+        node._on_joint(joint(t + 1, [0.001]))
+        assert snapshot(node) != before
+        # the log is throttled: one line per reason within the throttle period, the rest counted
+        node._on_joint(joint(t + 0.5, [0.002]))
+        node._on_joint(joint(t + 0.5, [0.002]))
+        assert node._suppressed.get("joint_states time going backwards", 0) >= 1
+    finally:
+        node.close()
+        node.destroy_node()
+
+
+def test_diagnostics_keys_levels_and_stale(ros_context, tmp_path):
+    node = make_node(ros_context, tmp_path, input_timeout_s=0.2, life_warn_h=1.0, life_error_h=0.1)
+    try:
+        node.publish_diagnostics()                     # no input yet: STALE
+        status = node.published[-1].status[0]
+        assert status.name == "wear_monitor: x precision"
+        assert status.hardware_id == "m1"
+        assert status.level == b"\x03"
+        values = {kv.key: kv.value for kv in status.values}
+        assert set(PRECISION_KEYS) <= set(values)
+        assert values["remaining_life_h"] == "nan"
+        feed_cycle(node, T0 + 1.0)
+        node._on_straightness(Float64(data=16e-6))
+        node.publish_diagnostics()
+        status = node.published[-1].status[0]
+        values = {kv.key: float(kv.value) for kv in status.values if kv.key != "lubrication_regime"}
+        assert status.level == b"\x00", status.message
+        assert values["sliding_distance_m"] == pytest.approx(1.2, rel=1e-6)
+        # Eq. 7/10 with the observed strokes (l_min 0.1, l_max 0.3): A = 2 K W s / (H b (l_min + l_max))
+        k = values["wear_coefficient"]
+        expected = 15.0 + 1e6 * 2 * k * 6000 * 1.2 / (199e6 * 0.04 * 0.4)
+        assert values["straightness_um"] == pytest.approx(expected, rel=1e-3)
+        assert values["straightness_measured_um"] == pytest.approx(16.0)
+        assert values["remaining_life_h_low"] <= values["remaining_life_h"] <= values["remaining_life_h_high"]
+        import time as _time
+        _time.sleep(0.3)                               # inputs silent for longer than input_timeout_s
+        node.publish_diagnostics()
+        assert node.published[-1].status[0].level == b"\x03"
+        assert "no data on" in node.published[-1].status[0].message
+    finally:
+        node.close()
+        node.destroy_node()
+
+
+def test_limit_passed_is_error(ros_context, tmp_path):
+    node = make_node(ros_context, tmp_path, straightness_limit_m=15.5e-6, wear_coefficient=4.42e-5)
+    try:
+        feed_cycle(node, T0 + 1.0, strokes=(0.1, 0.3) * 5)
+        node.publish_diagnostics()
+        status = node.published[-1].status[0]
+        assert status.level == b"\x02"
+        assert "exceeds the limit" in status.message
+    finally:
+        node.close()
+        node.destroy_node()
+
+
+def test_state_survives_restart(ros_context, tmp_path):
+    node = make_node(ros_context, tmp_path)
+    t = feed_cycle(node, T0 + 1.0)
+    node._on_straightness(Float64(data=16e-6))
+    node.checkpoint()
+    distance = node.monitor.integrator.sliding_distance_m
+    work = node.monitor.integrator.archard_work_nm
+    node.destroy_node()                                # no clean close: only the checkpoint survives
+    node2 = make_node(ros_context, tmp_path)
+    try:
+        assert node2.monitor.integrator.sliding_distance_m == distance
+        assert node2.monitor.integrator.archard_work_nm == work
+        assert node2.monitor.estimator.count == 1
+        node2._on_joint(joint(t - 1.0, [0.0]))         # already processed stamps are rejected
+        assert node2.monitor.integrator.sliding_distance_m == distance
+        node2._on_joint(joint(t + 1.0, [0.01]))
+        assert node2.monitor.integrator.sliding_distance_m == pytest.approx(distance + 0.01)
+    finally:
+        node2.close()
+        node2.destroy_node()
