@@ -28,7 +28,7 @@ COMMANDS: list[tuple[tuple[str, ...], str, str]] = [
 
 
 def _jsonable(value):
-    """Plain JSON: numpy scalars/arrays to Python, NaN/inf to null-free strings are avoided (nan -> NaN)."""
+    """numpy scalars/arrays to plain Python for json (NaN/inf stay floats: json writes NaN/Infinity)."""
     try:
         import numpy as np
     except ImportError:  # pragma: no cover
@@ -58,8 +58,15 @@ def _format_plain(result: dict, indent: str = "") -> str:
     return "\n".join(lines)
 
 
+class OneLineErrorParser(argparse.ArgumentParser):
+    """argparse that reports a usage error in one line (INTERFACES.md: one-line error, non-zero exit)."""
+
+    def error(self, message: str):  # noqa: D401
+        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = OneLineErrorParser(
         prog="guide-health",
         description="Guideway and slewing-bearing condition monitoring: models, bags and reports.",
     )

@@ -1,0 +1,331 @@
+"""`guide-health life MODE ...`: rolling-guide rating life, Miner consumption, and C from life tests.
+
+Modes (nested sub-commands; ``--json`` may go before or after the mode's options):
+
+* ``rating``  -- L = (fh ft fc C / (fw P))^p x L_ref and C converted between 50 km and 100 km ratings.
+* ``test``    -- C_test / C from one test life at F = fraction x C (seed 004 Eq. 5).
+* ``weibull`` -- Weibull ML fit of interval-censored failure mileages (CSV), B10 and C_test / C with CI,
+  next to the seed's equal-spacing estimate.
+* ``miner``   -- equivalent load and Miner life consumption of a duty (CSV ``travel_m,load_n``).
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+
+from guide_health.errors import InputError
+from guide_health.models import life as lm
+from guide_health.params import WEAR_MONITOR_DEFAULTS, load_node_params
+
+
+class _OneLineParser(argparse.ArgumentParser):
+    """Mode parser whose usage errors are one line on stderr (exit 2), like InputError."""
+
+    def error(self, message: str):  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _add_rating_options(p: argparse.ArgumentParser, element_default: str | None = lm.BALL) -> None:
+    p.add_argument("--element", choices=(lm.BALL, lm.ROLLER), default=element_default,
+                   help="rolling element: ball (p = 3) or roller (p = 10/3)"
+                        + ("" if element_default else "; default from --params, else ball"))
+    p.add_argument("--rating-distance-km", type=float, default=None, metavar="KM",
+                   help="reference travel L_ref of C: 50 (catalogues, seed 004; default) or 100 (ISO 14728-1)")
+    p.add_argument("--exponent", type=float, default=None, metavar="P",
+                   help="override the load-life exponent p (default 3 ball, 10/3 roller)")
+    p.add_argument("--factors", type=float, nargs=4, default=None, metavar=("FH", "FT", "FC", "FW"),
+                   help="life factors fh ft fc fw (default 1 1 1 1)")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    modes = parser.add_subparsers(dest="life_mode", metavar="MODE", required=True,
+                                  parser_class=_OneLineParser)
+
+    def mode(name: str, help_text: str) -> argparse.ArgumentParser:
+        p = modes.add_parser(name, help=help_text, description=help_text)
+        # default SUPPRESS: a --json given before the mode is not reset by the mode parser
+        p.add_argument("--json", action="store_true", default=argparse.SUPPRESS,
+                       help="print exactly one JSON object on stdout")
+        return p
+
+    p = mode("rating", "rating life L = (fh ft fc C / (fw P))^p x L_ref (ISO 14728-1 / catalogue form)")
+    p.add_argument("--c-n", type=float, default=None, metavar="N",
+                   help="dynamic load rating C [N] for --rating-distance-km (or dynamic_load_rating_n from --params)")
+    p.add_argument("--load-n", type=float, required=True, metavar="N", help="equivalent load P [N]")
+    p.add_argument("--params", default=None, metavar="FILE",
+                   help="wear_monitor parameters YAML (C, rolling_element, life_factors, rating_distance_km)")
+    _add_rating_options(p, element_default=None)
+
+    p = mode("test", "C_test / C from one life-test result (seed 004 Eq. 5)")
+    p.add_argument("--load-fraction", type=float, required=True, metavar="F_OVER_C",
+                   help="test load as a fraction of the catalogue C (e.g. 0.30)")
+    p.add_argument("--life-km", type=float, required=True, metavar="KM", help="test life [km]")
+    p.add_argument("--weibull-shape", type=float, default=None, metavar="BETA",
+                   help="also treat the single life as a median and convert it to B10 with this Weibull shape")
+    _add_rating_options(p)
+
+    p = mode("weibull", "Weibull fit of interval-censored failure mileages, B10 and C_test / C with CI")
+    p.add_argument("csv", metavar="CSV",
+                   help="columns lower_km,upper_km (upper empty or inf = survived) or failure_interval "
+                        "(1-based inspection number); optional count")
+    p.add_argument("--interval-km", type=float, default=None, metavar="KM",
+                   help="inspection interval [km] (seed 004: 5), needed for failure_interval")
+    p.add_argument("--load-fraction", type=float, default=None, metavar="F_OVER_C",
+                   help="test load / catalogue C: adds C_test / C from B10")
+    p.add_argument("--confidence", type=float, default=0.90, help="two-sided confidence (default 0.90)")
+    p.add_argument("--ci-method", choices=("profile", "wald"), default="profile",
+                   help="profile likelihood (default) or Wald/delta method on log scale")
+    _add_rating_options(p)
+
+    p = mode("miner", "equivalent load and Miner life consumption of a duty")
+    p.add_argument("csv", metavar="CSV", help="columns travel_m (increments, >= 0) and load_n")
+    p.add_argument("--c-n", type=float, default=None, metavar="N",
+                   help="dynamic load rating C [N] (or dynamic_load_rating_n from --params)")
+    p.add_argument("--params", default=None, metavar="FILE",
+                   help="wear_monitor parameters YAML (C, rolling_element, life_factors, rating_distance_km)")
+    p.add_argument("--recent-window-m", type=float, default=0.0, metavar="M",
+                   help="remaining life at the duty of the last ~M metres (exponential weight); 0 = whole CSV")
+    _add_rating_options(p, element_default=None)
+
+
+# ------------------------------------------------------------------------------------------------
+
+def _positive(value: float | None, name: str) -> float:
+    if value is None or not (math.isfinite(value) and value > 0):
+        raise InputError(f"{name} must be a finite number > 0, got {value!r}")
+    return float(value)
+
+
+def _rating_setup(args, from_params: bool) -> dict:
+    """C, element, exponent, L_ref, factors from the options (over --params when given)."""
+    params = {}
+    if from_params and getattr(args, "params", None):
+        params = load_node_params(args.params, "wear_monitor", WEAR_MONITOR_DEFAULTS)
+    element = args.element or params.get("rolling_element", lm.BALL)
+    if element not in (lm.BALL, lm.ROLLER):
+        raise InputError(f"rolling_element must be 'ball' or 'roller', got {element!r}")
+    l_ref = args.rating_distance_km if args.rating_distance_km is not None else params.get(
+        "rating_distance_km", lm.CATALOGUE_RATING_DISTANCE_KM)
+    l_ref = _positive(l_ref, "--rating-distance-km")
+    exponent = lm.life_exponent(element) if args.exponent is None else _positive(args.exponent, "--exponent")
+    factors = args.factors if args.factors is not None else params.get("life_factors", [1.0, 1.0, 1.0, 1.0])
+    factors = [float(f) for f in factors]
+    if len(factors) != 4 or not all(math.isfinite(f) and f > 0 for f in factors):
+        raise InputError(f"life factors fh ft fc fw must be 4 numbers > 0, got {factors}")
+    out = {"element": element, "exponent": exponent, "rating_distance_km": l_ref, "life_factors": factors}
+    if hasattr(args, "c_n"):
+        if args.c_n is not None:
+            _positive(args.c_n, "--c-n")
+        c = args.c_n if args.c_n is not None else params.get("dynamic_load_rating_n", 0.0)
+        if c is None or not c > 0:
+            raise InputError("dynamic load rating needed: --c-n N or dynamic_load_rating_n > 0 in --params")
+        out["c_n"] = _positive(c, "--c-n")
+    return out
+
+
+def _read_csv(path: str) -> tuple[list[str], list[dict[str, str]]]:
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"CSV not found: {path}")
+    with p.open(newline="") as fh:
+        reader = csv.DictReader(fh)
+        if not reader.fieldnames:
+            raise InputError(f"{path}: empty CSV (a header row is needed)")
+        header = [h.strip() for h in reader.fieldnames]
+        reader.fieldnames = header
+        rows = [r for r in reader if any((v or "").strip() for v in r.values() if isinstance(v, str))]
+    if not rows:
+        raise InputError(f"{path}: no data rows")
+    return header, rows
+
+
+def _cell(path: str, line: int, name: str, text: str | None, allow_empty_inf: bool = False) -> float:
+    text = (text or "").strip()
+    if text == "" and allow_empty_inf:
+        return math.inf
+    try:
+        value = float(text)
+    except ValueError:
+        raise InputError(f"{path}: line {line}: {name} is not a number: {text!r}") from None
+    if math.isnan(value) or (math.isinf(value) and not allow_empty_inf):
+        raise InputError(f"{path}: line {line}: {name} must be a finite number, got {text!r}")
+    return value
+
+
+def _run_rating(args) -> dict:
+    s = _rating_setup(args, from_params=True)
+    load = args.load_n
+    if load is None or not math.isfinite(load) or load < 0:
+        raise InputError(f"--load-n must be a finite number >= 0, got {load!r}")
+    life = lm.rating_life_km(s["c_n"], load, s["element"], s["rating_distance_km"], s["life_factors"],
+                             s["exponent"])
+    c50 = lm.convert_rating_n(s["c_n"], s["rating_distance_km"], 50.0, exponent=s["exponent"])
+    c100 = lm.convert_rating_n(s["c_n"], s["rating_distance_km"], 100.0, exponent=s["exponent"])
+    return {"mode": "rating", "rating_life_km": life, "c_n": s["c_n"], "load_n": float(load),
+            "load_ratio": float(load) / (lm.factor_ratio(s["life_factors"]) * s["c_n"]),
+            "element": s["element"], "exponent": s["exponent"],
+            "rating_distance_km": s["rating_distance_km"], "life_factors": s["life_factors"],
+            "c_50km_n": c50, "c_100km_n": c100}
+
+
+def _run_test(args) -> dict:
+    s = _rating_setup(args, from_params=False)
+    frac = _positive(args.load_fraction, "--load-fraction")
+    life = _positive(args.life_km, "--life-km")
+    ratio = lm.c_ratio_from_life(frac, life, s["rating_distance_km"], exponent=s["exponent"],
+                                 life_factors=s["life_factors"])
+    alternatives = []
+    for l_ref in (lm.CATALOGUE_RATING_DISTANCE_KM, lm.ISO_RATING_DISTANCE_KM):
+        for name, p in (("ball", 3.0), ("roller", 10.0 / 3.0)):
+            alternatives.append({"rating_distance_km": l_ref, "exponent": p, "exponent_of": name,
+                                 "c_ratio": lm.c_ratio_from_life(frac, life, l_ref, exponent=p,
+                                                                 life_factors=s["life_factors"])})
+    out = {"mode": "test", "c_ratio": ratio, "load_fraction": frac, "life_km": life,
+           "element": s["element"], "exponent": s["exponent"], "rating_distance_km": s["rating_distance_km"],
+           "life_factors": s["life_factors"], "alternatives": alternatives}
+    if args.weibull_shape is not None:
+        beta = _positive(args.weibull_shape, "--weibull-shape")
+        b10 = lm.median_to_b_life(life, beta)
+        out.update({"weibull_shape": beta, "b10_from_median_km": b10,
+                    "c_ratio_b10": lm.c_ratio_from_life(frac, b10, s["rating_distance_km"],
+                                                        exponent=s["exponent"],
+                                                        life_factors=s["life_factors"])})
+    return out
+
+
+def _weibull_rows(args) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    header, rows = _read_csv(args.csv)
+    has_count = "count" in header
+    counts = np.array([_cell(args.csv, i + 2, "count", r.get("count")) if has_count else 1.0
+                       for i, r in enumerate(rows)])
+    if np.any(counts < 0) or np.any(counts != np.round(counts)):
+        raise InputError(f"{args.csv}: count must be a whole number >= 0")
+    if "lower_km" in header and "upper_km" in header:
+        lo = np.array([_cell(args.csv, i + 2, "lower_km", r.get("lower_km")) for i, r in enumerate(rows)])
+        up = np.array([_cell(args.csv, i + 2, "upper_km", r.get("upper_km"), allow_empty_inf=True)
+                       for i, r in enumerate(rows)])
+        bad = np.flatnonzero((lo < 0) | (up < lo) | ((up == lo) & (lo == 0)))
+        if bad.size:
+            raise InputError(f"{args.csv}: line {bad[0] + 2}: need 0 <= lower_km < upper_km "
+                             "(or lower_km == upper_km > 0 for an exact failure)")
+    elif "failure_interval" in header:
+        if args.interval_km is None:
+            raise InputError("failure_interval rows need --interval-km (seed 004 inspects every 5 km)")
+        interval = _positive(args.interval_km, "--interval-km")
+        j = np.array([_cell(args.csv, i + 2, "failure_interval", r.get("failure_interval"))
+                      for i, r in enumerate(rows)])
+        bad = np.flatnonzero((j < 1) | (j != np.round(j)))
+        if bad.size:
+            raise InputError(f"{args.csv}: line {bad[0] + 2}: failure_interval must be a whole number >= 1")
+        lo, up = lm.intervals_from_index(j, interval)
+    else:
+        raise InputError(f"{args.csv}: need columns lower_km,upper_km or failure_interval "
+                         f"(found {','.join(header)})")
+    return lo, up, counts
+
+
+def _run_weibull(args) -> dict:
+    s = _rating_setup(args, from_params=False)
+    if not 0 < args.confidence < 1:
+        raise InputError(f"--confidence must be in (0, 1), got {args.confidence}")
+    frac = None if args.load_fraction is None else _positive(args.load_fraction, "--load-fraction")
+    lo, up, counts = _weibull_rows(args)
+    try:
+        fit = lm.fit_weibull(lo, up, counts, confidence=args.confidence, ci_method=args.ci_method)
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
+    out = {"mode": "weibull", "n": fit.n, "failures": fit.failures, "suspended": fit.n - fit.failures,
+           "shape": fit.shape, "shape_ci": list(fit.shape_ci), "scale_km": fit.scale_km,
+           "scale_ci_km": list(fit.scale_ci_km), "b10_km": fit.b_life_km, "b10_ci_km": list(fit.b_life_ci_km),
+           "confidence": fit.confidence, "ci_method": fit.ci_method, "log_likelihood": fit.log_likelihood,
+           "element": s["element"], "exponent": s["exponent"], "rating_distance_km": s["rating_distance_km"]}
+
+    def c_ratio(life_km):
+        if frac is None:
+            return None
+        return lm.c_ratio_from_life(frac, life_km, s["rating_distance_km"], exponent=s["exponent"],
+                                    life_factors=s["life_factors"])
+
+    if frac is not None:
+        out["load_fraction"] = frac
+        out["c_ratio"] = c_ratio(fit.b_life_km)
+        out["c_ratio_ci"] = [c_ratio(v) for v in fit.b_life_ci_km]
+
+    # seed 004 Sec. 3.2: failures spread evenly in their interval, then treated as exact lives
+    rep = np.repeat(np.arange(lo.size), counts.astype(int))
+    lives = lm.equal_spacing_lives_km(lo[rep], up[rep])
+    failed = lives[np.isfinite(lives)]
+    eq = {"lives_km": sorted(failed.tolist()),
+          "mean_km": float(failed.mean()) if failed.size else float("nan")}
+    try:
+        susp = up[rep] == np.inf
+        efit = lm.fit_weibull(np.where(susp, lo[rep], lives), np.where(susp, np.inf, lives),
+                              confidence=args.confidence, ci_method="wald")
+        eq.update({"shape": efit.shape, "scale_km": efit.scale_km, "b10_km": efit.b_life_km})
+        if frac is not None:
+            eq["c_ratio"] = c_ratio(efit.b_life_km)
+    except ValueError:
+        pass
+    out["equal_spacing"] = eq
+    return out
+
+
+def _run_miner(args) -> dict:
+    s = _rating_setup(args, from_params=True)
+    window = args.recent_window_m
+    if not (math.isfinite(window) and window >= 0):
+        raise InputError(f"--recent-window-m must be >= 0, got {window}")
+    header, rows = _read_csv(args.csv)
+    if "travel_m" not in header or "load_n" not in header:
+        raise InputError(f"{args.csv}: need columns travel_m,load_n (found {','.join(header)})")
+    ds = np.array([_cell(args.csv, i + 2, "travel_m", r.get("travel_m")) for i, r in enumerate(rows)])
+    f = np.array([_cell(args.csv, i + 2, "load_n", r.get("load_n")) for i, r in enumerate(rows)])
+    bad = np.flatnonzero(ds < 0)
+    if bad.size:
+        raise InputError(f"{args.csv}: line {bad[0] + 2}: travel_m must be >= 0 (increments |dx|)")
+    summ = lm.miner_summary(ds, f, s["c_n"], s["element"], s["rating_distance_km"], s["life_factors"],
+                            window, s["exponent"])
+    return {"mode": "miner", "equivalent_load_n": summ.equivalent_load_n,
+            "rating_life_km": summ.rating_life_km, "travel_km": summ.travel_km,
+            "life_used_fraction": summ.life_used_fraction, "remaining_life_km": summ.remaining_life_km,
+            "duty_load_n": summ.duty_load_n, "samples": int(ds.size), "c_n": s["c_n"],
+            "element": s["element"], "exponent": s["exponent"], "rating_distance_km": s["rating_distance_km"],
+            "life_factors": s["life_factors"], "recent_window_m": window}
+
+
+def run(args) -> dict:
+    handlers = {"rating": _run_rating, "test": _run_test, "weibull": _run_weibull, "miner": _run_miner}
+    try:
+        return handlers[args.life_mode](args)
+    except ValueError as exc:
+        if isinstance(exc, InputError):
+            raise
+        raise InputError(str(exc).splitlines()[0]) from None
+
+
+def _fmt(value) -> str:
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_fmt(v) for v in value) + "]"
+    return str(value)
+
+
+def format_text(result: dict, indent: str = "") -> str:
+    """Key: value lines, numbers (also inside lists) to 6 significant digits."""
+    lines = []
+    for key, value in result.items():
+        if isinstance(value, dict):
+            lines.append(f"{indent}{key}:")
+            lines.append(format_text(value, indent + "  "))
+        elif isinstance(value, list) and value and isinstance(value[0], dict):
+            lines.append(f"{indent}{key}:")
+            for item in value:
+                lines.append(f"{indent}  - " + ", ".join(f"{k}: {_fmt(v)}" for k, v in item.items()))
+        else:
+            lines.append(f"{indent}{key}: {_fmt(value)}")
+    return "\n".join(lines)
