@@ -13,11 +13,20 @@ import time
 from pathlib import Path
 
 
-def isolated_ros_env(domain_id: int | None = None) -> dict[str, str]:
+def isolated_ros_env(domain_id: int | None = None, transports: str | None = None) -> dict[str, str]:
     """Environment for ROS 2 processes that never cross-talk with other runs: localhost discovery only and
-    a per-run domain id."""
+    a per-run domain id. ``transports="UDPv4"`` switches Fast DDS off shared memory
+    (FASTDDS_BUILTIN_TRANSPORTS): a SIGKILLed process leaves its shared-memory ports locked, and a process
+    started after it may then fail to open them ("open_and_lock_file failed") and stay undiscovered.
+    rmw_fastrtps replaces the built-in transports by its own (UDP on 127.0.0.1 + shared memory) when the
+    discovery range is LOCALHOST, so with ``transports`` the range is SUBNET and the random domain id is
+    what keeps runs apart."""
     env = dict(os.environ)
-    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    if transports:
+        env["FASTDDS_BUILTIN_TRANSPORTS"] = transports
+        env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "SUBNET"
+    else:
+        env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     env["ROS_DOMAIN_ID"] = str(domain_id if domain_id is not None else random.randint(1, 100))
     env.setdefault("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
     env["PYTHONUNBUFFERED"] = "1"

@@ -25,7 +25,10 @@ from guide_health.models.precision import STALE, PrecisionMonitor
 from guide_health.params import WEAR_MONITOR_DEFAULTS, declare_parameters, validate_wear_params
 from guide_health.state_store import StateStore
 
-DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+# Reliable + keep_all: when the callbacks lag, the reader's history fills and a reliable writer waits
+# (back-pressure) instead of the reader overwriting unprocessed samples as keep_last would; a sensor
+# publishing best-effort or keep_last still connects (the reader's QoS is the weaker side of neither).
+DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1, reliability=ReliabilityPolicy.RELIABLE)
 LOG_THROTTLE_S = 5.0
 
 

@@ -1,0 +1,308 @@
+"""bag_player: publish a rosbag2 bag's messages on their topics, paced so that nothing is lost.
+
+    bag_player BAG [--rate FACTOR | --max-rate MSGS_PER_S] [--topics T ...] [--remap-ns /m1]
+                   [--wait-subscribers N] [--wait-timeout S] [--start-delay S] [--ack-timeout S]
+                   [--start-after-ns T]
+
+Every message is published as its raw CDR bytes (rclpy ``Publisher.publish(bytes)`` -> publish_raw,
+no deserialisation) in log-time order, with the bag's message type. Pacing (`Pacer`, pure, no ROS):
+
+- ``--rate F``: by log time / F (1 = real time, 100 = a hundred times faster); no rate cap unless
+  ``--max-rate`` is given too.
+- default: as fast as possible without loss = a token bucket at ``--max-rate`` (default
+  DEFAULT_MAX_RATE msg/s, small bursts), which a cross-process SingleThreadedExecutor subscriber keeps
+  up with. ``--max-rate 0`` removes the cap (bursts: subscribers will drop messages).
+
+Data topics use reliable, volatile QoS with KEEP_ALL history (``--depth N`` for keep_last N). Measured
+here: a reliable KEEP_LAST subscriber loses whatever its executor has not taken when its queue overflows,
+whatever the publisher does, so the token bucket is what protects it; a reliable KEEP_ALL subscriber
+pushes back on a KEEP_ALL publisher (publish blocks; when it gives up with "cannot publish data" the
+player retries), so nothing is lost at any rate. A KEEP_ALL publisher costs a KEEP_LAST subscriber
+nothing. ``--wait-subscribers N`` waits until every played topic has >= N subscribers (at most
+``--wait-timeout`` s, then warns and plays anyway); after the last message the player waits until
+reliable subscribers acknowledged everything (``Publisher.wait_for_all_acked``) before it exits.
+
+Topic names: as in the bag (absolute; ``--ros-args -r from:=to`` remaps them). ``--remap-ns /m1``
+replaces the bag's machine namespace (the prefix of its `.../joint_states` or `.../slewing/load` topic,
+'' if none) by /m1, so one bag can play as machine m1, m2, ... of a fleet. Exit 0 after the bag, 1 with one line on a bad bag, 2 on bad arguments; a summary
+(messages, seconds, msg/s) goes to stderr.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+import time
+from dataclasses import dataclass
+
+from guide_health.errors import InputError
+
+DEFAULT_MAX_RATE = 3000.0       # msg/s a cross-process SingleThreadedExecutor subscriber keeps up with
+DEFAULT_BURST = 20              # messages a token-bucket burst may hold
+DEFAULT_DEPTH = 0               # data topics: 0 = keep_all (back-pressure from keep_all subscribers)
+_MACHINE_SUFFIXES = ("joint_states", "slewing/load")
+
+
+# ---------------------------------------------------------------------------------------------
+# pacing: pure, testable without ROS
+# ---------------------------------------------------------------------------------------------
+
+@dataclass
+class Pacer:
+    """When may each message go? Log-time pacing and/or a token bucket (GCRA), in seconds from start.
+
+    rate: log-time speed factor (None: ignore log time); max_rate: msg/s cap (None or 0: none);
+    burst: messages the bucket may release at once.
+    """
+
+    rate: float | None = None
+    max_rate: float | None = None
+    burst: int = 1
+
+    def __post_init__(self) -> None:
+        if self.rate is not None and not self.rate > 0:
+            raise ValueError("rate must be > 0")
+        if self.max_rate is not None and self.max_rate < 0:
+            raise ValueError("max_rate must be >= 0")
+        self.burst = max(1, int(self.burst))
+        self._t0: int | None = None
+        self._tat = 0.0          # theoretical arrival time of the next conforming message
+
+    def due(self, log_time_ns: int) -> float:
+        """Seconds after the start at which the message logged at `log_time_ns` may be published."""
+        if self._t0 is None:
+            self._t0 = int(log_time_ns)
+        ideal = (int(log_time_ns) - self._t0) * 1e-9 / self.rate if self.rate else 0.0
+        if not self.max_rate:
+            return ideal
+        interval = 1.0 / self.max_rate
+        send = max(ideal, self._tat - (self.burst - 1) * interval)
+        self._tat = max(self._tat, send) + interval
+        return send
+
+
+def compute_schedule(log_times_ns, rate: float | None = None, max_rate: float | None = None,
+                     burst: int = 1) -> list[float]:
+    """Publication times [s from start] of messages with these log times (in bag order)."""
+    pacer = Pacer(rate, max_rate, burst)
+    return [pacer.due(t) for t in log_times_ns]
+
+
+# ---------------------------------------------------------------------------------------------
+# topics
+# ---------------------------------------------------------------------------------------------
+
+def bag_namespace(topics) -> str:
+    """The machine namespace of a bag: prefix of its unique `.../joint_states` (or slewing) topic."""
+    for suffix in _MACHINE_SUFFIXES:
+        found = sorted({t[:-len(suffix) - 1] for t in topics
+                        if t == "/" + suffix or t.endswith("/" + suffix)})
+        if len(found) == 1:
+            return found[0]
+    return ""
+
+
+def output_topic(topic: str, bag_ns: str, remap_ns: str | None) -> str:
+    """Name to publish `topic` under: the bag's name, or with its machine namespace `bag_ns`
+    replaced by `remap_ns` (topics outside the machine namespace keep their names)."""
+    if remap_ns is None or not topic.startswith(bag_ns + "/"):
+        return topic
+    rel = topic[len(bag_ns) + 1:]
+    ns = remap_ns.strip("/")
+    return f"/{ns}/{rel}" if ns else f"/{rel}"
+
+
+def message_class(msgtype: str):
+    """ROS message class for 'pkg/msg/Name'."""
+    try:
+        pkg, kind, name = msgtype.split("/")
+        return getattr(importlib.import_module(f"{pkg}.{kind}"), name)
+    except (ValueError, ImportError, AttributeError):
+        raise InputError(f"message type {msgtype} is not available in this ROS 2 installation") from None
+
+
+# ---------------------------------------------------------------------------------------------
+# command line
+# ---------------------------------------------------------------------------------------------
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="bag_player", description=__doc__.split("\n\n")[0])
+    p.add_argument("bag", help="rosbag2 bag (directory, .db3 or .mcap)")
+    p.add_argument("--rate", type=float, default=None, metavar="FACTOR",
+                   help="pace by log time / FACTOR (1 = real time); default: token bucket, see --max-rate")
+    p.add_argument("--max-rate", type=float, default=None, metavar="MSGS_PER_S",
+                   help=f"cap in msg/s (default {DEFAULT_MAX_RATE:g} without --rate; 0 = no cap)")
+    p.add_argument("--burst", type=int, default=DEFAULT_BURST, help="token-bucket burst [messages]")
+    p.add_argument("--topics", nargs="+", default=None, metavar="TOPIC",
+                   help="play only these bag topics (names as in the bag)")
+    p.add_argument("--remap-ns", default=None, metavar="NS",
+                   help="publish the bag's machine topics under this absolute namespace, e.g. /m1")
+    p.add_argument("--wait-subscribers", type=int, default=0, metavar="N",
+                   help="wait until every played topic has >= N subscribers before starting")
+    p.add_argument("--wait-timeout", type=float, default=30.0, metavar="S",
+                   help="give up waiting for subscribers after S seconds (then play anyway)")
+    p.add_argument("--start-after-ns", type=int, default=None, metavar="T",
+                   help="play only messages logged after T [ns since epoch], e.g. to finish a bag after a "
+                        "node restarted from a checkpoint taken at T")
+    p.add_argument("--start-delay", type=float, default=0.0, metavar="S", help="sleep S seconds before playing")
+    p.add_argument("--ack-timeout", type=float, default=30.0, metavar="S",
+                   help="wait at most S seconds for reliable subscribers to acknowledge the data at the end")
+    p.add_argument("--depth", type=int, default=DEFAULT_DEPTH,
+                   help="keep_last depth of the data topics (0 = keep_all)")
+    p.add_argument("--deserialize", action="store_true",
+                   help="deserialize each message into its ROS class before publishing (slower; for comparison)")
+    p.add_argument("--quiet", action="store_true", help="no summary on stderr")
+    return p
+
+
+def _log(msg: str) -> None:
+    print(f"bag_player: {msg}", file=sys.stderr, flush=True)
+
+
+def _sleep_until(deadline: float) -> None:
+    while True:
+        left = deadline - time.monotonic()
+        if left <= 0:
+            return
+        time.sleep(left)
+
+
+def _publish_blocked(publish, data, timeout_s: float) -> float:
+    """Retry a publish that failed because the keep_all history is full; seconds spent blocked."""
+    t0 = time.monotonic()
+    pause = 0.001
+    while True:
+        try:
+            publish(data)
+            return time.monotonic() - t0
+        except Exception as exc:  # noqa: BLE001 - rclpy raises RCLError("... cannot publish data ...")
+            if "cannot publish" not in str(exc):
+                raise
+            if time.monotonic() - t0 > timeout_s:
+                raise InputError(f"subscribers accepted no data for {timeout_s:g} s: {exc}") from None
+            time.sleep(pause)
+            pause = min(0.05, pause * 2)
+
+
+def play(args, rclpy_args) -> int:
+    import rclpy
+    from rclpy.duration import Duration
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from rclpy.serialization import deserialize_message
+
+    try:
+        from rclpy._rclpy_pybind11 import RCLError
+    except ImportError:  # pragma: no cover - other rclpy layouts
+        RCLError = RuntimeError
+
+    from guide_health.bags import iter_raw_messages, open_bag
+
+    if args.rate is not None and not args.rate > 0:
+        raise InputError("--rate must be > 0")
+    max_rate = args.max_rate if args.max_rate is not None else (None if args.rate else DEFAULT_MAX_RATE)
+    if max_rate is not None and max_rate < 0:
+        raise InputError("--max-rate must be >= 0")
+    pacer = Pacer(args.rate, max_rate or None, args.burst)
+
+    with open_bag(args.bag) as reader:
+        connections = list(reader.connections)
+        if args.topics:
+            unknown = sorted(set(args.topics) - {c.topic for c in connections})
+            if unknown:
+                raise InputError(f"topics not in the bag: {', '.join(unknown)}")
+            connections = [c for c in connections if c.topic in set(args.topics)]
+        connections = [c for c in connections if c.msgcount > 0]   # no publisher for empty topics
+        if not connections:
+            raise InputError(f"no messages to play in {args.bag}")
+        types = {}
+        for c in connections:
+            if types.setdefault(c.topic, c.msgtype) != c.msgtype:
+                raise InputError(f"topic {c.topic} has several types in the bag")
+        classes = {topic: message_class(t) for topic, t in types.items()}
+        bag_ns = bag_namespace(list(types))
+        total = int(sum(c.msgcount for c in connections))
+        start_ns = None if args.start_after_ns is None else int(args.start_after_ns) + 1
+
+        rclpy.init(args=rclpy_args)
+        try:
+            node = rclpy.create_node("bag_player")
+            if args.depth > 0:
+                qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=args.depth,
+                                 reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+            else:               # keep_all: publish blocks while reliable keep_all subscribers lag
+                qos = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1,
+                                 reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+            pubs = {topic: node.create_publisher(classes[topic], output_topic(topic, bag_ns, args.remap_ns), qos)
+                    for topic in types}
+            publish = {c.id: pubs[c.topic].publish for c in connections}
+            msg_class = {c.id: classes[c.topic] for c in connections}
+
+            if args.wait_subscribers > 0:
+                deadline = time.monotonic() + args.wait_timeout
+                while True:
+                    short = [p.topic_name for p in pubs.values()
+                             if p.get_subscription_count() < args.wait_subscribers]
+                    if not short:
+                        break
+                    if time.monotonic() > deadline:
+                        _log(f"warning: fewer than {args.wait_subscribers} subscribers after "
+                             f"{args.wait_timeout:g} s on {', '.join(short)}; playing anyway")
+                        break
+                    time.sleep(0.01)
+            if args.start_delay > 0:
+                time.sleep(args.start_delay)
+
+            sent = 0
+            blocked = 0.0
+            t_start = time.monotonic()
+            due = pacer.due
+            for conn, log_t, raw in iter_raw_messages(reader, connections, args.bag, start_ns):
+                when = t_start + due(log_t)
+                if when > time.monotonic():
+                    _sleep_until(when)
+                data = deserialize_message(raw, msg_class[conn.id]) if args.deserialize else bytes(raw)
+                try:
+                    publish[conn.id](data)
+                except RCLError as exc:
+                    if "cannot publish" not in str(exc):
+                        raise
+                    # keep_all writer full: reliable keep_all subscribers lag. Back-pressure: retry.
+                    blocked += _publish_blocked(publish[conn.id], data, args.ack_timeout)
+                sent += 1
+            t_sent = time.monotonic() - t_start
+
+            acked = True
+            for p in pubs.values():
+                acked &= bool(p.wait_for_all_acked(Duration(seconds=args.ack_timeout)))
+            t_total = time.monotonic() - t_start
+            if not args.quiet:
+                rate = sent / t_sent if t_sent > 0 else float("inf")
+                _log(f"published {sent} of {total} messages on {len(pubs)} topics in {t_sent:.2f} s "
+                     f"({rate:,.0f} msg/s); all acknowledged: {'yes' if acked else 'NO'} "
+                     f"after {t_total:.2f} s" + (f"; blocked by subscribers {blocked:.2f} s" if blocked else ""))
+            node.destroy_node()
+        finally:
+            if rclpy.ok():
+                rclpy.shutdown()
+    return 0
+
+
+def main(argv=None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    try:
+        from rclpy.utilities import remove_ros_args
+        user_args = remove_ros_args(args=["bag_player"] + argv)[1:]
+    except ImportError:  # pragma: no cover - rclpy is needed to publish anyway
+        user_args = argv
+    args = build_parser().parse_args(user_args)
+    try:
+        return play(args, ["bag_player"] + argv)
+    except InputError as exc:
+        _log(f"error: {exc}")
+        return 1
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,127 @@
+"""The mission's 'tests replay rosbags': bag_player -> topics -> wear_monitor -> /diagnostics agrees with
+the offline `guide-health replay` of the same bag; a SIGKILLed node resumes from its SQLite checkpoint."""
+import os
+import signal
+import sqlite3
+import json
+import time
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("rclpy")
+
+from guide_health.bags import read_machine_bag, write_machine_bag  # noqa: E402
+from guide_health.commands.replay import analyse  # noqa: E402
+from guide_health.live_session import (DiagnosticsCollector, clean_fastdds_shm, isolated_ros_env,  # noqa: E402
+                                       play_bag, start_node, stop_node)
+from guide_health.params import simulation_params, wear_monitor_params  # noqa: E402
+from guide_health.simulate import simulate_machine  # noqa: E402
+
+pytestmark = pytest.mark.ros
+ROOT = Path(__file__).resolve().parents[1]
+BENCH = ROOT / "config" / "bench_000.yaml"
+STATUS = "wear_monitor: x precision"
+
+
+def _ros_env(monkeypatch, transports=None):
+    env = isolated_ros_env(transports=transports)
+    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID", "FASTDDS_BUILTIN_TRANSPORTS"):
+        if key in env:
+            monkeypatch.setenv(key, env[key])
+    return env
+
+
+@pytest.fixture
+def ros_env(monkeypatch):
+    yield _ros_env(monkeypatch)
+    clean_fastdds_shm()
+
+
+@pytest.fixture
+def udp_ros_env(monkeypatch):
+    """A node is SIGKILLed: UDP only, so that its locked shared-memory ports cannot strand the next one."""
+    yield _ros_env(monkeypatch, "UDPv4")
+    clean_fastdds_shm()
+
+
+def make_bag(tmp_path: Path, storage: str, hours: float = 1.5, rate: float = 10.0, seed: int = 7):
+    params = wear_monitor_params(BENCH)
+    sim = dict(simulation_params(BENCH), duration_h=hours, joint_state_rate_hz=rate, load_rate_hz=1.0,
+               measurement_interval_h=0.25)
+    run = simulate_machine(params, sim, seed=seed)
+    bag = tmp_path / f"bench_{storage}"
+    write_machine_bag(run, bag, storage=storage)
+    return params, bag
+
+
+def final_live_status(collector, timeout=120.0):
+    return collector.wait_settled(STATUS, "sliding_distance_m", settle_s=2.0, timeout=timeout)
+
+
+@pytest.mark.parametrize("storage", ["sqlite3", "mcap"])
+def test_live_node_matches_offline_replay(tmp_path, ros_env, storage):
+    params, bag = make_bag(tmp_path, storage)
+    offline = analyse(read_machine_bag(bag, joint="x"), params)[1]
+    collector = DiagnosticsCollector("test_collector")
+    node = start_node("guide_health.nodes.wear_monitor", BENCH,
+                      {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25}, ros_env,
+                      log_path=tmp_path / "node.log")
+    try:
+        assert collector.wait_for(STATUS, timeout=30.0) is not None, (tmp_path / "node.log").read_text()
+        played = play_bag(bag, ros_env, ["--wait-subscribers", "1"])
+        assert played.returncode == 0, played.stderr
+        live = final_live_status(collector)
+    finally:
+        stop_node(node)
+        collector.close()
+    values = {k: float(v) for k, v in live["values"].items() if k != "lubrication_regime"}
+    assert values["samples"] == offline["samples"], "messages were lost on the way"
+    assert values["straightness_um"] == pytest.approx(offline["straightness_um"], rel=0.005)
+    assert values["remaining_life_h"] == pytest.approx(offline["remaining_life_h"], rel=0.005)
+    assert values["sliding_distance_m"] == pytest.approx(offline["sliding_distance_m"], rel=0.005)
+    assert values["measurements"] == offline["measurements"]
+
+
+def test_sigkill_and_restart_continue_where_the_node_stopped(tmp_path, udp_ros_env):
+    ros_env = udp_ros_env
+    params, bag = make_bag(tmp_path, "sqlite3", seed=8)
+    offline = analyse(read_machine_bag(bag, joint="x"), params)[1]
+    state_db = tmp_path / "state.db"
+    overrides = {"state_file": str(state_db), "diagnostics_period_s": 0.25, "checkpoint_period_s": 1.0}
+    collector = DiagnosticsCollector("test_collector_kill")
+    try:
+        node = start_node("guide_health.nodes.wear_monitor", BENCH, overrides, ros_env, tmp_path / "node1.log")
+        assert collector.wait_for(STATUS, timeout=30.0) is not None
+        import subprocess
+        import sys
+        player = subprocess.Popen([sys.executable, "-m", "guide_health.nodes.bag_player", str(bag),
+                                   "--wait-subscribers", "1"], env=ros_env, stdout=subprocess.DEVNULL,
+                                  stderr=subprocess.DEVNULL)
+        half = offline["sliding_distance_m"] / 2
+        assert collector.wait_for(STATUS, lambda s: float(s["values"]["sliding_distance_m"]) > half,
+                                  timeout=120.0) is not None
+        os.kill(node.pid, signal.SIGKILL)             # no clean shutdown: only checkpoints survive
+        node.wait()
+        player.wait(timeout=300)
+        with sqlite3.connect(state_db) as db:
+            saved = json.loads(db.execute("SELECT state_json FROM monitor_state").fetchone()[0])
+        checkpoint_t_ns = saved["integrator"]["last_t_ns"]
+        assert saved["integrator"]["sliding_distance_m"] < offline["sliding_distance_m"]
+        clean_fastdds_shm()
+        # restart and finish the bag from the checkpoint
+        node = start_node("guide_health.nodes.wear_monitor", BENCH, overrides, ros_env, tmp_path / "node2.log")
+        # node 2 is up and discovered once it publishes the checkpoint's numbers (node 1 is dead)
+        resumed = collector.wait_for(STATUS, lambda s: abs(float(s["values"]["sliding_distance_m"]) - saved[
+            "integrator"]["sliding_distance_m"]) < 1e-6, timeout=60.0)
+        assert resumed is not None, (tmp_path / "node2.log").read_text()
+        played = play_bag(bag, ros_env, ["--wait-subscribers", "1", "--start-after-ns", str(checkpoint_t_ns)])
+        assert played.returncode == 0, played.stderr
+        live = collector.wait_settled(STATUS, "sliding_distance_m", settle_s=2.0, timeout=120.0)
+        stop_node(node)
+    finally:
+        collector.close()
+    assert "resumed from" in (tmp_path / "node2.log").read_text()
+    values = {k: float(v) for k, v in live["values"].items() if k != "lubrication_regime"}
+    assert values["straightness_um"] == pytest.approx(offline["straightness_um"], rel=0.01)
+    assert values["sliding_distance_m"] == pytest.approx(offline["sliding_distance_m"], rel=0.01)
