@@ -23,8 +23,10 @@ the bag's log time for Float64 (it has no header). The writer sets log time = he
 from __future__ import annotations
 
 import functools
+import gc
 import json
 import math
+import operator
 import shutil
 import struct
 import sys
@@ -724,6 +726,13 @@ class _TopicAccumulator:
             self.log_times.clear()
         self.raws.clear()
 
+    def take(self) -> tuple[dict, dict, dict]:
+        """The decoded arrays so far, then forget them (streaming: memory bounded by one batch)."""
+        out = self.result()
+        self.parts.clear()
+        self.log_parts.clear()
+        return out
+
     def result(self) -> tuple[dict, dict, dict]:
         self.flush()
         values = {k: np.concatenate([p.values[k] for p in self.parts]) if self.parts
@@ -743,9 +752,35 @@ def _stamps(values: dict) -> np.ndarray:
     return values["sec"].astype(np.int64) * _NS_PER_S + values["nsec"].astype(np.int64)
 
 
+@contextmanager
+def _gc_paused():
+    """Pause the cyclic garbage collector while millions of short-lived tuples are made: a batch of
+    (connection, time, bytes) tuples is acyclic, yet each generation-0 collection walks it (measured:
+    read time 3.5 s -> 2.5 s for 1.1 M messages). Reference counting still frees everything."""
+    was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was_enabled:
+            gc.enable()
+
+
 def _read_topics(path, wanted: dict, namespace: str | None, suffix_for_ns: str, joint: str,
                  progress: ProgressFn | None, chunk_messages: int, fast: bool):
-    """Read the topics `wanted` ({relative topic: type}) into accumulators, one pass over the bag."""
+    """Read the topics `wanted` ({relative topic: type}) in one pass: (namespace, {topic: arrays})."""
+    batches = _iter_topic_batches(path, wanted, namespace, suffix_for_ns, joint, progress, chunk_messages,
+                                  fast, stream=False)
+    return next(batches)
+
+
+def _iter_topic_batches(path, wanted: dict, namespace: str | None, suffix_for_ns: str, joint: str,
+                        progress: ProgressFn | None, chunk_messages: int, fast: bool, stream: bool):
+    """One pass over the bag in batches of `chunk_messages` (log-time order).
+
+    stream=False: yields once, (namespace, {topic: (values, present, counts)}) for the whole bag;
+    stream=True: yields that for every batch (arrays of the batch only), so memory stays bounded.
+    """
     path = Path(path)
     chunk_messages = max(1, int(chunk_messages))
     with open_bag(path) as reader:
@@ -768,38 +803,59 @@ def _read_topics(path, wanted: dict, namespace: str | None, suffix_for_ns: str, 
             raise InputError(f"bag {path} has no topic {_topic(namespace, suffix_for_ns)} "
                              f"(topics: {', '.join(sorted(types)) or 'none'})")
         total = int(sum(c.msgcount for c in conns))
-        # connection id -> (raw list append, log time list append or None)
-        sinks = {}
-        for c in conns:
-            acc = accs[c.topic]
-            sinks[c.id] = (acc.raws.append, acc.log_times.append if acc.log_times is not None else None)
+        acc_of = {c.id: accs[c.topic] for c in conns}
+        conn_id = operator.attrgetter("id")
         errors = _reader_errors()
-        done = 0
         if progress is not None:
             progress(0, total)
         it = reader.messages(connections=conns) if conns else iter(())
+        done = 0
         while True:
-            got = 0
-            try:                                  # reader errors only: decoding and progress are outside
-                for conn, t, raw in islice(it, chunk_messages):
-                    add_raw, add_t = sinks[conn.id]
-                    add_raw(raw)
-                    if add_t is not None:
-                        add_t(t)
-                    got += 1
-            except errors as exc:
-                raise InputError(f"corrupt bag {path}: {_one_line(exc)}") from None
-            if not got:
-                break
-            for acc in accs.values():
-                acc.flush()
+            with _gc_paused():
+                try:                              # reader errors only: decoding and progress are outside
+                    batch = list(islice(it, chunk_messages))
+                except errors as exc:
+                    raise InputError(f"corrupt bag {path}: {_one_line(exc)}") from None
+                got = len(batch)
+                if not got:
+                    break
+                _split_batch(batch, acc_of, conn_id)
+                del batch
+                for acc in accs.values():
+                    acc.flush()
             done += got
             if progress is not None:
                 progress(done, max(total, done))
-        results = {topic: acc.result() for topic, acc in accs.items()}
+            if stream:
+                yield namespace, {topic: acc.take() for topic, acc in accs.items()}
         if total == 0 and progress is not None:
             progress(0, 0)
-    return namespace, results
+        if not stream:
+            yield namespace, {topic: acc.result() for topic, acc in accs.items()}
+        elif done == 0:                       # an empty bag still yields one (empty) batch
+            yield namespace, {topic: acc.take() for topic, acc in accs.items()}
+
+
+def _split_batch(batch: list, acc_of: dict, conn_id) -> None:
+    """Hand each topic's accumulator its raw bytes (and log times) from a batch of reader tuples, with
+    C-level zip/map/itemgetter rather than a Python statement per message."""
+    got = len(batch)
+    b_conns, b_times, b_raws = zip(*batch)
+    ids = np.fromiter(map(conn_id, b_conns), dtype=np.int64, count=got)
+    for cid in np.unique(ids).tolist():
+        acc = acc_of[cid]
+        idx = np.flatnonzero(ids == cid)
+        if idx.size == got:
+            acc.raws.extend(b_raws)
+            if acc.log_times is not None:
+                acc.log_times.extend(b_times)
+            continue
+        pick = operator.itemgetter(*idx.tolist())
+        picked = pick(b_raws)
+        acc.raws.extend(picked if idx.size > 1 else (picked,))
+        if acc.log_times is not None:
+            times = pick(b_times)
+            acc.log_times.extend(times if idx.size > 1 else (times,))
 
 
 def _empty_values(names, log=False):
@@ -821,33 +877,73 @@ def read_machine_bag(path, joint: str = "x", namespace: str | None = None,
     progress(done_messages, total_messages) is called after every chunk.
     fast=False decodes every message with rosbags deserialize_cdr (the reference path).
     stats, when given, receives per-topic counts: kept, missing, malformed, fast, fallback.
-    Raises InputError for a missing, corrupt or unsuitable bag.
+    Raises InputError for a missing, corrupt or unsuitable bag. See iter_machine_bag for bounded memory.
     """
     path = Path(path)
     namespace, res = _read_topics(path, MACHINE_TOPICS, namespace, "joint_states", joint,
                                   progress, chunk_messages, fast)
-    js_v, js_p, js_c = res.get(_topic(namespace, "joint_states"), _empty_values(
-        ("sec", "nsec", "position", "velocity")))
-    ld_v, _, ld_c = res.get(_topic(namespace, "guide/load"), _empty_values(("sec", "nsec", "fz")))
-    st_v, _, st_c = res.get(_topic(namespace, "guide/straightness"), _empty_values(("data",), log=True))
-    tp_v, _, tp_c = res.get(_topic(namespace, "guide/temperature"),
-                            _empty_values(("sec", "nsec", "temperature")))
+    run, counts = _machine_run(path, namespace, res, joint, _read_metadata(path))
+    _report_counts(path, joint, namespace, counts, stats)
+    return run
+
+
+def iter_machine_bag(path, joint: str = "x", namespace: str | None = None,
+                     progress: ProgressFn | None = None, chunk_messages: int = 200_000,
+                     *, fast: bool = True, stats: dict | None = None) -> Iterator[MachineRun]:
+    """A machine bag as consecutive MachineRun chunks of about `chunk_messages` messages each, in
+    log-time order (every chunk carries the run metadata); memory stays bounded by one chunk.
+    Feeding them one after another to PrecisionMonitor.process_run gives the result of the whole run.
+    Same arguments and errors as read_machine_bag; stats are filled once the iteration ends."""
+    path = Path(path)
+    metadata = _read_metadata(path)
+    total: dict = {}
+    namespace_seen = namespace
+    for namespace_seen, res in _iter_topic_batches(path, MACHINE_TOPICS, namespace, "joint_states", joint,
+                                                   progress, chunk_messages, fast, stream=True):
+        run, counts = _machine_run(path, namespace_seen, res, joint, metadata)
+        for topic, c in counts.items():
+            acc = total.setdefault(topic, dict.fromkeys(c, 0))
+            for key, value in c.items():
+                acc[key] += value
+        yield run
+    _report_counts(path, joint, namespace_seen, total, stats)
+
+
+_MACHINE_EMPTY = {
+    "joint_states": ("sec", "nsec", "position", "velocity"),
+    "guide/load": ("sec", "nsec", "fz"),
+    "guide/straightness": ("data",),
+    "guide/temperature": ("sec", "nsec", "temperature"),
+}
+
+
+def _machine_run(path, namespace: str, res: dict, joint: str, metadata: dict) -> tuple[MachineRun, dict]:
+    got = {rel: res.get(_topic(namespace, rel), _empty_values(names, log=(rel == "guide/straightness")))
+           for rel, names in _MACHINE_EMPTY.items()}
+    js_v, js_p, _ = got["joint_states"]
+    ld_v, st_v, tp_v = got["guide/load"][0], got["guide/straightness"][0], got["guide/temperature"][0]
     velocity = js_v["velocity"] if js_p["velocity"].any() else np.zeros(0)
-    if stats is not None:
-        stats.update({"namespace": namespace, "joint_states": js_c, "guide/load": ld_c,
-                      "guide/straightness": st_c, "guide/temperature": tp_c})
-    dropped = js_c["missing"] + sum(c["malformed"] for c in (js_c, ld_c, st_c, tp_c))
-    if dropped:
-        warnings.warn(f"bag {path}: skipped {js_c['missing']} joint_states without joint {joint!r} "
-                      f"and {dropped - js_c['missing']} malformed messages", stacklevel=2)
-    return MachineRun(
+    run = MachineRun(
         joint_name=joint,
         joint_t_ns=_stamps(js_v), joint_position_m=js_v["position"], joint_velocity_m_s=velocity,
         load_t_ns=_stamps(ld_v), load_n=ld_v["fz"],
         straightness_t_ns=st_v["log_t_ns"], straightness_m=st_v["data"],
         temperature_t_ns=_stamps(tp_v), temperature_c=tp_v["temperature"],
-        metadata=_read_metadata(path),
+        metadata=metadata,
     )
+    return run, {rel: v[2] for rel, v in got.items()}
+
+
+def _report_counts(path, joint: str, namespace, counts: dict, stats: dict | None) -> None:
+    if stats is not None:
+        stats.update({"namespace": namespace, **counts})
+    if not counts:
+        return
+    missing = counts["joint_states"]["missing"]
+    dropped = missing + sum(c["malformed"] for c in counts.values())
+    if dropped:
+        warnings.warn(f"bag {path}: skipped {missing} joint_states without joint {joint!r} "
+                      f"and {dropped - missing} malformed messages", stacklevel=3)
 
 
 def read_slewing_bag(path, namespace: str | None = None, progress: ProgressFn | None = None,

@@ -1,0 +1,109 @@
+"""Fleet board: the latest health status of every machine's monitors and a one-status summary.
+
+Pure Python (no ROS): fed with diagnostic statuses (name, hardware_id = machine_id, level, message,
+key values as strings), it answers which machines are healthy, which are not, which went silent, and
+which has the least remaining life. `fleet_monitor` is the ROS adapter.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+OK, WARN, ERROR, STALE = 0, 1, 2, 3
+LEVEL_NAMES = {OK: "OK", WARN: "WARN", ERROR: "ERROR", STALE: "STALE"}
+# severity order for "worst": STALE (no data) ranks between WARN and ERROR
+_SEVERITY = {OK: 0, WARN: 1, STALE: 2, ERROR: 3}
+SUMMARY_KEYS = ("machines", "statuses", "ok", "warn", "error", "stale", "worst_machine", "worst_status",
+                "min_remaining_life_h", "min_remaining_life_machine", "max_life_used_fraction",
+                "max_life_used_machine", "max_end_stress_ratio", "max_end_stress_machine")
+
+
+def _number(text) -> float:
+    try:
+        return float(text)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+@dataclass
+class MachineStatus:
+    name: str
+    hardware_id: str
+    level: int
+    message: str
+    values: dict = field(default_factory=dict)
+    received_s: float = 0.0
+
+
+class FleetBoard:
+    """Latest status per (hardware_id, name); silent ones turn STALE after `stale_after_s`."""
+
+    def __init__(self, stale_after_s: float = 10.0, ignore_prefix: str = ""):
+        if not stale_after_s > 0:
+            raise ValueError("stale_after_s must be > 0")
+        self.stale_after_s = float(stale_after_s)
+        self.ignore_prefix = ignore_prefix      # the fleet monitor's own statuses
+        self.statuses: dict[tuple[str, str], MachineStatus] = {}
+
+    def update(self, name: str, hardware_id: str, level: int, message: str, values: dict,
+               received_s: float) -> bool:
+        """Record a status; False (ignored) for the board's own statuses or an unknown level."""
+        if self.ignore_prefix and name.startswith(self.ignore_prefix):
+            return False
+        if level not in LEVEL_NAMES:
+            return False
+        self.statuses[(hardware_id, name)] = MachineStatus(name, hardware_id, int(level), message,
+                                                            dict(values), float(received_s))
+        return True
+
+    def effective_level(self, status: MachineStatus, now_s: float) -> int:
+        return STALE if now_s - status.received_s > self.stale_after_s else status.level
+
+    def summary(self, now_s: float) -> dict:
+        counts = {OK: 0, WARN: 0, ERROR: 0, STALE: 0}
+        worst, worst_level = None, None
+        life = (math.inf, "")
+        used = (-math.inf, "")
+        end_ratio = (-math.inf, "")
+        for status in self.statuses.values():
+            level = self.effective_level(status, now_s)
+            counts[level] += 1
+            if worst_level is None or _SEVERITY[level] > _SEVERITY[worst_level]:
+                worst, worst_level = status, level
+            v = status.values
+            h = _number(v.get("remaining_life_h"))
+            if math.isfinite(h) and h < life[0]:
+                life = (h, status.hardware_id)
+            u = _number(v.get("life_used_fraction"))
+            if math.isfinite(u) and u > used[0]:
+                used = (u, status.hardware_id)
+            r = _number(v.get("end_stress_ratio"))
+            if math.isfinite(r) and r > end_ratio[0]:
+                end_ratio = (r, status.hardware_id)
+        machines = sorted({hw for hw, _ in self.statuses})
+        result = {
+            "machines": len(machines),
+            "statuses": len(self.statuses),
+            "ok": counts[OK], "warn": counts[WARN], "error": counts[ERROR], "stale": counts[STALE],
+            "worst_machine": worst.hardware_id if worst else "",
+            "worst_status": worst.name if worst else "",
+            "min_remaining_life_h": life[0] if life[1] else math.nan,
+            "min_remaining_life_machine": life[1],
+            "max_life_used_fraction": used[0] if used[1] else math.nan,
+            "max_life_used_machine": used[1],
+            "max_end_stress_ratio": end_ratio[0] if end_ratio[1] else math.nan,
+            "max_end_stress_machine": end_ratio[1],
+        }
+        if worst is None:
+            result["level"], result["message"] = STALE, "no machine has reported yet"
+        else:
+            level = worst_level
+            bad = counts[WARN] + counts[ERROR] + counts[STALE]
+            text = (f"{len(machines)} machines, {len(self.statuses)} statuses: {counts[OK]} OK, "
+                    f"{counts[WARN]} WARN, {counts[ERROR]} ERROR, {counts[STALE]} STALE")
+            if bad:
+                text += f"; worst {worst.hardware_id} '{worst.name}' ({LEVEL_NAMES[level]}: {worst.message})"
+            # the fleet status is ERROR/WARN with its worst member; silent machines make it WARN
+            result["level"] = ERROR if level == ERROR else (WARN if level in (WARN, STALE) else OK)
+            result["message"] = text
+        return result

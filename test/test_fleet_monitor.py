@@ -1,0 +1,110 @@
+"""Fleet board (pure) and the fleet_monitor node: per-machine statuses in, one fleet status out, history
+in SQLite."""
+import json
+import math
+import sqlite3
+import time
+
+import numpy as np
+import pytest
+
+from guide_health.models.fleet import ERROR, OK, STALE, WARN, FleetBoard
+
+
+def test_board_counts_levels_and_finds_the_weakest_machine():
+    board = FleetBoard(stale_after_s=10.0, ignore_prefix="fleet_monitor: ")
+    board.update("wear_monitor: x precision", "m1", OK, "fine", {"remaining_life_h": "412.5"}, 100.0)
+    board.update("wear_monitor: x precision", "m2", WARN, "low life", {"remaining_life_h": "12.0"}, 100.0)
+    board.update("wear_monitor: x fatigue", "m2", OK, "", {"life_used_fraction": "0.31"}, 100.0)
+    board.update("slewing_monitor: b1 roller contact", "c1", OK, "", {"end_stress_ratio": "1.21"}, 100.0)
+    board.update("wear_monitor: x precision", "m3", OK, "", {"remaining_life_h": "nan"}, 100.0)
+    assert not board.update("fleet_monitor: fleet", "fleet", OK, "", {}, 100.0)   # own status ignored
+    s = board.summary(now_s=105.0)
+    assert (s["machines"], s["statuses"]) == (4, 5)
+    assert (s["ok"], s["warn"], s["error"], s["stale"]) == (4, 1, 0, 0)
+    assert s["level"] == WARN and s["worst_machine"] == "m2"
+    assert s["min_remaining_life_h"] == 12.0 and s["min_remaining_life_machine"] == "m2"
+    assert s["max_life_used_fraction"] == 0.31 and s["max_end_stress_machine"] == "c1"
+    # an ERROR anywhere makes the fleet ERROR
+    board.update("wear_monitor: x precision", "m1", ERROR, "limit", {"remaining_life_h": "0"}, 106.0)
+    s = board.summary(now_s=107.0)
+    assert s["level"] == ERROR and s["worst_machine"] == "m1" and s["min_remaining_life_h"] == 0.0
+
+
+def test_silent_machines_turn_stale_and_the_fleet_warns():
+    board = FleetBoard(stale_after_s=5.0)
+    board.update("a: t", "m1", OK, "", {}, 0.0)
+    board.update("a: t", "m2", OK, "", {}, 4.0)
+    s = board.summary(now_s=6.0)                       # m1 silent 6 s > 5 s
+    assert (s["ok"], s["stale"]) == (1, 1) and s["level"] == WARN and s["worst_machine"] == "m1"
+    empty = FleetBoard().summary(0.0)
+    assert empty["level"] == STALE and empty["machines"] == 0 and math.isnan(empty["min_remaining_life_h"])
+
+
+rclpy = pytest.importorskip("rclpy")
+
+
+@pytest.fixture
+def ros_context(monkeypatch):
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(np.random.randint(1, 100)))
+    context = rclpy.context.Context()
+    rclpy.init(context=context)
+    yield context
+    rclpy.shutdown(context=context)
+
+
+def test_fleet_node_aggregates_statuses_from_the_topic_and_records_history(ros_context, tmp_path):
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+
+    from guide_health.nodes.fleet_monitor import FleetMonitorNode
+
+    db = tmp_path / "fleet.db"
+    fleet = FleetMonitorNode(context=ros_context, parameter_overrides=[
+        Parameter("history_file", value=str(db)), Parameter("history_period_s", value=0.2),
+        Parameter("diagnostics_period_s", value=0.1)])
+    source = rclpy.create_node("machines", context=ros_context)
+    pub = source.create_publisher(DiagnosticArray, "/diagnostics", 10)
+    seen = []
+    source.create_subscription(DiagnosticArray, "/diagnostics",
+                               lambda m: seen.extend(s for s in m.status if s.name == "fleet_monitor: fleet"), 10)
+    ex = SingleThreadedExecutor(context=ros_context)
+    ex.add_node(fleet)
+    ex.add_node(source)
+
+    def machine_status(hw, level, life_h):
+        return DiagnosticStatus(level=bytes([level]), name="wear_monitor: x precision", hardware_id=hw,
+                                message="m", values=[KeyValue(key="remaining_life_h", value=repr(life_h))])
+    def spin(seconds):
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            ex.spin_once(timeout_sec=0.01)
+    try:
+        end = time.monotonic() + 10.0
+        while time.monotonic() < end:
+            pub.publish(DiagnosticArray(status=[machine_status("m1", 0, 300.0), machine_status("m2", 1, 15.5)]))
+            spin(0.1)
+            if seen and dict((kv.key, kv.value) for kv in seen[-1].values).get("machines") == "2":
+                break
+        assert seen, fleet.board.statuses
+        last = {kv.key: kv.value for kv in seen[-1].values}
+        assert last["machines"] == "2" and last["min_remaining_life_machine"] == "m2"
+        assert float(last["min_remaining_life_h"]) == 15.5
+        assert seen[-1].level == DiagnosticStatus.WARN and seen[-1].hardware_id == "fleet"
+        for _ in range(10):                         # a second history row per status after 0.2 s
+            pub.publish(DiagnosticArray(status=[machine_status("m1", 0, 299.0), machine_status("m2", 1, 15.0)]))
+            spin(0.05)
+    finally:
+        fleet.close()
+        ex.shutdown()
+        fleet.destroy_node()
+        source.destroy_node()
+    with sqlite3.connect(db) as con:
+        rows = con.execute("SELECT hardware_id, level, values_json FROM fleet_history ORDER BY t_unix_s").fetchall()
+    machines = {r[0] for r in rows}
+    assert machines == {"m1", "m2"}                  # the fleet's own status is not recorded
+    per_machine = [r for r in rows if r[0] == "m2"]
+    assert 2 <= len(per_machine) <= 5                # throttled: not one row per message (~20 sent)
+    assert json.loads(per_machine[0][2])["remaining_life_h"] == "15.5"
