@@ -222,6 +222,55 @@ _WRENCH_NAMES = ("fx", "fy", "fz", "tx", "ty", "tz")
 _TEMPERATURE_NAMES = ("temperature", "variance")
 
 
+_STRUCT_OF_DTYPE = {"<f8": "<d", "<i4": "<i", "<u4": "<I"}
+MISSING = "missing"
+
+
+class RawMessageDecoder:
+    """Per-message decoding of raw CDR for a live node (the same layouts as the bag reader).
+
+    The layout of the first message of each size is parsed once; a later message of that size is
+    checked against the layout's structural bytes (encapsulation, frame id, joint names, sequence
+    lengths) and its numbers are read at fixed offsets, a few microseconds instead of the tens that
+    rclpy deserialisation takes. decode(raw) -> tuple of the numbers in `names` order (NaN for an
+    absent optional number such as velocity), MISSING when the message is valid but lacks the wanted
+    joint, or None when it is not a message of this type.
+    """
+
+    def __init__(self, msgtype: str, names: tuple, joint: str = "x"):
+        self.layout_fn = _decoder(msgtype, joint)[0]
+        self.names = tuple(names)
+        self._cache: dict[int, tuple] = {}
+
+    def _compile(self, raw) -> tuple | None:
+        layout = self.layout_fn(raw)
+        if layout is None:
+            return None
+        if layout.missing:
+            return (layout.fields, None)
+        readers = tuple((struct.Struct(_STRUCT_OF_DTYPE[layout.values[name][1]]), layout.values[name][0])
+                        if name in layout.values else None for name in self.names)
+        return (layout.fields, readers)
+
+    def decode(self, raw):
+        raw = bytes(raw)
+        entry = self._cache.get(len(raw))
+        if entry is not None:
+            for offset, expect in entry[0]:
+                if raw[offset:offset + len(expect)] != expect:
+                    entry = None
+                    break
+        if entry is None:
+            entry = self._compile(raw)
+            if entry is None:
+                return None
+            self._cache[len(raw)] = entry
+        readers = entry[1]
+        if readers is None:
+            return MISSING
+        return tuple(math.nan if r is None else r[0].unpack_from(raw, r[1])[0] for r in readers)
+
+
 # ---------------------------------------------------------------------------------------------
 # encoding (writer side): one template per layout, numbers filled with numpy
 # ---------------------------------------------------------------------------------------------

@@ -11,6 +11,7 @@ import argparse
 import importlib
 import json
 import math
+import os
 import sys
 
 from guide_health.errors import InputError
@@ -65,7 +66,16 @@ class OneLineErrorParser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def _selected(path: tuple[str, ...], argv: list[str] | None) -> bool:
+    """Is `path` the command named by argv? (None: all.) Only that command's module is imported, so
+    `guide-health replay` does not pay for the imports of every other sub-command."""
+    if argv is None:
+        return True
+    words = [a for a in argv if not a.startswith("-")][:len(path)]
+    return words[:1] == [path[0]] and (len(words) < 2 or words[1] == path[1])
+
+
+def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     parser = OneLineErrorParser(
         prog="guide-health",
         description="Guideway and slewing-bearing condition monitoring: models, bags and reports.",
@@ -82,6 +92,8 @@ def build_parser() -> argparse.ArgumentParser:
             sub = groups[path[0]].add_parser(path[1], help=help_text, description=help_text)
         sub.set_defaults(_module=module_name)
         sub.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout")
+        if not _selected(path, argv):
+            continue
         try:
             module = importlib.import_module(f"guide_health.commands.{module_name}")
         except ModuleNotFoundError as exc:
@@ -94,7 +106,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser(argv)
     args = parser.parse_args(argv)
     if getattr(args, "_missing", False):
         print(f"guide-health: error: '{args.command}' is not available in this build", file=sys.stderr)
@@ -113,12 +126,16 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     if result is None:
         return 0
-    if args.json:
-        json.dump(_jsonable(result), sys.stdout, allow_nan=True)
-        sys.stdout.write("\n")
-    else:
-        formatter = getattr(module, "format_text", None)
-        print(formatter(result) if formatter else _format_plain(_jsonable(result)))
+    try:
+        if args.json:
+            json.dump(_jsonable(result), sys.stdout, allow_nan=True)
+            sys.stdout.write("\n")
+        else:
+            formatter = getattr(module, "format_text", None)
+            print(formatter(result) if formatter else _format_plain(_jsonable(result)))
+        sys.stdout.flush()
+    except BrokenPipeError:          # `guide-health ... | head`: the reader left; not an error of ours
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     return 0
 
 

@@ -65,7 +65,7 @@ def main(argv: list[str] | None = None) -> int:
             print("demo: wear_monitor did not come up (see out/demo/wear_monitor.log)", file=sys.stderr)
             return 1
         t0 = time.monotonic()
-        played = play_bag(bag, env, ["--wait-subscribers", "1"])
+        played = play_bag(bag, env, ["--wait-subscribers", "1", "--max-rate", "0"])
         sys.stderr.write(played.stderr)
         if played.returncode != 0:
             print("demo: bag_player failed", file=sys.stderr)

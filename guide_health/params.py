@@ -41,6 +41,8 @@ WEAR_MONITOR_DEFAULTS: dict[str, Any] = {
     "diagnostics_period_s": 1.0,
     "input_timeout_s": 5.0,             # STALE when joint_states/load silent longer (data arrival)
     "checkpoint_period_s": 2.0,         # SQLite commit period
+    "input_align_window_s": 0.5,        # joint samples wait <= this for the load stamped before them
+    "executor": "events",               # events (rclpy EventsExecutor, raw CDR) | single_threaded
     "state_file": "",                   # '' = no persistence
     # rolling guide, seeds 001/004
     "ball_radius_m": 3.9685e-3,
@@ -175,13 +177,16 @@ def validate_wear_params(p: dict[str, Any]) -> None:
                  "straightness_limit_m"):
         if not p[name] > 0:
             raise InputError(f"parameter {name} must be > 0, got {p[name]!r}")
-    for name in ("stroke_min_m", "stroke_max_m", "straightness_initial_m", "straightness_noise_m"):
+    for name in ("stroke_min_m", "stroke_max_m", "straightness_initial_m", "straightness_noise_m",
+                 "input_align_window_s"):
         if p[name] < 0:
             raise InputError(f"parameter {name} must be >= 0, got {p[name]!r}")
     if (p["stroke_min_m"] > 0) != (p["stroke_max_m"] > 0) or p["stroke_max_m"] < p["stroke_min_m"]:
         raise InputError("stroke_min_m/stroke_max_m: both 0 (estimate) or 0 < min <= max")
     if p["guide_type"] not in ("sliding", "rolling"):
         raise InputError(f"guide_type must be 'sliding' or 'rolling', got {p['guide_type']!r}")
+    if p.get("executor", "events") not in ("events", "single_threaded"):
+        raise InputError(f"executor must be 'events' or 'single_threaded', got {p['executor']!r}")
     if p["straightness_model"] not in ("eq7", "profile"):
         raise InputError(f"straightness_model must be 'eq7' or 'profile', got {p['straightness_model']!r}")
 

@@ -69,7 +69,7 @@ def test_live_node_matches_offline_replay(tmp_path, ros_env, storage):
                       log_path=tmp_path / "node.log")
     try:
         assert collector.wait_for(STATUS, timeout=30.0) is not None, (tmp_path / "node.log").read_text()
-        played = play_bag(bag, ros_env, ["--wait-subscribers", "1"])
+        played = play_bag(bag, ros_env, ["--wait-subscribers", "1", "--max-rate", "0"])
         assert played.returncode == 0, played.stderr
         live = final_live_status(collector)
     finally:
@@ -115,7 +115,7 @@ def test_sigkill_and_restart_continue_where_the_node_stopped(tmp_path, udp_ros_e
         resumed = collector.wait_for(STATUS, lambda s: abs(float(s["values"]["sliding_distance_m"]) - saved[
             "integrator"]["sliding_distance_m"]) < 1e-6, timeout=60.0)
         assert resumed is not None, (tmp_path / "node2.log").read_text()
-        played = play_bag(bag, ros_env, ["--wait-subscribers", "1", "--start-after-ns", str(checkpoint_t_ns)])
+        played = play_bag(bag, ros_env, ["--wait-subscribers", "1", "--max-rate", "0", "--start-after-ns", str(checkpoint_t_ns)])
         assert played.returncode == 0, played.stderr
         live = collector.wait_settled(STATUS, "sliding_distance_m", settle_s=2.0, timeout=120.0)
         stop_node(node)

@@ -9,6 +9,7 @@ import pytest
 rclpy = pytest.importorskip("rclpy")
 from geometry_msgs.msg import WrenchStamped  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
+from rclpy.serialization import serialize_message  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 from std_msgs.msg import Float64  # noqa: E402
 
@@ -30,7 +31,8 @@ def ros_context(monkeypatch):
 
 def make_node(context, tmp_path: Path, **overrides):
     params = {"state_file": str(tmp_path / "state.db"), "joint": "x", "machine_id": "m1",
-              "straightness_limit_m": 100e-6, "input_timeout_s": 5.0}
+              "straightness_limit_m": 100e-6, "input_timeout_s": 5.0,
+              "input_align_window_s": 0.0}   # integrate on arrival (StampAlignedFeed is tested on its own)
     params.update(overrides)
     node = WearMonitorNode(context=context,
                            parameter_overrides=[Parameter(k, value=v) for k, v in params.items()])
@@ -80,24 +82,34 @@ def snapshot(node):
     return repr(state)
 
 
-def test_bad_input_is_rejected_and_never_changes_state(ros_context, tmp_path):
+@pytest.mark.parametrize("path", ["message", "raw"])
+def test_bad_input_is_rejected_and_never_changes_state(ros_context, tmp_path, path):
     node = make_node(ros_context, tmp_path)
+    if path == "raw":        # the events-executor path: raw CDR decoded at fixed offsets
+        on_joint = lambda m: node._on_joint_raw(serialize_message(m))  # noqa: E731
+        on_load = lambda m: node._on_load_raw(serialize_message(m))  # noqa: E731
+    else:
+        on_joint, on_load = node._on_joint, node._on_load
     try:
         t = feed_cycle(node, T0 + 1.0)
         before = snapshot(node)
         bad = [
-            ("nan position", lambda: node._on_joint(joint(t + 1, [math.nan]))),
-            ("inf velocity", lambda: node._on_joint(joint(t + 1, [0.05], velocity=[math.inf]))),
-            ("time backwards", lambda: node._on_joint(joint(t - 5.0, [0.05]))),
-            ("unknown joint", lambda: node._on_joint(joint(t + 1, [0.05], names=("y",)))),
-            ("empty arrays", lambda: node._on_joint(joint(t + 1, [], names=()))),
-            ("names without positions", lambda: node._on_joint(joint(t + 1, [], names=("x",)))),
-            ("nan load", lambda: node._on_load(load(t + 1, math.nan))),
-            ("inf load", lambda: node._on_load(load(t + 1, math.inf))),
-            ("negative load", lambda: node._on_load(load(t + 1, -10.0))),
-            ("load time backwards", lambda: node._on_load(load(T0, 100.0))),
+            ("nan position", lambda: on_joint(joint(t + 1, [math.nan]))),
+            ("inf velocity", lambda: on_joint(joint(t + 1, [0.05], velocity=[math.inf]))),
+            ("time backwards", lambda: on_joint(joint(t - 5.0, [0.05]))),
+            ("unknown joint", lambda: on_joint(joint(t + 1, [0.05], names=("y",)))),
+            ("empty arrays", lambda: on_joint(joint(t + 1, [], names=()))),
+            ("names without positions", lambda: on_joint(joint(t + 1, [], names=("x",)))),
+            ("nan load", lambda: on_load(load(t + 1, math.nan))),
+            ("inf load", lambda: on_load(load(t + 1, math.inf))),
+            ("negative load", lambda: on_load(load(t + 1, -10.0))),
+            ("load time backwards", lambda: on_load(load(T0, 100.0))),
             ("nan straightness", lambda: node._on_straightness(Float64(data=math.nan))),
             ("negative straightness", lambda: node._on_straightness(Float64(data=-1e-6))),
+        ] + ([
+            ("malformed joint bytes", lambda: node._on_joint_raw(b"\x00\x01\x00\x00garbage")),
+            ("malformed load bytes", lambda: node._on_load_raw(b"\x00\x01")),
+        ] if path == "raw" else []) + [
         ]
         rejected_before = sum(node.monitor.rejected.values())
         for label, action in bad:
@@ -114,6 +126,25 @@ def test_bad_input_is_rejected_and_never_changes_state(ros_context, tmp_path):
     finally:
         node.close()
         node.destroy_node()
+
+
+def test_raw_and_deserialised_paths_give_the_same_state(ros_context, tmp_path):
+    nodes = [make_node(ros_context, tmp_path / "a"), make_node(ros_context, tmp_path / "b")]
+    raw = nodes[1]
+    raw._on_joint = lambda m: raw._on_joint_raw(serialize_message(m))
+    raw._on_load = lambda m: raw._on_load_raw(serialize_message(m))
+    try:
+        for node in nodes:
+            t = feed_cycle(node, T0 + 1.0, strokes=(0.1, 0.25, 0.18))
+            node._on_joint(joint(t + 0.02, [0.001, 0.5], names=("x", "z"), velocity=[0.05, 0.0]))  # 2 joints
+            node._on_joint(joint(t + 0.04, [0.2, 0.002], names=("z", "x")))                   # reordered
+        assert snapshot(nodes[0]) == snapshot(nodes[1])
+        assert nodes[1].monitor.integrator.samples == nodes[0].monitor.integrator.samples > 100
+        assert nodes[1]._callbacks > 100 and nodes[1]._model_s <= nodes[1]._callback_s
+    finally:
+        for node in nodes:
+            node.close()
+            node.destroy_node()
 
 
 def test_diagnostics_keys_levels_and_stale(ros_context, tmp_path):

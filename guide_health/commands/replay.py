@@ -33,6 +33,37 @@ def analyse(run, params: dict, progress=None) -> tuple[PrecisionMonitor, dict]:
     return monitor, report
 
 
+def analyse_bag(bag, params: dict, namespace: str | None = None, progress=None,
+                chunk_messages: int = 200_000) -> tuple[PrecisionMonitor, dict, dict]:
+    """Stream a bag through the precision model chunk by chunk (memory bounded by one chunk, whatever
+    the bag's size); identical to analyse(read_machine_bag(bag)) to rounding. Returns the monitor, its
+    report and timings {read_s, model_s}."""
+    from guide_health.bags import iter_machine_bag
+
+    monitor = PrecisionMonitor(params)
+    messages = 0
+    t_first = t_last = None
+    t_model = 0.0
+    t0 = time.perf_counter()
+    for chunk in iter_machine_bag(bag, joint=params["joint"], namespace=namespace, progress=progress,
+                                  chunk_messages=chunk_messages):
+        t1 = time.perf_counter()
+        monitor.process_run(chunk)
+        t_model += time.perf_counter() - t1
+        messages += chunk.messages
+        stamps = [a for a in (chunk.joint_t_ns, chunk.load_t_ns, chunk.straightness_t_ns) if a.size]
+        if stamps:
+            lo, hi = min(int(a[0]) for a in stamps), max(int(a[-1]) for a in stamps)
+            t_first = lo if t_first is None else min(t_first, lo)
+            t_last = hi if t_last is None else max(t_last, hi)
+    t1 = time.perf_counter()
+    report = monitor.report()
+    t_model += time.perf_counter() - t1
+    report["messages"] = messages
+    report["duration_h"] = (t_last - t_first) * 1e-9 / 3600.0 if t_first is not None else 0.0
+    return monitor, report, {"read_s": time.perf_counter() - t0 - t_model, "model_s": t_model}
+
+
 def model_curve(monitor: PrecisionMonitor) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(t [h] from the first joint sample, measured [um], model [um]) at the measurement times."""
     est = monitor.estimator
@@ -90,19 +121,14 @@ def plot_report(path: Path, monitor: PrecisionMonitor, report: dict, t_h, measur
 
 
 def run(args) -> dict:
-    from guide_health.bags import ProgressBar, read_machine_bag
+    from guide_health.bags import ProgressBar
 
     params = wear_monitor_params(args.params)
     bag = Path(args.bag)
-    t0 = time.perf_counter()
-    bar = ProgressBar("read", force=args.progress)
-    machine = read_machine_bag(bag, joint=params["joint"], namespace=args.namespace, progress=bar)
+    bar = ProgressBar("replay", force=args.progress)
+    monitor, report, timing = analyse_bag(bag, params, namespace=args.namespace, progress=bar)
     bar.close()
-    t_read = time.perf_counter() - t0
-    bar = ProgressBar("wear", force=args.progress)
-    monitor, report = analyse(machine, params, progress=bar)
-    bar.close()
-    t_model = time.perf_counter() - t0 - t_read
+    t_read, t_model = timing["read_s"], timing["model_s"]
     out = Path(args.out) if args.out else bag.with_name(bag.name + ".report")
     report["level_name"] = LEVEL_NAMES[report["level"]]
     report["read_s"] = t_read

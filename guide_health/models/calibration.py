@@ -7,7 +7,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
+from statistics import NormalDist
 
 
 @dataclass
@@ -44,6 +44,8 @@ def fit_pin_on_disc(speed_m_s: np.ndarray, load_n: np.ndarray, wear_rate_m3_s: n
     dof = x.size - 1
     s2 = ss_res / dof
     se_c = math.sqrt(s2 / float(x @ x))
+    from scipy import stats   # imported on use: scipy.stats costs ~0.5 s at start-up
+
     t = float(stats.t.ppf(0.5 + confidence / 2, dof))
     ss_tot = float(((y - y.mean()) ** 2).sum())
     return PinOnDiscFit(
@@ -57,7 +59,7 @@ def fit_pin_on_disc(speed_m_s: np.ndarray, load_n: np.ndarray, wear_rate_m3_s: n
     )
 
 
-Z90 = float(stats.norm.ppf(0.95))
+Z90 = NormalDist().inv_cdf(0.95)
 
 
 @dataclass
@@ -118,7 +120,12 @@ class WearCoefficientEstimator:
         """(K low, K mean, K high): 90 % credible interval (Student-t when sigma comes from residuals)."""
         k, sd, _ = self.posterior(loss_per_k_m)
         n = self.count
-        z = float(stats.t.ppf(0.95, n - 1)) if n >= 3 else Z90
+        if n >= 3:
+            from scipy import stats
+
+            z = float(stats.t.ppf(0.95, n - 1))
+        else:
+            z = Z90
         return k - z * sd, k, k + z * sd
 
     def state(self) -> dict:

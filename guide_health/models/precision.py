@@ -37,6 +37,7 @@ class PrecisionMonitor:
         self.load_n = math.nan           # latest accepted load
         self.load_t_ns: int | None = None
         self.rejected: dict[str, int] = {}
+        self.load_samples = 0            # accepted load samples
 
     # --- input validation + live updates (O(1) per sample) ---------------------------------------
     def _reject(self, reason: str) -> str:
@@ -62,6 +63,7 @@ class PrecisionMonitor:
             return self._reject("load time going backwards")
         self.load_n = float(load_n)
         self.load_t_ns = int(t_ns)
+        self.load_samples += 1
         return None
 
     def on_straightness(self, t_ns: int, straightness_m: float) -> str | None:
@@ -102,6 +104,7 @@ class PrecisionMonitor:
         self._count_rejected("negative load (tension on the guide)", int(negative.sum()))
         lt, lw = lt[~negative], lw[~negative]
         lt, lw = self._monotonic(lt, lw, self.load_t_ns, "load time going backwards")
+        self.load_samples += int(lt.size)
         # latest accepted load at (or before) each joint sample; the carried-over load before the first
         if self.load_t_ns is not None:
             lt = np.concatenate(([self.load_t_ns], lt))
@@ -193,6 +196,7 @@ class PrecisionMonitor:
             "strokes": self.integrator.strokes.stroke_count,
             "straightness_model": self.geometry.straightness_model,
             "samples": self.integrator.samples,
+            "load_samples": self.load_samples,
             "rejected_samples": int(sum(self.rejected.values())),
         }
         result["level"], result["message"] = self._judge(result)
@@ -226,6 +230,7 @@ class PrecisionMonitor:
             "estimator": self.estimator.state(),
             "load_n": self.load_n,
             "load_t_ns": self.load_t_ns,
+            "load_samples": self.load_samples,
         }
 
     def restore(self, state: dict) -> None:
@@ -241,3 +246,87 @@ class PrecisionMonitor:
         self.estimator.straightness_initial_m = self.params["straightness_initial_m"]
         self.load_n = state["load_n"]
         self.load_t_ns = state["load_t_ns"]
+        self.load_samples = int(state.get("load_samples", 0))
+
+
+class StampAlignedFeed:
+    """Live inputs aligned by header stamps, with the offline rule of process_run: a joint sample is
+    integrated with the latest load whose stamp is <= its own.
+
+    Joint and load messages come from different DDS writers, which keep order per writer only, so a
+    load change (or the very first load) can arrive after joint samples stamped later than it. Joint
+    samples newer than the latest load therefore wait here until a load stamped after them arrives
+    (then the load they need is known) or until they have waited `window_s` of wall time (then the load
+    stream is just slower, and they take the latest load, as without alignment). window_s = 0 integrates
+    every sample on arrival. Validation happens on arrival, so bad samples are rejected at once.
+    Every method returns the rejection reasons of the samples it handled.
+    """
+
+    def __init__(self, monitor: PrecisionMonitor, window_s: float = 0.5):
+        from collections import deque
+
+        if window_s < 0:
+            raise ValueError("window_s must be >= 0")
+        self.monitor = monitor
+        self.window_s = float(window_s)
+        self.pending = deque()              # (t_ns, position_m, velocity_m_s, arrival_s)
+        self._last_accepted_t_ns: int | None = None
+
+    def _validate_joint(self, t_ns: int, position_m: float, velocity_m_s: float) -> str | None:
+        m = self.monitor
+        if not (math.isfinite(position_m) and math.isfinite(velocity_m_s)):
+            return m._reject("non-finite joint position/velocity")
+        last = self._last_accepted_t_ns
+        if last is None:
+            last = m.integrator.last_t_ns
+        if last is not None and t_ns <= last:
+            return m._reject("joint_states time going backwards")
+        return None
+
+    def joint(self, t_ns: int, position_m: float, velocity_m_s: float, now_s: float) -> list[str]:
+        reason = self._validate_joint(t_ns, position_m, velocity_m_s)
+        if reason is not None:
+            return [reason]
+        self._last_accepted_t_ns = int(t_ns)
+        load_t = self.monitor.load_t_ns
+        if self.window_s == 0 or (not self.pending and load_t is not None and t_ns < load_t):
+            # nothing can come that changes this sample's load (or alignment is off)
+            return self._integrate([(t_ns, position_m, velocity_m_s)]) + self.flush_aged(now_s)
+        self.pending.append((int(t_ns), position_m, velocity_m_s, now_s))
+        return self.flush_aged(now_s)
+
+    def load(self, t_ns: int, load_n: float, now_s: float) -> list[str]:
+        m = self.monitor
+        if not math.isfinite(load_n) or load_n < 0 or (m.load_t_ns is not None and t_ns <= m.load_t_ns):
+            return [m.on_load(t_ns, load_n)]          # rejected by the monitor's own rule
+        reasons = self._integrate(self._take(lambda t: t < t_ns))   # they used the previous load
+        r = m.on_load(t_ns, load_n)
+        return reasons + ([r] if r else []) + self.flush_aged(now_s)
+
+    def flush_aged(self, now_s: float) -> list[str]:
+        """Integrate samples that waited longer than the window (with the latest load)."""
+        if not self.pending or now_s - self.pending[0][3] <= self.window_s:
+            return []
+        cutoff = now_s - self.window_s
+        batch = []
+        while self.pending and self.pending[0][3] < cutoff:
+            batch.append(self.pending.popleft()[:3])
+        return self._integrate(batch)
+
+    def flush_all(self) -> list[str]:
+        """Integrate everything waiting (before a straightness measurement, a checkpoint, shutdown)."""
+        return self._integrate(self._take(lambda t: True))
+
+    def _take(self, older) -> list:
+        batch = []
+        while self.pending and older(self.pending[0][0]):
+            batch.append(self.pending.popleft()[:3])
+        return batch
+
+    def _integrate(self, samples) -> list[str]:
+        reasons = []
+        for t_ns, x, v in samples:
+            r = self.monitor.on_joint(t_ns, x, v)
+            if r:
+                reasons.append(r)
+        return reasons

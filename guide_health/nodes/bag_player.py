@@ -22,6 +22,13 @@ nothing. ``--wait-subscribers N`` waits until every played topic has >= N subscr
 ``--wait-timeout`` s, then warns and plays anyway); after the last message the player waits until
 reliable subscribers acknowledged everything (``Publisher.wait_for_all_acked``) before it exits.
 
+Header-less messages (types in ``--barrier-types``, default std_msgs/msg/Float64 such as
+guide/straightness) carry no time stamp, so a subscriber can only date them by their arrival among the
+stamped messages. DDS keeps order per writer only, and a reliable writer may still hold thousands of
+unacknowledged joint_states when the straightness writer sends: the measurement would overtake them.
+Before each such message the player therefore waits until every other publisher's data has been
+acknowledged (it is in the readers' queues), which preserves the bag's order at the subscriber.
+
 Topic names: as in the bag (absolute; ``--ros-args -r from:=to`` remaps them). ``--remap-ns /m1``
 replaces the bag's machine namespace (the prefix of its `.../joint_states` or `.../slewing/load` topic,
 '' if none) by /m1, so one bag can play as machine m1, m2, ... of a fleet. Exit 0 after the bag, 1 with one line on a bad bag, 2 on bad arguments; a summary
@@ -41,6 +48,7 @@ DEFAULT_MAX_RATE = 3000.0       # msg/s a cross-process SingleThreadedExecutor s
 DEFAULT_BURST = 20              # messages a token-bucket burst may hold
 DEFAULT_DEPTH = 0               # data topics: 0 = keep_all (back-pressure from keep_all subscribers)
 _MACHINE_SUFFIXES = ("joint_states", "slewing/load")
+DEFAULT_BARRIER_TYPES = ("std_msgs/msg/Float64",)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -149,6 +157,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="wait at most S seconds for reliable subscribers to acknowledge the data at the end")
     p.add_argument("--depth", type=int, default=DEFAULT_DEPTH,
                    help="keep_last depth of the data topics (0 = keep_all)")
+    p.add_argument("--barrier-types", nargs="*", default=list(DEFAULT_BARRIER_TYPES), metavar="TYPE",
+                   help="header-less message types published only after all earlier data is acknowledged "
+                        "(keeps their order among stamped messages); none: no barriers")
     p.add_argument("--deserialize", action="store_true",
                    help="deserialize each message into its ROS class before publishing (slower; for comparison)")
     p.add_argument("--quiet", action="store_true", help="no summary on stderr")
@@ -235,6 +246,10 @@ def play(args, rclpy_args) -> int:
             pubs = {topic: node.create_publisher(classes[topic], output_topic(topic, bag_ns, args.remap_ns), qos)
                     for topic in types}
             publish = {c.id: pubs[c.topic].publish for c in connections}
+            barrier_types = set(args.barrier_types or ())
+            barrier_of = {c.id: [p for topic, p in pubs.items() if topic != c.topic]
+                          for c in connections if c.msgtype in barrier_types}
+            ack_wait = Duration(seconds=args.ack_timeout)
             msg_class = {c.id: classes[c.topic] for c in connections}
 
             if args.wait_subscribers > 0:
@@ -261,6 +276,12 @@ def play(args, rclpy_args) -> int:
                 if when > time.monotonic():
                     _sleep_until(when)
                 data = deserialize_message(raw, msg_class[conn.id]) if args.deserialize else bytes(raw)
+                others = barrier_of.get(conn.id)
+                if others:
+                    for other in others:
+                        if not other.wait_for_all_acked(ack_wait):
+                            _log(f"warning: {other.topic_name} not acknowledged within {args.ack_timeout:g} s "
+                                 f"before a {conn.topic} message; order may not be kept")
                 try:
                     publish[conn.id](data)
                 except RCLError as exc:

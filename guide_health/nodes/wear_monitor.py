@@ -3,6 +3,13 @@
 Subscribes `joint_states`, `guide/load`, `guide/straightness` (and `guide/temperature`), publishes
 `/diagnostics`, `guide/straightness_predicted` and `guide/remaining_life`. Time comes from header stamps,
 so a bag replayed at any rate gives the same numbers. State persists in SQLite (`state_file`).
+
+Executor (parameter `executor`): `events` (default) spins rclpy's EventsExecutor with raw subscriptions
+for joint_states and guide/load, decoded at fixed CDR offsets (guide_health.bags.RawMessageDecoder, a few
+us) instead of rclpy deserialisation; it handles messages in arrival order across topics, so a
+header-less straightness message is dated by the joint samples published before it. `single_threaded`
+is rclpy's SingleThreadedExecutor with deserialised messages (the reference; it takes one message per
+subscription per wait, so under a backlog a straightness message overtakes queued joint samples).
 """
 from __future__ import annotations
 
@@ -13,15 +20,17 @@ import time
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.serialization import deserialize_message
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
 
+from guide_health.bags import JOINT_STATE, MISSING, WRENCH_STAMPED, RawMessageDecoder
 from guide_health.diagnostics import EXTRA_PRECISION_KEYS, PRECISION_KEYS, make_array, make_status
 from guide_health.errors import InputError
-from guide_health.models.precision import STALE, PrecisionMonitor
+from guide_health.models.precision import STALE, PrecisionMonitor, StampAlignedFeed
 from guide_health.params import WEAR_MONITOR_DEFAULTS, declare_parameters, validate_wear_params
 from guide_health.state_store import StateStore
 
@@ -30,6 +39,7 @@ from guide_health.state_store import StateStore
 # publishing best-effort or keep_last still connects (the reader's QoS is the weaker side of neither).
 DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1, reliability=ReliabilityPolicy.RELIABLE)
 LOG_THROTTLE_S = 5.0
+TIMING_KEYS = ("load_samples", "callback_time_us", "model_time_us")
 
 
 def stamp_ns(header) -> int:
@@ -53,13 +63,26 @@ class WearMonitorNode(Node):
                 self.get_logger().info(
                     f"resumed from {params['state_file']}: {self.monitor.integrator.sliding_distance_m:.1f} m slid, "
                     f"{self.monitor.estimator.count} measurements")
+        self.feed = StampAlignedFeed(self.monitor, params["input_align_window_s"])
         self._last_arrival = {"joint_states": None, "guide/load": None}
         self._last_log: dict[str, float] = {}
         self._suppressed: dict[str, int] = {}
         self.temperature_c = math.nan
 
-        self.create_subscription(JointState, "joint_states", self._on_joint, DATA_QOS)
-        self.create_subscription(WrenchStamped, "guide/load", self._on_load, DATA_QOS)
+        self.raw = params.get("executor", "events") == "events"
+        if self.raw:
+            self._joint_decoder = RawMessageDecoder(JOINT_STATE, ("sec", "nsec", "position", "velocity"),
+                                                    self.joint)
+            self._load_decoder = RawMessageDecoder(WRENCH_STAMPED, ("sec", "nsec", "fz"))
+            self.create_subscription(JointState, "joint_states", self._on_joint_raw, DATA_QOS, raw=True)
+            self.create_subscription(WrenchStamped, "guide/load", self._on_load_raw, DATA_QOS, raw=True)
+        else:
+            self.create_subscription(JointState, "joint_states", self._on_joint, DATA_QOS)
+            self.create_subscription(WrenchStamped, "guide/load", self._on_load, DATA_QOS)
+        # cost accounting since start: callback wall time per message and the model's part of it
+        self._callback_s = 0.0
+        self._model_s = 0.0
+        self._callbacks = 0
         self.create_subscription(Float64, "guide/straightness", self._on_straightness, DATA_QOS)
         self.create_subscription(Temperature, "guide/temperature", self._on_temperature, DATA_QOS)
         self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
@@ -83,6 +106,57 @@ class WearMonitorNode(Node):
         else:
             self._suppressed[reason] = self._suppressed.get(reason, 0) + 1
 
+    def _rejected_all(self, reasons: list) -> None:
+        for reason in reasons:
+            self._rejected(reason)
+
+    def _on_joint_raw(self, raw: bytes) -> None:
+        t0 = time.perf_counter()
+        values = self._joint_decoder.decode(raw)
+        if values is None or values is MISSING:
+            # not the fixed layout, or the joint is absent: the message class gives the exact reason
+            try:
+                msg = deserialize_message(raw, JointState)
+            except Exception:  # noqa: BLE001 - anything undecodable is malformed input
+                self._last_arrival["joint_states"] = time.monotonic()
+                self._rejected(self.monitor._reject("malformed joint_states message"))
+                return
+            self._on_joint(msg)
+            return
+        self._last_arrival["joint_states"] = time.monotonic()
+        sec, nsec, position, velocity = values
+        t1 = time.perf_counter()
+        reasons = self.feed.joint(sec * 1_000_000_000 + nsec, position, 0.0 if velocity != velocity else velocity,
+                                  time.monotonic())
+        t2 = time.perf_counter()
+        self._rejected_all(reasons)
+        self._account(t0, t1, t2)
+
+    def _on_load_raw(self, raw: bytes) -> None:
+        t0 = time.perf_counter()
+        values = self._load_decoder.decode(raw)
+        if values is None:
+            try:
+                msg = deserialize_message(raw, WrenchStamped)
+            except Exception:  # noqa: BLE001
+                self._last_arrival["guide/load"] = time.monotonic()
+                self._rejected(self.monitor._reject("malformed guide/load message"))
+                return
+            self._on_load(msg)
+            return
+        self._last_arrival["guide/load"] = time.monotonic()
+        sec, nsec, force_z = values
+        t1 = time.perf_counter()
+        reasons = self.feed.load(sec * 1_000_000_000 + nsec, force_z, time.monotonic())
+        t2 = time.perf_counter()
+        self._rejected_all(reasons)
+        self._account(t0, t1, t2)
+
+    def _account(self, t0: float, t1: float, t2: float) -> None:
+        self._callback_s += time.perf_counter() - t0
+        self._model_s += t2 - t1
+        self._callbacks += 1
+
     def _on_joint(self, msg: JointState) -> None:
         self._last_arrival["joint_states"] = time.monotonic()
         if not msg.name or len(msg.position) == 0:
@@ -97,13 +171,22 @@ class WearMonitorNode(Node):
             self._rejected(self.monitor._reject("joint_states position shorter than name"))
             return
         velocity = msg.velocity[i] if i < len(msg.velocity) else 0.0
-        self._rejected(self.monitor.on_joint(stamp_ns(msg.header), float(msg.position[i]), float(velocity)))
+        t1 = time.perf_counter()
+        reasons = self.feed.joint(stamp_ns(msg.header), float(msg.position[i]), float(velocity), time.monotonic())
+        t2 = time.perf_counter()
+        self._rejected_all(reasons)
+        self._account(t1, t1, t2)   # deserialisation happened before the callback: not measurable here
 
     def _on_load(self, msg: WrenchStamped) -> None:
         self._last_arrival["guide/load"] = time.monotonic()
-        self._rejected(self.monitor.on_load(stamp_ns(msg.header), float(msg.wrench.force.z)))
+        t1 = time.perf_counter()
+        reasons = self.feed.load(stamp_ns(msg.header), float(msg.wrench.force.z), time.monotonic())
+        t2 = time.perf_counter()
+        self._rejected_all(reasons)
+        self._account(t1, t1, t2)
 
     def _on_straightness(self, msg: Float64) -> None:
+        self._rejected_all(self.feed.flush_all())    # the joint samples that came before it count
         t = self.monitor.integrator.last_t_ns
         if t is None:
             self._rejected(self.monitor._reject("straightness before any joint_states (no time base)"))
@@ -121,14 +204,18 @@ class WearMonitorNode(Node):
         return [topic for topic, t in self._last_arrival.items() if t is None or now - t > timeout]
 
     def publish_diagnostics(self) -> None:
+        self._rejected_all(self.feed.flush_aged(time.monotonic()))
         report = self.monitor.report()
+        n = self._callbacks
+        report["callback_time_us"] = self._callback_s / n * 1e6 if n else math.nan
+        report["model_time_us"] = self._model_s / n * 1e6 if n else math.nan
         level, message = report["level"], report["message"]
         stale = self.stale_inputs()
         if stale:
             level = STALE
             message = f"no data on {', '.join(stale)} for {self.params['input_timeout_s']:g} s; " + message
         status = make_status(self.get_name(), f"{self.joint} precision", self.params["machine_id"], level,
-                             message, report, PRECISION_KEYS + EXTRA_PRECISION_KEYS)
+                             message, report, PRECISION_KEYS + EXTRA_PRECISION_KEYS + TIMING_KEYS)
         self.diag_pub.publish(make_array(self.get_clock().now().to_msg(), [status]))
         if math.isfinite(report["straightness_um"]):
             self.pred_pub.publish(Float64(data=report["straightness_um"] * 1e-6))
@@ -140,6 +227,7 @@ class WearMonitorNode(Node):
             self.store.save({self.state_key: self.monitor.state()})
 
     def close(self) -> None:
+        self._rejected_all(self.feed.flush_all())
         if self.store is not None:
             self.checkpoint()
             self.store.close()
@@ -151,7 +239,16 @@ def main(argv: list[str] | None = None) -> int:
     node = None
     try:
         node = WearMonitorNode()
-        rclpy.spin(node)
+        if node.raw:
+            from rclpy.experimental import EventsExecutor
+
+            executor = EventsExecutor()
+        else:
+            executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        # spin_once in a loop, not spin(): EventsExecutor.spin() (rclpy 7.1) does not return on SIGINT
+        while rclpy.ok():
+            executor.spin_once(timeout_sec=0.1)
     except InputError as exc:
         print(f"wear_monitor: error: {exc}", file=sys.stderr)
         return 2
