@@ -26,8 +26,11 @@ Header-less messages (types in ``--barrier-types``, default std_msgs/msg/Float64
 guide/straightness) carry no time stamp, so a subscriber can only date them by their arrival among the
 stamped messages. DDS keeps order per writer only, and a reliable writer may still hold thousands of
 unacknowledged joint_states when the straightness writer sends: the measurement would overtake them.
-Before each such message the player therefore waits until every other publisher's data has been
-acknowledged (it is in the readers' queues), which preserves the bag's order at the subscriber.
+Around each such message the player therefore waits until every other publisher's data has been
+acknowledged (it is in the readers' queues), and after it until the message itself is (a sample lost to
+a full transport buffer is resent only at the next heartbeat, seconds later, while joint_states flow on:
+measured, measurements dated up to 3600 s of bag time late), which preserves the bag's order at the
+subscriber.
 
 Topic names: as in the bag (absolute; ``--ros-args -r from:=to`` remaps them). ``--remap-ns /m1``
 replaces the bag's machine namespace (the prefix of its `.../joint_states` or `.../slewing/load` topic,
@@ -289,6 +292,9 @@ def play(args, rclpy_args) -> int:
                         raise
                     # keep_all writer full: reliable keep_all subscribers lag. Back-pressure: retry.
                     blocked += _publish_blocked(publish[conn.id], data, args.ack_timeout)
+                if others is not None and not pubs[conn.topic].wait_for_all_acked(ack_wait):
+                    _log(f"warning: a {conn.topic} message was not acknowledged within {args.ack_timeout:g} s; "
+                         f"later messages may overtake it")
                 sent += 1
             t_sent = time.monotonic() - t_start
 
