@@ -106,6 +106,7 @@ class DiagnosticsCollector:
         rclpy.init(context=self.context)
         self.node = rclpy.create_node(node_name, context=self.context)
         self.latest: dict[str, dict] = {}
+        self.history: dict[str, list[dict]] = {}       # every status received, per name
         self.count = 0
         self._lock = threading.Lock()
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_array, 100)
@@ -123,13 +124,14 @@ class DiagnosticsCollector:
     def _on_array(self, msg) -> None:
         with self._lock:
             for status in msg.status:
-                self.latest[status.name] = {
+                self.latest[status.name] = entry = {
                     "level": int.from_bytes(status.level, "little") if isinstance(status.level, bytes) else int(status.level),
                     "message": status.message,
                     "hardware_id": status.hardware_id,
                     "values": {kv.key: kv.value for kv in status.values},
                     "received": time.monotonic(),
                 }
+                self.history.setdefault(status.name, []).append(entry)
                 self.count += 1
 
     def get(self, name: str) -> dict | None:

@@ -12,6 +12,9 @@ from guide_health.simulate import EFFECTS, parse_effects, simulate_machine
 
 def add_arguments(parser) -> None:
     parser.add_argument("--params", required=True, help="ROS 2 parameters YAML (wear_monitor + guide_health_simulation)")
+    parser.add_argument("--kind", choices=("machine", "slewing"), default="machine",
+                        help="machine: axis motion, guide load, straightness; slewing: slewing/load of a crane "
+                             "duty (the params file's guide_health_slewing_simulation section, if any)")
     parser.add_argument("--out", required=True, help="bag directory to create (must not exist)")
     parser.add_argument("--storage", choices=("sqlite3", "mcap"), default="sqlite3")
     parser.add_argument("--hours", type=float, help="duration [h] (default: duration_h of the params file)")
@@ -22,8 +25,35 @@ def add_arguments(parser) -> None:
                         help=f"physics the baseline model lacks, injected into the truth; NAME in {', '.join(EFFECTS)}")
 
 
+def run_slewing(args) -> dict:
+    from guide_health.bags import write_slewing_bag
+    from guide_health.params import load_node_params
+    from guide_health.simulate_slewing import SLEWING_SIMULATION_DEFAULTS, simulate_slewing
+
+    if args.effect:
+        raise InputError("--effect applies to machine bags only")
+    sim = load_node_params(args.params, "guide_health_slewing_simulation", SLEWING_SIMULATION_DEFAULTS)
+    if args.hours is not None:
+        sim["duration_h"] = args.hours
+    if args.rate is not None:
+        sim["load_rate_hz"] = args.rate
+    out = Path(args.out)
+    if out.exists():
+        raise InputError(f"output bag {out} already exists")
+    t0 = time.perf_counter()
+    run = simulate_slewing(sim, seed=args.seed)
+    write_slewing_bag(run, out, storage=args.storage, namespace=args.namespace)
+    print(f"wrote {run.t_ns.size} slewing loads ({sim['duration_h']:g} h) to {out} in "
+          f"{time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    return {"bag": str(out), "storage": args.storage, "kind": "slewing", "messages": int(run.t_ns.size),
+            "duration_h": float(sim["duration_h"]), "load_rate_hz": float(sim["load_rate_hz"])}
+
+
 def run(args) -> dict:
     from guide_health.bags import write_machine_bag
+
+    if args.kind == "slewing":
+        return run_slewing(args)
 
     params = wear_monitor_params(args.params)
     sim = simulation_params(args.params)

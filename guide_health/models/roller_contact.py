@@ -146,6 +146,10 @@ SLEWING_MONITOR_DEFAULTS: dict[str, Any] = {
     "roller_end_radius_m": 1.0e-3,          # edge blend radius r (assumed ~1 mm for d = 32 mm)
     "crown_drop_m": 15.0e-6,                # crowned: drop at the roller ends (assumed)
     "log_profile_coeff_m": 0.00035 * 0.032,  # ISO/TS 16281: 0.00035 D; 0 = Lundberg 2P'/(pi E*)
+    # numerical model live: solved once on a log-spaced load grid, interpolated per message
+    "numerical_table_min_load_n": 2.0e3,
+    "numerical_table_max_load_n": 4.0e5,
+    "numerical_table_loads": 16,
     "diagnostics_period_s": 1.0,
     "input_timeout_s": 2.0,
 }
@@ -189,6 +193,13 @@ def validate_slewing_params(params: dict[str, Any]) -> None:
     if params["roller_profile"] not in ROLLER_PROFILES:
         raise InputError(f"parameter roller_profile must be one of {ROLLER_PROFILES}, "
                          f"got {params['roller_profile']!r}")
+    lo = params.get("numerical_table_min_load_n", SLEWING_MONITOR_DEFAULTS["numerical_table_min_load_n"])
+    hi = params.get("numerical_table_max_load_n", SLEWING_MONITOR_DEFAULTS["numerical_table_max_load_n"])
+    n_table = params.get("numerical_table_loads", SLEWING_MONITOR_DEFAULTS["numerical_table_loads"])
+    if not (isinstance(lo, (int, float)) and isinstance(hi, (int, float)) and 0 < lo < hi):
+        raise InputError("numerical_table_min_load_n/numerical_table_max_load_n: need 0 < min < max")
+    if isinstance(n_table, bool) or not isinstance(n_table, int) or n_table < 4:
+        raise InputError(f"parameter numerical_table_loads must be an integer >= 4, got {n_table!r}")
     for name in ("roller_end_radius_m", "crown_drop_m", "log_profile_coeff_m"):
         if params[name] < 0:
             raise InputError(f"parameter {name} must be >= 0, got {params[name]!r}")
@@ -740,13 +751,16 @@ def _assemble(scalars: FiniteRollerScalars | None, maxima: McEwenMaxima, half_le
     }
 
 
-def _numerical_report(params: dict[str, Any], load_n: float) -> dict[str, Any]:
-    """stress_model 'numerical': pressures from roller_numerical, subsurface maxima by McEwen on p_max."""
-    try:
-        from guide_health.models.roller_numerical import numerical_contact_report
-    except ImportError as exc:
-        raise ValueError(f"stress_model 'numerical' is not available in this build ({exc})") from exc
-    report = dict(numerical_contact_report(params, load_n))
+def _numerical_report(params: dict[str, Any], load_n: float, pressures: dict | None = None) -> dict[str, Any]:
+    """stress_model 'numerical': pressures from roller_numerical (solved now, or `pressures` from a
+    RollerContactTable lookup), subsurface maxima by McEwen under p_max."""
+    if pressures is None:
+        try:
+            from guide_health.models.roller_numerical import numerical_contact_report
+        except ImportError as exc:
+            raise ValueError(f"stress_model 'numerical' is not available in this build ({exc})") from exc
+        pressures = numerical_contact_report(params, load_n)
+    report = dict(pressures)
     maxima = cached_mcewen_maxima(float(params["friction"]), float(params["poisson"]))
     modulus = effective_modulus_pa(params["youngs_modulus_pa"], params["poisson"])
     radius = effective_radius_m(params["roller_diameter_m"])
@@ -857,14 +871,27 @@ class SlewingContactModel:
         self.allowable_pa = float(params["allowable_contact_stress_pa"])
         self.warn_fraction = float(params["warn_fraction"])
         self.maxima = cached_mcewen_maxima(float(params["friction"]), float(params["poisson"]))
+        self.table = None
+        if self.numerical:
+            from guide_health.models.roller_numerical import build_roller_contact_table
+
+            defaults = SLEWING_MONITOR_DEFAULTS
+            self.table = build_roller_contact_table(
+                self.params,
+                float(params.get("numerical_table_min_load_n", defaults["numerical_table_min_load_n"])),
+                float(params.get("numerical_table_max_load_n", defaults["numerical_table_max_load_n"])),
+                n_loads=int(params.get("numerical_table_loads", defaults["numerical_table_loads"])),
+                check_midpoints=2)
 
     def report_for_roller_load(self, roller_load_n: float) -> dict[str, Any]:
         """Report for one roller load Q [N] (>= 0, finite)."""
         load = float(roller_load_n)
         if not (load >= 0.0 and math.isfinite(load)):
             raise ValueError(f"roller load must be finite and >= 0, got {roller_load_n!r}")
-        if self.numerical:
-            return _numerical_report(self.params, load)
+        if self.numerical and load > 0.0:
+            report = _numerical_report(self.params, load, self.table.lookup(load))
+            report["table_in_range"] = report.pop("in_range")
+            return report
         if load == 0.0:
             return _assemble(None, self.maxima, self.half_length_m, self.allowable_pa, self.warn_fraction, 0.0)
         scalars = _finite_roller_scalars(load, self.half_length_m, self.radius_m, self.modulus_pa,
