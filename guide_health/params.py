@@ -60,6 +60,8 @@ WEAR_MONITOR_DEFAULTS: dict[str, Any] = {
     "rating_distance_km": 50.0,
     "youngs_modulus_pa": 206.0e9,
     "poisson": 0.3,
+    "carriages": 1,                     # carriages sharing the guide load (fatigue per carriage)
+    "boundary_window_m": 100.0,         # travel over which the boundary-lubrication share is judged
     "boundary_share_warn": 0.5,
     "life_used_warn": 0.8,
     "life_used_error": 1.0,

@@ -5,7 +5,6 @@ import math
 import sqlite3
 import time
 
-import numpy as np
 import pytest
 
 from guide_health.models.fleet import ERROR, OK, STALE, WARN, FleetBoard
@@ -42,16 +41,6 @@ def test_silent_machines_turn_stale_and_the_fleet_warns():
 
 
 rclpy = pytest.importorskip("rclpy")
-
-
-@pytest.fixture
-def ros_context(monkeypatch):
-    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    monkeypatch.setenv("ROS_DOMAIN_ID", str(np.random.randint(1, 100)))
-    context = rclpy.context.Context()
-    rclpy.init(context=context)
-    yield context
-    rclpy.shutdown(context=context)
 
 
 def test_fleet_node_aggregates_statuses_from_the_topic_and_records_history(ros_context, tmp_path):

@@ -4,7 +4,6 @@ import os
 import signal
 import sqlite3
 import json
-import time
 from pathlib import Path
 
 import pytest
@@ -96,7 +95,8 @@ def test_sigkill_and_restart_continue_where_the_node_stopped(tmp_path, udp_ros_e
         import subprocess
         import sys
         player = subprocess.Popen([sys.executable, "-m", "guide_health.nodes.bag_player", str(bag),
-                                   "--wait-subscribers", "1"], env=ros_env, stdout=subprocess.DEVNULL,
+                                   "--wait-subscribers", "1", "--ack-timeout", "5"], env=ros_env,
+                                  stdout=subprocess.DEVNULL,
                                   stderr=subprocess.DEVNULL)
         half = offline["sliding_distance_m"] / 2
         assert collector.wait_for(STATUS, lambda s: float(s["values"]["sliding_distance_m"]) > half,

@@ -94,16 +94,6 @@ def test_offline_analysis_finds_the_worst_roller_of_a_crane_duty():
 rclpy = pytest.importorskip("rclpy")
 
 
-@pytest.fixture
-def ros_context(monkeypatch):
-    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    monkeypatch.setenv("ROS_DOMAIN_ID", str(np.random.randint(1, 100)))
-    context = rclpy.context.Context()
-    rclpy.init(context=context)
-    yield context
-    rclpy.shutdown(context=context)
-
-
 def test_node_keys_stale_and_bad_messages(ros_context):
     from geometry_msgs.msg import WrenchStamped
     from rclpy.parameter import Parameter

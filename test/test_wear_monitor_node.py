@@ -3,7 +3,6 @@ levels, STALE on silent inputs, SQLite checkpoints."""
 import math
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 rclpy = pytest.importorskip("rclpy")
@@ -17,16 +16,6 @@ from guide_health.diagnostics import PRECISION_KEYS  # noqa: E402
 from guide_health.nodes.wear_monitor import WearMonitorNode  # noqa: E402
 
 T0 = 1_700_000_000
-
-
-@pytest.fixture
-def ros_context(monkeypatch):
-    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    monkeypatch.setenv("ROS_DOMAIN_ID", str(np.random.randint(1, 100)))
-    context = rclpy.context.Context()
-    rclpy.init(context=context)
-    yield context
-    rclpy.shutdown(context=context)
 
 
 def make_node(context, tmp_path: Path, **overrides):

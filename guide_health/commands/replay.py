@@ -28,6 +28,8 @@ def analyse(run, params: dict, progress=None) -> tuple[PrecisionMonitor, dict]:
     monitor = PrecisionMonitor(params)
     monitor.process_run(run, progress=progress)
     report = monitor.report()
+    if monitor.rolling is not None:
+        report["fatigue"] = monitor.fatigue_report()
     report["messages"] = run.messages
     report["duration_h"] = run.duration_s / 3600.0
     return monitor, report
@@ -58,6 +60,8 @@ def analyse_bag(bag, params: dict, namespace: str | None = None, progress=None,
             t_last = hi if t_last is None else max(t_last, hi)
     t1 = time.perf_counter()
     report = monitor.report()
+    if monitor.rolling is not None:
+        report["fatigue"] = monitor.fatigue_report()
     t_model += time.perf_counter() - t1
     report["messages"] = messages
     report["duration_h"] = (t_last - t_first) * 1e-9 / 3600.0 if t_first is not None else 0.0

@@ -38,6 +38,11 @@ class PrecisionMonitor:
         self.load_t_ns: int | None = None
         self.rejected: dict[str, int] = {}
         self.load_samples = 0            # accepted load samples
+        self.rolling = None
+        if params.get("guide_type") == "rolling":
+            from guide_health.models.rolling_guide import RollingGuideMonitor
+
+            self.rolling = RollingGuideMonitor(params)
 
     # --- input validation + live updates (O(1) per sample) ---------------------------------------
     def _reject(self, reason: str) -> str:
@@ -52,6 +57,8 @@ class PrecisionMonitor:
         if last is not None and t_ns <= last:
             return self._reject("joint_states time going backwards")
         self.integrator.advance(t_ns, position_m, self.load_n)
+        if self.rolling is not None:
+            self.rolling.advance(t_ns, position_m, self.load_n)
         return None
 
     def on_load(self, t_ns: int, load_n: float) -> str | None:
@@ -120,7 +127,7 @@ class PrecisionMonitor:
         for t_meas, value in zip(st.tolist(), sm.tolist()):
             stop = int(np.searchsorted(jt, t_meas, side="right"))
             if stop > start:
-                self.integrator.advance_many(jt[start:stop], jx[start:stop], load_at_joint[start:stop])
+                self._advance_many(jt[start:stop], jx[start:stop], load_at_joint[start:stop])
                 done += stop - start
                 if progress:
                     progress(done, total)
@@ -130,12 +137,21 @@ class PrecisionMonitor:
             # chunks bound the temporaries of the vectorised profile update
             for lo in range(start, total, 500_000):
                 hi = min(total, lo + 500_000)
-                self.integrator.advance_many(jt[lo:hi], jx[lo:hi], load_at_joint[lo:hi])
+                self._advance_many(jt[lo:hi], jx[lo:hi], load_at_joint[lo:hi])
                 if progress:
                     progress(hi, total)
         if lt.size:
             self.load_t_ns = int(lt[-1])
             self.load_n = float(lw[-1])
+
+    def _advance_many(self, t_ns, position_m, load_n) -> None:
+        self.integrator.advance_many(t_ns, position_m, load_n)
+        if self.rolling is not None:
+            self.rolling.advance_many(t_ns, position_m, load_n)
+
+    def fatigue_report(self) -> dict[str, Any] | None:
+        """The `<joint> fatigue` numbers, level and message (rolling guides; None for sliding)."""
+        return None if self.rolling is None else self.rolling.fatigue_report()
 
     def _count_rejected(self, reason: str, count: int) -> None:
         if count:
@@ -200,6 +216,13 @@ class PrecisionMonitor:
             "rejected_samples": int(sum(self.rejected.values())),
         }
         result["level"], result["message"] = self._judge(result)
+        if self.rolling is not None:
+            result.update(self.rolling.lubrication_values())
+            level, text = self.rolling.lubrication_level()
+            if level > result["level"]:
+                result["level"], result["message"] = level, f"{text}; {result['message']}"
+            else:
+                result["message"] = f"{result['message']}; {text}"
         return result
 
     def _judge(self, r: dict) -> tuple[int, str]:
@@ -231,6 +254,7 @@ class PrecisionMonitor:
             "load_n": self.load_n,
             "load_t_ns": self.load_t_ns,
             "load_samples": self.load_samples,
+            "rolling": None if self.rolling is None else self.rolling.state(),
         }
 
     def restore(self, state: dict) -> None:
@@ -247,6 +271,8 @@ class PrecisionMonitor:
         self.load_n = state["load_n"]
         self.load_t_ns = state["load_t_ns"]
         self.load_samples = int(state.get("load_samples", 0))
+        if self.rolling is not None and state.get("rolling"):
+            self.rolling.restore(state["rolling"])
 
 
 class StampAlignedFeed:

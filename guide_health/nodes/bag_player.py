@@ -32,6 +32,11 @@ a full transport buffer is resent only at the next heartbeat, seconds later, whi
 measured, measurements dated up to 3600 s of bag time late), which preserves the bag's order at the
 subscriber.
 
+The same holds for any sparse topic (fewer than ``--barrier-sparse`` of the bag's messages, default
+1 %), e.g. a guide load that changes once per job: a reliable sample refused by a full reader queue is
+resent only at the next heartbeat, and the node would integrate the samples stamped after the load
+change with the old load.
+
 Topic names: as in the bag (absolute; ``--ros-args -r from:=to`` remaps them). ``--remap-ns /m1``
 replaces the bag's machine namespace (the prefix of its `.../joint_states` or `.../slewing/load` topic,
 '' if none) by /m1, so one bag can play as machine m1, m2, ... of a fleet. Exit 0 after the bag, 1 with one line on a bad bag, 2 on bad arguments; a summary
@@ -52,6 +57,7 @@ DEFAULT_BURST = 20              # messages a token-bucket burst may hold
 DEFAULT_DEPTH = 0               # data topics: 0 = keep_all (back-pressure from keep_all subscribers)
 _MACHINE_SUFFIXES = ("joint_states", "slewing/load")
 DEFAULT_BARRIER_TYPES = ("std_msgs/msg/Float64",)
+DEFAULT_BARRIER_SPARSE = 0.01
 
 
 # ---------------------------------------------------------------------------------------------
@@ -163,6 +169,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--barrier-types", nargs="*", default=list(DEFAULT_BARRIER_TYPES), metavar="TYPE",
                    help="header-less message types published only after all earlier data is acknowledged "
                         "(keeps their order among stamped messages); none: no barriers")
+    p.add_argument("--barrier-sparse", type=float, default=DEFAULT_BARRIER_SPARSE, metavar="FRACTION",
+                   help="also treat topics with fewer than FRACTION of the bag's messages as barriers (a "
+                        "rare load change delayed by a resend would otherwise reach the node after the "
+                        "samples stamped after it); 0: off")
     p.add_argument("--deserialize", action="store_true",
                    help="deserialize each message into its ROS class before publishing (slower; for comparison)")
     p.add_argument("--quiet", action="store_true", help="no summary on stderr")
@@ -250,8 +260,13 @@ def play(args, rclpy_args) -> int:
                     for topic in types}
             publish = {c.id: pubs[c.topic].publish for c in connections}
             barrier_types = set(args.barrier_types or ())
+            topic_count: dict[str, int] = {}
+            for c in connections:
+                topic_count[c.topic] = topic_count.get(c.topic, 0) + int(c.msgcount)
+            sparse = {t for t, n in topic_count.items()
+                      if len(topic_count) > 1 and n < args.barrier_sparse * total}
             barrier_of = {c.id: [p for topic, p in pubs.items() if topic != c.topic]
-                          for c in connections if c.msgtype in barrier_types}
+                          for c in connections if c.msgtype in barrier_types or c.topic in sparse}
             ack_wait = Duration(seconds=args.ack_timeout)
             msg_class = {c.id: classes[c.topic] for c in connections}
 

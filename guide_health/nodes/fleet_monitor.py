@@ -15,13 +15,12 @@ import sys
 import time
 from pathlib import Path
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
 from guide_health.diagnostics import make_array, make_status
 from guide_health.models.fleet import SUMMARY_KEYS, FleetBoard
+from guide_health.nodes.common import run_node
 from guide_health.params import declare_parameters
 
 FLEET_MONITOR_DEFAULTS = {
@@ -116,23 +115,7 @@ class FleetMonitorNode(Node):
 
 
 def main(argv: list[str] | None = None) -> int:
-    rclpy.init(args=argv)
-    node = None
-    try:
-        node = FleetMonitorNode()
-        rclpy.spin(node)
-    except ValueError as exc:
-        print(f"fleet_monitor: error: {exc}", file=sys.stderr)
-        return 2
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            node.close()
-            node.destroy_node()
-        if rclpy.ok():
-            rclpy.shutdown()
-    return 0
+    return run_node("fleet_monitor", FleetMonitorNode, argv)
 
 
 if __name__ == "__main__":

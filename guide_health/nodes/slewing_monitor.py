@@ -11,17 +11,15 @@ import math
 import sys
 import time
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from guide_health.diagnostics import ROLLER_CONTACT_KEYS, make_array, make_status
-from guide_health.errors import InputError
 from guide_health.models.roller_contact import SLEWING_MONITOR_DEFAULTS
 from guide_health.models.slewing import SlewingMonitor
+from guide_health.nodes.common import run_node
 from guide_health.params import declare_parameters
 
 # reliable keep_all: a lagging node pushes back on a reliable writer instead of dropping loads
@@ -68,22 +66,7 @@ class SlewingMonitorNode(Node):
 
 
 def main(argv: list[str] | None = None) -> int:
-    rclpy.init(args=argv)
-    node = None
-    try:
-        node = SlewingMonitorNode()
-        rclpy.spin(node)
-    except InputError as exc:
-        print(f"slewing_monitor: error: {exc}", file=sys.stderr)
-        return 2
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            node.destroy_node()
-        if rclpy.ok():
-            rclpy.shutdown()
-    return 0
+    return run_node("slewing_monitor", SlewingMonitorNode, argv)
 
 
 if __name__ == "__main__":

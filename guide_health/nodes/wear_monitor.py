@@ -17,21 +17,29 @@ import math
 import sys
 import time
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-from rclpy.serialization import deserialize_message
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
 
 from guide_health.bags import JOINT_STATE, MISSING, WRENCH_STAMPED, RawMessageDecoder
-from guide_health.diagnostics import EXTRA_PRECISION_KEYS, PRECISION_KEYS, make_array, make_status
-from guide_health.errors import InputError
+from guide_health.diagnostics import (
+    EXTRA_PRECISION_KEYS,
+    FATIGUE_KEYS,
+    PRECISION_KEYS,
+    make_array,
+    make_status,
+)
 from guide_health.models.precision import STALE, PrecisionMonitor, StampAlignedFeed
-from guide_health.params import WEAR_MONITOR_DEFAULTS, declare_parameters, validate_wear_params
+from guide_health.nodes.common import run_node
+from guide_health.params import (
+    WEAR_MONITOR_DEFAULTS,
+    declare_parameters,
+    validate_wear_params,
+)
 from guide_health.state_store import StateStore
 
 # Reliable + keep_all: when the callbacks lag, the reader's history fills and a reliable writer waits
@@ -40,6 +48,8 @@ from guide_health.state_store import StateStore
 DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1, reliability=ReliabilityPolicy.RELIABLE)
 LOG_THROTTLE_S = 5.0
 TIMING_KEYS = ("load_samples", "callback_time_us", "model_time_us")
+ROLLING_PRECISION_KEYS = ("lambda", "asperity_load_share", "boundary_share_recent", "boundary_share_total")
+EXTRA_FATIGUE_KEYS = ("duty_load_n", "carriages")
 
 
 def stamp_ns(header) -> int:
@@ -214,9 +224,19 @@ class WearMonitorNode(Node):
         if stale:
             level = STALE
             message = f"no data on {', '.join(stale)} for {self.params['input_timeout_s']:g} s; " + message
+        rolling = self.monitor.rolling is not None
         status = make_status(self.get_name(), f"{self.joint} precision", self.params["machine_id"], level,
-                             message, report, PRECISION_KEYS + EXTRA_PRECISION_KEYS + TIMING_KEYS)
-        self.diag_pub.publish(make_array(self.get_clock().now().to_msg(), [status]))
+                             message, report, PRECISION_KEYS + EXTRA_PRECISION_KEYS + TIMING_KEYS
+                             + (ROLLING_PRECISION_KEYS if rolling else ()))
+        statuses = [status]
+        if rolling:
+            fatigue = self.monitor.fatigue_report()
+            f_level, f_message = fatigue["level"], fatigue["message"]
+            if stale:
+                f_level, f_message = STALE, f"no data on {', '.join(stale)}; " + f_message
+            statuses.append(make_status(self.get_name(), f"{self.joint} fatigue", self.params["machine_id"],
+                                        f_level, f_message, fatigue, FATIGUE_KEYS + EXTRA_FATIGUE_KEYS))
+        self.diag_pub.publish(make_array(self.get_clock().now().to_msg(), statuses))
         if math.isfinite(report["straightness_um"]):
             self.pred_pub.publish(Float64(data=report["straightness_um"] * 1e-6))
         if not math.isnan(report["remaining_life_h"]):
@@ -235,32 +255,7 @@ class WearMonitorNode(Node):
 
 
 def main(argv: list[str] | None = None) -> int:
-    rclpy.init(args=argv)
-    node = None
-    try:
-        node = WearMonitorNode()
-        if node.raw:
-            from rclpy.experimental import EventsExecutor
-
-            executor = EventsExecutor()
-        else:
-            executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        # spin_once in a loop, not spin(): EventsExecutor.spin() (rclpy 7.1) does not return on SIGINT
-        while rclpy.ok():
-            executor.spin_once(timeout_sec=0.1)
-    except InputError as exc:
-        print(f"wear_monitor: error: {exc}", file=sys.stderr)
-        return 2
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            node.close()
-            node.destroy_node()
-        if rclpy.ok():
-            rclpy.shutdown()
-    return 0
+    return run_node("wear_monitor", WearMonitorNode, argv, events_executor=lambda node: node.raw)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,162 @@
+"""Rolling linear guide: lubrication regime of the ball/groove contacts (seed 001) and fatigue life used
+(seed 004 / ISO 14728-1) from the same joint and load samples as the wear model.
+
+One object for the live node and the offline replay (fed by PrecisionMonitor with the samples it
+accepted, the load already aligned by stamp):
+- speed from |dx| / dt of the axis; carriage load = guide load / `carriages`;
+- lubrication: LubricationRegimeEstimator (Hamrock-Dowson film of the most loaded ball under preload,
+  lambda = h / composite RMS, JGP/Greenwood-Tripp asperity share); the share of recent travel run in
+  boundary lubrication, with exponential forgetting over `boundary_window_m` of travel;
+- fatigue: FatigueAccumulator (equivalent load = cubic (p-th power) mean over travel, Miner's rule,
+  L = (fh ft fc C / (fw P))^p x rating_distance_km), per carriage.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from guide_health.models.ball_contact import LubricationRegimeEstimator
+from guide_health.models.life import FatigueAccumulator
+
+OK, WARN, ERROR = 0, 1, 2
+REGIMES = ("boundary", "mixed", "full_film")
+
+
+class RollingGuideMonitor:
+    STATE_VERSION = 1
+
+    def __init__(self, params: dict[str, Any]):
+        self.params = dict(params)
+        self.carriages = int(params.get("carriages", 1))
+        if self.carriages < 1:
+            raise ValueError("carriages must be >= 1")
+        if not params["dynamic_load_rating_n"] > 0:
+            raise ValueError("guide_type rolling needs dynamic_load_rating_n (C) > 0")
+        self.regime_model = LubricationRegimeEstimator(params)
+        self.window_m = float(params.get("boundary_window_m", 100.0))
+        self.fatigue = FatigueAccumulator(params["dynamic_load_rating_n"], params["rolling_element"],
+                                          params["rating_distance_km"], params["life_factors"],
+                                          recent_window_m=self.window_m)
+        self.last_t_ns: int | None = None
+        self.last_position_m: float | None = None
+        self.boundary_travel_m = 0.0          # exponentially forgotten travel in boundary lubrication
+        self.window_travel_m = 0.0            # exponentially forgotten travel
+        self.regime_travel_m = {r: 0.0 for r in REGIMES}     # whole-history travel per regime
+        self.last_regime = "unknown"
+        self.last_lambda = math.nan
+        self.last_asperity_share = math.nan
+        self.last_speed_m_s = math.nan
+
+    # --- samples (accepted by PrecisionMonitor, load = latest load stamped before) -----------------
+    def advance(self, t_ns: int, position_m: float, load_n: float) -> None:
+        if self.last_t_ns is not None and math.isfinite(load_n):
+            ds = abs(position_m - self.last_position_m)
+            dt = (t_ns - self.last_t_ns) * 1e-9
+            if ds > 0.0 and dt > 0.0:
+                self._segment(ds, ds / dt, load_n)
+        self.last_t_ns = int(t_ns)
+        self.last_position_m = float(position_m)
+
+    def advance_many(self, t_ns: np.ndarray, position_m: np.ndarray, load_n: np.ndarray) -> None:
+        """The same as advance() per sample (the regime estimator is scalar; ~5 us per moving sample)."""
+        if t_ns.size == 0:
+            return
+        t = np.asarray(t_ns, dtype=np.int64)
+        x = np.asarray(position_m, dtype=float)
+        w = np.asarray(load_n, dtype=float)
+        t_prev = np.concatenate(([self.last_t_ns if self.last_t_ns is not None else t[0]], t[:-1]))
+        x_prev = np.concatenate(([self.last_position_m if self.last_position_m is not None else x[0]], x[:-1]))
+        ds = np.abs(x - x_prev)
+        dt = (t - t_prev) * 1e-9
+        if self.last_t_ns is None:
+            ds[0] = 0.0
+        move = (ds > 0) & (dt > 0) & np.isfinite(w)
+        speed = np.divide(ds, dt, out=np.zeros_like(ds), where=dt > 0)
+        segment = self._segment
+        for d, v, f in zip(ds[move].tolist(), speed[move].tolist(), w[move].tolist()):
+            segment(d, v, f)
+        self.last_t_ns = int(t[-1])
+        self.last_position_m = float(x[-1])
+
+    def _segment(self, ds: float, speed: float, load_n: float) -> None:
+        carriage_load = abs(load_n) / self.carriages
+        sample = self.regime_model.sample(speed, abs(load_n))     # shares the guide load by carriages itself
+        self.fatigue.add(ds, carriage_load)
+        forget = math.exp(-ds / self.window_m)
+        boundary = ds if sample.regime == "boundary" else 0.0
+        self.boundary_travel_m = self.boundary_travel_m * forget + boundary
+        self.window_travel_m = self.window_travel_m * forget + ds
+        self.regime_travel_m[sample.regime] += ds
+        self.last_regime = sample.regime
+        self.last_lambda = sample.lambda_ratio
+        self.last_asperity_share = sample.asperity_load_share
+        self.last_speed_m_s = speed
+
+    # --- results --------------------------------------------------------------------------------
+    @property
+    def boundary_share(self) -> float:
+        """Share of the recent travel (exponential window) run in boundary lubrication."""
+        return self.boundary_travel_m / self.window_travel_m if self.window_travel_m > 0 else math.nan
+
+    def lubrication_values(self) -> dict[str, Any]:
+        total = sum(self.regime_travel_m.values())
+        return {
+            "lubrication_regime": self.last_regime,
+            "lambda": self.last_lambda,
+            "asperity_load_share": self.last_asperity_share,
+            "boundary_share_recent": self.boundary_share,
+            "boundary_share_total": self.regime_travel_m["boundary"] / total if total > 0 else math.nan,
+            "mixed_share_total": self.regime_travel_m["mixed"] / total if total > 0 else math.nan,
+            "full_film_share_total": self.regime_travel_m["full_film"] / total if total > 0 else math.nan,
+        }
+
+    def lubrication_level(self) -> tuple[int, str]:
+        share = self.boundary_share
+        limit = self.params["boundary_share_warn"]
+        if math.isfinite(share) and share > limit:
+            return WARN, (f"{share:.0%} of the recent travel in boundary lubrication (> {limit:.0%}): "
+                          f"too slow or too little oil for a film")
+        return OK, f"lubrication {self.last_regime}"
+
+    def fatigue_report(self) -> dict[str, Any]:
+        values = self.fatigue.diagnostics()
+        s = self.fatigue.summary()
+        values["duty_load_n"] = s.duty_load_n
+        values["carriages"] = self.carriages
+        used = values["life_used_fraction"]
+        p = self.params
+        if not math.isfinite(used):
+            level, message = OK, "no travel yet"
+        elif used >= p["life_used_error"]:
+            level, message = ERROR, f"rating life used up: {used:.0%} of {values['rating_life_km']:.0f} km"
+        elif used >= p["life_used_warn"]:
+            level, message = WARN, f"{used:.0%} of the rating life used"
+        else:
+            level = OK
+            remaining = values["remaining_life_km"]
+            message = (f"{used:.1%} of the rating life used, {remaining:,.0f} km left at the current duty"
+                       if math.isfinite(remaining) else f"{used:.1%} of the rating life used")
+        values["level"], values["message"] = level, message
+        return values
+
+    # --- persistence --------------------------------------------------------------------------
+    def state(self) -> dict:
+        return {"version": self.STATE_VERSION, "fatigue": self.fatigue.state(), "last_t_ns": self.last_t_ns,
+                "last_position_m": self.last_position_m, "boundary_travel_m": self.boundary_travel_m,
+                "window_travel_m": self.window_travel_m, "regime_travel_m": dict(self.regime_travel_m),
+                "last_regime": self.last_regime, "last_lambda": self.last_lambda,
+                "last_asperity_share": self.last_asperity_share, "last_speed_m_s": self.last_speed_m_s}
+
+    def restore(self, state: dict) -> None:
+        if state.get("version") != self.STATE_VERSION:
+            raise ValueError(f"unsupported rolling-guide state version {state.get('version')}")
+        p = self.params
+        self.fatigue = FatigueAccumulator.from_state(
+            state["fatigue"], dynamic_load_rating_n=p["dynamic_load_rating_n"],
+            rating_distance_km=p["rating_distance_km"], life_factors=p["life_factors"])
+        for key in ("last_t_ns", "last_position_m", "boundary_travel_m", "window_travel_m", "last_regime",
+                    "last_lambda", "last_asperity_share", "last_speed_m_s"):
+            setattr(self, key, state[key])
+        self.regime_travel_m = {r: float(state["regime_travel_m"].get(r, 0.0)) for r in REGIMES}
