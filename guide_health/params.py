@@ -86,6 +86,24 @@ SIMULATION_DEFAULTS: dict[str, Any] = {
     "straightness_noise_m": 0.5e-6,
     "wear_coefficient_factor": 1.0,     # truth K = factor * wear_coefficient
     "load_noise_n": 0.0,
+    # jobs (0 = one job with the values above); per job the value is drawn up to its *_max
+    "job_hours": 0.0,
+    "feed_speed_max_m_s": 0.0,          # log-uniform feed_speed_m_s .. max
+    "feed_load_max_n": 0.0,             # uniform feed_load_n .. max
+    "retract_load_max_n": 0.0,          # uniform retract_load_n .. min(max, the job's feed load)
+    "stroke_mean_max_m": 0.0,           # uniform stroke_mean_m .. max
+    "stroke_skew_max": 0.0,             # stroke_skew + uniform(-max, max)
+    # effects of `simulate --effect` (models/wear_effects.py)
+    "running_in_distance_m": 100.0,     # s0 of running_in
+    "load_reference_n": 1000.0,         # W_ref of load_exponent
+    # guide temperature (topic guide/temperature when temperature_rate_hz > 0)
+    "temperature_rate_hz": 0.0,
+    "ambient_temperature_c": 20.0,
+    "ambient_swing_k": 1.0,             # daily amplitude
+    "friction_coefficient": 0.1,        # heating power mu W v
+    "thermal_resistance_k_per_w": 0.15,
+    "thermal_time_constant_s": 1800.0,
+    "temperature_noise_k": 0.05,
 }
 
 

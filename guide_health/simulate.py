@@ -10,6 +10,7 @@ Gaussian noise, every ``measurement_interval_h``.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -17,10 +18,12 @@ from scipy import stats
 
 from guide_health.errors import InputError
 from guide_health.models.wear import WearGeometry, WearIntegrator, straightness_from_wear_volume_m
+from guide_health.models.wear_effects import (EFFECT_IDS, WearEffects, measured_straightness_m,
+                                              pass_weight_per_m, running_in_factor_mean,
+                                              straightness_wear_m, wear_rate_multiplier)
 from guide_health.runs import MachineRun
 
-EFFECTS = ("running_in", "retract_asymmetry", "speed_dependent_wear", "load_exponent",
-           "stroke_distribution", "thermal_drift", "initial_offset")
+EFFECTS = EFFECT_IDS
 START_TIME_NS = 1_700_000_000 * 10**9
 
 
@@ -56,28 +59,100 @@ def draw_strokes_m(rng: np.random.Generator, count: int, sim: dict[str, Any]) ->
     return out[:count]
 
 
-def machine_knots(rng: np.random.Generator, sim: dict[str, Any]):
-    """Knots of the piecewise-linear motion: times [s], positions [m], load of the segment ending at each
-    knot [N], and the strokes drawn."""
+@dataclass
+class MachineKnots:
+    """Piecewise-linear motion: knot times [s] and positions [m]; per segment (ending at knot i, i >= 1)
+    the load [N], whether it is a retract, the length of its pass [m]; the feed strokes drawn; the jobs."""
+
+    t_s: np.ndarray
+    x_m: np.ndarray
+    load_n: np.ndarray            # load of the segment ending at each knot (index 0: the first feed load)
+    retract: np.ndarray           # bool, same indexing
+    pass_length_m: np.ndarray     # same indexing
+    strokes_m: np.ndarray
+    jobs: list = field(default_factory=list)
+
+
+def _job_list(rng: np.random.Generator, sim: dict[str, Any]) -> list[dict[str, float]]:
+    """Jobs of the run: one job with the scenario's values when ``job_hours`` is 0, else jobs of
+    0.5..1.5 x ``job_hours`` whose feed speed (log-uniform), feed and retract load, mean stroke and stroke skew are
+    drawn between the scenario's value and its ``*_max`` (a machine does different work in each job)."""
     duration = sim["duration_h"] * 3600.0
-    mean_cycle = (sim["stroke_mean_m"] / sim["feed_speed_m_s"] + sim["stroke_mean_m"] / sim["retract_speed_m_s"]
+    base = {"feed_speed_m_s": sim["feed_speed_m_s"], "feed_load_n": sim["feed_load_n"],
+            "retract_load_n": sim["retract_load_n"],
+            "stroke_mean_m": sim["stroke_mean_m"], "stroke_skew": sim["stroke_skew"]}
+    if not sim["job_hours"] > 0:
+        return [dict(base, start_s=0.0, end_s=duration)]
+    jobs, t = [], 0.0
+    while t < duration:
+        length = sim["job_hours"] * 3600.0 * rng.uniform(0.5, 1.5)
+        job = dict(base, start_s=t, end_s=min(t + length, duration))
+        if sim["feed_speed_max_m_s"] > sim["feed_speed_m_s"]:
+            job["feed_speed_m_s"] = float(np.exp(rng.uniform(np.log(sim["feed_speed_m_s"]),
+                                                             np.log(sim["feed_speed_max_m_s"]))))
+        if sim["feed_load_max_n"] > sim["feed_load_n"]:
+            job["feed_load_n"] = float(rng.uniform(sim["feed_load_n"], sim["feed_load_max_n"]))
+        if sim["retract_load_max_n"] > sim["retract_load_n"]:   # the table's load: fixture and work
+            job["retract_load_n"] = float(rng.uniform(sim["retract_load_n"],
+                                                      min(sim["retract_load_max_n"], job["feed_load_n"])))
+        if sim["stroke_mean_max_m"] > sim["stroke_mean_m"]:
+            job["stroke_mean_m"] = float(rng.uniform(sim["stroke_mean_m"], sim["stroke_mean_max_m"]))
+        if sim["stroke_skew_max"] > 0:
+            job["stroke_skew"] = float(sim["stroke_skew"] + rng.uniform(-1, 1) * sim["stroke_skew_max"])
+        jobs.append(job)
+        t += length
+    return jobs
+
+
+def _job_cycles(rng: np.random.Generator, sim: dict[str, Any], job: dict[str, float], margin: float):
+    """Strokes, feed speed and feed load of the cycles of one job (enough to fill it, with margin)."""
+    js = dict(sim, **{k: job[k] for k in ("feed_speed_m_s", "feed_load_n", "stroke_skew")})
+    js["stroke_mean_m"] = min(max(job["stroke_mean_m"], sim["stroke_low_m"]), sim["stroke_high_m"])
+    mean_cycle = (js["stroke_mean_m"] / js["feed_speed_m_s"] + js["stroke_mean_m"] / sim["retract_speed_m_s"]
                   + sim["dwell_s"])
-    n = int(duration / mean_cycle * 1.3) + 10
-    strokes = draw_strokes_m(rng, n, sim)
+    n = int((job["end_s"] - job["start_s"]) / mean_cycle * margin) + 10
+    return draw_strokes_m(rng, n, js), js["feed_speed_m_s"], js["feed_load_n"], job["retract_load_n"]
+
+
+def cycle_knots(rng: np.random.Generator, sim: dict[str, Any]) -> MachineKnots:
+    """Knots of the feed / retract / dwell cycles of the scenario ``sim`` (see :func:`machine_knots`)."""
+    duration = sim["duration_h"] * 3600.0
+    jobs = _job_list(rng, sim)
+    single = len(jobs) == 1
+    strokes_l, feed_t_l, back_t_l, feed_w_l, back_w_l = [], [], [], [], []
+    for job in jobs:
+        strokes, feed_speed, feed_load, back_load = _job_cycles(rng, sim, job, 1.3 if single else 1.8)
+        feed_t = strokes / feed_speed
+        back_t = strokes / sim["retract_speed_m_s"]
+        if not single:   # cycles that start within the job
+            starts = np.concatenate(([0.0], np.cumsum(feed_t + back_t + sim["dwell_s"])[:-1]))
+            keep = starts < job["end_s"] - job["start_s"]
+            keep[0] = True
+            strokes, feed_t, back_t = strokes[keep], feed_t[keep], back_t[keep]
+        strokes_l.append(strokes)
+        feed_t_l.append(feed_t)
+        back_t_l.append(back_t)
+        feed_w_l.append(np.full(strokes.size, feed_load))
+        back_w_l.append(np.full(strokes.size, back_load))
+    strokes = np.concatenate(strokes_l)
+    feed_t, back_t = np.concatenate(feed_t_l), np.concatenate(back_t_l)
+    feed_w, back_w = np.concatenate(feed_w_l), np.concatenate(back_w_l)
+    n = strokes.size
     home = sim["home_position_m"]
-    feed_t = strokes / sim["feed_speed_m_s"]
-    back_t = strokes / sim["retract_speed_m_s"]
     dwell = sim["dwell_s"]
     # per cycle: [start] -> feed end -> retract end -> dwell end
     seg_dt = np.column_stack((feed_t, back_t, np.full(n, dwell))).ravel()
     seg_x = np.column_stack((home + strokes, np.full(n, home), np.full(n, home))).ravel()
-    seg_w = np.column_stack((np.full(n, sim["feed_load_n"]), np.full(n, sim["retract_load_n"]),
-                             np.full(n, sim["retract_load_n"]))).ravel()
+    seg_w = np.column_stack((feed_w, back_w, back_w)).ravel()
+    seg_r = np.column_stack((np.zeros(n, bool), np.ones(n, bool), np.ones(n, bool))).ravel()
+    seg_l = np.column_stack((strokes, strokes, strokes)).ravel()
     keep = seg_dt > 0
-    seg_dt, seg_x, seg_w = seg_dt[keep], seg_x[keep], seg_w[keep]
+    seg_dt, seg_x, seg_w, seg_r, seg_l = seg_dt[keep], seg_x[keep], seg_w[keep], seg_r[keep], seg_l[keep]
     t = np.concatenate(([0.0], np.cumsum(seg_dt)))
     x = np.concatenate(([home], seg_x))
-    w = np.concatenate(([sim["feed_load_n"]], seg_w))
+    w = np.concatenate(([feed_w[0]], seg_w))
+    r = np.concatenate(([False], seg_r))
+    pl = np.concatenate(([strokes[0]], seg_l))
     last = int(np.searchsorted(t, duration, side="right"))
     if last >= t.size:
         raise RuntimeError("stroke schedule too short")  # pragma: no cover (sized with margin)
@@ -86,19 +161,35 @@ def machine_knots(rng: np.random.Generator, sim: dict[str, Any]):
     t = np.concatenate((t[:last], [duration]))
     x = np.concatenate((x[:last], [x_end]))
     w = np.concatenate((w[:last], [w[last]]))
+    r = np.concatenate((r[:last], [r[last]]))
+    pl = np.concatenate((pl[:last], [pl[last]]))
     cycles_done = int(np.searchsorted(np.cumsum(feed_t + back_t + dwell), duration))
-    return t, x, w, strokes[:max(cycles_done, 1)]
+    return MachineKnots(t, x, w, r, pl, strokes[:max(cycles_done, 1)], jobs)
+
+
+def machine_knots(rng: np.random.Generator, sim: dict[str, Any]):
+    """Knots of the piecewise-linear motion: times [s], positions [m], load of the segment ending at each
+    knot [N], and the strokes drawn."""
+    k = cycle_knots(rng, sim)
+    return k.t_s, k.x_m, k.load_n, k.strokes_m
 
 
 def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
                      effects: dict[str, float] | None = None) -> MachineRun:
     """A :class:`MachineRun` of the scenario ``sim`` for a guide with wear parameters ``params``."""
     effects = dict(effects or {})
-    if effects:
-        raise InputError(f"effects {sorted(effects)} are reserved for the discrepancy workflow and not simulated yet")
+    unknown = sorted(set(effects) - set(EFFECTS))
+    if unknown:
+        raise InputError(f"unknown effects {unknown}; known: {', '.join(EFFECTS)}")
     rng = np.random.default_rng(seed)
-    knot_t, knot_x, knot_w, strokes = machine_knots(rng, sim)
+    knots = cycle_knots(rng, sim)
+    knot_t, knot_x, knot_w, strokes = knots.t_s, knots.x_m, knots.load_n, knots.strokes_m
     duration = knot_t[-1]
+    geometry = WearGeometry.from_params(params)
+    if effects and geometry.straightness_model != "eq7":
+        raise InputError("--effect needs straightness_model: eq7 (the baseline the effects are defined against)")
+    wear_effects = WearEffects.from_values(effects, running_in_distance_m=sim["running_in_distance_m"],
+                                           load_reference_n=sim["load_reference_n"])
 
     # JointState samples of the exact motion
     rate = sim["joint_state_rate_hz"]
@@ -116,13 +207,33 @@ def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
     if sim["load_noise_n"] > 0:
         load = load + rng.normal(0.0, sim["load_noise_n"], load.size)
 
-    # measured straightness: truth at the measurement times + noise
+    # guide temperature (recorded when temperature_rate_hz > 0 or a thermal drift is simulated)
+    temperature_rate = sim["temperature_rate_hz"]
+    if "thermal_drift" in effects and not temperature_rate > 0:
+        temperature_rate = 0.1
+    tt = np.arange(0.25 / temperature_rate, duration, 1.0 / temperature_rate) if temperature_rate > 0 else None
     interval = sim["measurement_interval_h"] * 3600.0
     mt = np.arange(0.0, duration + 1e-9, interval)
+    temperature_meas_c = None
+    temperature_c = np.zeros(0)
+    if tt is not None:
+        grid = np.union1d(np.arange(0.0, duration, 10.0), np.concatenate((mt, [duration])))
+        t_grid_c = guide_temperature_c(knots, sim, grid, rng)
+        temperature_c = np.interp(tt, grid, t_grid_c) + rng.normal(0.0, sim["temperature_noise_k"], tt.size)
+        temperature_meas_c = np.interp(mt, grid, t_grid_c)
+
+    # measured straightness: truth at the measurement times + noise
     truth_k = params["wear_coefficient"] * sim["wear_coefficient_factor"]
-    loss_per_k = true_straightness_loss_per_k_m(params, knot_t, knot_x, knot_w, mt, strokes)
     a0 = params["straightness_initial_m"]
-    truth = a0 + truth_k * loss_per_k
+    if geometry.straightness_model == "eq7":
+        work, pass_work = effective_work_at(knots, mt, wear_effects, geometry.slider_length_m)
+        wear = straightness_wear_m(truth_k, geometry.hardness_pa, geometry.contact_width_m, work, pass_work,
+                                   float(strokes.min() + strokes.max()),
+                                   wear_effects.stroke_distribution_weight)
+    else:
+        wear = truth_k * true_straightness_loss_per_k_m(params, knot_t, knot_x, knot_w, mt, strokes)
+    d_temp = None if temperature_meas_c is None else temperature_meas_c - temperature_meas_c[0]
+    truth = measured_straightness_m(wear, a0, d_temp, wear_effects)
     measured = truth + rng.normal(0.0, sim["straightness_noise_m"], mt.size)
 
     geometry = WearGeometry.from_params(params)
@@ -138,10 +249,14 @@ def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
         load_n=load,
         straightness_t_ns=to_ns(mt),
         straightness_m=measured,
+        temperature_t_ns=to_ns(tt) if tt is not None else np.zeros(0, np.int64),
+        temperature_c=temperature_c,
         metadata={
             "generator": "guide_health.simulate",
             "seed": seed,
             "effects": effects,
+            "effect_parameters": {k: v for k, v in vars(wear_effects).items() if math.isfinite(v)},
+            "jobs": knots.jobs,
             "simulation": dict(sim),
             "truth": {
                 "wear_coefficient": truth_k,
@@ -185,3 +300,41 @@ def true_straightness_loss_per_k_m(params: dict[str, Any], knot_t: np.ndarray, k
         else:
             out[j] = integ.straightness_loss_per_k_m()
     return out
+
+
+def effective_work_at(knots: MachineKnots, at_s: np.ndarray, effects: WearEffects,
+                      slider_length_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Effective Archard work G = sum W ds m [N m] and pass work P = sum W ds m / max(L, L_s) [N] of the
+    exact motion at times ``at_s`` (models/wear_effects.py; m = 1 without effects)."""
+    ds = np.abs(np.diff(knots.x_m))
+    dt = np.diff(knots.t_s)
+    s = np.concatenate(([0.0], np.cumsum(ds)))
+    load = knots.load_n[1:]
+    speed = np.divide(ds, dt, out=np.zeros_like(ds), where=dt > 0)
+    running_in = running_in_factor_mean(s[:-1], s[1:], effects.running_in_ratio, effects.running_in_distance_m)
+    m = wear_rate_multiplier(effects, speed, load, knots.retract[1:], running_in)
+    work = load * ds * m
+    pass_work = work * pass_weight_per_m(knots.pass_length_m[1:], slider_length_m)
+    g = np.concatenate(([0.0], np.cumsum(work)))
+    p = np.concatenate(([0.0], np.cumsum(pass_work)))
+    return np.interp(at_s, knots.t_s, g), np.interp(at_s, knots.t_s, p)
+
+
+def guide_temperature_c(knots: MachineKnots, sim: dict[str, Any], grid_s: np.ndarray,
+                        rng: np.random.Generator) -> np.ndarray:
+    """Guide temperature [degC] on the time grid: ambient (daily swing) plus frictional heating,
+    a first-order lag of the friction power mu W v through a thermal resistance (exact per grid step
+    for the step's mean power)."""
+    ds = np.abs(np.diff(knots.x_m))
+    friction_work = np.concatenate(([0.0], np.cumsum(sim["friction_coefficient"] * knots.load_n[1:] * ds)))
+    f = np.interp(grid_s, knots.t_s, friction_work)
+    dt = np.diff(grid_s)
+    power_w = np.diff(f) / dt
+    decay = np.exp(-dt / sim["thermal_time_constant_s"])
+    rise = np.empty(grid_s.size)
+    rise[0] = 0.0
+    for i in range(dt.size):          # ~7000 steps for 20 h
+        rise[i + 1] = rise[i] * decay[i] + sim["thermal_resistance_k_per_w"] * power_w[i] * (1.0 - decay[i])
+    phase = rng.uniform(0.0, 2.0 * math.pi)
+    ambient = sim["ambient_temperature_c"] + sim["ambient_swing_k"] * np.sin(2.0 * math.pi * grid_s / 86400.0 + phase)
+    return ambient + rise

@@ -1,0 +1,293 @@
+"""The wear model with any set of effects, evaluated over duty cells at the measurement times, and its
+least-squares fit (scipy.optimize.least_squares) with parameter uncertainty.
+
+Prediction of the measured straightness at measurement j (models/wear_effects.py, seed 000 Eq. 7/10):
+
+    y_j = A0 + delta + c_T (T_j - T_0)
+          + K / (H b) [(1 - w) 2 G_j / (l_min + l_max) + w P_j],
+    G_j = sum over cells before t_j of  work * m(cell),   P_j the same with the pass work,
+
+with m the product of the wear-rate multipliers of the effects in the model. The baseline has K only
+(and A0 when the parameters give A0 = 0): "a K that is merely off is a calibration, not a missing effect".
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from guide_health.discrepancy.duty import DutyCells
+from guide_health.models.wear_effects import (EFFECT_IDS, WearEffects, measured_straightness_m,
+                                              running_in_factor, straightness_wear_m, wear_rate_multiplier)
+
+UM = 1e6
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """One fitted parameter: physical name and unit, bounds, log-scaled or not, start values."""
+
+    name: str
+    unit: str
+    lower: float
+    upper: float
+    log: bool = False
+    starts: tuple = ()
+
+
+def _effect_specs(problem: "WearProblem") -> dict[str, list[ParamSpec]]:
+    dist = max(problem.cells.total_distance_m, 1.0)
+    v_feed = problem.feed_speed_m_s
+    return {
+        "running_in": [ParamSpec("running_in_ratio", "-", 0.0, 100.0, False, (1.0,)),
+                       ParamSpec("running_in_distance_m", "m", dist * 1e-3, dist, True,
+                                 tuple(dist * f for f in (0.01, 0.04, 0.15)))],
+        "retract_asymmetry": [ParamSpec("retract_wear_factor", "-", 0.0, 5.0, False, (0.5,))],
+        "speed_dependent_wear": [ParamSpec("lift_speed_m_s", "m/s", 1e-5, 100.0, True,
+                                           tuple(v_feed * f for f in (0.5, 2.0, 8.0)))],
+        "load_exponent": [ParamSpec("load_exponent", "-", 0.0, 4.0, False, (0.7, 1.5))],
+        "stroke_distribution": [ParamSpec("stroke_distribution_weight", "-", -1.0, 2.0, False, (0.5,))],
+        "thermal_drift": [ParamSpec("thermal_drift_m_per_k", "m/K", -1e-4, 1e-4, False, (0.0,))],
+        "initial_offset": [ParamSpec("initial_offset_m", "m", -1e-3, 1e-3, False, (0.0,))],
+    }
+
+
+@dataclass
+class FitResult:
+    """A fitted model: effects, parameter values and standard errors, scores."""
+
+    effects: tuple[str, ...]
+    values: dict[str, float]
+    std_errors: dict[str, float]
+    units: dict[str, str]
+    predicted_m: np.ndarray             # at every measurement
+    n_fit: int
+    n_params: int
+    rss_um2: float
+    bic: float
+    rmse_um: float
+    max_rel_error: float
+    heldout_rmse_um: float
+    heldout_max_rel_error: float
+    n_heldout: int = 0
+    success: bool = True
+    extra: dict = field(default_factory=dict)
+
+    def summary(self) -> dict[str, Any]:
+        return {
+            "effects": list(self.effects),
+            "parameters": {k: {"value": v, "std_error": self.std_errors.get(k, math.nan),
+                               "unit": self.units.get(k, "")} for k, v in self.values.items()},
+            "n_params": self.n_params, "bic": self.bic,
+            "rmse_um": self.rmse_um, "max_rel_error": self.max_rel_error,
+            "heldout_rmse_um": self.heldout_rmse_um, "heldout_max_rel_error": self.heldout_max_rel_error,
+        }
+
+
+def rel_errors(pred: np.ndarray, meas: np.ndarray) -> np.ndarray:
+    return np.abs(pred - meas) / np.abs(meas)
+
+
+class WearProblem:
+    """Measurements, duty cells and wear parameters of one machine; fits models with any effect set."""
+
+    def __init__(self, cells: DutyCells, params: dict[str, Any], heldout_fraction: float = 0.25,
+                 stroke_detect_min_m: float | None = None):
+        if cells.measurement_m.size < 6:
+            raise ValueError(f"the discrepancy workflow needs at least 6 straightness measurements, "
+                             f"the bag has {cells.measurement_m.size}")
+        if cells.cells == 0:
+            raise ValueError("the bag has no loaded axis motion (no wear to model)")
+        self.cells = cells
+        self.params = params
+        self.k0 = float(params["wear_coefficient"])
+        self.hardness_pa = float(params["hardness_pa"])
+        self.width_m = float(params["contact_width_m"])
+        self.a0_m = float(params["straightness_initial_m"])
+        self.a0_free = not self.a0_m > 0
+        # l_min + l_max: parameters, else the observed passes (as the live monitor does)
+        if params.get("stroke_min_m", 0) > 0 and params.get("stroke_max_m", 0) > 0:
+            self.stroke_sum_m = float(params["stroke_min_m"] + params["stroke_max_m"])
+        else:
+            detect = stroke_detect_min_m if stroke_detect_min_m is not None else params.get("stroke_detect_min_m", 0.005)
+            strokes = cells.pass_lengths_m[cells.pass_lengths_m >= detect]
+            if strokes.size == 0:
+                raise ValueError("no strokes longer than stroke_detect_min_m in the bag")
+            self.stroke_sum_m = float(strokes.min() + strokes.max())
+        # measurement order and the fit / held-out split (the later measurements are held out)
+        order = np.argsort(cells.measurement_t_s, kind="stable")
+        self.t_s = cells.measurement_t_s[order]
+        self.y_m = cells.measurement_m[order]
+        n = self.y_m.size
+        n_held = int(round(heldout_fraction * n))
+        n_held = min(max(n_held, 0), n - 4)
+        self.fit_mask = np.arange(n) < n - n_held
+        self.heldout_mask = ~self.fit_mask
+        # cells before each measurement
+        self.cell_index = np.searchsorted(cells.time_s, self.t_s, side="right")
+        # direction of the retract: the faster one (a rapid return); equal speeds: negative dx
+        speeds = {}
+        for sign in (1, -1):
+            sel = cells.direction == sign
+            w = cells.work_nm[sel]
+            speeds[sign] = float(np.exp((w * np.log(cells.speed_m_s[sel])).sum() / w.sum())) if w.sum() > 0 else 0.0
+        self.retract_sign = 1 if speeds[1] > 1.05 * speeds[-1] else -1
+        self.retract = cells.direction == self.retract_sign
+        feed = ~self.retract
+        wf = cells.work_nm[feed]
+        self.feed_speed_m_s = (float(np.exp((wf * np.log(cells.speed_m_s[feed])).sum() / wf.sum()))
+                               if wf.sum() > 0 else float(np.median(cells.speed_m_s)))
+        self.retract_speed_m_s = speeds[self.retract_sign]
+        w = cells.work_nm
+        self.load_reference_n = float(np.exp((w * np.log(cells.load_n)).sum() / w.sum()))
+        # temperature change at the measurements (relative to the first measurement)
+        self.temperature_change_k = None
+        if cells.temperature_c.size >= 2:
+            tt = cells.temperature_t_s
+            o = np.argsort(tt, kind="stable")
+            temp = np.interp(self.t_s, tt[o], cells.temperature_c[o])
+            self.temperature_change_k = temp - temp[0]
+        self.specs = _effect_specs(self)
+
+    # --- candidates ---------------------------------------------------------------------------
+    def available_effects(self) -> list[str]:
+        """Effect ids that can be tried on this data (thermal drift only with a temperature record)."""
+        ids = list(EFFECT_IDS)
+        if self.temperature_change_k is None:
+            ids.remove("thermal_drift")
+        return ids
+
+    # --- prediction ----------------------------------------------------------------------------
+    def _param_list(self, effects: tuple[str, ...]) -> list[ParamSpec]:
+        specs = [ParamSpec("wear_coefficient", "-", 0.0, math.inf, False, (1.0,))]
+        if self.a0_free:
+            specs.append(ParamSpec("straightness_initial_m", "m", -1e-3, 1e-3, False, (0.0,)))
+        for e in effects:
+            specs.extend(self.specs[e])
+        return specs
+
+    def _physical(self, specs: list[ParamSpec], x: np.ndarray) -> dict[str, float]:
+        """Internal vector -> physical values (K relative to K0, lengths in um inside the fit)."""
+        out = {}
+        for spec, xi in zip(specs, x):
+            v = math.exp(xi) if spec.log else float(xi)
+            if spec.name == "wear_coefficient":
+                v *= self.k0
+            elif spec.unit in ("m", "m/K") and not spec.log:
+                v *= 1e-6                     # fitted in um, um/K
+            out[spec.name] = v
+        return out
+
+    def predict_m(self, values: dict[str, float]) -> np.ndarray:
+        """Measured straightness [m] at every measurement for physical parameter values."""
+        c = self.cells
+        eff = WearEffects(
+            running_in_ratio=values.get("running_in_ratio", 0.0),
+            running_in_distance_m=values.get("running_in_distance_m", 1.0),
+            retract_wear_factor=values.get("retract_wear_factor", 1.0),
+            lift_speed_m_s=values.get("lift_speed_m_s", math.inf),
+            load_exponent=values.get("load_exponent", 1.0),
+            load_reference_n=self.load_reference_n,
+            stroke_distribution_weight=values.get("stroke_distribution_weight", 0.0),
+            thermal_drift_m_per_k=values.get("thermal_drift_m_per_k", 0.0),
+            initial_offset_m=values.get("initial_offset_m", 0.0),
+        )
+        ri = None
+        if eff.running_in_ratio != 0.0:
+            ri = running_in_factor(c.sliding_distance_m, eff.running_in_ratio, eff.running_in_distance_m)
+        m = wear_rate_multiplier(eff, c.speed_m_s, c.load_n, self.retract, ri)
+        g = np.concatenate(([0.0], np.cumsum(c.work_nm * m)))[self.cell_index]
+        p = np.concatenate(([0.0], np.cumsum(c.pass_work_n * m)))[self.cell_index]
+        wear = straightness_wear_m(values["wear_coefficient"], self.hardness_pa, self.width_m, g, p,
+                                   self.stroke_sum_m, eff.stroke_distribution_weight)
+        a0 = values.get("straightness_initial_m", 0.0) if self.a0_free else self.a0_m
+        return measured_straightness_m(wear, a0, self.temperature_change_k, eff)
+
+    # --- fitting -------------------------------------------------------------------------------
+    def fit(self, effects: tuple[str, ...] | list[str] = ()) -> FitResult:
+        """Least-squares fit on the fit span of the model with ``effects``; multi-start over the
+        nonlinear parameters; standard errors from the Jacobian at the optimum."""
+        effects = tuple(effects)
+        specs = self._param_list(effects)
+        fit = self.fit_mask
+        y_um = self.y_m[fit] * UM
+
+        def residual(x):
+            return self.predict_m(self._physical(specs, x))[fit] * UM - y_um
+
+        lower = np.array([math.log(s.lower) if s.log else (s.lower * UM if s.unit in ("m", "m/K") else s.lower)
+                          for s in specs])
+        upper = np.array([math.log(s.upper) if s.log else (s.upper * UM if s.unit in ("m", "m/K") else s.upper)
+                          for s in specs])
+        k_start = self._k_start()
+        starts = [[]]
+        for s in specs:
+            vals = list(s.starts)
+            if s.name == "wear_coefficient":
+                vals = [k_start]
+            vals = [math.log(v) if s.log else v for v in vals]
+            starts = [st + [v] for st in starts for v in vals]
+        best = None
+        for x0 in starts:
+            x0 = np.clip(np.array(x0, dtype=float), lower + 1e-12 * np.abs(lower), upper)
+            try:
+                res = least_squares(residual, x0, bounds=(lower, upper), x_scale="jac", method="trf",
+                                    max_nfev=200)
+            except (ValueError, FloatingPointError):   # pragma: no cover (bad start)
+                continue
+            if best is None or res.cost < best.cost:
+                best = res
+        values = self._physical(specs, best.x)
+        n = int(fit.sum())
+        k = len(specs)
+        rss = float(2.0 * best.cost)
+        # standard errors: s^2 (J^T J)^-1 in internal coordinates, mapped to physical units
+        dof = max(n - k, 1)
+        s2 = rss / dof
+        jtj = best.jac.T @ best.jac
+        cov = s2 * np.linalg.pinv(jtj)
+        se = {}
+        for i, spec in enumerate(specs):
+            sd_int = math.sqrt(max(cov[i, i], 0.0))
+            v = values[spec.name]
+            if spec.log:
+                se[spec.name] = abs(v) * sd_int
+            elif spec.name == "wear_coefficient":
+                se[spec.name] = sd_int * self.k0
+            elif spec.unit in ("m", "m/K"):
+                se[spec.name] = sd_int * 1e-6
+            else:
+                se[spec.name] = sd_int
+        pred = self.predict_m(values)
+        return self._score(effects, values, se, {s.name: s.unit for s in specs}, pred, k, rss, bool(best.success))
+
+    def _k_start(self) -> float:
+        """K / K0 of the baseline by linear least squares through A0 (a good start for every model)."""
+        base = self.predict_m({"wear_coefficient": self.k0, "straightness_initial_m": 0.0}) - (
+            0.0 if self.a0_free else self.a0_m)
+        y = self.y_m[self.fit_mask] - (0.0 if self.a0_free else self.a0_m)
+        g = base[self.fit_mask]
+        if self.a0_free:
+            g = g - g.mean()
+            y = y - y.mean()
+        denom = float(g @ g)
+        return max(float(g @ y) / denom, 1e-6) if denom > 0 else 1.0
+
+    def _score(self, effects, values, se, units, pred, k, rss, success) -> FitResult:
+        fit, held = self.fit_mask, self.heldout_mask
+        n = int(fit.sum())
+        err_um = (pred - self.y_m) * UM
+        rel = rel_errors(pred, self.y_m)
+        bic = n * math.log(max(rss, 1e-30) / n) + k * math.log(n)
+        return FitResult(
+            effects=effects, values=values, std_errors=se, units=units, predicted_m=pred,
+            n_fit=n, n_params=k, rss_um2=rss, bic=bic,
+            rmse_um=float(np.sqrt(np.mean(err_um[fit] ** 2))),
+            max_rel_error=float(rel[fit].max()),
+            heldout_rmse_um=float(np.sqrt(np.mean(err_um[held] ** 2))) if held.any() else math.nan,
+            heldout_max_rel_error=float(rel[held].max()) if held.any() else math.nan,
+            n_heldout=int(held.sum()), success=success,
+        )
