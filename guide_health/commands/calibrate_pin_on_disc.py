@@ -16,6 +16,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("csv", help="CSV with a header holding at least speed_m_s,load_n,wear_rate_m3_s")
     parser.add_argument("--hardness-pa", type=float, required=True,
                         help="hardness H of the worn material [Pa] (HT200: 199e6)")
+    parser.add_argument("--wear-law", action="store_true",
+                        help="also ask the discrepancy workflow's selection (BIC + leave-one-out) whether a "
+                             "load or speed exponent earns its place in gamma = c W v")
 
 
 def read_rows(path: str) -> dict[str, np.ndarray]:
@@ -45,7 +48,7 @@ def run(args) -> dict:
         fit = fit_pin_on_disc(rows["speed_m_s"], rows["load_n"], rows["wear_rate_m3_s"], args.hardness_pa)
     except ValueError as exc:
         raise InputError(f"{args.csv}: {exc}") from None
-    return {
+    result = {
         "wear_coefficient": fit.wear_coefficient,
         "wear_coefficient_ci95": list(fit.wear_coefficient_ci95),
         "wear_rate_per_load_speed": fit.wear_rate_per_load_speed,
@@ -54,3 +57,7 @@ def run(args) -> dict:
         "rows": fit.rows,
         "regression": "ordinary least squares through the origin, gamma = c W v; K = c H",
     }
+    if args.wear_law:
+        from guide_health.discrepancy.selection import select_pin_on_disc_law
+        result["wear_law"] = select_pin_on_disc_law(rows["speed_m_s"], rows["load_n"], rows["wear_rate_m3_s"])
+    return result

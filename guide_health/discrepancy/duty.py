@@ -3,11 +3,13 @@
 Every pair of consecutive axis samples is a sliding segment: distance ds = |dx|, speed ds/dt, load W =
 the latest load stamped at or before the segment's end sample (the monitor's rule), direction, and the
 length L of the pass (monotone run of the axis) it belongs to. Segments are summed into cells of
-(time block, direction, speed bin, load bin): bins 2 % wide in log speed and log load and blocks of
+(time block, direction, speed bin, load bin): bins 10 % wide in log speed and log load and blocks of
 ``block_s`` seconds, so every effect multiplier (models/wear_effects.py), evaluated at a cell's
-work-weighted means, is the segment sum to well below the measurement noise, while a 20 h bag at 50 Hz
-(3.6 M segments) becomes ~10^4 cells. A cell belongs to the measurement interval of its work-weighted
-mean time (an error of at most half a block of wear at a measurement).
+work-weighted means, is the segment sum to well below the measurement noise. A fine cell belongs to the
+measurement interval of its work-weighted mean time (an error of at most half a block of wear at a
+measurement); cells of one interval with the same direction and bins are then merged, keeping the
+variance of the sliding distance for the running-in term. A 20 h bag at 50 Hz (3.6 M segments)
+becomes a few thousand cells.
 
 Streaming: :meth:`DutyCellAccumulator.add` takes consecutive :class:`MachineRun` chunks (as
 ``bags.iter_machine_bag`` yields them) and carries the last sample, the last load and the unfinished
@@ -24,7 +26,8 @@ from guide_health.models.wear_effects import pass_weight_per_m
 from guide_health.runs import MachineRun
 
 # per-cell sums: work-weighted where the name says *_w
-_SUMS = ("work_nm", "distance_m", "pass_work_n", "t_w", "s_w", "ln_v_w", "ln_load_w", "x_w", "pass_len_w")
+_BIN_OFFSET = 2048        # log bins of speed and load packed into one int64 key with block and direction
+_SUMS = ("work_nm", "distance_m", "pass_work_n", "t_w", "s_w", "s2_w", "ln_v_w", "ln_load_w", "x_w", "pass_len_w")
 
 
 @dataclass
@@ -32,12 +35,14 @@ class DutyCells:
     """Cells and measurements of one run. Times are seconds from ``t0_ns``."""
 
     t0_ns: int
+    interval: np.ndarray                # k: the cell's wear counts in measurements k, k+1, ... (sorted)
     direction: np.ndarray               # +1 / -1 (sign of dx) per cell
     work_nm: np.ndarray                 # sum W ds
     distance_m: np.ndarray              # sum ds
     pass_work_n: np.ndarray             # sum W ds / max(L, L_s)
     time_s: np.ndarray                  # work-weighted mean time
     sliding_distance_m: np.ndarray      # work-weighted mean cumulative sliding distance s
+    sliding_distance_var_m2: np.ndarray # its work-weighted variance within the cell
     speed_m_s: np.ndarray               # exp(work-weighted mean ln v)
     load_n: np.ndarray                  # exp(work-weighted mean ln W)
     position_m: np.ndarray              # work-weighted mean segment mid-position
@@ -61,7 +66,7 @@ class DutyCells:
 class DutyCellAccumulator:
     """Builds :class:`DutyCells` from consecutive MachineRun chunks of one machine."""
 
-    def __init__(self, slider_length_m: float, block_s: float = 30.0, log_bin: float = 0.02):
+    def __init__(self, slider_length_m: float, block_s: float = 30.0, log_bin: float = 0.1):
         self.slider_length_m = float(slider_length_m)
         self.block_s = float(block_s)
         self.log_bin = float(log_bin)
@@ -176,14 +181,14 @@ class DutyCellAccumulator:
         pass_len, work = pass_len[loaded], work[loaded]
         ln_v, ln_w = np.log(seg["speed"]), np.log(seg["load"])
         block = np.floor(seg["t_s"] / self.block_s).astype(np.int64)
-        keys = np.stack((block, seg["dir"].astype(np.int64), np.floor(ln_v / self.log_bin).astype(np.int64),
-                         np.floor(ln_w / self.log_bin).astype(np.int64)), axis=1)
-        uniq, inverse = np.unique(keys, axis=0, return_inverse=True)
-        inverse = inverse.ravel()
+        v_bin = np.clip(np.floor(ln_v / self.log_bin).astype(np.int64) + _BIN_OFFSET, 0, 2 * _BIN_OFFSET - 1)
+        w_bin = np.clip(np.floor(ln_w / self.log_bin).astype(np.int64) + _BIN_OFFSET, 0, 2 * _BIN_OFFSET - 1)
+        keys = (((block * 2 + (seg["dir"] < 0)) * (2 * _BIN_OFFSET) + v_bin) * (2 * _BIN_OFFSET) + w_bin)
+        uniq, inverse = np.unique(keys, return_inverse=True)
         values = {
             "work_nm": work, "distance_m": seg["ds"],
             "pass_work_n": work * pass_weight_per_m(pass_len, self.slider_length_m),
-            "t_w": work * seg["t_s"], "s_w": work * seg["s"], "ln_v_w": work * ln_v, "ln_load_w": work * ln_w,
+            "t_w": work * seg["t_s"], "s_w": work * seg["s"], "s2_w": work * seg["s"] ** 2, "ln_v_w": work * ln_v, "ln_load_w": work * ln_w,
             "x_w": work * seg["x"], "pass_len_w": work * pass_len,
         }
         sums = {k: np.bincount(inverse, weights=v, minlength=uniq.shape[0]) for k, v in values.items()}
@@ -191,26 +196,12 @@ class DutyCellAccumulator:
 
     # --- output ------------------------------------------------------------------------------
     def finish(self) -> DutyCells:
+        """The cells, merged per measurement interval: a fine cell (block, direction, speed bin, load
+        bin) joins the interval of its work-weighted mean time, and cells of one interval with the same
+        direction and bins are summed (their sliding-distance spread is kept as a variance)."""
         if self._carry is not None:
             carry, self._carry = self._carry, None
             self._absorb(carry, final=True)
-        if self._cell_parts:
-            keys = np.concatenate([k for k, _ in self._cell_parts])
-            uniq, inverse = np.unique(keys, axis=0, return_inverse=True)
-            inverse = inverse.ravel()
-            sums = {name: np.bincount(inverse, weights=np.concatenate([s[name] for _, s in self._cell_parts]),
-                                      minlength=uniq.shape[0]) for name in _SUMS}
-            direction = uniq[:, 1].astype(np.int8)
-        else:
-            sums = {name: np.zeros(0) for name in _SUMS}
-            direction = np.zeros(0, np.int8)
-        work = sums["work_nm"]
-        order = np.argsort(sums["t_w"] / np.where(work > 0, work, 1.0), kind="stable")
-        w = work[order]
-
-        def mean(name):
-            return sums[name][order] / w
-
         t0 = self.t0_ns or 0
         mt = np.concatenate(self._meas_t) if self._meas_t else np.zeros(0, np.int64)
         my = np.concatenate(self._meas_y) if self._meas_y else np.zeros(0)
@@ -218,21 +209,51 @@ class DutyCellAccumulator:
         tc = np.concatenate(self._temp_c) if self._temp_c else np.zeros(0)
         keep = np.isfinite(my)
         mt, my = mt[keep], my[keep]
+        o = np.argsort(mt, kind="stable")
+        mt, my = mt[o], my[o]
         keep = np.isfinite(tc)
         tt, tc = tt[keep], tc[keep]
+        o = np.argsort(tt, kind="stable")
+        tt, tc = tt[o], tc[o]
+        meas_t_s = (mt - t0) * 1e-9
+        if self._cell_parts:
+            keys = np.concatenate([k for k, _ in self._cell_parts])
+            uniq, inverse = np.unique(keys, return_inverse=True)
+            fine = {name: np.bincount(inverse, weights=np.concatenate([s[name] for _, s in self._cell_parts]),
+                                      minlength=uniq.shape[0]) for name in _SUMS}
+            # interval k: the first measurement at or after the cell's mean time
+            interval = np.searchsorted(meas_t_s, fine["t_w"] / fine["work_nm"], side="left")
+            bins = uniq % (2 * _BIN_OFFSET) ** 2 + ((uniq // (2 * _BIN_OFFSET) ** 2) % 2) * (2 * _BIN_OFFSET) ** 2
+            coarse = interval.astype(np.int64) * 2 * (2 * _BIN_OFFSET) ** 2 + bins
+            uniq2, inv2 = np.unique(coarse, return_inverse=True)
+            sums = {name: np.bincount(inv2, weights=fine[name], minlength=uniq2.size) for name in _SUMS}
+            direction = np.where((uniq2 // (2 * _BIN_OFFSET) ** 2) % 2 == 1, -1, 1).astype(np.int8)
+            cell_interval = (uniq2 // (2 * (2 * _BIN_OFFSET) ** 2)).astype(np.int64)
+        else:
+            sums = {name: np.zeros(0) for name in _SUMS}
+            direction = np.zeros(0, np.int8)
+            cell_interval = np.zeros(0, np.int64)
+        w = sums["work_nm"]
+
+        def mean(name):
+            return sums[name] / w
+
+        s_mean = mean("s_w")
         return DutyCells(
             t0_ns=int(t0),
-            direction=direction[order],
+            interval=cell_interval,
+            direction=direction,
             work_nm=w,
-            distance_m=sums["distance_m"][order],
-            pass_work_n=sums["pass_work_n"][order],
+            distance_m=sums["distance_m"],
+            pass_work_n=sums["pass_work_n"],
             time_s=mean("t_w"),
-            sliding_distance_m=mean("s_w"),
+            sliding_distance_m=s_mean,
+            sliding_distance_var_m2=np.maximum(mean("s2_w") - s_mean ** 2, 0.0),
             speed_m_s=np.exp(mean("ln_v_w")),
             load_n=np.exp(mean("ln_load_w")),
             position_m=mean("x_w"),
             pass_length_m=mean("pass_len_w"),
-            measurement_t_s=(mt - t0) * 1e-9,
+            measurement_t_s=meas_t_s,
             measurement_m=my,
             temperature_t_s=(tt - t0) * 1e-9,
             temperature_c=tc,

@@ -21,7 +21,7 @@ from scipy.optimize import least_squares
 
 from guide_health.discrepancy.duty import DutyCells
 from guide_health.models.wear_effects import (EFFECT_IDS, WearEffects, measured_straightness_m,
-                                              running_in_factor, straightness_wear_m, wear_rate_multiplier)
+                                              running_in_factor_spread, straightness_wear_m, wear_rate_multiplier)
 
 UM = 1e6
 
@@ -118,16 +118,15 @@ class WearProblem:
                 raise ValueError("no strokes longer than stroke_detect_min_m in the bag")
             self.stroke_sum_m = float(strokes.min() + strokes.max())
         # measurement order and the fit / held-out split (the later measurements are held out)
-        order = np.argsort(cells.measurement_t_s, kind="stable")
-        self.t_s = cells.measurement_t_s[order]
-        self.y_m = cells.measurement_m[order]
+        self.t_s = cells.measurement_t_s           # sorted by DutyCellAccumulator.finish
+        self.y_m = cells.measurement_m
         n = self.y_m.size
         n_held = int(round(heldout_fraction * n))
         n_held = min(max(n_held, 0), n - 4)
         self.fit_mask = np.arange(n) < n - n_held
         self.heldout_mask = ~self.fit_mask
         # cells before each measurement
-        self.cell_index = np.searchsorted(cells.time_s, self.t_s, side="right")
+        self.cell_index = np.searchsorted(cells.interval, np.arange(n), side="right")
         # direction of the retract: the faster one (a rapid return); equal speeds: negative dx
         speeds = {}
         for sign in (1, -1):
@@ -197,7 +196,8 @@ class WearProblem:
         )
         ri = None
         if eff.running_in_ratio != 0.0:
-            ri = running_in_factor(c.sliding_distance_m, eff.running_in_ratio, eff.running_in_distance_m)
+            ri = running_in_factor_spread(c.sliding_distance_m, c.sliding_distance_var_m2, eff.running_in_ratio,
+                                          eff.running_in_distance_m)
         m = wear_rate_multiplier(eff, c.speed_m_s, c.load_n, self.retract, ri)
         g = np.concatenate(([0.0], np.cumsum(c.work_nm * m)))[self.cell_index]
         p = np.concatenate(([0.0], np.cumsum(c.pass_work_n * m)))[self.cell_index]
@@ -207,9 +207,10 @@ class WearProblem:
         return measured_straightness_m(wear, a0, self.temperature_change_k, eff)
 
     # --- fitting -------------------------------------------------------------------------------
-    def fit(self, effects: tuple[str, ...] | list[str] = ()) -> FitResult:
+    def fit(self, effects: tuple[str, ...] | list[str] = (), warm: FitResult | None = None) -> FitResult:
         """Least-squares fit on the fit span of the model with ``effects``; multi-start over the
-        nonlinear parameters; standard errors from the Jacobian at the optimum."""
+        nonlinear parameters (parameters of ``warm``, a fit of a sub-model, start from its values);
+        standard errors from the Jacobian at the optimum."""
         effects = tuple(effects)
         specs = self._param_list(effects)
         fit = self.fit_mask
@@ -228,6 +229,10 @@ class WearProblem:
             vals = list(s.starts)
             if s.name == "wear_coefficient":
                 vals = [k_start]
+            if warm is not None and s.name in warm.values:
+                v = warm.values[s.name]
+                vals = [v / self.k0 if s.name == "wear_coefficient" else
+                        (v * UM if (s.unit in ("m", "m/K") and not s.log) else v)]
             vals = [math.log(v) if s.log else v for v in vals]
             starts = [st + [v] for st in starts for v in vals]
         best = None

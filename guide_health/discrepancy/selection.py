@@ -32,9 +32,10 @@ class SelectionResult:
     fits: dict = field(default_factory=dict)                  # effect tuple -> fit
 
 
-def forward_selection(fit: Callable[[tuple[str, ...]], Any], candidates: list[str],
+def forward_selection(fit: Callable[..., Any], candidates: list[str],
                       bic_threshold: float = BIC_THRESHOLD, max_effects: int = 3) -> SelectionResult:
-    """``fit(effects)`` returns an object with ``bic`` and ``heldout_rmse_um`` (NaN = no held-out data)."""
+    """``fit(effects[, warm=fit_of_the_current_model])`` returns an object with ``bic`` and
+    ``heldout_rmse_um`` (NaN = no held-out data)."""
     current: tuple[str, ...] = ()
     base = fit(current)
     cur_fit = base
@@ -43,7 +44,7 @@ def forward_selection(fit: Callable[[tuple[str, ...]], Any], candidates: list[st
     while remaining and len(current) < max_effects:
         rows = []
         for name in remaining:
-            f = fit(current + (name,))
+            f = fit(current + (name,), warm=cur_fit) if current else fit(current + (name,))
             result.fits[current + (name,)] = f
             d_bic = f.bic - cur_fit.bic
             held_ok = (math.isnan(f.heldout_rmse_um) or math.isnan(cur_fit.heldout_rmse_um)
@@ -125,7 +126,7 @@ def select_pin_on_disc_law(speed_m_s, load_n, wear_rate_m3_s, bic_threshold: flo
     g = np.asarray(wear_rate_m3_s, float)
     n = g.size
 
-    def fit(effects):
+    def fit(effects, warm=None):
         sol, (names, model) = _fit_law(v, w, g, effects)
         rss = float(2 * sol.cost)
         k = len(names)

@@ -112,6 +112,17 @@ def running_in_factor_mean(s_start_m: np.ndarray, s_end_m: np.ndarray, ratio: fl
     return 1.0 + ratio * mean_exp
 
 
+def running_in_factor_spread(mean_distance_m: np.ndarray, distance_var_m2: np.ndarray, ratio: float,
+                             distance_m: float) -> np.ndarray:
+    """Mean of K(s)/K over sliding distances spread uniformly with the given mean and variance:
+    1 + r exp(-s_mean / s0) sinh(h) / h, h = sqrt(3 var) / s0 (half-width of the uniform over s0)."""
+    if ratio == 0.0:
+        return np.ones_like(np.asarray(mean_distance_m, dtype=float))
+    h = np.sqrt(3.0 * np.asarray(distance_var_m2, dtype=float)) / distance_m
+    shape = np.where(h > 1e-6, np.sinh(h) / np.where(h > 1e-6, h, 1.0), 1.0 + h * h / 6.0)
+    return 1.0 + ratio * np.exp(-np.asarray(mean_distance_m, dtype=float) / distance_m) * shape
+
+
 def asperity_load_share(speed_m_s: np.ndarray, lift_speed_m_s: float) -> np.ndarray:
     """Share of the load on asperities, 1 / (1 + lambda^2), lambda = (v / v_lift)^0.7 [-]."""
     v = np.abs(np.asarray(speed_m_s, dtype=float))

@@ -1,0 +1,100 @@
+"""`guide-health diagnose BAG --params FILE`: the discrepancy workflow on a machine bag."""
+from __future__ import annotations
+
+import math
+import sys
+import time
+from pathlib import Path
+
+from guide_health.errors import InputError
+from guide_health.params import wear_monitor_params
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("bag", help="rosbag2 directory (sqlite3 or mcap) with joint_states, guide/load, "
+                                    "guide/straightness and optionally guide/temperature")
+    parser.add_argument("--params", required=True, help="ROS 2 parameters YAML (wear_monitor section)")
+    parser.add_argument("--out", help="report directory (default: <bag>.diagnose beside the bag)")
+    parser.add_argument("--namespace", default=None, help="topic namespace in the bag (default: detect)")
+    parser.add_argument("--heldout-fraction", type=float, default=0.25,
+                        help="later share of the measurements kept out of every fit, for forecasts (default 0.25)")
+    parser.add_argument("--bic-threshold", type=float, default=None,
+                        help="BIC drop an effect must earn (default 10)")
+    parser.add_argument("--no-plot", action="store_true", help="skip the PNG")
+    parser.add_argument("--progress", action="store_true", help="force the progress bar even without a TTY")
+
+
+def read_duty(bag, params: dict, namespace=None, progress=None):
+    """Stream a machine bag into duty cells (memory bounded by one chunk)."""
+    from guide_health.bags import iter_machine_bag
+    from guide_health.discrepancy.duty import DutyCellAccumulator
+
+    acc = DutyCellAccumulator(params["slider_length_m"])
+    messages = 0
+    for chunk in iter_machine_bag(bag, joint=params["joint"], namespace=namespace, progress=progress):
+        acc.add(chunk)
+        messages += chunk.messages
+    return acc.finish(), messages
+
+
+def run(args) -> dict:
+    from guide_health.bags import ProgressBar
+    from guide_health.discrepancy.report import write_report
+    from guide_health.discrepancy.selection import BIC_THRESHOLD
+    from guide_health.discrepancy.workflow import diagnose_cells
+
+    if not 0.0 <= args.heldout_fraction < 0.9:
+        raise InputError("--heldout-fraction must be in [0, 0.9)")
+    threshold = BIC_THRESHOLD if args.bic_threshold is None else args.bic_threshold
+    if not (math.isfinite(threshold) and threshold >= 0):
+        raise InputError("--bic-threshold must be a number >= 0")
+    params = wear_monitor_params(args.params)
+    if params["straightness_model"] != "eq7":
+        print("guide-health diagnose: the effects are defined against Eq. 7; straightness_model "
+              f"{params['straightness_model']!r} is read as eq7", file=sys.stderr)
+    bag = Path(args.bag)
+    t0 = time.perf_counter()
+    bar = ProgressBar("reading", force=args.progress)
+    cells, messages = read_duty(bag, params, args.namespace, bar)
+    bar.close()
+    t_read = time.perf_counter() - t0
+    try:
+        result = diagnose_cells(cells, params, heldout_fraction=args.heldout_fraction, bic_threshold=threshold)
+    except ValueError as exc:
+        raise InputError(f"{bag}: {exc}") from None
+    result["messages"] = messages
+    result["read_s"] = t_read
+    out = Path(args.out) if args.out else bag.with_name(bag.name + ".diagnose")
+    t1 = time.perf_counter()
+    result["files"] = write_report(result, out, bag=str(bag), with_plot=not args.no_plot)
+    result["report_s"] = time.perf_counter() - t1
+    result["total_s"] = time.perf_counter() - t0
+    result.pop("series")
+    print(f"{messages} messages read in {t_read:.1f} s, fitted in {result['fit_s']:.1f} s; report in {out}",
+          file=sys.stderr)
+    return result
+
+
+def format_text(result: dict) -> str:
+    b, f = result["baseline"], result["final"]
+    named = result["named_effects"]
+    lines = [f"discrepancy workflow ({result['data']['duration_h']:.1f} h, {result['data']['measurements']} "
+             f"measurements, {result['messages']} messages)"]
+    lines.append(f"  named effects:   {', '.join(named) if named else 'none (the baseline explains the data)'}")
+    for e in named:
+        params = ", ".join(f"{k} = {p['value']:.4g} ± {p['std_error']:.2g}" for k, p in result["effects"][e]["parameters"].items())
+        lines.append(f"    {e}: {params}")
+    lines.append(f"  RMSE fit:        {b['rmse_um']:.3f} -> {f['rmse_um']:.3f} um")
+    lines.append(f"  RMSE held out:   {b['heldout_rmse_um']:.3f} -> {f['heldout_rmse_um']:.3f} um")
+    lines.append(f"  max rel. error:  {b['max_rel_error']:.2%} -> {f['max_rel_error']:.2%} (fit), "
+                 f"{b['heldout_max_rel_error']:.2%} -> {f['heldout_max_rel_error']:.2%} (held out)")
+    where = result["where_baseline_disagrees"]
+    if where["systematic_conditions"]:
+        lines.append(f"  baseline residuals follow: {', '.join(where['systematic_conditions'])}")
+    if "steady_stage" in result:
+        s = result["steady_stage"]
+        lines.append(f"  steady stage (from {s['from_h']:.1f} h): max rel. error {s['baseline_max_rel_error']:.1%} -> "
+                     f"{s['final_max_rel_error']:.1%}")
+    lines.append(f"  time:            read {result['read_s']:.1f} s, fit {result['fit_s']:.1f} s")
+    lines.append(f"  files:           {', '.join(result['files'].values())}")
+    return "\n".join(lines)

@@ -1,0 +1,125 @@
+"""Files of ``guide-health diagnose``: report.json, report.md, residuals.csv and diagnose.png."""
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+def _fmt(v: float, unit: str = "") -> str:
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return "n/a"
+    return f"{v:.4g}{(' ' + unit) if unit and unit != '-' else ''}"
+
+
+def markdown(result: dict[str, Any], bag: str = "") -> str:
+    b, f, d = result["baseline"], result["final"], result["data"]
+    where = result["where_baseline_disagrees"]
+    lines = [f"# Discrepancy report{(': ' + bag) if bag else ''}", ""]
+    lines.append(f"{d['measurements']} straightness measurements over {d['duration_h']:.1f} h "
+                 f"({d['fit_measurements']} fitted, the last {d['heldout_measurements']} from "
+                 f"{d['heldout_from_h']:.1f} h held out for forecasts); {d['sliding_distance_m']:.0f} m of sliding.")
+    lines.append("")
+    named = result["named_effects"]
+    lines.append("## Effects named" if named else "## No missing effect found")
+    lines.append("")
+    if not named:
+        lines.append("No candidate earned its parameters: the baseline (K calibrated) explains the measurements "
+                     "to their noise.")
+    for e in named:
+        info = result["effects"][e]
+        params = ", ".join(f"{k} = {_fmt(p['value'], p['unit'])} ± {_fmt(p['std_error'], p['unit'])}"
+                           for k, p in info["parameters"].items())
+        lines.append(f"- **{e}**: {info['meaning']} ({params})")
+    lines += ["", "## The gap", "", "| model | RMSE fit [um] | max rel. error fit | RMSE held out [um] | "
+              "max rel. error held out | K |", "|---|---|---|---|---|---|"]
+    for label, g in (("baseline (K calibrated)", b), ("with " + (" + ".join(named) or "nothing"), f)):
+        lines.append(f"| {label} | {g['rmse_um']:.3f} | {g['max_rel_error']:.3%} | {g['heldout_rmse_um']:.3f} | "
+                     f"{g['heldout_max_rel_error']:.3%} | {g['wear_coefficient']:.4g} |")
+    if "steady_stage" in result:
+        s = result["steady_stage"]
+        lines += ["", f"Steady stage (from {s['from_h']:.1f} h, after 3 running-in distances): max relative "
+                      f"error {s['baseline_max_rel_error']:.1%} (baseline) -> {s['final_max_rel_error']:.1%}."]
+    lines += ["", "## Where the baseline disagrees", ""]
+    rt, ac = where["runs_test"], where["lag1_autocorrelation"]
+    lines.append(f"- residual RMS {where['residual_rms_um']:.3f} um against a noise of "
+                 f"{where['noise_sd_um']:.3f} um (successive differences)")
+    lines.append(f"- runs test: {rt['runs']} runs of residual sign, {_fmt(rt['expected_runs'])} expected, "
+                 f"z = {rt['z']:.2f}, p = {rt['p_value']:.2g}; lag-1 autocorrelation {ac['r']:.2f} "
+                 f"(z = {ac['z']:.2f}, p = {ac['p_value']:.2g}): "
+                 f"{'systematic' if where['systematic_in_time'] else 'no structure'} in time")
+    for w in where["windows"]:
+        lines.append(f"- window {w['start_h']:.1f}..{w['end_h']:.1f} h: {w['measurements']} residuals of one sign, "
+                     f"mean {w['mean_residual_um']:+.2f} um (t = {w['t_statistic']:.1f})")
+    for c in where["conditions"]:
+        lines.append(f"- {c['condition']} (range {c['range'][0]:.4g}..{c['range'][1]:.4g}) vs "
+                     f"{c['against'].replace('_', ' ')}: Spearman rho = {c['rho']:+.2f}, p = {c['p_value']:.2g}"
+                     f"{' **systematic**' if c['systematic'] else ''}")
+    lines += ["", "## Candidates tried", "", "| round | effect | dBIC | held-out RMSE [um] | earns its place | "
+              "parameters |", "|---|---|---|---|---|---|"]
+    for c in result["candidates"]:
+        params = "; ".join(f"{k} = {_fmt(p['value'], p['unit'])}" for k, p in c["parameters"].items()
+                           if k != "wear_coefficient")
+        lines.append(f"| {c['round']} | {c['effect']} | {c['delta_bic']:+.1f} | {c['heldout_rmse_um']:.3f} | "
+                     f"{'yes' if c['earns_place'] else 'no'}{' (added)' if c['selected'] else ''} | {params} |")
+    lines += ["", f"An effect is added when BIC drops by more than {result['selection']['bic_threshold']:g} and the "
+                  "held-out forecast error does not grow beyond its sampling error; the best such effect is "
+                  "added and the search repeats.", ""]
+    return "\n".join(lines)
+
+
+def plot(result: dict[str, Any], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    s = result["series"]
+    t, y, b, f, held = (np.asarray(s[k]) for k in ("t_h", "measured_um", "baseline_um", "final_um", "heldout"))
+    named = " + ".join(result["named_effects"]) or "no effect"
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(10, 7), sharex=True, gridspec_kw={"height_ratios": [3, 2]})
+    if held.any():
+        for ax in (ax1, ax2):
+            ax.axvspan(t[held][0], t[-1], color="0.92", label="held out" if ax is ax1 else None)
+    ax1.plot(t, y, "o", ms=3.5, color="k", label="measured")
+    ax1.plot(t, b, "-", color="tab:red", label=f"baseline (K calibrated), held-out RMSE "
+                                                f"{result['baseline']['heldout_rmse_um']:.2f} um")
+    ax1.plot(t, f, "-", color="tab:blue", label=f"with {named}, held-out RMSE {result['final']['heldout_rmse_um']:.2f} um")
+    ax1.set_ylabel("straightness [um]")
+    ax1.set_title(f"discrepancy workflow: {named}")
+    ax1.legend(loc="upper left", fontsize=8)
+    ax1.grid(alpha=0.3)
+    ax2.axhline(0.0, color="0.5", lw=0.8)
+    ax2.plot(t, y - b, "o-", ms=3, lw=0.8, color="tab:red", label="measured - baseline")
+    ax2.plot(t, y - f, "o-", ms=3, lw=0.8, color="tab:blue", label=f"measured - with {named}")
+    ax2.set_xlabel("time [h]")
+    ax2.set_ylabel("residual [um]")
+    ax2.legend(loc="lower left", fontsize=8)
+    ax2.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write_report(result: dict[str, Any], out: Path, bag: str = "", with_plot: bool = True) -> dict[str, str]:
+    """Write the report files; returns their paths. ``result['series']`` is written to CSV, not JSON."""
+    out.mkdir(parents=True, exist_ok=True)
+    files = {"json": str(out / "report.json"), "markdown": str(out / "report.md"), "csv": str(out / "residuals.csv")}
+    s = result["series"]
+    with open(files["csv"], "w", newline="") as handle:
+        w = csv.writer(handle)
+        w.writerow(["time_h", "measured_um", "baseline_um", "final_um", "heldout"])
+        for row in zip(s["t_h"], s["measured_um"], s["baseline_um"], s["final_um"], s["heldout"]):
+            w.writerow([f"{row[0]:.6f}", f"{row[1]:.6f}", f"{row[2]:.6f}", f"{row[3]:.6f}", int(row[4])])
+    if with_plot:
+        files["png"] = str(out / "diagnose.png")
+        plot(result, Path(files["png"]))
+    Path(files["markdown"]).write_text(markdown(result, bag))
+    body = {k: v for k, v in result.items() if k != "series"}
+    body["files"] = files
+    Path(files["json"]).write_text(json.dumps(body, indent=2, allow_nan=True, default=float) + "\n")
+    return files
