@@ -67,8 +67,8 @@ def markdown(result: dict[str, Any], bag: str = "") -> str:
         lines.append(f"| {c['round']} | {c['effect']} | {c['delta_bic']:+.1f} | {c['heldout_rmse_um']:.3f} | "
                      f"{'yes' if c['earns_place'] else 'no'}{' (added)' if c['selected'] else ''} | {params} |")
     lines += ["", f"An effect is added when BIC drops by more than {result['selection']['bic_threshold']:g} and the "
-                  "held-out forecast error does not grow beyond its sampling error; the best such effect is "
-                  "added and the search repeats.", ""]
+                  "held-out forecast error does not grow beyond its sampling error; of those, the one with the "
+                  "best BIC + held-out log-likelihood is added and the search repeats.", ""]
     return "\n".join(lines)
 
 

@@ -5,8 +5,9 @@ An effect earns its place when both hold for the best candidate of a round:
   (BIC = n ln(RSS/n) + k ln n; a drop of 10 is "very strong" evidence on Kass & Raftery's scale);
 - the forecast error on the held-out later measurements does not get worse: RMSE_new <= RMSE_old
   (1 + 1/sqrt(2 m)), m held-out points (the sampling error of an RMSE).
-Of the candidates that earn their place, the one with the lowest BIC is added; the search stops when
-none does.
+Of the candidates that earn their place, the one with the best fit-plus-forecast score is added
+(BIC + m ln(MSE_heldout), the held-out Gaussian log-likelihood added to the criterion: a wrong mechanism
+that fits the past can still forecast badly); the search stops when none earns its place.
 
 The same machinery scores seed 000's pin-on-disc table (:func:`select_pin_on_disc_law`), where the
 held-out error is leave-one-out cross-validation (the rows have no time order).
@@ -53,7 +54,7 @@ def forward_selection(fit: Callable[..., Any], candidates: list[str],
                          "heldout_improves": bool(held_ok),
                          "earns_place": bool(d_bic < -bic_threshold and held_ok)})
         rows.sort(key=lambda r: r["fit"].bic)
-        earning = [r for r in rows if r["earns_place"]]
+        earning = sorted((r for r in rows if r["earns_place"]), key=lambda r: selection_score(r["fit"]))
         for r in rows:
             r["selected"] = bool(earning) and r is earning[0]
         result.rounds.append(rows)
@@ -66,6 +67,15 @@ def forward_selection(fit: Callable[..., Any], candidates: list[str],
         remaining.remove(best["effect"])
     result.final = cur_fit
     return result
+
+
+def selection_score(fit) -> float:
+    """BIC on the fit span plus the Gaussian log-likelihood term of the held-out forecasts,
+    n_h ln(MSE_h): of the effects that earn their place, the one that fits *and* forecasts best."""
+    m = getattr(fit, "n_heldout", 0)
+    if m == 0 or not math.isfinite(fit.heldout_rmse_um):
+        return fit.bic
+    return fit.bic + m * math.log(max(fit.heldout_rmse_um, 1e-12) ** 2)
 
 
 def heldout_tolerance(fit) -> float:
