@@ -335,3 +335,18 @@ def test_diagnose_cells_result_keys():
         assert {"rmse_um", "max_rel_error", "heldout_rmse_um"} <= set(res[part])
     assert all("score" in c for c in res["candidates"])
     assert res["data"]["retract_direction"] == "-x"
+
+
+def test_unknown_initial_straightness_is_part_of_the_baseline():
+    """straightness_initial_m = 0: the baseline fits A0 with K, so a wrong A0 is no missing effect."""
+    params = wear_monitor_params(JOBS)
+    sim = simulation_params(JOBS)
+    sim.update(joint_state_rate_hz=10.0, load_rate_hz=10.0, straightness_noise_m=0.3e-6)
+    run = simulate_machine(params, sim, seed=8, effects={"initial_offset": 5e-6})
+    blind = dict(params, straightness_initial_m=0.0)
+    res = diagnose_cells(duty_cells_from_runs(run, params["slider_length_m"]), blind)
+    assert res["named_effects"] == []
+    assert "initial_offset" not in {c["effect"] for c in res["candidates"]}
+    a0 = res["baseline"]["parameters"]["straightness_initial_m"]
+    assert a0["value"] == pytest.approx(params["straightness_initial_m"] + 5e-6, abs=max(3 * a0["std_error"], 0.3e-6))
+    assert res["baseline"]["wear_coefficient"] == pytest.approx(4.42e-6, rel=0.05)

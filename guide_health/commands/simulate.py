@@ -22,7 +22,10 @@ def add_arguments(parser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="random seed (strokes, noise)")
     parser.add_argument("--namespace", default="", help="topic namespace, e.g. /m1")
     parser.add_argument("--effect", action="append", metavar="NAME=VALUE",
-                        help=f"physics the baseline model lacks, injected into the truth; NAME in {', '.join(EFFECTS)}")
+                        help="physics the baseline model lacks, hidden in the truth (models/wear_effects.py), "
+                             "VALUE in SI: running_in=r (K starts at (1+r) K, s0 = running_in_distance_m), "
+                             "retract_asymmetry=rho, speed_dependent_wear=v_lift [m/s], load_exponent=n, "
+                             "stroke_distribution=w, thermal_drift=c_T [m/K], initial_offset=delta [m]")
 
 
 def run_slewing(args) -> dict:
@@ -66,6 +69,9 @@ def run(args) -> dict:
             raise InputError("--rate must be > 0")
         sim["joint_state_rate_hz"] = args.rate
     effects = parse_effects(args.effect)
+    if "thermal_drift" in effects and not sim["temperature_rate_hz"] > 0:
+        print("guide-health simulate: thermal_drift needs a temperature record: guide/temperature at 0.1 Hz",
+              file=sys.stderr)
     out = Path(args.out)
     if out.exists():
         raise InputError(f"output bag {out} already exists")

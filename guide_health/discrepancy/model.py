@@ -153,10 +153,13 @@ class WearProblem:
 
     # --- candidates ---------------------------------------------------------------------------
     def available_effects(self) -> list[str]:
-        """Effect ids that can be tried on this data (thermal drift only with a temperature record)."""
+        """Effect ids that can be tried on this data: thermal drift only with a temperature record, an
+        initial offset only when A0 is given (with A0 = 0 the baseline fits A0 itself)."""
         ids = list(EFFECT_IDS)
         if self.temperature_change_k is None:
             ids.remove("thermal_drift")
+        if self.a0_free:
+            ids.remove("initial_offset")
         return ids
 
     # --- prediction ----------------------------------------------------------------------------
