@@ -7,7 +7,7 @@ from pathlib import Path
 
 from guide_health.errors import InputError
 from guide_health.params import simulation_params, wear_monitor_params
-from guide_health.simulate import EFFECTS, parse_effects, simulate_machine
+from guide_health.simulate import parse_effects, simulate_machine
 
 
 def add_arguments(parser) -> None:
