@@ -73,16 +73,16 @@ def interval_conditions(problem: WearProblem) -> dict[str, np.ndarray]:
     """Work-weighted operating conditions of every measurement interval (index j: from j-1 to j)."""
     c = problem.cells
     n = problem.y_m.size
-    k = np.clip(c.interval, 0, n - 1)
-    work = np.bincount(k, weights=c.work_nm, minlength=n)
+    k = c.interval                      # n: after the last measurement (not counted)
+    work = np.bincount(k, weights=c.work_nm, minlength=n + 1)[:n]
     feed = ~problem.retract
-    feed_work = np.bincount(k, weights=c.work_nm * feed, minlength=n)
+    feed_work = np.bincount(k, weights=c.work_nm * feed, minlength=n + 1)[:n]
 
     def wmean(values, mask=None):
         w = c.work_nm if mask is None else c.work_nm * mask
-        tot = np.bincount(k, weights=w, minlength=n)
+        tot = np.bincount(k, weights=w, minlength=n + 1)[:n]
         with np.errstate(invalid="ignore", divide="ignore"):
-            return np.bincount(k, weights=w * values, minlength=n) / tot
+            return np.bincount(k, weights=w * values, minlength=n + 1)[:n] / tot
 
     cond = {
         "feed_speed_m_s": np.exp(wmean(np.log(c.speed_m_s), feed)),
