@@ -76,7 +76,7 @@ def make_bag(n_joint: int, workdir: Path) -> Path:
 
 
 def trial(bag: Path, env: dict, sub_qos: str, player_args: list[str]) -> dict:
-    sub = subprocess.Popen([sys.executable, "-c", SUBSCRIBER, sub_qos, "3.0"], env=env,
+    sub = subprocess.Popen([sys.executable, "-c", SUBSCRIBER, sub_qos, "10.0"], env=env,
                            stdout=subprocess.PIPE, text=True)
     assert sub.stdout.readline().strip() == "ready"
     t0 = time.monotonic()

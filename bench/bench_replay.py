@@ -102,7 +102,12 @@ def main() -> int:
     for size in args.sizes:
         n_joint = int(size)
         print(f"bag with {n_joint:,} JointState ({args.storage}):", flush=True)
-        bag = make_bag(n_joint, args.storage, workdir)
+        # written by a child process: a bench process grown by the simulation would inflate the replay's
+        # peak RSS (a forked child reports its parent's pages as its own ru_maxrss until exec)
+        subprocess.run([sys.executable, "-c", f"import sys; sys.path.insert(0, {str(ROOT / 'bench')!r}); "
+                        f"from bench_replay import make_bag; from pathlib import Path; "
+                        f"make_bag({n_joint}, {args.storage!r}, Path({str(workdir)!r}))"], check=True, cwd=ROOT)
+        bag = make_bag(n_joint, args.storage, workdir)          # cached: returns the path
         n_raw, t_raw = raw_read_rate(bag)
         deser = deserialize_rate(bag)
         report, wall, rss = replay(bag, workdir)

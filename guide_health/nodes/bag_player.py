@@ -46,9 +46,11 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 from guide_health.errors import InputError
 
@@ -329,6 +331,19 @@ def play(args, rclpy_args) -> int:
     return 0
 
 
+FASTDDS_PROFILE = Path(__file__).resolve().parents[1] / "fastdds" / "bag_player.xml"
+
+
+def use_fast_heartbeat_profile() -> None:
+    """Fast DDS writers of this process heartbeat every 20 ms (guide_health/fastdds/bag_player.xml) unless
+    the user set FASTRTPS_DEFAULT_PROFILES_FILE. Readers acknowledge on heartbeats, so every
+    wait_for_all_acked (the barriers, the final flush) waits ~20 ms instead of up to the 3 s default:
+    measured with bench/bench_bag_player.py, 110 003 messages to a keep_all subscriber in 3.2 s (34 k msg/s)
+    instead of 19 s (5.8 k msg/s). Must run before the first DDS participant is created."""
+    if "FASTRTPS_DEFAULT_PROFILES_FILE" not in os.environ and FASTDDS_PROFILE.is_file():
+        os.environ["FASTRTPS_DEFAULT_PROFILES_FILE"] = str(FASTDDS_PROFILE)
+
+
 def main(argv=None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
@@ -337,6 +352,7 @@ def main(argv=None) -> int:
     except ImportError:  # pragma: no cover - rclpy is needed to publish anyway
         user_args = argv
     args = build_parser().parse_args(user_args)
+    use_fast_heartbeat_profile()
     try:
         return play(args, ["bag_player"] + argv)
     except InputError as exc:
