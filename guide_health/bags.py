@@ -32,7 +32,7 @@ import struct
 import sys
 import time
 import warnings
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from itertools import islice
 from dataclasses import dataclass
 from pathlib import Path
@@ -47,7 +47,7 @@ __all__ = [
     "JOINT_STATE", "WRENCH_STAMPED", "FLOAT64", "TEMPERATURE",
     "MACHINE_TOPICS", "SLEWING_TOPICS", "METADATA_KEY", "SIDECAR_NAME",
     "write_machine_bag", "write_slewing_bag", "read_machine_bag", "read_slewing_bag",
-    "bag_info", "ProgressBar", "open_bag", "iter_raw_messages", "detect_namespace",
+    "bag_info", "bag_topic_types", "ProgressBar", "open_bag", "iter_raw_messages", "detect_namespace",
     "encode_joint_states", "encode_wrench_stamped", "encode_float64", "encode_temperature",
 ]
 
@@ -832,15 +832,17 @@ def _iter_topic_batches(path, wanted: dict, namespace: str | None, suffix_for_ns
     """
     path = Path(path)
     chunk_messages = max(1, int(chunk_messages))
-    with open_bag(path) as reader:
-        types = {c.topic: c.msgtype for c in reader.connections}
+    database = _sqlite_database(path)
+    with (nullcontext(None) if database is not None else open_bag(path)) as reader:
+        connections = database[1] if database is not None else reader.connections
+        types = {c.topic: c.msgtype for c in connections}
         if namespace is None:
             namespace = detect_namespace(types, suffix_for_ns, wanted[suffix_for_ns])
         accs: dict[str, _TopicAccumulator] = {}
         conns = []
         for rel, msgtype in wanted.items():
             topic = _topic(namespace, rel)
-            here = [c for c in reader.connections if c.topic == topic]
+            here = [c for c in connections if c.topic == topic]
             if not here:
                 continue
             bad = sorted({c.msgtype for c in here if c.msgtype != msgtype})
@@ -852,17 +854,26 @@ def _iter_topic_batches(path, wanted: dict, namespace: str | None, suffix_for_ns
             raise InputError(f"bag {path} has no topic {_topic(namespace, suffix_for_ns)} "
                              f"(topics: {', '.join(sorted(types)) or 'none'})")
         total = int(sum(c.msgcount for c in conns))
-        acc_of = {c.id: accs[c.topic] for c in conns}
-        conn_id = operator.attrgetter("id")
-        errors = _reader_errors()
+        if database is not None:          # (topic id, log time, bytes) rows straight from the .db3
+            fetch = _sqlite_rows(database[0], conns, chunk_messages)
+            acc_of = {c.id: accs[c.topic] for c in conns}
+            conn_id = int
+            errors = _reader_errors()
+        else:
+            acc_of = {c.id: accs[c.topic] for c in conns}
+            conn_id = operator.attrgetter("id")
+            errors = _reader_errors()
+            it = reader.messages(connections=conns) if conns else iter(())
+
+            def fetch():
+                return list(islice(it, chunk_messages))
         if progress is not None:
             progress(0, total)
-        it = reader.messages(connections=conns) if conns else iter(())
         done = 0
         while True:
             with _gc_paused():
                 try:                              # reader errors only: decoding and progress are outside
-                    batch = list(islice(it, chunk_messages))
+                    batch = fetch()
                 except errors as exc:
                     raise InputError(f"corrupt bag {path}: {_one_line(exc)}") from None
                 got = len(batch)
@@ -883,6 +894,71 @@ def _iter_topic_batches(path, wanted: dict, namespace: str | None, suffix_for_ns
             yield namespace, {topic: acc.result() for topic, acc in accs.items()}
         elif done == 0:                       # an empty bag still yields one (empty) batch
             yield namespace, {topic: acc.take() for topic, acc in accs.items()}
+
+
+@dataclass
+class _DbTopic:
+    """A topic of a sqlite3 bag as rosbags' Connection presents it (the fields used here)."""
+
+    id: int
+    topic: str
+    msgtype: str
+    msgcount: int
+
+
+def _sqlite_database(path: Path):
+    """A single-file, uncompressed sqlite3 bag whose metadata.yaml gives every topic's message count:
+    (apsw connection, [_DbTopic]); else None, and the caller reads with rosbags.
+
+    Why: rosbags' Reader.open() counts the messages of every topic with a full scan (0.64 s of a 1.5 s
+    read of 1.1 M messages), and its reader yields each row as one Python generator step; here the
+    counts come from metadata.yaml and the rows from the apsw cursor (rosbags' own sqlite binding) in C
+    with islice. Measured on 1.1 M messages: 0.7 s for the rows against 1.4 s through the generator
+    (1.0 s with the stdlib sqlite3 module)."""
+    try:
+        import apsw
+    except ImportError:  # pragma: no cover - rosbags depends on it
+        return None
+    info = _bag_yaml(path) if path.is_dir() else {}
+    files = info.get("relative_file_paths") or []
+    if info.get("storage_identifier") != "sqlite3" or len(files) != 1 or info.get("compression_format"):
+        return None
+    counts = {}
+    for entry in info.get("topics_with_message_count") or []:
+        try:
+            counts[entry["topic_metadata"]["name"]] = int(entry["message_count"])
+        except (KeyError, TypeError, ValueError):
+            return None
+    db_path = path / files[0]
+    if not db_path.is_file():
+        return None
+    try:
+        db = apsw.Connection(str(db_path), flags=apsw.SQLITE_OPEN_READONLY)
+        topics = [_DbTopic(int(tid), name, msgtype, counts.get(name, -1))
+                  for tid, name, msgtype in db.execute("SELECT id, name, type FROM topics ORDER BY id")]
+    except apsw.Error:
+        return None                       # let rosbags open it and report what is wrong
+    if any(t.msgcount < 0 for t in topics):
+        db.close()
+        return None
+    return db, topics
+
+
+def _sqlite_rows(db, conns: list, chunk_messages: int) -> Callable[[], list]:
+    """fetch() -> the next `chunk_messages` rows (topic id, log time, raw bytes) of the topics `conns`
+    in log-time order (as rosbags orders them); the connection closes after the last row."""
+    ids = tuple(c.id for c in conns)
+    marks = ",".join("?" * len(ids))
+    cursor = db.execute(f"SELECT topic_id, timestamp, data FROM messages WHERE topic_id IN ({marks}) "
+                        "ORDER BY timestamp", ids) if ids else iter(())
+
+    def fetch() -> list:
+        rows = list(islice(cursor, chunk_messages))
+        if not rows:
+            db.close()
+        return rows
+
+    return fetch
 
 
 def _split_batch(batch: list, acc_of: dict, conn_id) -> None:
@@ -1020,6 +1096,17 @@ def read_slewing_bag(path, namespace: str | None = None, progress: ProgressFn | 
 # ---------------------------------------------------------------------------------------------
 # info and progress
 # ---------------------------------------------------------------------------------------------
+
+def bag_topic_types(path) -> dict[str, str]:
+    """{topic: message type} of a bag, cheaply (no message scan for a single-file sqlite3 bag)."""
+    path = Path(path)
+    database = _sqlite_database(path)
+    if database is not None:
+        database[0].close()
+        return {t.topic: t.msgtype for t in database[1]}
+    with open_bag(path) as reader:
+        return {c.topic: c.msgtype for c in reader.connections}
+
 
 def bag_info(path) -> dict:
     """Topics (type, count), message count, duration, storage and run metadata of a bag."""

@@ -125,9 +125,9 @@ def plot_report(path: Path, monitor: PrecisionMonitor, report: dict, t_h, measur
 
 
 def is_slewing_bag(bag: Path) -> bool:
-    from guide_health.bags import bag_info
+    from guide_health.bags import bag_topic_types
 
-    topics = bag_info(bag)["topics"]
+    topics = bag_topic_types(bag)
     return (any(t.endswith("slewing/load") for t in topics)
             and not any(t.endswith("joint_states") for t in topics))
 
