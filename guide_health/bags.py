@@ -32,7 +32,7 @@ import struct
 import sys
 import time
 import warnings
-from contextlib import contextmanager, nullcontext
+from contextlib import closing, contextmanager
 from itertools import islice
 from dataclasses import dataclass
 from pathlib import Path
@@ -833,7 +833,7 @@ def _iter_topic_batches(path, wanted: dict, namespace: str | None, suffix_for_ns
     path = Path(path)
     chunk_messages = max(1, int(chunk_messages))
     database = _sqlite_database(path)
-    with (nullcontext(None) if database is not None else open_bag(path)) as reader:
+    with (closing(database[0]) if database is not None else open_bag(path)) as reader:
         connections = database[1] if database is not None else reader.connections
         types = {c.topic: c.msgtype for c in connections}
         if namespace is None:
@@ -854,15 +854,13 @@ def _iter_topic_batches(path, wanted: dict, namespace: str | None, suffix_for_ns
             raise InputError(f"bag {path} has no topic {_topic(namespace, suffix_for_ns)} "
                              f"(topics: {', '.join(sorted(types)) or 'none'})")
         total = int(sum(c.msgcount for c in conns))
+        acc_of = {c.id: accs[c.topic] for c in conns}
+        errors = _reader_errors()
         if database is not None:          # (topic id, log time, bytes) rows straight from the .db3
             fetch = _sqlite_rows(database[0], conns, chunk_messages)
-            acc_of = {c.id: accs[c.topic] for c in conns}
             conn_id = int
-            errors = _reader_errors()
         else:
-            acc_of = {c.id: accs[c.topic] for c in conns}
             conn_id = operator.attrgetter("id")
-            errors = _reader_errors()
             it = reader.messages(connections=conns) if conns else iter(())
 
             def fetch():
@@ -946,19 +944,12 @@ def _sqlite_database(path: Path):
 
 def _sqlite_rows(db, conns: list, chunk_messages: int) -> Callable[[], list]:
     """fetch() -> the next `chunk_messages` rows (topic id, log time, raw bytes) of the topics `conns`
-    in log-time order (as rosbags orders them); the connection closes after the last row."""
+    in log-time order (as rosbags orders them)."""
     ids = tuple(c.id for c in conns)
     marks = ",".join("?" * len(ids))
     cursor = db.execute(f"SELECT topic_id, timestamp, data FROM messages WHERE topic_id IN ({marks}) "
                         "ORDER BY timestamp", ids) if ids else iter(())
-
-    def fetch() -> list:
-        rows = list(islice(cursor, chunk_messages))
-        if not rows:
-            db.close()
-        return rows
-
-    return fetch
+    return lambda: list(islice(cursor, chunk_messages))
 
 
 def _split_batch(batch: list, acc_of: dict, conn_id) -> None:

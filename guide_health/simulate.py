@@ -236,7 +236,6 @@ def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
     truth = measured_straightness_m(wear, a0, d_temp, wear_effects)
     measured = truth + rng.normal(0.0, sim["straightness_noise_m"], mt.size)
 
-    geometry = WearGeometry.from_params(params)
     l_sum = strokes.min() + strokes.max() if geometry.straightness_model == "eq7" else math.nan
     total_work = float(np.sum(knot_w[1:] * np.abs(np.diff(knot_x))))
     to_ns = lambda s: START_TIME_NS + np.round(np.asarray(s) * 1e9).astype(np.int64)  # noqa: E731

@@ -26,7 +26,9 @@ from guide_health.models.wear_effects import pass_weight_per_m
 from guide_health.runs import MachineRun
 
 # per-cell sums: work-weighted where the name says *_w
-_BIN_OFFSET = 2048        # log bins of speed and load packed into one int64 key with block and direction
+_BIN_OFFSET = 2048        # log bins of speed and load packed into one int64 key with block and direction:
+_BINS = 2 * _BIN_OFFSET   # key = ((block * 2 + retract) * _BINS + speed bin) * _BINS + load bin
+_BLOCK_STRIDE = 2 * _BINS ** 2
 _SUMS = ("work_nm", "distance_m", "pass_work_n", "t_w", "s_w", "s2_w", "ln_v_w", "ln_load_w", "x_w", "pass_len_w")
 
 
@@ -181,9 +183,9 @@ class DutyCellAccumulator:
         pass_len, work = pass_len[loaded], work[loaded]
         ln_v, ln_w = np.log(seg["speed"]), np.log(seg["load"])
         block = np.floor(seg["t_s"] / self.block_s).astype(np.int64)
-        v_bin = np.clip(np.floor(ln_v / self.log_bin).astype(np.int64) + _BIN_OFFSET, 0, 2 * _BIN_OFFSET - 1)
-        w_bin = np.clip(np.floor(ln_w / self.log_bin).astype(np.int64) + _BIN_OFFSET, 0, 2 * _BIN_OFFSET - 1)
-        keys = (((block * 2 + (seg["dir"] < 0)) * (2 * _BIN_OFFSET) + v_bin) * (2 * _BIN_OFFSET) + w_bin)
+        v_bin = np.clip(np.floor(ln_v / self.log_bin).astype(np.int64) + _BIN_OFFSET, 0, _BINS - 1)
+        w_bin = np.clip(np.floor(ln_w / self.log_bin).astype(np.int64) + _BIN_OFFSET, 0, _BINS - 1)
+        keys = (((block * 2 + (seg["dir"] < 0)) * _BINS + v_bin) * _BINS + w_bin)
         uniq, inverse = np.unique(keys, return_inverse=True)
         values = {
             "work_nm": work, "distance_m": seg["ds"],
@@ -223,12 +225,12 @@ class DutyCellAccumulator:
                                       minlength=uniq.shape[0]) for name in _SUMS}
             # interval k: the first measurement at or after the cell's mean time
             interval = np.searchsorted(meas_t_s, fine["t_w"] / fine["work_nm"], side="left")
-            bins = uniq % (2 * _BIN_OFFSET) ** 2 + ((uniq // (2 * _BIN_OFFSET) ** 2) % 2) * (2 * _BIN_OFFSET) ** 2
-            coarse = interval.astype(np.int64) * 2 * (2 * _BIN_OFFSET) ** 2 + bins
+            # key = block * _BLOCK_STRIDE + (direction, speed bin, load bin): swap the block for the interval
+            coarse = interval.astype(np.int64) * _BLOCK_STRIDE + uniq % _BLOCK_STRIDE
             uniq2, inv2 = np.unique(coarse, return_inverse=True)
             sums = {name: np.bincount(inv2, weights=fine[name], minlength=uniq2.size) for name in _SUMS}
-            direction = np.where((uniq2 // (2 * _BIN_OFFSET) ** 2) % 2 == 1, -1, 1).astype(np.int8)
-            cell_interval = (uniq2 // (2 * (2 * _BIN_OFFSET) ** 2)).astype(np.int64)
+            direction = np.where((uniq2 // _BINS ** 2) % 2 == 1, -1, 1).astype(np.int8)
+            cell_interval = (uniq2 // _BLOCK_STRIDE).astype(np.int64)
         else:
             sums = {name: np.zeros(0) for name in _SUMS}
             direction = np.zeros(0, np.int8)

@@ -24,6 +24,7 @@ from guide_health.models.wear_effects import (EFFECT_IDS, WearEffects, measured_
                                               running_in_factor_spread, straightness_wear_m, wear_rate_multiplier)
 
 UM = 1e6
+MICRO_UNITS = ("m", "m/K")       # fitted in um and um/K
 
 
 @dataclass(frozen=True)
@@ -76,15 +77,27 @@ class FitResult:
     success: bool = True
     extra: dict = field(default_factory=dict)
 
+    def parameter_table(self) -> dict[str, dict[str, Any]]:
+        """{name: {value, std_error, unit}} of the fitted parameters."""
+        return {k: {"value": v, "std_error": self.std_errors.get(k, math.nan), "unit": self.units.get(k, "")}
+                for k, v in self.values.items()}
+
     def summary(self) -> dict[str, Any]:
         return {
             "effects": list(self.effects),
-            "parameters": {k: {"value": v, "std_error": self.std_errors.get(k, math.nan),
-                               "unit": self.units.get(k, "")} for k, v in self.values.items()},
+            "parameters": self.parameter_table(),
             "n_params": self.n_params, "bic": self.bic,
             "rmse_um": self.rmse_um, "max_rel_error": self.max_rel_error,
             "heldout_rmse_um": self.heldout_rmse_um, "heldout_max_rel_error": self.heldout_max_rel_error,
         }
+
+
+def work_weighted_geomean(values: np.ndarray, work: np.ndarray, mask: np.ndarray | None = None) -> float:
+    """exp(sum w ln x / sum w) over the cells in ``mask`` (0 when they carry no work)."""
+    if mask is not None:
+        values, work = values[mask], work[mask]
+    total = work.sum()
+    return float(np.exp((work * np.log(values)).sum() / total)) if total > 0 else 0.0
 
 
 def rel_errors(pred: np.ndarray, meas: np.ndarray) -> np.ndarray:
@@ -94,8 +107,7 @@ def rel_errors(pred: np.ndarray, meas: np.ndarray) -> np.ndarray:
 class WearProblem:
     """Measurements, duty cells and wear parameters of one machine; fits models with any effect set."""
 
-    def __init__(self, cells: DutyCells, params: dict[str, Any], heldout_fraction: float = 0.25,
-                 stroke_detect_min_m: float | None = None):
+    def __init__(self, cells: DutyCells, params: dict[str, Any], heldout_fraction: float = 0.25):
         if cells.measurement_m.size < 6:
             raise ValueError(f"the discrepancy workflow needs at least 6 straightness measurements, "
                              f"the bag has {cells.measurement_m.size}")
@@ -112,8 +124,7 @@ class WearProblem:
         if params.get("stroke_min_m", 0) > 0 and params.get("stroke_max_m", 0) > 0:
             self.stroke_sum_m = float(params["stroke_min_m"] + params["stroke_max_m"])
         else:
-            detect = stroke_detect_min_m if stroke_detect_min_m is not None else params.get("stroke_detect_min_m", 0.005)
-            strokes = cells.pass_lengths_m[cells.pass_lengths_m >= detect]
+            strokes = cells.pass_lengths_m[cells.pass_lengths_m >= params.get("stroke_detect_min_m", 0.005)]
             if strokes.size == 0:
                 raise ValueError("no strokes longer than stroke_detect_min_m in the bag")
             self.stroke_sum_m = float(strokes.min() + strokes.max())
@@ -128,20 +139,15 @@ class WearProblem:
         # cells before each measurement
         self.cell_index = np.searchsorted(cells.interval, np.arange(n), side="right")
         # direction of the retract: the faster one (a rapid return); equal speeds: negative dx
-        speeds = {}
-        for sign in (1, -1):
-            sel = cells.direction == sign
-            w = cells.work_nm[sel]
-            speeds[sign] = float(np.exp((w * np.log(cells.speed_m_s[sel])).sum() / w.sum())) if w.sum() > 0 else 0.0
+        speeds = {sign: work_weighted_geomean(cells.speed_m_s, cells.work_nm, cells.direction == sign)
+                  for sign in (1, -1)}
         self.retract_sign = 1 if speeds[1] > 1.05 * speeds[-1] else -1
         self.retract = cells.direction == self.retract_sign
-        feed = ~self.retract
-        wf = cells.work_nm[feed]
-        self.feed_speed_m_s = (float(np.exp((wf * np.log(cells.speed_m_s[feed])).sum() / wf.sum()))
-                               if wf.sum() > 0 else float(np.median(cells.speed_m_s)))
+        self.feed_speed_m_s = work_weighted_geomean(cells.speed_m_s, cells.work_nm, ~self.retract)
+        if not self.feed_speed_m_s > 0:
+            self.feed_speed_m_s = float(np.median(cells.speed_m_s))
         self.retract_speed_m_s = speeds[self.retract_sign]
-        w = cells.work_nm
-        self.load_reference_n = float(np.exp((w * np.log(cells.load_n)).sum() / w.sum()))
+        self.load_reference_n = work_weighted_geomean(cells.load_n, cells.work_nm)
         # temperature change at the measurements (relative to the first measurement)
         self.temperature_change_k = None
         if cells.temperature_c.size >= 2:
@@ -164,24 +170,32 @@ class WearProblem:
 
     # --- prediction ----------------------------------------------------------------------------
     def _param_list(self, effects: tuple[str, ...]) -> list[ParamSpec]:
-        specs = [ParamSpec("wear_coefficient", "-", 0.0, math.inf, False, (1.0,))]
+        specs = [ParamSpec("wear_coefficient", "-", 0.0, math.inf)]     # starts from _k_start()
         if self.a0_free:
             specs.append(ParamSpec("straightness_initial_m", "m", -1e-3, 1e-3, False, (0.0,)))
         for e in effects:
             specs.extend(self.specs[e])
         return specs
 
+    # Inside the fit, K is relative to the configured K0 and lengths are in um (um/K): one conversion
+    # for bounds, starts, results and standard errors.
+    def _to_internal(self, spec: ParamSpec, value: float) -> float:
+        if spec.log:
+            return math.log(value)
+        if spec.name == "wear_coefficient":
+            return value / self.k0
+        return value * UM if spec.unit in MICRO_UNITS else value
+
+    def _internal_factor(self, spec: ParamSpec) -> float:
+        """d(physical)/d(internal) of a linear parameter."""
+        if spec.name == "wear_coefficient":
+            return self.k0
+        return 1e-6 if spec.unit in MICRO_UNITS else 1.0
+
     def _physical(self, specs: list[ParamSpec], x: np.ndarray) -> dict[str, float]:
-        """Internal vector -> physical values (K relative to K0, lengths in um inside the fit)."""
-        out = {}
-        for spec, xi in zip(specs, x):
-            v = math.exp(xi) if spec.log else float(xi)
-            if spec.name == "wear_coefficient":
-                v *= self.k0
-            elif spec.unit in ("m", "m/K") and not spec.log:
-                v *= 1e-6                     # fitted in um, um/K
-            out[spec.name] = v
-        return out
+        """Internal vector -> physical values."""
+        return {spec.name: math.exp(xi) if spec.log else float(xi) * self._internal_factor(spec)
+                for spec, xi in zip(specs, x)}
 
     def predict_m(self, values: dict[str, float]) -> np.ndarray:
         """Measured straightness [m] at every measurement for physical parameter values."""
@@ -222,21 +236,17 @@ class WearProblem:
         def residual(x):
             return self.predict_m(self._physical(specs, x))[fit] * UM - y_um
 
-        lower = np.array([math.log(s.lower) if s.log else (s.lower * UM if s.unit in ("m", "m/K") else s.lower)
-                          for s in specs])
-        upper = np.array([math.log(s.upper) if s.log else (s.upper * UM if s.unit in ("m", "m/K") else s.upper)
-                          for s in specs])
+        lower = np.array([self._to_internal(s, s.lower) for s in specs])
+        upper = np.array([self._to_internal(s, s.upper) for s in specs])
         k_start = self._k_start()
         starts = [[]]
         for s in specs:
-            vals = list(s.starts)
-            if s.name == "wear_coefficient":
-                vals = [k_start]
             if warm is not None and s.name in warm.values:
-                v = warm.values[s.name]
-                vals = [v / self.k0 if s.name == "wear_coefficient" else
-                        (v * UM if (s.unit in ("m", "m/K") and not s.log) else v)]
-            vals = [math.log(v) if s.log else v for v in vals]
+                vals = [self._to_internal(s, warm.values[s.name])]
+            elif s.name == "wear_coefficient":
+                vals = [k_start]                        # already relative to K0
+            else:
+                vals = [self._to_internal(s, v) for v in s.starts]
             starts = [st + [v] for st in starts for v in vals]
         best = None
         for x0 in starts:
@@ -260,15 +270,7 @@ class WearProblem:
         se = {}
         for i, spec in enumerate(specs):
             sd_int = math.sqrt(max(cov[i, i], 0.0))
-            v = values[spec.name]
-            if spec.log:
-                se[spec.name] = abs(v) * sd_int
-            elif spec.name == "wear_coefficient":
-                se[spec.name] = sd_int * self.k0
-            elif spec.unit in ("m", "m/K"):
-                se[spec.name] = sd_int * 1e-6
-            else:
-                se[spec.name] = sd_int
+            se[spec.name] = abs(values[spec.name]) * sd_int if spec.log else sd_int * self._internal_factor(spec)
         pred = self.predict_m(values)
         return self._score(effects, values, se, {s.name: s.unit for s in specs}, pred, k, rss, bool(best.success))
 

@@ -31,17 +31,10 @@ EFFECT_MEANING = {
 STEADY_STAGE_DISTANCES = 3.0     # the running-in transient is over after 3 s0 (exp(-3) = 5 %)
 
 
-def _gap(fit: FitResult, problem: WearProblem) -> dict[str, Any]:
-    out = {
-        "rmse_um": fit.rmse_um, "max_rel_error": fit.max_rel_error,
-        "heldout_rmse_um": fit.heldout_rmse_um, "heldout_max_rel_error": fit.heldout_max_rel_error,
-        "bic": fit.bic, "n_params": fit.n_params, "effects": list(fit.effects),
-        "wear_coefficient": fit.values["wear_coefficient"],
-        "wear_coefficient_std_error": fit.std_errors.get("wear_coefficient", math.nan),
-        "parameters": {k: {"value": v, "std_error": fit.std_errors.get(k, math.nan), "unit": fit.units.get(k, "")}
-                       for k, v in fit.values.items()},
-    }
-    return out
+def _gap(fit: FitResult) -> dict[str, Any]:
+    """Scores and parameters of a fit, with K up front."""
+    return {**fit.summary(), "wear_coefficient": fit.values["wear_coefficient"],
+            "wear_coefficient_std_error": fit.std_errors.get("wear_coefficient", math.nan)}
 
 
 def sliding_distance_at_measurements(problem: WearProblem) -> np.ndarray:
@@ -73,18 +66,18 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
                 "rmse_um": f.rmse_um, "heldout_rmse_um": f.heldout_rmse_um,
                 "heldout_improves": r["heldout_improves"], "earns_place": r["earns_place"],
                 "selected": r["selected"],
-                "parameters": {k: {"value": v, "std_error": f.std_errors.get(k, math.nan), "unit": f.units.get(k, "")}
-                               for k, v in f.values.items()},
+                "parameters": f.parameter_table(),
             })
     named = list(selection.named)
+    final_gap = _gap(final)
     effects = {e: {"meaning": EFFECT_MEANING[e],
-                   "parameters": {k: v for k, v in _gap(final, problem)["parameters"].items()
-                                  if k in {s.name for s in problem.specs[e]}}} for e in named}
+                   "parameters": {s.name: final_gap["parameters"][s.name] for s in problem.specs[e]}}
+               for e in named}
     result: dict[str, Any] = {
         "named_effects": named,
         "effects": effects,
-        "baseline": _gap(base, problem),
-        "final": _gap(final, problem),
+        "baseline": _gap(base),
+        "final": final_gap,
         "gap": {
             "rmse_ratio": final.rmse_um / base.rmse_um if base.rmse_um > 0 else math.nan,
             "heldout_rmse_ratio": (final.heldout_rmse_um / base.heldout_rmse_um
