@@ -94,7 +94,7 @@ def trial(bag: Path, env: dict, sub_qos: str, player_args: list[str]) -> dict:
 
 def main() -> int:
     from guide_health.bags import bag_info
-    from guide_health.live_session import clean_fastdds_shm, isolated_ros_env
+    from guide_health.nodes.session import clean_fastdds_shm, isolated_ros_env
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--messages", type=float, default=2e5, help="JointState messages in the bench bag")

@@ -71,7 +71,7 @@ def cpu_seconds(pid: int) -> float:
 
 
 def trial(executor: str, seconds: float, rate: float, env: dict) -> dict:
-    from guide_health.live_session import DiagnosticsCollector, start_node, stop_node
+    from guide_health.nodes.session import DiagnosticsCollector, start_node, stop_node
 
     with tempfile.TemporaryDirectory() as tmp:
         collector = DiagnosticsCollector(f"bench_collector_{executor}")
@@ -105,7 +105,7 @@ def trial(executor: str, seconds: float, rate: float, env: dict) -> dict:
 
 
 def main() -> int:
-    from guide_health.live_session import clean_fastdds_shm, isolated_ros_env
+    from guide_health.nodes.session import clean_fastdds_shm, isolated_ros_env
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seconds", type=float, default=60.0)
