@@ -12,8 +12,7 @@ from rclpy.serialization import serialize_message  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 from std_msgs.msg import Float64  # noqa: E402
 
-from guide_health.diagnostics import PRECISION_KEYS  # noqa: E402
-from guide_health.nodes.wear_monitor import WearMonitorNode  # noqa: E402
+from guide_health.nodes.wear_monitor import PRECISION_KEYS, WearMonitorNode  # noqa: E402
 
 T0 = 1_700_000_000
 
@@ -111,7 +110,7 @@ def test_bad_input_is_rejected_and_never_changes_state(ros_context, tmp_path, pa
         # the log is throttled: one line per reason within the throttle period, the rest counted
         node._on_joint(joint(t + 0.5, [0.002]))
         node._on_joint(joint(t + 0.5, [0.002]))
-        assert node._suppressed.get("joint_states time going backwards", 0) >= 1
+        assert node.rejections.suppressed.get("joint_states time going backwards", 0) >= 1
     finally:
         node.close()
         node.destroy_node()

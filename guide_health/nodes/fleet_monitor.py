@@ -18,9 +18,9 @@ from pathlib import Path
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 
-from guide_health.diagnostics import make_array, make_status
 from guide_health.models.fleet import SUMMARY_KEYS, FleetBoard
 from guide_health.nodes.common import run_node
+from guide_health.nodes.status import StatusTask, StatusUpdater
 from guide_health.params import declare_parameters
 
 FLEET_MONITOR_DEFAULTS = {
@@ -82,13 +82,14 @@ class FleetMonitorNode(Node):
         for key in ("diagnostics_period_s", "stale_after_s", "history_period_s"):
             if not self.params[key] > 0:
                 raise ValueError(f"{key} must be > 0")
-        self.task = "fleet"
         self.board = FleetBoard(self.params["stale_after_s"], ignore_prefix=f"{self.get_name()}: ")
         self.history = (FleetHistory(self.params["history_file"], self.params["history_period_s"])
                         if self.params["history_file"] else None)
         self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 100)
-        self.pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
-        self.create_timer(self.params["diagnostics_period_s"], self.publish)
+        # the board ages silent machines to STALE itself: the task has no stale inputs
+        self.updater = StatusUpdater(self, self.params["machine_id"])
+        self.updater.add(StatusTask("fleet", self._fleet_report, SUMMARY_KEYS))
+        self.create_timer(self.params["diagnostics_period_s"], self.publish_diagnostics)
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
         now = time.monotonic()
@@ -100,11 +101,12 @@ class FleetMonitorNode(Node):
                     and self.history is not None:
                 self.history.record(wall, status.hardware_id, status.name, level, status.message, values)
 
-    def publish(self) -> None:
+    def _fleet_report(self) -> tuple[int, str, dict]:
         summary = self.board.summary(time.monotonic())
-        status = make_status(self.get_name(), self.task, self.params["machine_id"], summary["level"],
-                             summary["message"], summary, SUMMARY_KEYS)
-        self.pub.publish(make_array(self.get_clock().now().to_msg(), [status]))
+        return summary["level"], summary["message"], summary
+
+    def publish_diagnostics(self) -> None:
+        self.updater.update()
         if self.history is not None:
             self.history.commit()
 

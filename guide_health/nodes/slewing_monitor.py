@@ -9,24 +9,25 @@ from __future__ import annotations
 
 import math
 import sys
-import time
 
-from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from guide_health.diagnostics import ROLLER_CONTACT_KEYS, make_array, make_status
 from guide_health.models.roller_contact import SLEWING_MONITOR_DEFAULTS
 from guide_health.models.slewing import SlewingMonitor
 from guide_health.nodes.common import run_node
+from guide_health.nodes.status import StatusTask, StatusUpdater
 from guide_health.params import declare_parameters
 
 # reliable keep_all: a lagging node pushes back on a reliable writer instead of dropping loads
 DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1, reliability=ReliabilityPolicy.RELIABLE)
+# status keys (README "Diagnostics"): ROLLER_CONTACT_KEYS always, 'nan' until known; EXTRA_KEYS when known
+ROLLER_CONTACT_KEYS = ("roller_load_max_n", "p0_hertz_MPa", "p0_center_MPa", "p0_end_MPa", "end_stress_ratio",
+                       "von_mises_max_MPa", "von_mises_depth_mm", "shear_max_MPa", "allowable_MPa")
 EXTRA_KEYS = ("p_max_MPa", "p_max_position_mm", "shear_depth_mm", "axial_main_row_max_n",
               "axial_opposite_row_max_n", "radial_row_max_n", "worst_row", "loads_in_period", "rejected_loads")
-LOG_THROTTLE_S = 5.0
+LOG_THROTTLE_S = 5.0        # at most one rejected-load warning per period; it carries the running count
 
 
 def wrench_to_loads(msg: WrenchStamped) -> tuple[float, float, float]:
@@ -41,28 +42,22 @@ class SlewingMonitorNode(Node):
         params = declare_parameters(self, SLEWING_MONITOR_DEFAULTS)
         self.core = SlewingMonitor(params)
         self.params = params
-        self._last_arrival: float | None = None
-        self._last_log = 0.0
+        self.updater = StatusUpdater(self, params["machine_id"], params["input_timeout_s"])
+        self.updater.add(StatusTask(f"{params['bearing']} roller contact", self.core.period_report,
+                                    ROLLER_CONTACT_KEYS, EXTRA_KEYS, stale_inputs=("slewing/load",)))
+        self.diag_pub = self.updater.publisher
         self.create_subscription(WrenchStamped, "slewing/load", self._on_load, DATA_QOS)
-        self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_timer(params["diagnostics_period_s"], self.publish_diagnostics)
 
     def _on_load(self, msg: WrenchStamped) -> None:
-        self._last_arrival = time.monotonic()
+        self.updater.touch("slewing/load")
         reason = self.core.on_loads(*wrench_to_loads(msg))
-        if reason and time.monotonic() - self._last_log > LOG_THROTTLE_S:
-            self.get_logger().warning(f"rejected load: {reason} ({self.core.rejected} so far)")
-            self._last_log = time.monotonic()
+        if reason:
+            self.get_logger().warning(f"rejected load: {reason} ({self.core.rejected} so far)",
+                                      throttle_duration_sec=LOG_THROTTLE_S)
 
     def publish_diagnostics(self) -> None:
-        level, message, values = self.core.period_report()
-        silent = self._last_arrival is None or time.monotonic() - self._last_arrival > self.params["input_timeout_s"]
-        if silent:
-            level = 3
-            message = f"no data on slewing/load for {self.params['input_timeout_s']:g} s; " + message
-        status = make_status(self.get_name(), f"{self.params['bearing']} roller contact", self.params["machine_id"],
-                             level, message, values, ROLLER_CONTACT_KEYS + EXTRA_KEYS)
-        self.diag_pub.publish(make_array(self.get_clock().now().to_msg(), [status]))
+        self.updater.update()
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -17,7 +17,6 @@ import math
 import sys
 import time
 
-from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -26,15 +25,9 @@ from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
 
 from guide_health.bags import JOINT_STATE, MISSING, WRENCH_STAMPED, RawMessageDecoder
-from guide_health.diagnostics import (
-    EXTRA_PRECISION_KEYS,
-    FATIGUE_KEYS,
-    PRECISION_KEYS,
-    make_array,
-    make_status,
-)
-from guide_health.models.precision import STALE, PrecisionMonitor, StampAlignedFeed
+from guide_health.models.precision import PrecisionMonitor, StampAlignedFeed
 from guide_health.nodes.common import run_node
+from guide_health.nodes.status import RejectionLog, StatusTask, StatusUpdater
 from guide_health.params import (
     WEAR_MONITOR_DEFAULTS,
     declare_parameters,
@@ -46,10 +39,17 @@ from guide_health.state_store import StateStore
 # (back-pressure) instead of the reader overwriting unprocessed samples as keep_last would; a sensor
 # publishing best-effort or keep_last still connects (the reader's QoS is the weaker side of neither).
 DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1, reliability=ReliabilityPolicy.RELIABLE)
-LOG_THROTTLE_S = 5.0
+# status keys (README "Diagnostics"): the first tuple of each task always, 'nan' until known; the rest when known
+PRECISION_KEYS = ("straightness_um", "straightness_measured_um", "straightness_limit_um", "remaining_life_h",
+                  "remaining_life_h_low", "remaining_life_h_high", "wear_volume_mm3", "sliding_distance_m",
+                  "wear_coefficient", "lubrication_regime")
+EXTRA_PRECISION_KEYS = ("wear_coefficient_low", "wear_coefficient_high", "measurements", "duty_load_speed_w",
+                        "stroke_min_m", "stroke_max_m", "strokes", "rejected_samples", "samples")
 TIMING_KEYS = ("load_samples", "callback_time_us", "model_time_us")
 ROLLING_PRECISION_KEYS = ("lambda", "asperity_load_share", "boundary_share_recent", "boundary_share_total")
+FATIGUE_KEYS = ("equivalent_load_n", "rating_life_km", "travel_km", "life_used_fraction", "remaining_life_km")
 EXTRA_FATIGUE_KEYS = ("duty_load_n", "carriages")
+INPUTS = ("joint_states", "guide/load")     # silent for input_timeout_s: every status STALE
 
 
 def stamp_ns(header) -> int:
@@ -67,19 +67,36 @@ class WearMonitorNode(Node):
         self.state_key = f"{params['machine_id']}/{self.joint}/precision"
         self.store = StateStore(params["state_file"]) if params["state_file"] else None
         if self.store is not None:
-            saved = self.store.load(self.state_key)
-            if saved is not None:
-                self.monitor.restore(saved)
-                self.get_logger().info(
-                    f"resumed from {params['state_file']}: {self.monitor.integrator.sliding_distance_m:.1f} m slid, "
-                    f"{self.monitor.estimator.count} measurements")
+            self._resume()
         self.feed = StampAlignedFeed(self.monitor, params["input_align_window_s"])
-        self._last_arrival = {"joint_states": None, "guide/load": None}
-        self._last_log: dict[str, float] = {}
-        self._suppressed: dict[str, int] = {}
+        self.rejections = RejectionLog(self.get_logger())
         self.temperature_c = math.nan
+        # cost accounting since start: callback wall time per message and the model's part of it
+        self._callback_s = 0.0
+        self._model_s = 0.0
+        self._callbacks = 0
 
+        self.updater = StatusUpdater(self, params["machine_id"], params["input_timeout_s"])
+        self.diag_pub = self.updater.publisher
+        self.precision_task = f"{self.joint} precision"
+        self._add_status_tasks()
         self.raw = params.get("executor", "events") == "events"
+        self._subscribe_inputs()
+        self.pred_pub = self.create_publisher(Float64, "guide/straightness_predicted", 10)
+        self.life_pub = self.create_publisher(Float64, "guide/remaining_life", 10)
+        self.create_timer(params["diagnostics_period_s"], self.publish_diagnostics)
+        if self.store is not None:
+            self.create_timer(params["checkpoint_period_s"], self.checkpoint)
+
+    def _resume(self) -> None:
+        saved = self.store.load(self.state_key)
+        if saved is not None:
+            self.monitor.restore(saved)
+            self.get_logger().info(
+                f"resumed from {self.params['state_file']}: {self.monitor.integrator.sliding_distance_m:.1f} m "
+                f"slid, {self.monitor.estimator.count} measurements")
+
+    def _subscribe_inputs(self) -> None:
         if self.raw:
             self._joint_decoder = RawMessageDecoder(JOINT_STATE, ("sec", "nsec", "position", "velocity"),
                                                     self.joint)
@@ -89,36 +106,24 @@ class WearMonitorNode(Node):
         else:
             self.create_subscription(JointState, "joint_states", self._on_joint, DATA_QOS)
             self.create_subscription(WrenchStamped, "guide/load", self._on_load, DATA_QOS)
-        # cost accounting since start: callback wall time per message and the model's part of it
-        self._callback_s = 0.0
-        self._model_s = 0.0
-        self._callbacks = 0
         self.create_subscription(Float64, "guide/straightness", self._on_straightness, DATA_QOS)
         self.create_subscription(Temperature, "guide/temperature", self._on_temperature, DATA_QOS)
-        self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
-        self.pred_pub = self.create_publisher(Float64, "guide/straightness_predicted", 10)
-        self.life_pub = self.create_publisher(Float64, "guide/remaining_life", 10)
-        self.create_timer(params["diagnostics_period_s"], self.publish_diagnostics)
-        if self.store is not None:
-            self.create_timer(params["checkpoint_period_s"], self.checkpoint)
+
+    def _add_status_tasks(self) -> None:
+        rolling = self.monitor.rolling is not None
+        self.updater.add(StatusTask(
+            self.precision_task, self._precision_report, PRECISION_KEYS,
+            EXTRA_PRECISION_KEYS + TIMING_KEYS + (ROLLING_PRECISION_KEYS if rolling else ()), stale_inputs=INPUTS))
+        if rolling:
+            self.updater.add(StatusTask(f"{self.joint} fatigue", self._fatigue_report, FATIGUE_KEYS,
+                                        EXTRA_FATIGUE_KEYS, stale_inputs=INPUTS, stale_prefix="no data on {inputs}; "))
 
     # --- inputs ----------------------------------------------------------------------------------
     def _rejected(self, reason: str | None) -> None:
-        if reason is None:
-            return
-        now = time.monotonic()
-        last = self._last_log.get(reason)
-        if last is None or now - last >= LOG_THROTTLE_S:
-            more = self._suppressed.pop(reason, 0)
-            suffix = f" (+{more} more since last report)" if more else ""
-            self.get_logger().warning(f"rejected input: {reason}{suffix}")
-            self._last_log[reason] = now
-        else:
-            self._suppressed[reason] = self._suppressed.get(reason, 0) + 1
+        self.rejections.log(reason)
 
     def _rejected_all(self, reasons: list) -> None:
-        for reason in reasons:
-            self._rejected(reason)
+        self.rejections.log_all(reasons)
 
     def _on_joint_raw(self, raw: bytes) -> None:
         t0 = time.perf_counter()
@@ -128,12 +133,12 @@ class WearMonitorNode(Node):
             try:
                 msg = deserialize_message(raw, JointState)
             except Exception:  # noqa: BLE001 - anything undecodable is malformed input
-                self._last_arrival["joint_states"] = time.monotonic()
+                self.updater.touch("joint_states")
                 self._rejected(self.monitor._reject("malformed joint_states message"))
                 return
             self._on_joint(msg)
             return
-        self._last_arrival["joint_states"] = time.monotonic()
+        self.updater.touch("joint_states")
         sec, nsec, position, velocity = values
         t1 = time.perf_counter()
         reasons = self.feed.joint(sec * 1_000_000_000 + nsec, position, 0.0 if velocity != velocity else velocity,
@@ -149,12 +154,12 @@ class WearMonitorNode(Node):
             try:
                 msg = deserialize_message(raw, WrenchStamped)
             except Exception:  # noqa: BLE001
-                self._last_arrival["guide/load"] = time.monotonic()
+                self.updater.touch("guide/load")
                 self._rejected(self.monitor._reject("malformed guide/load message"))
                 return
             self._on_load(msg)
             return
-        self._last_arrival["guide/load"] = time.monotonic()
+        self.updater.touch("guide/load")
         sec, nsec, force_z = values
         t1 = time.perf_counter()
         reasons = self.feed.load(sec * 1_000_000_000 + nsec, force_z, time.monotonic())
@@ -168,7 +173,7 @@ class WearMonitorNode(Node):
         self._callbacks += 1
 
     def _on_joint(self, msg: JointState) -> None:
-        self._last_arrival["joint_states"] = time.monotonic()
+        self.updater.touch("joint_states")
         if not msg.name or len(msg.position) == 0:
             self._rejected(self.monitor._reject("empty joint_states arrays"))
             return
@@ -188,7 +193,7 @@ class WearMonitorNode(Node):
         self._account(t1, t1, t2)   # deserialisation happened before the callback: not measurable here
 
     def _on_load(self, msg: WrenchStamped) -> None:
-        self._last_arrival["guide/load"] = time.monotonic()
+        self.updater.touch("guide/load")
         t1 = time.perf_counter()
         reasons = self.feed.load(stamp_ns(msg.header), float(msg.wrench.force.z), time.monotonic())
         t2 = time.perf_counter()
@@ -208,35 +213,20 @@ class WearMonitorNode(Node):
             self.temperature_c = float(msg.temperature)
 
     # --- outputs ---------------------------------------------------------------------------------
-    def stale_inputs(self) -> list[str]:
-        now = time.monotonic()
-        timeout = self.params["input_timeout_s"]
-        return [topic for topic, t in self._last_arrival.items() if t is None or now - t > timeout]
-
-    def publish_diagnostics(self) -> None:
-        self._rejected_all(self.feed.flush_aged(time.monotonic()))
+    def _precision_report(self) -> tuple[int, str, dict]:
         report = self.monitor.report()
         n = self._callbacks
         report["callback_time_us"] = self._callback_s / n * 1e6 if n else math.nan
         report["model_time_us"] = self._model_s / n * 1e6 if n else math.nan
-        level, message = report["level"], report["message"]
-        stale = self.stale_inputs()
-        if stale:
-            level = STALE
-            message = f"no data on {', '.join(stale)} for {self.params['input_timeout_s']:g} s; " + message
-        rolling = self.monitor.rolling is not None
-        status = make_status(self.get_name(), f"{self.joint} precision", self.params["machine_id"], level,
-                             message, report, PRECISION_KEYS + EXTRA_PRECISION_KEYS + TIMING_KEYS
-                             + (ROLLING_PRECISION_KEYS if rolling else ()))
-        statuses = [status]
-        if rolling:
-            fatigue = self.monitor.fatigue_report()
-            f_level, f_message = fatigue["level"], fatigue["message"]
-            if stale:
-                f_level, f_message = STALE, f"no data on {', '.join(stale)}; " + f_message
-            statuses.append(make_status(self.get_name(), f"{self.joint} fatigue", self.params["machine_id"],
-                                        f_level, f_message, fatigue, FATIGUE_KEYS + EXTRA_FATIGUE_KEYS))
-        self.diag_pub.publish(make_array(self.get_clock().now().to_msg(), statuses))
+        return report["level"], report["message"], report
+
+    def _fatigue_report(self) -> tuple[int, str, dict]:
+        fatigue = self.monitor.fatigue_report()
+        return fatigue["level"], fatigue["message"], fatigue
+
+    def publish_diagnostics(self) -> None:
+        self._rejected_all(self.feed.flush_aged(time.monotonic()))
+        report = self.updater.update()[self.precision_task].values
         if math.isfinite(report["straightness_um"]):
             self.pred_pub.publish(Float64(data=report["straightness_um"] * 1e-6))
         if not math.isnan(report["remaining_life_h"]):

@@ -1,0 +1,169 @@
+"""Status tasks and their updater: every node's /diagnostics, in the spirit of diagnostic_updater.
+
+A :class:`StatusTask` is one DiagnosticStatus a node publishes: a task name, a report function returning
+``(level, message, values)``, the keys to publish and the inputs whose silence makes it STALE. The
+:class:`StatusUpdater` of a node owns the input-arrival bookkeeping (``touch(input)`` from each
+subscription callback), runs the tasks, applies the STALE rule once for all of them and publishes one
+DiagnosticArray per ``update()``.
+
+Conventions (diagnostic_updater's, INTERFACES.md): ``name`` = "<node name>: <task>", ``hardware_id`` =
+machine_id, levels OK/WARN/ERROR/STALE (guide_health.models.levels.Level), one human sentence as
+``message``, numbers as KeyValues (plain decimal via repr(float); 'nan' when unknown).
+
+:class:`RejectionLog` is the rejected-input warning: at most once per reason and period, with the count
+of the repeats it held back.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Callable, Iterable, NamedTuple
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+
+from guide_health.models.levels import Level
+
+STALE_PREFIX = "no data on {inputs} for {timeout:g} s; "
+
+
+class Report(NamedTuple):
+    """What a task reports (after the STALE rule, when it comes from the updater)."""
+
+    level: Level
+    message: str
+    values: dict
+
+
+@dataclass(frozen=True)
+class StatusTask:
+    """One published status.
+
+    task: the part after "<node name>: "; report: () -> (level, message, values);
+    keys: published always, 'nan' when absent from values; optional_keys: published when present;
+    stale_inputs: input names (as given to StatusUpdater.touch) whose silence for longer than the
+    updater's input timeout makes the status STALE, with ``stale_prefix`` (formatted with ``inputs``, the
+    silent ones joined by ', ', and ``timeout`` in s) put before the report's message.
+    """
+
+    task: str
+    report: Callable[[], tuple]
+    keys: tuple[str, ...]
+    optional_keys: tuple[str, ...] = ()
+    stale_inputs: tuple[str, ...] = ()
+    stale_prefix: str = STALE_PREFIX
+
+
+def format_value(value) -> str:
+    """A KeyValue's text: true/false, integers as such, floats by repr (nan, inf, -inf), None as nan."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "nan"
+        if math.isinf(value):
+            return "inf" if value > 0 else "-inf"
+        return repr(value)
+    if value is None:
+        return "nan"
+    return str(value)
+
+
+def make_status(name: str, hardware_id: str, report: Report, keys: Iterable[str],
+                optional_keys: Iterable[str] = ()) -> DiagnosticStatus:
+    status = DiagnosticStatus()
+    status.level = bytes([Level(report.level)])
+    status.name = name
+    status.hardware_id = hardware_id
+    status.message = report.message
+    values = report.values
+    status.values = ([KeyValue(key=k, value=format_value(values.get(k, math.nan))) for k in keys]
+                     + [KeyValue(key=k, value=format_value(values[k])) for k in optional_keys if k in values])
+    return status
+
+
+class StatusUpdater:
+    """Runs a node's status tasks and publishes them on /diagnostics.
+
+    hardware_id: the machine_id; input_timeout_s: silence after which a task's stale_inputs make it
+    STALE (None: the node has no such inputs). The publisher is ``self.publisher``; the node's timer
+    calls :meth:`update`.
+    """
+
+    def __init__(self, node, hardware_id: str, input_timeout_s: float | None = None):
+        self.node = node
+        self.hardware_id = hardware_id
+        self.input_timeout_s = input_timeout_s
+        self.tasks: list[StatusTask] = []
+        self.last_arrival: dict[str, float | None] = {}
+        self.publisher = node.create_publisher(DiagnosticArray, "/diagnostics", 10)
+
+    def add(self, task: StatusTask) -> None:
+        if task.stale_inputs and self.input_timeout_s is None:
+            raise ValueError(f"task {task.task!r} has stale inputs but the updater has no input timeout")
+        self.tasks.append(task)
+        for name in task.stale_inputs:
+            self.last_arrival.setdefault(name, None)
+
+    def touch(self, input_name: str) -> None:
+        """A message arrived on `input_name` (valid or not: the input is alive)."""
+        self.last_arrival[input_name] = time.monotonic()
+
+    def silent_inputs(self, names: Iterable[str], now: float) -> list[str]:
+        timeout = self.input_timeout_s
+        return [n for n in names if (t := self.last_arrival.get(n)) is None or now - t > timeout]
+
+    def run(self, task: StatusTask, now: float) -> Report:
+        """The task's report with the STALE rule applied."""
+        level, message, values = task.report()
+        silent = self.silent_inputs(task.stale_inputs, now)
+        if silent:
+            prefix = task.stale_prefix.format(inputs=", ".join(silent), timeout=self.input_timeout_s)
+            return Report(Level.STALE, prefix + message, values)
+        return Report(Level(level), message, values)
+
+    def update(self) -> dict[str, Report]:
+        """Run every task, publish one DiagnosticArray; the reports by task name."""
+        now = time.monotonic()
+        reports = {task.task: self.run(task, now) for task in self.tasks}
+        node_name = self.node.get_name()
+        statuses = [make_status(f"{node_name}: {task.task}", self.hardware_id, reports[task.task], task.keys,
+                                task.optional_keys) for task in self.tasks]
+        array = DiagnosticArray()
+        array.header.stamp = self.node.get_clock().now().to_msg()
+        array.status = statuses
+        self.publisher.publish(array)
+        return reports
+
+
+class RejectionLog:
+    """Warn "<prefix><reason>" at most once per `period_s` per reason, with " (+N more since last report)"
+    for the N repeats held back in between (README: "logs it at most once per 5 s with a count of
+    repeats"). rclpy's ``throttle_duration_sec`` throttles per call site, not per reason, and drops the
+    repeats without counting them, so it cannot keep that promise."""
+
+    def __init__(self, logger, period_s: float = 5.0, prefix: str = "rejected input: "):
+        self.logger = logger
+        self.period_s = float(period_s)
+        self.prefix = prefix
+        self.last_logged: dict[str, float] = {}
+        self.suppressed: dict[str, int] = {}
+
+    def log(self, reason: str | None) -> None:
+        if reason is None:
+            return
+        now = time.monotonic()
+        last = self.last_logged.get(reason)
+        if last is None or now - last >= self.period_s:
+            more = self.suppressed.pop(reason, 0)
+            suffix = f" (+{more} more since last report)" if more else ""
+            self.logger.warning(f"{self.prefix}{reason}{suffix}")
+            self.last_logged[reason] = now
+        else:
+            self.suppressed[reason] = self.suppressed.get(reason, 0) + 1
+
+    def log_all(self, reasons: Iterable[str | None]) -> None:
+        for reason in reasons:
+            self.log(reason)
