@@ -18,13 +18,13 @@ from pathlib import Path
 
 from guide_health.bags import read_machine_bag, write_machine_bag
 from guide_health.commands.replay import analyse, write_outputs
+from guide_health.models.levels import LEVEL_NAMES
 from guide_health.nodes.session import (DiagnosticsCollector, clean_fastdds_shm, isolated_ros_env, play_bag,
                                         start_node, stop_node)
 from guide_health.params import simulation_params, wear_monitor_params
 from guide_health.simulate import simulate_machine
 
 ROOT = Path(__file__).resolve().parents[1]
-LEVELS = {0: "OK", 1: "WARN", 2: "ERROR", 3: "STALE"}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -80,14 +80,14 @@ def main(argv: list[str] | None = None) -> int:
     print("[3/3] offline replay of the same bag ...", file=sys.stderr)
     offline_run = read_machine_bag(bag, joint=params["joint"])
     monitor, offline = analyse(offline_run, params)
-    offline["level_name"] = LEVELS[offline["level"]]
+    offline["level_name"] = LEVEL_NAMES[offline["level"]]
     files = write_outputs(out / "report", monitor, offline, plot=True)
 
     v = live["values"]
     f = lambda key: float(v.get(key, "nan"))  # noqa: E731
     print()
     print(f"=== guide health report: {live['hardware_id']} / joint {params['joint']} ===")
-    print(f"status            {LEVELS.get(live['level'], live['level'])}: {live['message']}")
+    print(f"status            {LEVEL_NAMES.get(live['level'], live['level'])}: {live['message']}")
     print(f"straightness      {f('straightness_um'):8.2f} um model   {f('straightness_measured_um'):8.2f} um measured"
           f"   limit {f('straightness_limit_um'):.0f} um")
     print(f"remaining life    {f('remaining_life_h'):8.1f} h   (90 %: {f('remaining_life_h_low'):.1f} .. "

@@ -7,7 +7,8 @@ import time
 
 import pytest
 
-from guide_health.models.fleet import ERROR, OK, STALE, WARN, FleetBoard
+from guide_health.models.fleet import FleetBoard
+from guide_health.models.levels import ERROR, OK, STALE, WARN
 
 
 def test_board_counts_levels_and_finds_the_weakest_machine():

@@ -9,10 +9,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-OK, WARN, ERROR, STALE = 0, 1, 2, 3
-LEVEL_NAMES = {OK: "OK", WARN: "WARN", ERROR: "ERROR", STALE: "STALE"}
+from guide_health.models.levels import LEVEL_NAMES, Level
+
 # severity order for "worst": STALE (no data) ranks between WARN and ERROR
-_SEVERITY = {OK: 0, WARN: 1, STALE: 2, ERROR: 3}
+_SEVERITY = {Level.OK: 0, Level.WARN: 1, Level.STALE: 2, Level.ERROR: 3}
 SUMMARY_KEYS = ("machines", "statuses", "ok", "warn", "error", "stale", "worst_machine", "worst_status",
                 "min_remaining_life_h", "min_remaining_life_machine", "max_life_used_fraction",
                 "max_life_used_machine", "max_end_stress_ratio", "max_end_stress_machine")
@@ -29,7 +29,7 @@ def _number(text) -> float:
 class MachineStatus:
     name: str
     hardware_id: str
-    level: int
+    level: Level
     message: str
     values: dict = field(default_factory=dict)
     received_s: float = 0.0
@@ -52,15 +52,15 @@ class FleetBoard:
             return False
         if level not in LEVEL_NAMES:
             return False
-        self.statuses[(hardware_id, name)] = MachineStatus(name, hardware_id, int(level), message,
+        self.statuses[(hardware_id, name)] = MachineStatus(name, hardware_id, Level(level), message,
                                                             dict(values), float(received_s))
         return True
 
-    def effective_level(self, status: MachineStatus, now_s: float) -> int:
-        return STALE if now_s - status.received_s > self.stale_after_s else status.level
+    def effective_level(self, status: MachineStatus, now_s: float) -> Level:
+        return Level.STALE if now_s - status.received_s > self.stale_after_s else status.level
 
     def summary(self, now_s: float) -> dict:
-        counts = {OK: 0, WARN: 0, ERROR: 0, STALE: 0}
+        counts = {level: 0 for level in Level}
         worst, worst_level = None, None
         life = (math.inf, "")
         used = (-math.inf, "")
@@ -84,7 +84,8 @@ class FleetBoard:
         result = {
             "machines": len(machines),
             "statuses": len(self.statuses),
-            "ok": counts[OK], "warn": counts[WARN], "error": counts[ERROR], "stale": counts[STALE],
+            "ok": counts[Level.OK], "warn": counts[Level.WARN], "error": counts[Level.ERROR],
+            "stale": counts[Level.STALE],
             "worst_machine": worst.hardware_id if worst else "",
             "worst_status": worst.name if worst else "",
             "min_remaining_life_h": life[0] if life[1] else math.nan,
@@ -95,15 +96,16 @@ class FleetBoard:
             "max_end_stress_machine": end_ratio[1],
         }
         if worst is None:
-            result["level"], result["message"] = STALE, "no machine has reported yet"
+            result["level"], result["message"] = Level.STALE, "no machine has reported yet"
         else:
             level = worst_level
-            bad = counts[WARN] + counts[ERROR] + counts[STALE]
-            text = (f"{len(machines)} machines, {len(self.statuses)} statuses: {counts[OK]} OK, "
-                    f"{counts[WARN]} WARN, {counts[ERROR]} ERROR, {counts[STALE]} STALE")
+            bad = counts[Level.WARN] + counts[Level.ERROR] + counts[Level.STALE]
+            text = (f"{len(machines)} machines, {len(self.statuses)} statuses: {counts[Level.OK]} OK, "
+                    f"{counts[Level.WARN]} WARN, {counts[Level.ERROR]} ERROR, {counts[Level.STALE]} STALE")
             if bad:
                 text += f"; worst {worst.hardware_id} '{worst.name}' ({LEVEL_NAMES[level]}: {worst.message})"
             # the fleet status is ERROR/WARN with its worst member; silent machines make it WARN
-            result["level"] = ERROR if level == ERROR else (WARN if level in (WARN, STALE) else OK)
+            result["level"] = (Level.ERROR if level == Level.ERROR
+                               else Level.WARN if level in (Level.WARN, Level.STALE) else Level.OK)
             result["message"] = text
         return result
