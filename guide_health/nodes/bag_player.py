@@ -210,118 +210,182 @@ def _publish_blocked(publish, data, timeout_s: float) -> float:
             pause = min(0.05, pause * 2)
 
 
-def play(args, rclpy_args) -> int:
-    import rclpy
-    from rclpy.duration import Duration
-    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-    from rclpy.serialization import deserialize_message
-
-    try:
-        from rclpy._rclpy_pybind11 import RCLError
-    except ImportError:  # pragma: no cover - other rclpy layouts
-        RCLError = RuntimeError
-
-    from guide_health.bags import iter_raw_messages, open_bag
-
+def pacer_from_args(args) -> Pacer:
+    """The pacing of --rate / --max-rate / --burst (default: the DEFAULT_MAX_RATE token bucket)."""
     if args.rate is not None and not args.rate > 0:
         raise InputError("--rate must be > 0")
     max_rate = args.max_rate if args.max_rate is not None else (None if args.rate else DEFAULT_MAX_RATE)
     if max_rate is not None and max_rate < 0:
         raise InputError("--max-rate must be >= 0")
-    pacer = Pacer(args.rate, max_rate or None, args.burst)
+    return Pacer(args.rate, max_rate or None, args.burst)
 
+
+def select_connections(reader, bag, topics: list[str] | None) -> tuple[list, dict[str, str]]:
+    """The bag connections to play (those of `topics` if given; none without messages) and each played
+    topic's message type."""
+    connections = list(reader.connections)
+    if topics:
+        unknown = sorted(set(topics) - {c.topic for c in connections})
+        if unknown:
+            raise InputError(f"topics not in the bag: {', '.join(unknown)}")
+        connections = [c for c in connections if c.topic in set(topics)]
+    connections = [c for c in connections if c.msgcount > 0]   # no publisher for empty topics
+    if not connections:
+        raise InputError(f"no messages to play in {bag}")
+    types = {}
+    for c in connections:
+        if types.setdefault(c.topic, c.msgtype) != c.msgtype:
+            raise InputError(f"topic {c.topic} has several types in the bag")
+    return connections, types
+
+
+def data_qos(depth: int):
+    """Reliable, volatile; keep_last `depth`, or keep_all for depth 0 (publish blocks while reliable
+    keep_all subscribers lag)."""
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+    if depth > 0:
+        return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth,
+                          reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+    return QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1,
+                      reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+
+
+def barrier_publishers(connections, pubs: dict, barrier_types, barrier_sparse: float) -> dict:
+    """For each connection whose messages are barriers (a type in `barrier_types`, or a topic with fewer
+    than `barrier_sparse` of the played messages): the other topics' publishers, whose data must be
+    acknowledged before such a message goes."""
+    barrier_types = set(barrier_types or ())
+    total = int(sum(c.msgcount for c in connections))
+    topic_count: dict[str, int] = {}
+    for c in connections:
+        topic_count[c.topic] = topic_count.get(c.topic, 0) + int(c.msgcount)
+    sparse = {t for t, n in topic_count.items()
+              if len(topic_count) > 1 and n < barrier_sparse * total}
+    return {c.id: [p for topic, p in pubs.items() if topic != c.topic]
+            for c in connections if c.msgtype in barrier_types or c.topic in sparse}
+
+
+@dataclass
+class Playback:
+    """The publishing side of a play: publishers per topic and, per bag connection id, its publish
+    function, message class and barrier publishers."""
+
+    pubs: dict
+    publish: dict
+    msg_class: dict
+    barrier_of: dict
+
+
+def create_playback(node, connections, classes: dict, args) -> Playback:
+    """Publishers for the played topics (message class per bag topic in `classes`), named per --remap-ns."""
+    bag_ns = bag_namespace(list(classes))
+    qos = data_qos(args.depth)
+    pubs = {topic: node.create_publisher(classes[topic], output_topic(topic, bag_ns, args.remap_ns), qos)
+            for topic in classes}
+    return Playback(pubs=pubs,
+                    publish={c.id: pubs[c.topic].publish for c in connections},
+                    msg_class={c.id: classes[c.topic] for c in connections},
+                    barrier_of=barrier_publishers(connections, pubs, args.barrier_types, args.barrier_sparse))
+
+
+def wait_for_subscribers(pubs, count: int, timeout_s: float) -> None:
+    """Until every publisher has >= `count` subscribers; after `timeout_s` warn and go on."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        short = [p.topic_name for p in pubs if p.get_subscription_count() < count]
+        if not short:
+            return
+        if time.monotonic() > deadline:
+            _log(f"warning: fewer than {count} subscribers after {timeout_s:g} s on {', '.join(short)}; "
+                 f"playing anyway")
+            return
+        time.sleep(0.01)
+
+
+def _rcl_error_type() -> type:
+    try:
+        from rclpy._rclpy_pybind11 import RCLError
+    except ImportError:  # pragma: no cover - other rclpy layouts
+        return RuntimeError
+    return RCLError
+
+
+def publish_in_order(messages, playback: Playback, pacer: Pacer, args) -> tuple[int, float, float, float]:
+    """Publish (connection, log time, raw CDR) in bag order when the pacer allows, behind barriers;
+    (messages sent, s blocked by subscribers, monotonic start, s sending)."""
+    from rclpy.duration import Duration
+    from rclpy.serialization import deserialize_message
+
+    RCLError = _rcl_error_type()
+    ack_wait = Duration(seconds=args.ack_timeout)
+    publish, barrier_of, pubs = playback.publish, playback.barrier_of, playback.pubs
+    sent = 0
+    blocked = 0.0
+    t_start = time.monotonic()
+    due = pacer.due
+    for conn, log_t, raw in messages:
+        when = t_start + due(log_t)
+        if when > time.monotonic():
+            _sleep_until(when)
+        data = deserialize_message(raw, playback.msg_class[conn.id]) if args.deserialize else bytes(raw)
+        others = barrier_of.get(conn.id)
+        if others:
+            for other in others:
+                if not other.wait_for_all_acked(ack_wait):
+                    _log(f"warning: {other.topic_name} not acknowledged within {args.ack_timeout:g} s "
+                         f"before a {conn.topic} message; order may not be kept")
+        try:
+            publish[conn.id](data)
+        except RCLError as exc:
+            if "cannot publish" not in str(exc):
+                raise
+            # keep_all writer full: reliable keep_all subscribers lag. Back-pressure: retry.
+            blocked += _publish_blocked(publish[conn.id], data, args.ack_timeout)
+        if others is not None and not pubs[conn.topic].wait_for_all_acked(ack_wait):
+            _log(f"warning: a {conn.topic} message was not acknowledged within {args.ack_timeout:g} s; "
+                 f"later messages may overtake it")
+        sent += 1
+    return sent, blocked, t_start, time.monotonic() - t_start
+
+
+def wait_all_acked(pubs, timeout_s: float) -> bool:
+    """Wait (each at most `timeout_s`) until every publisher's data is acknowledged; True if all were."""
+    from rclpy.duration import Duration
+
+    acked = True
+    for p in pubs:
+        acked &= bool(p.wait_for_all_acked(Duration(seconds=timeout_s)))
+    return acked
+
+
+def play(args, rclpy_args) -> int:
+    import rclpy
+
+    from guide_health.bags import iter_raw_messages, open_bag
+
+    pacer = pacer_from_args(args)
     with open_bag(args.bag) as reader:
-        connections = list(reader.connections)
-        if args.topics:
-            unknown = sorted(set(args.topics) - {c.topic for c in connections})
-            if unknown:
-                raise InputError(f"topics not in the bag: {', '.join(unknown)}")
-            connections = [c for c in connections if c.topic in set(args.topics)]
-        connections = [c for c in connections if c.msgcount > 0]   # no publisher for empty topics
-        if not connections:
-            raise InputError(f"no messages to play in {args.bag}")
-        types = {}
-        for c in connections:
-            if types.setdefault(c.topic, c.msgtype) != c.msgtype:
-                raise InputError(f"topic {c.topic} has several types in the bag")
+        connections, types = select_connections(reader, args.bag, args.topics)
         classes = {topic: message_class(t) for topic, t in types.items()}
-        bag_ns = bag_namespace(list(types))
         total = int(sum(c.msgcount for c in connections))
         start_ns = None if args.start_after_ns is None else int(args.start_after_ns) + 1
 
         rclpy.init(args=rclpy_args)
         try:
             node = rclpy.create_node("bag_player")
-            if args.depth > 0:
-                qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=args.depth,
-                                 reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
-            else:               # keep_all: publish blocks while reliable keep_all subscribers lag
-                qos = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1,
-                                 reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
-            pubs = {topic: node.create_publisher(classes[topic], output_topic(topic, bag_ns, args.remap_ns), qos)
-                    for topic in types}
-            publish = {c.id: pubs[c.topic].publish for c in connections}
-            barrier_types = set(args.barrier_types or ())
-            topic_count: dict[str, int] = {}
-            for c in connections:
-                topic_count[c.topic] = topic_count.get(c.topic, 0) + int(c.msgcount)
-            sparse = {t for t, n in topic_count.items()
-                      if len(topic_count) > 1 and n < args.barrier_sparse * total}
-            barrier_of = {c.id: [p for topic, p in pubs.items() if topic != c.topic]
-                          for c in connections if c.msgtype in barrier_types or c.topic in sparse}
-            ack_wait = Duration(seconds=args.ack_timeout)
-            msg_class = {c.id: classes[c.topic] for c in connections}
-
+            playback = create_playback(node, connections, classes, args)
             if args.wait_subscribers > 0:
-                deadline = time.monotonic() + args.wait_timeout
-                while True:
-                    short = [p.topic_name for p in pubs.values()
-                             if p.get_subscription_count() < args.wait_subscribers]
-                    if not short:
-                        break
-                    if time.monotonic() > deadline:
-                        _log(f"warning: fewer than {args.wait_subscribers} subscribers after "
-                             f"{args.wait_timeout:g} s on {', '.join(short)}; playing anyway")
-                        break
-                    time.sleep(0.01)
+                wait_for_subscribers(playback.pubs.values(), args.wait_subscribers, args.wait_timeout)
             if args.start_delay > 0:
                 time.sleep(args.start_delay)
-
-            sent = 0
-            blocked = 0.0
-            t_start = time.monotonic()
-            due = pacer.due
-            for conn, log_t, raw in iter_raw_messages(reader, connections, args.bag, start_ns):
-                when = t_start + due(log_t)
-                if when > time.monotonic():
-                    _sleep_until(when)
-                data = deserialize_message(raw, msg_class[conn.id]) if args.deserialize else bytes(raw)
-                others = barrier_of.get(conn.id)
-                if others:
-                    for other in others:
-                        if not other.wait_for_all_acked(ack_wait):
-                            _log(f"warning: {other.topic_name} not acknowledged within {args.ack_timeout:g} s "
-                                 f"before a {conn.topic} message; order may not be kept")
-                try:
-                    publish[conn.id](data)
-                except RCLError as exc:
-                    if "cannot publish" not in str(exc):
-                        raise
-                    # keep_all writer full: reliable keep_all subscribers lag. Back-pressure: retry.
-                    blocked += _publish_blocked(publish[conn.id], data, args.ack_timeout)
-                if others is not None and not pubs[conn.topic].wait_for_all_acked(ack_wait):
-                    _log(f"warning: a {conn.topic} message was not acknowledged within {args.ack_timeout:g} s; "
-                         f"later messages may overtake it")
-                sent += 1
-            t_sent = time.monotonic() - t_start
-
-            acked = True
-            for p in pubs.values():
-                acked &= bool(p.wait_for_all_acked(Duration(seconds=args.ack_timeout)))
+            messages = iter_raw_messages(reader, connections, args.bag, start_ns)
+            sent, blocked, t_start, t_sent = publish_in_order(messages, playback, pacer, args)
+            acked = wait_all_acked(playback.pubs.values(), args.ack_timeout)
             t_total = time.monotonic() - t_start
             if not args.quiet:
                 rate = sent / t_sent if t_sent > 0 else float("inf")
-                _log(f"published {sent} of {total} messages on {len(pubs)} topics in {t_sent:.2f} s "
+                _log(f"published {sent} of {total} messages on {len(playback.pubs)} topics in {t_sent:.2f} s "
                      f"({rate:,.0f} msg/s); all acknowledged: {'yes' if acked else 'NO'} "
                      f"after {t_total:.2f} s" + (f"; blocked by subscribers {blocked:.2f} s" if blocked else ""))
             node.destroy_node()
