@@ -17,10 +17,9 @@ from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from guide_health.diagnostics import ROLLER_CONTACT_KEYS, make_array, make_status
-from guide_health.models.roller_contact import SLEWING_MONITOR_DEFAULTS
 from guide_health.models.slewing import SlewingMonitor
 from guide_health.nodes.common import run_node
-from guide_health.params import declare_parameters
+from guide_health.params import SLEWING_MONITOR_SCHEMA, declare_parameters
 
 # reliable keep_all: a lagging node pushes back on a reliable writer instead of dropping loads
 DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1, reliability=ReliabilityPolicy.RELIABLE)
@@ -38,7 +37,7 @@ def wrench_to_loads(msg: WrenchStamped) -> tuple[float, float, float]:
 class SlewingMonitorNode(Node):
     def __init__(self, **kwargs):
         super().__init__("slewing_monitor", **kwargs)
-        params = declare_parameters(self, SLEWING_MONITOR_DEFAULTS)
+        params = declare_parameters(self, SLEWING_MONITOR_SCHEMA)
         self.core = SlewingMonitor(params)
         self.params = params
         self._last_arrival: float | None = None
