@@ -13,37 +13,9 @@ from typing import Any
 import numpy as np
 
 from guide_health.errors import InputError
+from guide_health.params import slewing_simulation_params
 from guide_health.runs import SlewingLoadRun
 from guide_health.simulate import START_TIME_NS
-
-#: duty of a mid-size crane on a 2 m slewing ring (131.32.2000 class); the moment range keeps the
-#: busiest roller near the seed's 103 kN example at the heaviest lifts
-SLEWING_SIMULATION_DEFAULTS: dict[str, Any] = {
-    "duration_h": 0.25,
-    "load_rate_hz": 200.0,
-    "dead_weight_n": 6.0e5,             # superstructure weight on the bearing
-    "dead_moment_nm": 1.5e6,            # counterweight imbalance when empty
-    "payload_max_n": 3.0e5,             # payloads drawn uniformly in [0.2, 1] x this
-    "boom_radius_min_m": 10.0,
-    "boom_radius_max_m": 30.0,
-    "cycle_s": 120.0,                   # hoist 20 % / slew 30 % / lower 20 % / return 30 %
-    "sway_fraction": 0.08,              # dynamic moment amplitude / static moment while slewing
-    "slew_radial_n": 3.0e4,             # inertial radial load peak during slew acceleration
-}
-
-
-def slewing_simulation_params(overrides: dict | None = None) -> dict[str, Any]:
-    p = dict(SLEWING_SIMULATION_DEFAULTS)
-    p.update(overrides or {})
-    for name in ("duration_h", "load_rate_hz", "cycle_s", "boom_radius_min_m", "boom_radius_max_m"):
-        if not float(p[name]) > 0:
-            raise InputError(f"slewing simulation: {name} must be > 0, got {p[name]!r}")
-    if p["boom_radius_max_m"] < p["boom_radius_min_m"]:
-        raise InputError("slewing simulation: boom_radius_max_m < boom_radius_min_m")
-    for name in ("dead_weight_n", "dead_moment_nm", "payload_max_n", "sway_fraction", "slew_radial_n"):
-        if float(p[name]) < 0:
-            raise InputError(f"slewing simulation: {name} must be >= 0, got {p[name]!r}")
-    return p
 
 
 def _smoothstep(u: np.ndarray) -> np.ndarray:

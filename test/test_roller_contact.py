@@ -15,7 +15,9 @@ import pytest
 from scipy import integrate
 
 from guide_health import cli
+from guide_health.errors import InputError
 from guide_health.models import roller_contact as rc
+from guide_health.params import SLEWING_MONITOR_DEFAULTS, validate_slewing_params
 
 # --- seed 003 Sec. 4 example and Table 1 (MPa) ---------------------------------------------------
 E_PA, NU, D_M, L_M, Q_N, FRICTION = 210.0e9, 0.3, 0.032, 0.0313, 103_400.0, 0.1
@@ -31,7 +33,7 @@ JOHNSON_VON_MISES = (0.557, 0.70)
 
 
 def seed_params(**overrides):
-    p = dict(rc.SLEWING_MONITOR_DEFAULTS)
+    p = dict(SLEWING_MONITOR_DEFAULTS)
     p.update(youngs_modulus_pa=E_PA, poisson=NU, roller_diameter_m=D_M, roller_length_m=L_M, friction=FRICTION)
     p.update(overrides)
     return p
@@ -396,8 +398,8 @@ def test_bad_loads_and_params_raise():
         rc.slewing_contact_report(seed_params(), -1.0)
     for bad in ({"poisson": 0.5}, {"roller_count": 0}, {"roller_count": 400}, {"stress_model": "fem"},
                 {"warn_fraction": 1.5}, {"roller_count": 170.0}):
-        with pytest.raises(rc.InputError):
-            rc.validate_slewing_params(seed_params(**bad))
+        with pytest.raises(InputError):
+            validate_slewing_params(seed_params(**bad))
 
 
 def test_numerical_model_unavailable_is_a_value_error(monkeypatch):

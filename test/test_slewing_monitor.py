@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from guide_health.models.roller_contact import (SLEWING_MONITOR_DEFAULTS, SlewingContactModel,
-                                                 axial_row_roller_loads, slewing_contact_report)
+from guide_health.models.roller_contact import SlewingContactModel, axial_row_roller_loads, slewing_contact_report
 from guide_health.models.slewing import SlewingMonitor, analyse_slewing_run
 from guide_health.nodes.slewing_monitor import ROLLER_CONTACT_KEYS
+from guide_health.params import SLEWING_MONITOR_DEFAULTS
 from guide_health.simulate_slewing import simulate_slewing
 
 ROOT = Path(__file__).resolve().parents[1]

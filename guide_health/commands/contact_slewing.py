@@ -15,7 +15,7 @@ from typing import Any
 
 from guide_health.errors import InputError
 from guide_health.models import roller_contact as rc
-from guide_health.params import load_node_params
+from guide_health.params import SLEWING_MONITOR_DEFAULTS, load_node_params, validate_slewing_params
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -44,8 +44,8 @@ def _finite(name: str, value: float | None, allow_negative: bool) -> float | Non
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
     """Compute the report (INTERFACES.md `contact slewing --json` keys)."""
-    params = load_node_params(args.params, "slewing_monitor", rc.SLEWING_MONITOR_DEFAULTS)
-    rc.validate_slewing_params(params)
+    params = load_node_params(args.params, "slewing_monitor", SLEWING_MONITOR_DEFAULTS)
+    validate_slewing_params(params)
     load = _finite("--load-n", args.load_n, allow_negative=False)
     axial = _finite("--axial-n", args.axial_n, allow_negative=True)
     radial = _finite("--radial-n", args.radial_n, allow_negative=False)

@@ -30,8 +30,8 @@ def add_arguments(parser) -> None:
 
 def run_slewing(args) -> dict:
     from guide_health.bags import write_slewing_bag
-    from guide_health.params import load_node_params
-    from guide_health.simulate_slewing import SLEWING_SIMULATION_DEFAULTS, simulate_slewing
+    from guide_health.params import SLEWING_SIMULATION_DEFAULTS, load_node_params
+    from guide_health.simulate_slewing import simulate_slewing
 
     if args.effect:
         raise InputError("--effect applies to machine bags only")

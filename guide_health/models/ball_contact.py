@@ -101,7 +101,7 @@ mean-plane separation h = t sigma is
     F_n(t) = int_t^inf (s - t)^n phi(s) ds  (phi: standard normal density; scipy.integrate.quad),
 and must equal the asperity share of the mean Hertz pressure, p_a = w/(gamma_2 A_H). One unknown (t) is
 solved with brentq. Real (micro-)contact area: A_r/A_H = pi^2 (eta_s beta sigma)^2 F_2(t) (closed form).
-Asperity parameters (``ASPERITY_RADIUS_M`` = 2 um, ``ASPERITY_DENSITY_PER_M2`` = 1.7e11 1/m^2, summit sigma =
+Asperity parameters (``asperity_radius_m`` = 2 um, ``asperity_density_per_m2`` = 1.7e11 1/m^2, summit sigma =
 composite sigma): eta_s beta sigma = 0.068, sigma/beta = 0.1, as for a finely ground surface measured at
 sub-micron sampling (Nayak, isotropic Gaussian: eta beta sigma = sqrt(alpha_B)/(16 sqrt(3 pi)) = 0.068 at bandwidth
 alpha_B = 11, and sigma/beta = 8 sqrt(alpha_B) Dq^2/(3 sqrt(pi)) = 0.1 at RMS slope Dq = 0.14). They are an
@@ -156,6 +156,8 @@ from scipy.integrate import quad
 from scipy.optimize import brentq
 from scipy.special import ellipe, ellipk
 
+from guide_health.params import WEAR_MONITOR_DEFAULTS
+
 # --- Hamrock & Dowson (1977) point-contact film fits (dimensionless exponents/coefficients) ---
 HD_CENTRAL_COEFF = 2.69
 HD_CENTRAL_U_EXP = 0.67
@@ -172,12 +174,6 @@ JGP_FILM_GAMMA_EXP = HD_CENTRAL_U_EXP - HD_CENTRAL_G_EXP
 LAMBDA_BOUNDARY = 0.03
 LAMBDA_FULL_FILM = 3.0
 REGIMES = ("boundary", "mixed", "full_film")
-
-# --- module-level defaults for parameters that WEAR_MONITOR_DEFAULTS does not (yet) hold ---
-ASPERITY_RADIUS_M = 2.0e-6            # Greenwood-Tripp summit radius beta [m]
-ASPERITY_DENSITY_PER_M2 = 1.7e11      # Greenwood-Tripp summit density eta_s [1/m^2]
-CARRIAGES_SHARING_LOAD = 1            # carriages sharing the vertical guide load equally (seed 001: one)
-OIL_INLET_TEMPERATURE_DEGC = 40.0     # temperature at which oil_viscosity_pa_s is meant (documentation)
 
 ROWS_SUPPORTED = 4
 _SQRT_2PI = math.sqrt(2.0 * math.pi)
@@ -613,9 +609,10 @@ class RollingGuideContact:
             viscosity_pa_s=positive("oil_viscosity_pa_s"),
             pressure_viscosity_pa_inv=positive("pressure_viscosity_pa_inv"),
             composite_rms_m=positive("roughness_rms_m"), youngs_modulus_pa=youngs, poisson=poisson,
-            asperity_radius_m=positive("asperity_radius_m", ASPERITY_RADIUS_M),
-            asperity_density_per_m2=positive("asperity_density_per_m2", ASPERITY_DENSITY_PER_M2),
-            carriages=integer("carriages", CARRIAGES_SHARING_LOAD),
+            asperity_radius_m=positive("asperity_radius_m", WEAR_MONITOR_DEFAULTS["asperity_radius_m"]),
+            asperity_density_per_m2=positive("asperity_density_per_m2",
+                                             WEAR_MONITOR_DEFAULTS["asperity_density_per_m2"]),
+            carriages=integer("carriages", WEAR_MONITOR_DEFAULTS["carriages"]),
             lambda_boundary=lam_b, lambda_full_film=lam_f,
             radius_x_m=r_x, radius_y_m=r_y, reduced_modulus_pa=e_prime,
             ball_stiffness=ball_stiffness_n_per_m15(r_x, r_y, e_prime),

@@ -100,17 +100,13 @@ from typing import Any
 import numpy as np
 from scipy import integrate, optimize
 
-from guide_health.errors import InputError
+from guide_health.params import SLEWING_MONITOR_DEFAULTS, validate_slewing_params
 
 # ----------------------------------------------------------------------------------------------------
-# Constants and parameter defaults
+# Constants (parameters and their defaults: guide_health.params.SLEWING_MONITOR_SCHEMA)
 # ----------------------------------------------------------------------------------------------------
 #: seed 003 Sec. 4 example: 131.32.2000.00Z, E = 210 GPa, nu = 0.3, d = 32 mm, l = 31.3 mm, f = 0.1
 SEED003_EXAMPLE_ROLLER_LOAD_N: float = 103_400.0
-
-#: ISO 76:2006 static load rating reference: 4000 MPa contact stress at the most heavily loaded
-#: roller/raceway contact of roller bearings (through-hardened bearing steel, >= 58 HRC).
-ISO76_ROLLER_CONTACT_STRESS_PA: float = 4.0e9
 
 #: Radial row, line contact, zero clearance: Q_max = F_r / (n J_r(0.5)), J_r = 0.2453 -> 4.08
 #: (Stribeck; Harris & Kotzalas, Rolling Bearing Analysis, 5th ed., Essential Concepts, Ch. 7).
@@ -123,94 +119,6 @@ EQ5_END_CONSTANT: float = 1.193
 PALMGREN_LOAD_EXPONENT: float = 0.925
 PALMGREN_LENGTH_EXPONENT: float = 0.85
 PALMGREN_STIFFNESS_EQ7: float = 2.47e4
-
-SLEWING_MONITOR_DEFAULTS: dict[str, Any] = {
-    "machine_id": "machine",
-    "bearing": "131.32.2000.00Z",
-    # geometry of the seed 003 bearing (JB/T 2300 designation 13 1 .32 .2000: three-row roller,
-    # roller diameter 32 mm, raceway centre diameter D0 = 2000 mm). The seed gives no roller count;
-    # 170 per axial row is an ESTIMATE (pi D0 / 170 = 37 mm pitch = roller + ~5 mm spacer).
-    "roller_count": 170,                    # n, rollers per axial row
-    "radial_roller_count": 0,               # n_r of the radial row, 0 = same as roller_count (assumed)
-    "raceway_diameter_m": 2.0,              # D0
-    "roller_diameter_m": 0.032,             # d
-    "roller_length_m": 0.0313,              # l_e (effective contact length)
-    "youngs_modulus_pa": 210.0e9,
-    "poisson": 0.3,
-    "friction": 0.1,                        # f_s (seed 003 Sec. 4)
-    "allowable_contact_stress_pa": ISO76_ROLLER_CONTACT_STRESS_PA,
-    "warn_fraction": 0.8,
-    "stress_model": "seed003",              # seed003 | numerical
-    # roller profile for the numerical model (INTERFACES.md)
-    "roller_profile": "straight",           # straight | crowned | logarithmic
-    "roller_end_radius_m": 1.0e-3,          # edge blend radius r (assumed ~1 mm for d = 32 mm)
-    "crown_drop_m": 15.0e-6,                # crowned: drop at the roller ends (assumed)
-    "log_profile_coeff_m": 0.00035 * 0.032,  # ISO/TS 16281: 0.00035 D; 0 = Lundberg 2P'/(pi E*)
-    # numerical model live: solved once on a log-spaced load grid, interpolated per message
-    "numerical_table_min_load_n": 2.0e3,
-    "numerical_table_max_load_n": 4.0e5,
-    "numerical_table_loads": 16,
-    "diagnostics_period_s": 1.0,
-    "input_timeout_s": 2.0,
-}
-
-STRESS_MODELS = ("seed003", "numerical")
-ROLLER_PROFILES = ("straight", "crowned", "logarithmic")
-
-
-def validate_slewing_params(params: dict[str, Any]) -> None:
-    """Check slewing_monitor parameters; raise :class:`InputError` with a one-line reason."""
-    for name in ("machine_id", "bearing", "stress_model", "roller_profile"):
-        if not isinstance(params.get(name), str):
-            raise InputError(f"parameter {name} must be a string, got {params.get(name)!r}")
-    for name in ("roller_count", "radial_roller_count"):
-        value = params.get(name)
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise InputError(f"parameter {name} must be an integer, got {value!r}")
-    if params["roller_count"] < 1:
-        raise InputError(f"parameter roller_count must be >= 1, got {params['roller_count']!r}")
-    if params["radial_roller_count"] < 0:
-        raise InputError(f"parameter radial_roller_count must be >= 0, got {params['radial_roller_count']!r}")
-    numbers = ("raceway_diameter_m", "roller_diameter_m", "roller_length_m", "youngs_modulus_pa", "poisson",
-               "friction", "allowable_contact_stress_pa", "warn_fraction", "roller_end_radius_m",
-               "crown_drop_m", "log_profile_coeff_m", "diagnostics_period_s", "input_timeout_s")
-    for name in numbers:
-        value = params.get(name)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise InputError(f"parameter {name} must be a finite number, got {value!r}")
-    for name in ("raceway_diameter_m", "roller_diameter_m", "roller_length_m", "youngs_modulus_pa",
-                 "allowable_contact_stress_pa", "diagnostics_period_s", "input_timeout_s"):
-        if not params[name] > 0:
-            raise InputError(f"parameter {name} must be > 0, got {params[name]!r}")
-    if not 0.0 <= params["poisson"] < 0.5:
-        raise InputError(f"parameter poisson must be in [0, 0.5), got {params['poisson']!r}")
-    if not 0.0 <= params["friction"] < 1.0:
-        raise InputError(f"parameter friction must be in [0, 1), got {params['friction']!r}")
-    if not 0.0 < params["warn_fraction"] <= 1.0:
-        raise InputError(f"parameter warn_fraction must be in (0, 1], got {params['warn_fraction']!r}")
-    if params["stress_model"] not in STRESS_MODELS:
-        raise InputError(f"parameter stress_model must be one of {STRESS_MODELS}, got {params['stress_model']!r}")
-    if params["roller_profile"] not in ROLLER_PROFILES:
-        raise InputError(f"parameter roller_profile must be one of {ROLLER_PROFILES}, "
-                         f"got {params['roller_profile']!r}")
-    lo = params.get("numerical_table_min_load_n", SLEWING_MONITOR_DEFAULTS["numerical_table_min_load_n"])
-    hi = params.get("numerical_table_max_load_n", SLEWING_MONITOR_DEFAULTS["numerical_table_max_load_n"])
-    n_table = params.get("numerical_table_loads", SLEWING_MONITOR_DEFAULTS["numerical_table_loads"])
-    if not (isinstance(lo, (int, float)) and isinstance(hi, (int, float)) and 0 < lo < hi):
-        raise InputError("numerical_table_min_load_n/numerical_table_max_load_n: need 0 < min < max")
-    if isinstance(n_table, bool) or not isinstance(n_table, int) or n_table < 4:
-        raise InputError(f"parameter numerical_table_loads must be an integer >= 4, got {n_table!r}")
-    for name in ("roller_end_radius_m", "crown_drop_m", "log_profile_coeff_m"):
-        if params[name] < 0:
-            raise InputError(f"parameter {name} must be >= 0, got {params[name]!r}")
-    if params["roller_end_radius_m"] > 0.5 * params["roller_length_m"]:
-        raise InputError("parameter roller_end_radius_m must not exceed half the roller length")
-    if params["roller_diameter_m"] >= params["raceway_diameter_m"]:
-        raise InputError("roller_diameter_m must be smaller than raceway_diameter_m")
-    if params["roller_count"] * params["roller_diameter_m"] > math.pi * params["raceway_diameter_m"]:
-        raise InputError(f"{params['roller_count']} rollers of {params['roller_diameter_m']} m do not fit on a "
-                         f"raceway of diameter {params['raceway_diameter_m']} m")
-
 
 def _check_load(name: str, value: float, allow_negative: bool = False) -> float:
     value = float(value)

@@ -6,7 +6,8 @@ import math
 
 import numpy as np
 
-from guide_health.models.roller_contact import SlewingContactModel, validate_slewing_params
+from guide_health.models.roller_contact import SlewingContactModel
+from guide_health.params import validate_slewing_params
 
 
 class SlewingMonitor:

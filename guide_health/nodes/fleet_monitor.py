@@ -21,15 +21,7 @@ from rclpy.node import Node
 from guide_health.models.fleet import SUMMARY_KEYS, FleetBoard
 from guide_health.nodes.common import run_node
 from guide_health.nodes.status import StatusTask, StatusUpdater
-from guide_health.params import declare_parameters
-
-FLEET_MONITOR_DEFAULTS = {
-    "machine_id": "fleet",
-    "diagnostics_period_s": 1.0,
-    "stale_after_s": 10.0,
-    "history_file": "",
-    "history_period_s": 60.0,
-}
+from guide_health.params import FLEET_MONITOR_SCHEMA, declare_parameters
 
 HISTORY_SCHEMA = """
 CREATE TABLE IF NOT EXISTS fleet_history (
@@ -78,10 +70,7 @@ class FleetHistory:
 class FleetMonitorNode(Node):
     def __init__(self, **kwargs):
         super().__init__("fleet_monitor", **kwargs)
-        self.params = declare_parameters(self, FLEET_MONITOR_DEFAULTS)
-        for key in ("diagnostics_period_s", "stale_after_s", "history_period_s"):
-            if not self.params[key] > 0:
-                raise ValueError(f"{key} must be > 0")
+        self.params = declare_parameters(self, FLEET_MONITOR_SCHEMA)   # validated: periods > 0
         self.board = FleetBoard(self.params["stale_after_s"], ignore_prefix=f"{self.get_name()}: ")
         self.history = (FleetHistory(self.params["history_file"], self.params["history_period_s"])
                         if self.params["history_file"] else None)

@@ -14,11 +14,10 @@ from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from guide_health.models.roller_contact import SLEWING_MONITOR_DEFAULTS
 from guide_health.models.slewing import SlewingMonitor
 from guide_health.nodes.common import run_node
 from guide_health.nodes.status import StatusTask, StatusUpdater
-from guide_health.params import declare_parameters
+from guide_health.params import SLEWING_MONITOR_SCHEMA, declare_parameters
 
 # reliable keep_all: a lagging node pushes back on a reliable writer instead of dropping loads
 DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1, reliability=ReliabilityPolicy.RELIABLE)
@@ -39,7 +38,7 @@ def wrench_to_loads(msg: WrenchStamped) -> tuple[float, float, float]:
 class SlewingMonitorNode(Node):
     def __init__(self, **kwargs):
         super().__init__("slewing_monitor", **kwargs)
-        params = declare_parameters(self, SLEWING_MONITOR_DEFAULTS)
+        params = declare_parameters(self, SLEWING_MONITOR_SCHEMA)
         self.core = SlewingMonitor(params)
         self.params = params
         self.updater = StatusUpdater(self, params["machine_id"], params["input_timeout_s"])

@@ -28,11 +28,7 @@ from guide_health.bags import JOINT_STATE, MISSING, WRENCH_STAMPED, RawMessageDe
 from guide_health.models.precision import PrecisionMonitor, StampAlignedFeed
 from guide_health.nodes.common import run_node
 from guide_health.nodes.status import RejectionLog, StatusTask, StatusUpdater
-from guide_health.params import (
-    WEAR_MONITOR_DEFAULTS,
-    declare_parameters,
-    validate_wear_params,
-)
+from guide_health.params import WEAR_MONITOR_SCHEMA, declare_parameters
 from guide_health.state_store import StateStore
 
 # Reliable + keep_all: when the callbacks lag, the reader's history fills and a reliable writer waits
@@ -59,8 +55,7 @@ def stamp_ns(header) -> int:
 class WearMonitorNode(Node):
     def __init__(self, **kwargs):
         super().__init__("wear_monitor", **kwargs)
-        params = declare_parameters(self, WEAR_MONITOR_DEFAULTS)
-        validate_wear_params(params)
+        params = declare_parameters(self, WEAR_MONITOR_SCHEMA)   # validated
         self.params = params
         self.joint = params["joint"]
         self.monitor = PrecisionMonitor(params)

@@ -1,0 +1,62 @@
+"""ROS 2 side of the schema: parameter descriptors and declaring a node's parameters.
+
+rcl_interfaces is imported inside the functions, so ``import guide_health.params`` needs no ROS.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from guide_health.params.schema import NodeSchema, Param, coerce_value
+
+INT64_MIN, INT64_MAX = -(2 ** 63), 2 ** 63 - 1
+
+
+def descriptor_for(param: Param):
+    """rcl_interfaces ParameterDescriptor of ``param``: description with the unit, the range (ROS ranges are
+    inclusive: an open end is declared at its closure, the exact interval is in ``additional_constraints``),
+    ``read_only`` unless dynamic, and ``dynamic_typing`` so that an integer value may set a float parameter."""
+    from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+
+    unit = f" [{param.unit}]" if param.unit else ""
+    descriptor = ParameterDescriptor(description=f"{param.description}{unit}", read_only=not param.dynamic,
+                                     dynamic_typing=True)
+    if param.choices:
+        descriptor.additional_constraints = "one of: " + ", ".join(param.choices)
+    elif param.bounds is not None:
+        descriptor.additional_constraints = f"in {param.interval}{param.unit_suffix}"
+        low, high, _, _ = param.bounds
+        if isinstance(param.default, int) and not isinstance(param.default, bool):
+            descriptor.integer_range = [IntegerRange(
+                from_value=int(low) if math.isfinite(low) else INT64_MIN,
+                to_value=int(high) if math.isfinite(high) else INT64_MAX, step=0)]
+        elif isinstance(param.default, float):
+            descriptor.floating_point_range = [FloatingPointRange(from_value=low, to_value=high, step=0.0)]
+    return descriptor
+
+
+def _node_value(value: Any, default: Any) -> Any:
+    """A list parameter comes back from rclpy as an array/tuple: make it a list again."""
+    if isinstance(default, list) and (isinstance(value, (tuple, list)) or hasattr(value, "tolist")):
+        return list(value)
+    return value
+
+
+def declare_parameters(node, schema: NodeSchema) -> dict[str, Any]:
+    """Declare ``schema`` on an rclpy node and return the values coerced and validated like the offline
+    loader does (same numbers live and offline; InputError with the offline message on a bad value).
+
+    Declared first with ``dynamic_typing`` only (so ``6000`` may set a float parameter and a bad value gets
+    the schema's message, not rclpy's), then given the full descriptor (range, read_only) once validated.
+    """
+    from rcl_interfaces.msg import ParameterDescriptor
+
+    values = {}
+    for param in schema.params:
+        node.declare_parameter(param.name, param.default, ParameterDescriptor(dynamic_typing=True))
+        value = _node_value(node.get_parameter(param.name).value, param.default)
+        values[param.name] = coerce_value(param.name, value, param.default)
+    schema.validate(values)
+    for param in schema.params:
+        node.set_descriptor(param.name, descriptor_for(param))
+    return values

@@ -1,0 +1,98 @@
+"""Scenarios of ``guide-health simulate``: a machine axis (section ``guide_health_simulation``, seed 000
+bench by default) and a slewing-bearing crane duty (section ``guide_health_slewing_simulation``).
+
+These sections are read by the CLI only (no node); ``dynamic`` is False throughout.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+from guide_health.errors import InputError
+from guide_health.params.schema import NodeSchema, Param
+
+MACHINE_SIMULATION_PARAMS = (
+    Param("duration_h", 20.0, "h", "(0, inf)", "simulated machine time"),
+    Param("joint_state_rate_hz", 50.0, "Hz", "(0, inf)", "rate of joint_states"),
+    Param("load_rate_hz", 10.0, "Hz", "(0, inf)", "rate of guide/load"),
+    Param("feed_speed_m_s", 0.05, "m/s", "(0, inf)", "feed (working) stroke speed"),
+    Param("retract_speed_m_s", 0.05, "m/s", "(0, inf)", "return stroke speed"),
+    Param("feed_load_n", 6000.0, "N", "[0, inf)", "guide load on the feed stroke"),
+    Param("retract_load_n", 6000.0, "N", "[0, inf)", "guide load on the return stroke"),
+    Param("stroke_mean_m", 0.200, "m", "(0, inf)", "mean stroke (stroke_low_m <= mean <= stroke_high_m)"),
+    Param("stroke_std_m", 0.047, "m", "[0, inf)", "stroke standard deviation"),
+    Param("stroke_low_m", 0.100, "m", "(0, inf)", "shortest stroke (truncation)"),
+    Param("stroke_high_m", 0.300, "m", "(0, inf)", "longest stroke (truncation)"),
+    Param("stroke_skew", 0.0, "-", "", "0 = truncated normal (seed 000); > 0 skewed towards short strokes"),
+    Param("home_position_m", 0.0, "m", "", "axis position the strokes start from"),
+    Param("dwell_s", 0.0, "s", "[0, inf)", "pause after each return stroke"),
+    Param("measurement_interval_h", 0.5, "h", "(0, inf)", "interval of the straightness measurements"),
+    Param("straightness_noise_m", 0.5e-6, "m", "[0, 0.01]", "1-sigma noise of a straightness measurement"),
+    Param("wear_coefficient_factor", 1.0, "-", "(0, 1e6]", "truth K = factor x wear_coefficient"),
+    Param("load_noise_n", 0.0, "N", "[0, inf)", "1-sigma noise of the load sensor"),
+    Param("job_hours", 0.0, "h", "[0, inf)", "mean job length; 0 = one job with the values above"),
+    Param("feed_speed_max_m_s", 0.0, "m/s", "[0, inf)", "per job log-uniform feed_speed_m_s .. this"),
+    Param("feed_load_max_n", 0.0, "N", "[0, inf)", "per job uniform feed_load_n .. this"),
+    Param("retract_load_max_n", 0.0, "N", "[0, inf)", "per job uniform retract_load_n .. min(this, feed load)"),
+    Param("stroke_mean_max_m", 0.0, "m", "[0, inf)", "per job uniform stroke_mean_m .. this"),
+    Param("stroke_skew_max", 0.0, "-", "[0, inf)", "per job stroke_skew + uniform(-this, this)"),
+    Param("running_in_distance_m", 100.0, "m", "(0, inf)", "s0 of the running_in effect (models/wear_effects.py)"),
+    Param("load_reference_n", 1000.0, "N", "(0, inf)", "W_ref of the load_exponent effect"),
+    Param("temperature_rate_hz", 0.0, "Hz", "[0, inf)", "rate of guide/temperature; 0 = no temperature topic"),
+    Param("ambient_temperature_c", 20.0, "degC", "[-100, 200]", "mean ambient temperature"),
+    Param("ambient_swing_k", 1.0, "K", "[0, 100]", "daily amplitude of the ambient temperature"),
+    Param("friction_coefficient", 0.1, "-", "[0, 2]", "mu of the heating power mu W v"),
+    Param("thermal_resistance_k_per_w", 0.15, "K/W", "(0, inf)", "guide temperature rise per heating power"),
+    Param("thermal_time_constant_s", 1800.0, "s", "(0, inf)", "thermal time constant of the guide"),
+    Param("temperature_noise_k", 0.05, "K", "[0, inf)", "1-sigma noise of the temperature sensor"),
+)
+
+
+def _machine_simulation_cross_checks(p: dict[str, Any]) -> None:
+    for name in ("duration_h", "joint_state_rate_hz", "load_rate_hz", "feed_speed_m_s",
+                 "retract_speed_m_s", "measurement_interval_h"):
+        if not p[name] > 0:
+            raise InputError(f"simulation parameter {name} must be > 0, got {p[name]!r}")
+    if not 0 < p["stroke_low_m"] <= p["stroke_mean_m"] <= p["stroke_high_m"]:
+        raise InputError("simulation strokes need 0 < stroke_low_m <= stroke_mean_m <= stroke_high_m")
+
+
+SIMULATION_SCHEMA = NodeSchema("guide_health_simulation", MACHINE_SIMULATION_PARAMS,
+                               _machine_simulation_cross_checks)
+
+#: duty of a mid-size crane on a 2 m slewing ring (131.32.2000 class); the moment range keeps the
+#: busiest roller near the seed's 103 kN example at the heaviest lifts
+SLEWING_SIMULATION_PARAMS = (
+    Param("duration_h", 0.25, "h", "(0, inf)", "simulated time"),
+    Param("load_rate_hz", 200.0, "Hz", "(0, inf)", "rate of slewing/load"),
+    Param("dead_weight_n", 6.0e5, "N", "[0, inf)", "superstructure weight on the bearing"),
+    Param("dead_moment_nm", 1.5e6, "N m", "[0, inf)", "counterweight imbalance when empty"),
+    Param("payload_max_n", 3.0e5, "N", "[0, inf)", "payloads drawn uniformly in [0.2, 1] x this"),
+    Param("boom_radius_min_m", 10.0, "m", "(0, inf)", "shortest boom radius of a lift"),
+    Param("boom_radius_max_m", 30.0, "m", "(0, inf)", "longest boom radius of a lift (>= min)"),
+    Param("cycle_s", 120.0, "s", "(0, inf)", "work cycle: hoist 20 % / slew 30 % / lower 20 % / return 30 %"),
+    Param("sway_fraction", 0.08, "-", "[0, inf)", "dynamic moment amplitude / static moment while slewing"),
+    Param("slew_radial_n", 3.0e4, "N", "[0, inf)", "inertial radial load peak during slew acceleration"),
+)
+
+
+def _slewing_simulation_cross_checks(p: dict[str, Any]) -> None:
+    for name in ("duration_h", "load_rate_hz", "cycle_s", "boom_radius_min_m", "boom_radius_max_m"):
+        if not float(p[name]) > 0:
+            raise InputError(f"slewing simulation: {name} must be > 0, got {p[name]!r}")
+    if p["boom_radius_max_m"] < p["boom_radius_min_m"]:
+        raise InputError("slewing simulation: boom_radius_max_m < boom_radius_min_m")
+    for name in ("dead_weight_n", "dead_moment_nm", "payload_max_n", "sway_fraction", "slew_radial_n"):
+        if float(p[name]) < 0:
+            raise InputError(f"slewing simulation: {name} must be >= 0, got {p[name]!r}")
+
+
+SLEWING_SIMULATION_SCHEMA = NodeSchema("guide_health_slewing_simulation", SLEWING_SIMULATION_PARAMS,
+                                       _slewing_simulation_cross_checks)
+
+
+def slewing_simulation_params(overrides: dict | None = None) -> dict[str, Any]:
+    """Slewing scenario: the defaults updated by ``overrides``, validated."""
+    p = SLEWING_SIMULATION_SCHEMA.defaults()
+    p.update(overrides or {})
+    SLEWING_SIMULATION_SCHEMA.validate(p)
+    return p

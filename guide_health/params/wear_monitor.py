@@ -1,0 +1,111 @@
+"""wear_monitor parameters: sliding guide (seed 000) and rolling guide (seed 001) precision monitoring.
+
+Defaults: the seed 000 bench (45 steel slider on an HT200 rail, Tan et al. 2015) and the seed 001 NSK LH45
+carriage (Wang et al. 2020). Ranges are wide physical bounds, not design limits.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+from guide_health.errors import InputError
+from guide_health.params.schema import NodeSchema, Param
+
+SLIDING_GUIDE_PARAMS = (
+    Param("machine_id", "machine", "", "", "machine name: hardware_id of the diagnostics, key in the state file"),
+    Param("joint", "x", "", "", "the axis to monitor: its name in sensor_msgs/JointState"),
+    Param("guide_type", "sliding", "", "", "sliding (seed 000 Archard wear) or rolling (seed 001 ball guide)",
+          choices=("sliding", "rolling")),
+    Param("contact_width_m", 0.040, "m", "(0, 10]", "b, width of the sliding contact"),
+    Param("hardness_pa", 199.0e6, "Pa", "[1e6, 1e11]", "H of the softer (worn) surface (seed 000: HT200)"),
+    Param("wear_coefficient", 4.42e-6, "-", "[1e-12, 1e-1]", "K, dimensionless Archard wear coefficient"),
+    Param("stroke_min_m", 0.0, "m", "[0, 100]", "l_min, shortest stroke; 0 = estimate from the observed strokes"),
+    Param("stroke_max_m", 0.0, "m", "[0, 100]", "l_max, longest stroke; 0 = estimate from the observed strokes"),
+    Param("stroke_detect_min_m", 0.005, "m", "[0, 1]", "reversal hysteresis: reversals closer than this are jitter"),
+    Param("straightness_initial_m", 15.0e-6, "m", "[0, 0.01]", "A0, straightness of the new guide"),
+    Param("straightness_limit_m", 100.0e-6, "m", "(0, 0.01]", "A_max, absolute straightness limit"),
+    Param("straightness_model", "eq7", "", "", "eq7 (seed 000 Eq. 7) or profile (wear depth along the rail)",
+          choices=("eq7", "profile")),
+    Param("slider_length_m", 0.100, "m", "(0, 10]", "profile model: length of the slider contact"),
+    Param("rail_start_m", -0.100, "m", "[-100, 100]", "profile model: rail coordinate of the first bin"),
+    Param("rail_length_m", 0.500, "m", "(0, 100]", "profile model: rail length covered by bins"),
+    Param("profile_bin_m", 0.001, "m", "(0, 1]", "profile model: bin width"),
+    Param("duty_window_s", 3600.0, "s", "(0, inf)", "window over which the current duty W v is averaged"),
+    Param("straightness_noise_m", 0.5e-6, "m", "[0, 0.01]",
+          "1-sigma noise of a straightness measurement (prior of the K update)"),
+    Param("wear_coefficient_prior_rel_sd", 0.5, "-", "(0, 100]", "prior sd of K relative to the configured K"),
+    Param("life_warn_h", 500.0, "h", "[0, inf)", "WARN when the remaining precision life drops below this",
+          dynamic=True),
+    Param("life_error_h", 100.0, "h", "[0, inf)", "ERROR when the remaining precision life drops below this",
+          dynamic=True),
+    Param("straightness_warn_fraction", 0.8, "-", "(0, 1]",
+          "WARN above this fraction of straightness_limit_m, ERROR above the limit", dynamic=True),
+    Param("diagnostics_period_s", 1.0, "s", "(0, inf)", "period of the /diagnostics status"),
+    Param("input_timeout_s", 5.0, "s", "(0, inf)", "STALE when joint_states/load are silent longer (arrival time)",
+          dynamic=True),
+    Param("checkpoint_period_s", 2.0, "s", "(0, inf)", "period of the SQLite state commit"),
+    Param("input_align_window_s", 0.5, "s", "[0, inf)",
+          "joint samples wait up to this (wall time) for the load stamped before them; 0 = integrate on arrival"),
+    Param("executor", "events", "", "", "events (rclpy EventsExecutor, raw CDR) or single_threaded",
+          choices=("events", "single_threaded")),
+    Param("state_file", "", "", "", "SQLite state file; '' = no persistence"),
+)
+
+ROLLING_GUIDE_PARAMS = (
+    Param("ball_radius_m", 3.9685e-3, "m", "(0, 0.1]", "R1, ball radius"),
+    Param("groove_conformity", 0.52, "-", "(0.5, 1]", "Gf: groove radius = Gf x ball diameter (straight groove)"),
+    Param("contact_angle_deg", 50.0, "deg", "(0, 90)", "alpha, contact angle from the horizontal"),
+    Param("balls_per_row", 10, "-", "[1, 10000]", "loaded balls per row"),
+    Param("rows", 4, "-", "[1, 16]", "ball rows of the carriage (only 4-row carriages are modelled)"),
+    Param("preload_n", 385.0, "N", "[0, 1e6]", "preload per ball contact"),
+    Param("dynamic_load_rating_n", 0.0, "N", "[0, 1e8]", "C of one carriage at rating_distance_km; 0 = unknown"),
+    Param("rolling_element", "ball", "", "", "ball or roller (life exponent 3 or 10/3)", choices=("ball", "roller")),
+    Param("oil_viscosity_pa_s", 0.060, "Pa s", "[1e-5, 100]",
+          "eta_0, dynamic oil viscosity at the operating temperature (VG68 at 40 degC inlet: 0.060)"),
+    Param("pressure_viscosity_pa_inv", 2.0e-8, "1/Pa", "(0, 1e-6]", "alpha, pressure-viscosity coefficient"),
+    Param("roughness_rms_m", 0.2e-6, "m", "(0, 1e-4]", "composite RMS roughness sqrt(Rq_ball^2 + Rq_groove^2)"),
+    Param("asperity_radius_m", 2.0e-6, "m", "(0, 1e-3]", "beta, Greenwood-Tripp asperity summit radius"),
+    Param("asperity_density_per_m2", 1.7e11, "1/m^2", "(0, 1e16]", "eta_s, Greenwood-Tripp summit density"),
+    Param("lambda_boundary", 0.03, "-", "(0, 100]", "boundary below this film/roughness ratio lambda"),
+    Param("lambda_full_film", 3.0, "-", "(0, 100]", "full film from this lambda on (> lambda_boundary)"),
+    Param("life_factors", [1.0, 1.0, 1.0, 1.0], "-", "(0, 10]", "fh (hardness), ft (temperature), fc (contact), "
+          "fw (load/shock) of the rating life"),
+    Param("rating_distance_km", 50.0, "km", "(0, 1e6]", "rating distance of C (50 or 100 km)"),
+    Param("youngs_modulus_pa", 206.0e9, "Pa", "[1e8, 1e12]", "E of ball and raceway"),
+    Param("poisson", 0.3, "-", "[0, 0.5)", "nu of ball and raceway"),
+    Param("carriages", 1, "-", "[1, 1000]", "carriages sharing the guide load equally (fatigue per carriage)"),
+    Param("boundary_window_m", 100.0, "m", "(0, inf)", "travel over which the boundary-lubrication share is judged"),
+    Param("boundary_share_warn", 0.5, "-", "[0, 1]", "WARN when the recent boundary share exceeds this",
+          dynamic=True),
+    Param("life_used_warn", 0.8, "-", "[0, inf)", "WARN when the used fatigue life fraction reaches this",
+          dynamic=True),
+    Param("life_used_error", 1.0, "-", "[0, inf)", "ERROR when the used fatigue life fraction reaches this",
+          dynamic=True),
+)
+
+
+def _wear_cross_checks(p: dict[str, Any]) -> None:
+    for name in ("contact_width_m", "hardness_pa", "wear_coefficient", "slider_length_m",
+                 "profile_bin_m", "rail_length_m", "duty_window_s", "diagnostics_period_s",
+                 "straightness_limit_m"):
+        if not p[name] > 0:
+            raise InputError(f"parameter {name} must be > 0, got {p[name]!r}")
+    for name in ("stroke_min_m", "stroke_max_m", "straightness_initial_m", "straightness_noise_m",
+                 "input_align_window_s"):
+        if p[name] < 0:
+            raise InputError(f"parameter {name} must be >= 0, got {p[name]!r}")
+    if (p["stroke_min_m"] > 0) != (p["stroke_max_m"] > 0) or p["stroke_max_m"] < p["stroke_min_m"]:
+        raise InputError("stroke_min_m/stroke_max_m: both 0 (estimate) or 0 < min <= max")
+    if p["guide_type"] not in ("sliding", "rolling"):
+        raise InputError(f"guide_type must be 'sliding' or 'rolling', got {p['guide_type']!r}")
+    if p.get("executor", "events") not in ("events", "single_threaded"):
+        raise InputError(f"executor must be 'events' or 'single_threaded', got {p['executor']!r}")
+    if p["straightness_model"] not in ("eq7", "profile"):
+        raise InputError(f"straightness_model must be 'eq7' or 'profile', got {p['straightness_model']!r}")
+
+
+WEAR_MONITOR_SCHEMA = NodeSchema("wear_monitor", SLIDING_GUIDE_PARAMS + ROLLING_GUIDE_PARAMS, _wear_cross_checks)
+
+
+def validate_wear_params(p: dict[str, Any]) -> None:
+    """wear_monitor parameters: positive sizes, known model names, stroke limits, then the declared ranges."""
+    WEAR_MONITOR_SCHEMA.validate(p)
