@@ -17,8 +17,7 @@ from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from guide_health.diagnostics import ROLLER_CONTACT_KEYS, make_array, make_status
-from guide_health.models.roller_contact import SLEWING_MONITOR_DEFAULTS
-from guide_health.models.slewing import SlewingMonitor
+from guide_health.models.slewing.monitor import SLEWING_MONITOR_DEFAULTS, SlewingMonitor
 from guide_health.nodes.common import run_node
 from guide_health.params import declare_parameters
 
