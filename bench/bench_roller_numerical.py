@@ -16,7 +16,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from guide_health.models import roller_numerical as rn  # noqa: E402
+from guide_health.models.contact.elastic import effective_modulus_pa  # noqa: E402
+from guide_health.models.slewing import numerical_roller as rn  # noqa: E402
 
 SEED = {"roller_diameter_m": 0.032, "roller_length_m": 0.0313, "youngs_modulus_pa": 210.0e9, "poisson": 0.3,
         "roller_profile": "straight", "crown_drop_m": 0.0, "log_profile_coeff_m": 0.0}
@@ -31,7 +32,7 @@ def main() -> None:
     ap.add_argument("--ny", type=int, default=512)
     args = ap.parse_args()
     params = dict(SEED, roller_end_radius_m=args.end_radius_mm * 1e-3)
-    e_star = rn.composite_modulus_plane_strain(params["youngs_modulus_pa"], params["poisson"])
+    e_star = effective_modulus_pa(params["youngs_modulus_pa"], params["poisson"])
 
     print(f"seed-003 roller, straight, r = {args.end_radius_mm} mm, Q = {SEED_Q:.0f} N")
     print(f"{'grid':>10} {'solve_s':>8} {'iters':>6} {'p_max_MPa':>10} {'p0_c_MPa':>9} {'ratio':>7} {'dp_max':>8}")

@@ -9,7 +9,7 @@ import pytest
 from scipy import stats
 
 from guide_health.cli import main
-from guide_health.models import life as lm
+from guide_health.models.rolling import rating_life, weibull
 
 # Seed 004 (rated dynamic load of rolling linear guides by accelerated life tests), Sec. 4.2, copied here:
 # the project must not read /work/shared at run time.
@@ -23,21 +23,21 @@ SEED_INSPECTION_KM = 5.0
 # --------------------------------------------------------------------------------------------------
 
 def test_seed_ball_ratio_0624():
-    r = lm.c_ratio_from_life(SEED_BALL["load_fraction"], SEED_BALL["life_km"], 50.0, "ball")
+    r = rating_life.c_ratio_from_life(SEED_BALL["load_fraction"], SEED_BALL["life_km"], 50.0, "ball")
     assert r == pytest.approx(SEED_BALL["c_ratio"], rel=0.005)
 
 
 def test_seed_roller_ratio_0852_needs_100km_and_p3():
-    r = lm.c_ratio_from_life(SEED_ROLLER["load_fraction"], SEED_ROLLER["life_km"], 100.0, exponent=3.0)
+    r = rating_life.c_ratio_from_life(SEED_ROLLER["load_fraction"], SEED_ROLLER["life_km"], 100.0, exponent=3.0)
     assert r == pytest.approx(SEED_ROLLER["c_ratio"], rel=0.005)
     # ISO 14728-1 roller exponent p = 10/3 with L_ref = 100 km: (62/100)^(3/10) = 0.866, not the seed's value
-    iso = lm.c_ratio_from_life(SEED_ROLLER["load_fraction"], SEED_ROLLER["life_km"], 100.0, "roller")
+    iso = rating_life.c_ratio_from_life(SEED_ROLLER["load_fraction"], SEED_ROLLER["life_km"], 100.0, "roller")
     assert iso == pytest.approx(0.62 ** 0.3, rel=1e-12)
     assert iso == pytest.approx(0.866, abs=0.0005)
     assert abs(iso / SEED_ROLLER["c_ratio"] - 1) > 0.01
     # with the seed's own 50 km definition the roller would be *above* its catalogue C
     for p in (3.0, 10.0 / 3.0):
-        assert lm.c_ratio_from_life(1.0, 62.0, 50.0, exponent=p) > 1.05
+        assert rating_life.c_ratio_from_life(1.0, 62.0, 50.0, exponent=p) > 1.05
 
 
 def test_c_ratio_inverts_rating_life():
@@ -45,16 +45,16 @@ def test_c_ratio_inverts_rating_life():
     for element in ("ball", "roller"):
         for l_ref in (50.0, 100.0):
             f = 0.4 * c
-            life = lm.rating_life_km(ratio * c, f, element, l_ref, (0.9, 1.0, 0.81, 1.2))
-            back = lm.c_ratio_from_life(0.4, life, l_ref, element, life_factors=(0.9, 1.0, 0.81, 1.2))
+            life = rating_life.rating_life_km(ratio * c, f, element, l_ref, (0.9, 1.0, 0.81, 1.2))
+            back = rating_life.c_ratio_from_life(0.4, life, l_ref, element, life_factors=(0.9, 1.0, 0.81, 1.2))
             assert back == pytest.approx(ratio, rel=1e-12)
 
 
 def test_single_specimen_median_to_b10():
     # Weibull: L10 / L50 = (ln(1/0.9) / ln 2)^(1/beta)
-    b10 = lm.median_to_b_life(450.0, 1.5)
+    b10 = rating_life.median_to_b_life(450.0, 1.5)
     assert b10 == pytest.approx(450.0 * (0.105360516 / 0.693147181) ** (1 / 1.5), rel=1e-8)
-    assert lm.c_ratio_from_life(0.3, b10, 50.0) < SEED_BALL["c_ratio"]
+    assert rating_life.c_ratio_from_life(0.3, b10, 50.0) < SEED_BALL["c_ratio"]
 
 
 # --------------------------------------------------------------------------------------------------
@@ -64,37 +64,37 @@ def test_single_specimen_median_to_b10():
 @pytest.mark.parametrize("element", ["ball", "roller"])
 @pytest.mark.parametrize("l_ref", [50.0, 100.0])
 def test_life_at_rating_load_is_reference_travel(element, l_ref):
-    assert lm.rating_life_km(8000.0, 8000.0, element, l_ref) == pytest.approx(l_ref, rel=1e-14)
+    assert rating_life.rating_life_km(8000.0, 8000.0, element, l_ref) == pytest.approx(l_ref, rel=1e-14)
     p = 3.0 if element == "ball" else 10.0 / 3.0
-    assert lm.rating_life_km(8000.0, 4000.0, element, l_ref) == pytest.approx(l_ref * 2 ** p, rel=1e-13)
+    assert rating_life.rating_life_km(8000.0, 4000.0, element, l_ref) == pytest.approx(l_ref * 2 ** p, rel=1e-13)
     # factors: L = (fh ft fc C / (fw P))^p L_ref
     k = 0.9 * 0.95 * 0.81 / 1.5
-    assert lm.rating_life_km(8000.0, 8000.0, element, l_ref, (0.9, 0.95, 0.81, 1.5)) == pytest.approx(
+    assert rating_life.rating_life_km(8000.0, 8000.0, element, l_ref, (0.9, 0.95, 0.81, 1.5)) == pytest.approx(
         l_ref * k ** p, rel=1e-13)
-    assert lm.load_for_life_n(8000.0, l_ref * 8.0, element, l_ref) == pytest.approx(8000.0 / 8 ** (1 / p))
+    assert rating_life.load_for_life_n(8000.0, l_ref * 8.0, element, l_ref) == pytest.approx(8000.0 / 8 ** (1 / p))
 
 
 def test_rating_conversion_50_to_100_km():
-    assert lm.convert_rating_n(1000.0, 50.0, 100.0, "ball") == pytest.approx(1000.0 / 2 ** (1 / 3), rel=1e-14)
-    assert lm.convert_rating_n(1000.0, 50.0, 100.0, "ball") == pytest.approx(793.70, abs=0.01)
-    assert lm.convert_rating_n(1000.0, 50.0, 100.0, "roller") == pytest.approx(1000.0 * 0.5 ** 0.3, rel=1e-14)
-    assert lm.convert_rating_n(1000.0, 50.0, 100.0, "roller") == pytest.approx(812.25, abs=0.01)
+    assert rating_life.convert_rating_n(1000.0, 50.0, 100.0, "ball") == pytest.approx(1000.0 / 2 ** (1 / 3), rel=1e-14)
+    assert rating_life.convert_rating_n(1000.0, 50.0, 100.0, "ball") == pytest.approx(793.70, abs=0.01)
+    assert rating_life.convert_rating_n(1000.0, 50.0, 100.0, "roller") == pytest.approx(1000.0 * 0.5 ** 0.3, rel=1e-14)
+    assert rating_life.convert_rating_n(1000.0, 50.0, 100.0, "roller") == pytest.approx(812.25, abs=0.01)
     # the same guide: identical life whichever reference its C is quoted for
     for element in ("ball", "roller"):
-        c100 = lm.convert_rating_n(5000.0, 50.0, 100.0, element)
-        assert lm.rating_life_km(c100, 1234.0, element, 100.0) == pytest.approx(
-            lm.rating_life_km(5000.0, 1234.0, element, 50.0), rel=1e-12)
-        assert lm.convert_rating_n(c100, 100.0, 50.0, element) == pytest.approx(5000.0, rel=1e-14)
+        c100 = rating_life.convert_rating_n(5000.0, 50.0, 100.0, element)
+        assert rating_life.rating_life_km(c100, 1234.0, element, 100.0) == pytest.approx(
+            rating_life.rating_life_km(5000.0, 1234.0, element, 50.0), rel=1e-12)
+        assert rating_life.convert_rating_n(c100, 100.0, 50.0, element) == pytest.approx(5000.0, rel=1e-14)
 
 
 def test_rating_rejects_bad_values():
     with pytest.raises(ValueError):
-        lm.rating_life_km(-1.0, 10.0)
+        rating_life.rating_life_km(-1.0, 10.0)
     with pytest.raises(ValueError):
-        lm.life_exponent("needle")
+        rating_life.life_exponent("needle")
     with pytest.raises(ValueError):
-        lm.rating_life_km(1.0, 1.0, life_factors=(1.0, 1.0, 0.0, 1.0))
-    assert lm.rating_life_km(1000.0, 0.0) == math.inf
+        rating_life.rating_life_km(1.0, 1.0, life_factors=(1.0, 1.0, 0.0, 1.0))
+    assert rating_life.rating_life_km(1000.0, 0.0) == math.inf
 
 
 # --------------------------------------------------------------------------------------------------
@@ -114,10 +114,10 @@ def _duty(seed=0, n=5000):
 def test_accumulator_equals_vectorised(element, window):
     ds, load = _duty()
     factors = (1.0, 0.9, 0.81, 1.3)
-    acc = lm.FatigueAccumulator(15_000.0, element, 50.0, factors, recent_window_m=window)
+    acc = rating_life.FatigueAccumulator(15_000.0, element, 50.0, factors, recent_window_m=window)
     for d, f in zip(ds, load):
         acc.add(d, f)
-    vec = lm.miner_summary(ds, load, 15_000.0, element, 50.0, factors, recent_window_m=window)
+    vec = rating_life.miner_summary(ds, load, 15_000.0, element, 50.0, factors, recent_window_m=window)
     for key in ("travel_km", "equivalent_load_n", "rating_life_km", "life_used_fraction",
                 "remaining_life_km", "duty_load_n"):
         assert getattr(acc, key) == pytest.approx(getattr(vec, key), rel=1e-9), key
@@ -127,23 +127,23 @@ def test_accumulator_equals_vectorised(element, window):
 @pytest.mark.parametrize("element", ["ball", "roller"])
 def test_miner_identity(element):
     ds, load = _duty(1)
-    s = lm.miner_summary(ds, load, 9000.0, element, 100.0)
+    s = rating_life.miner_summary(ds, load, 9000.0, element, 100.0)
     # independent: damage sample by sample, sum ds_i / L(F_i)
-    damage = float(np.sum((ds / 1000.0) / lm.rating_life_km(9000.0, load, element, 100.0)))
+    damage = float(np.sum((ds / 1000.0) / rating_life.rating_life_km(9000.0, load, element, 100.0)))
     assert s.life_used_fraction == pytest.approx(damage, rel=1e-10)
     assert s.travel_km / s.rating_life_km == pytest.approx(damage, rel=1e-10)
-    p = lm.life_exponent(element)
+    p = rating_life.life_exponent(element)
     p_eq = (np.sum(np.abs(load) ** p * ds) / np.sum(ds)) ** (1 / p)
     assert s.equivalent_load_n == pytest.approx(p_eq, rel=1e-12)
-    assert lm.equivalent_load_n(ds, load, element) == pytest.approx(p_eq, rel=1e-12)
+    assert rating_life.equivalent_load_n(ds, load, element) == pytest.approx(p_eq, rel=1e-12)
     assert s.remaining_life_km == pytest.approx((1 - damage) * s.rating_life_km, rel=1e-10)
     # the cubic mean lies between the arithmetic mean and the max of |F|
     assert np.average(np.abs(load), weights=ds) < p_eq < np.abs(load).max()
 
 
 def test_constant_load_consumes_its_rating_life():
-    acc = lm.FatigueAccumulator(10_000.0, "ball", 50.0)
-    life = lm.rating_life_km(10_000.0, 5000.0)             # 400 km
+    acc = rating_life.FatigueAccumulator(10_000.0, "ball", 50.0)
+    life = rating_life.rating_life_km(10_000.0, 5000.0)             # 400 km
     for _ in range(100):
         acc.add(life * 1000.0 / 200, 5000.0)              # half the life in 100 steps
     assert acc.life_used_fraction == pytest.approx(0.5, rel=1e-12)
@@ -153,22 +153,22 @@ def test_constant_load_consumes_its_rating_life():
 
 def test_accumulator_state_round_trip_and_recent_duty():
     ds, load = _duty(2, 2000)
-    whole = lm.FatigueAccumulator(15_000.0, "ball", recent_window_m=10.0)
-    first = lm.FatigueAccumulator(15_000.0, "ball", recent_window_m=10.0)
+    whole = rating_life.FatigueAccumulator(15_000.0, "ball", recent_window_m=10.0)
+    first = rating_life.FatigueAccumulator(15_000.0, "ball", recent_window_m=10.0)
     for d, f in zip(ds[:1000], load[:1000]):
         whole.add(d, f)
         first.add(d, f)
-    restored = lm.FatigueAccumulator.from_state(json.loads(json.dumps(first.state())))
+    restored = rating_life.FatigueAccumulator.from_state(json.loads(json.dumps(first.state())))
     for d, f in zip(ds[1000:], load[1000:]):
         whole.add(d, f)
         restored.add(d, f)
     assert restored.diagnostics() == pytest.approx(whole.diagnostics(), rel=1e-12)
     assert restored.samples == whole.samples
     # a re-rated C keeps the sums; a different exponent cannot reuse them
-    rerated = lm.FatigueAccumulator.from_state(whole.state(), dynamic_load_rating_n=30_000.0)
+    rerated = rating_life.FatigueAccumulator.from_state(whole.state(), dynamic_load_rating_n=30_000.0)
     assert rerated.life_used_fraction == pytest.approx(whole.life_used_fraction / 8, rel=1e-12)
     with pytest.raises(ValueError):
-        lm.FatigueAccumulator.from_state(whole.state(), rolling_element="roller")
+        rating_life.FatigueAccumulator.from_state(whole.state(), rolling_element="roller")
     # recent duty: after far more than the window at a new load, the duty load is that load
     for _ in range(400):
         whole.add(0.5, 7000.0)
@@ -177,7 +177,7 @@ def test_accumulator_state_round_trip_and_recent_duty():
 
 
 def test_accumulator_empty_and_bad_samples():
-    acc = lm.FatigueAccumulator(10_000.0)
+    acc = rating_life.FatigueAccumulator(10_000.0)
     assert math.isnan(acc.equivalent_load_n) and math.isnan(acc.remaining_life_km)
     assert acc.life_used_fraction == 0.0 and acc.travel_km == 0.0
     with pytest.raises(ValueError):
@@ -185,7 +185,7 @@ def test_accumulator_empty_and_bad_samples():
     with pytest.raises(ValueError):
         acc.add(0.1, float("nan"))
     with pytest.raises(ValueError):
-        lm.miner_summary([0.1, -0.1], [1.0, 1.0], 100.0)
+        rating_life.miner_summary([0.1, -0.1], [1.0, 1.0], 100.0)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -196,10 +196,10 @@ def test_equal_spacing_hand_example():
     # 1 failure found at 5 km, 2 at 10 km, 4 at 15 km; one suspended at 20 km; one exact at 7.5 km
     lower = [0, 5, 10, 5, 10, 10, 10, 20, 7.5]
     upper = [5, 10, 15, 10, 15, 15, 15, math.inf, 7.5]
-    lives = lm.equal_spacing_lives_km(lower, upper)
+    lives = weibull.equal_spacing_lives_km(lower, upper)
     expected = [2.5, 5 + 5 / 3, 11, 5 + 10 / 3, 12, 13, 14, math.nan, 7.5]
     np.testing.assert_allclose(lives, expected, rtol=1e-14)
-    lo, up = lm.intervals_from_index([1, 3], SEED_INSPECTION_KM)
+    lo, up = weibull.intervals_from_index([1, 3], SEED_INSPECTION_KM)
     np.testing.assert_array_equal(lo, [0.0, 10.0])
     np.testing.assert_array_equal(up, [5.0, 15.0])
 
@@ -210,9 +210,9 @@ def test_weibull_gradient_matches_finite_differences():
     w = np.array([1, 2, 1, 1, 1, 1, 3, 1, 1.0])
     for theta in ([0.3, 3.0], [-0.2, 2.5], [1.5, 3.5]):
         theta = np.array(theta)
-        _, g = lm._weibull_loglik(theta, lo, up, w, grad=True)
+        _, g = weibull._weibull_loglik(theta, lo, up, w, grad=True)
         h = 1e-6
-        num = [(lm._weibull_loglik(theta + e, lo, up, w) - lm._weibull_loglik(theta - e, lo, up, w)) / (2 * h)
+        num = [(weibull._weibull_loglik(theta + e, lo, up, w) - weibull._weibull_loglik(theta - e, lo, up, w)) / (2 * h)
                for e in np.eye(2) * h]
         np.testing.assert_allclose(g, num, rtol=1e-6, atol=1e-6)
 
@@ -220,20 +220,20 @@ def test_weibull_gradient_matches_finite_differences():
 def test_weibull_exact_data_matches_scipy():
     rng = np.random.default_rng(11)
     t = 300.0 * rng.weibull(1.7, 40)
-    fit = lm.fit_weibull(t, t, ci_method="wald")
+    fit = weibull.fit_weibull(t, t, ci_method="wald")
     shape, _, scale = stats.weibull_min.fit(t, floc=0)
     assert fit.shape == pytest.approx(shape, rel=1e-4)
     assert fit.scale_km == pytest.approx(scale, rel=1e-4)
     # vanishing inspection intervals converge to the exact-data fit
-    narrow = lm.fit_weibull(t - 1e-6, t + 1e-6, ci_method="wald")
+    narrow = weibull.fit_weibull(t - 1e-6, t + 1e-6, ci_method="wald")
     assert narrow.shape == pytest.approx(fit.shape, rel=1e-5)
     assert narrow.b10_km == pytest.approx(fit.b10_km, rel=1e-5)
 
 
 def test_weibull_recovers_large_sample():
     beta, eta = 1.5, 40.0
-    _, lo, up = lm.weibull_interval_sample(np.random.default_rng(5), 3000, beta, eta, SEED_INSPECTION_KM)
-    fit = lm.fit_weibull(lo, up, ci_method="wald")
+    _, lo, up = weibull.weibull_interval_sample(np.random.default_rng(5), 3000, beta, eta, SEED_INSPECTION_KM)
+    fit = weibull.fit_weibull(lo, up, ci_method="wald")
     b10 = eta * (-math.log(0.9)) ** (1 / beta)
     # sd(log beta_hat) ~ 0.78 / (beta sqrt n) = 0.01: 5 % is > 3 sd
     assert fit.shape == pytest.approx(beta, rel=0.05)
@@ -247,9 +247,9 @@ def _coverage(method: str, reps: int, n: int = 30, beta: float = 1.5, eta: float
     hit_beta = hit_b10 = 0
     log_beta = []
     for seed in range(reps):
-        _, lo, up = lm.weibull_interval_sample(np.random.default_rng(1000 + seed), n, beta, eta,
+        _, lo, up = weibull.weibull_interval_sample(np.random.default_rng(1000 + seed), n, beta, eta,
                                                SEED_INSPECTION_KM)
-        fit = lm.fit_weibull(lo, up, confidence=0.90, ci_method=method)
+        fit = weibull.fit_weibull(lo, up, confidence=0.90, ci_method=method)
         assert fit.shape_ci[0] < fit.shape < fit.shape_ci[1]
         assert fit.b10_ci_km[0] < fit.b10_km < fit.b10_ci_km[1]
         hit_beta += fit.shape_ci[0] <= beta <= fit.shape_ci[1]
@@ -277,16 +277,16 @@ def test_weibull_profile_coverage_90():
 
 def test_weibull_fit_rejects_uninformative_data():
     with pytest.raises(ValueError):
-        lm.fit_weibull([10.0, 20.0], [15.0, math.inf])             # one failure
+        weibull.fit_weibull([10.0, 20.0], [15.0, math.inf])             # one failure
     with pytest.raises(ValueError):
-        lm.fit_weibull([10.0] * 5 + [5.0] * 5, [15.0] * 5 + [10.0] * 5)   # beta -> infinity
+        weibull.fit_weibull([10.0] * 5 + [5.0] * 5, [15.0] * 5 + [10.0] * 5)   # beta -> infinity
     with pytest.raises(ValueError):
-        lm.fit_weibull([10.0] * 3, [15.0] * 3)                             # all in one interval
+        weibull.fit_weibull([10.0] * 3, [15.0] * 3)                             # all in one interval
     # few failures but determined: two exact lives, or two failures among many suspensions
-    assert lm.fit_weibull([10.0, 20.0], [10.0, 20.0]).shape > 0
-    assert lm.fit_weibull([3.0, 90.0] + [100.0] * 30, [3.0, 90.0] + [math.inf] * 30).shape < 1
+    assert weibull.fit_weibull([10.0, 20.0], [10.0, 20.0]).shape > 0
+    assert weibull.fit_weibull([3.0, 90.0] + [100.0] * 30, [3.0, 90.0] + [math.inf] * 30).shape < 1
     with pytest.raises(ValueError):
-        lm.fit_weibull([5.0, 10.0], [4.0, 15.0])
+        weibull.fit_weibull([5.0, 10.0], [4.0, 15.0])
 
 
 # --------------------------------------------------------------------------------------------------
@@ -324,7 +324,7 @@ def test_cli_rating(capsys, tmp_path):
 
 
 def test_cli_weibull_forms_agree(capsys, tmp_path):
-    _, lo, up = lm.weibull_interval_sample(np.random.default_rng(3), 25, 1.5, 40.0, SEED_INSPECTION_KM)
+    _, lo, up = weibull.weibull_interval_sample(np.random.default_rng(3), 25, 1.5, 40.0, SEED_INSPECTION_KM)
     j = np.rint(up / SEED_INSPECTION_KM).astype(int)
     a = tmp_path / "a.csv"
     a.write_text("failure_interval\n" + "".join(f"{v}\n" for v in j))
@@ -334,7 +334,7 @@ def test_cli_weibull_forms_agree(capsys, tmp_path):
         f"{(u - 1) * 5},{u * 5},{c}\n" for u, c in zip(uniq, counts)))
     ra = _json(capsys, ["life", "weibull", str(a), "--interval-km", "5", "--load-fraction", "0.5", "--json"])
     rb = _json(capsys, ["life", "weibull", str(b), "--load-fraction", "0.5", "--json"])
-    fit = lm.fit_weibull(lo, up)
+    fit = weibull.fit_weibull(lo, up)
     for r in (ra, rb):
         assert r["shape"] == pytest.approx(fit.shape, rel=1e-6)
         assert r["b10_km"] == pytest.approx(fit.b10_km, rel=1e-6)
@@ -350,7 +350,7 @@ def test_cli_miner_matches_model(capsys, tmp_path):
     f = tmp_path / "duty.csv"
     f.write_text("travel_m,load_n\n" + "".join(f"{float(d)!r},{float(x)!r}\n" for d, x in zip(ds, load)))
     r = _json(capsys, ["life", "miner", str(f), "--c-n", "15000", "--element", "roller", "--json"])
-    s = lm.miner_summary(ds, load, 15000.0, "roller")
+    s = rating_life.miner_summary(ds, load, 15000.0, "roller")
     assert r["life_used_fraction"] == pytest.approx(s.life_used_fraction, rel=1e-12)
     for key in ("equivalent_load_n", "rating_life_km", "travel_km", "life_used_fraction", "remaining_life_km"):
         assert key in r

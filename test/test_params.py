@@ -65,7 +65,7 @@ def test_config_loaders_validate():
 
 
 def test_ball_contact_thresholds_match_the_schema_defaults():
-    from guide_health.models import ball_contact as bc
+    from guide_health.models.rolling import lubrication as bc
 
     assert WEAR_MONITOR_DEFAULTS["lambda_boundary"] == bc.LAMBDA_BOUNDARY
     assert WEAR_MONITOR_DEFAULTS["lambda_full_film"] == bc.LAMBDA_FULL_FILM

@@ -1,4 +1,4 @@
-"""Tests of the numerical finite-roller contact solver (guide_health.models.roller_numerical).
+"""Tests of the numerical finite-roller contact solver (guide_health.models.slewing.numerical_roller).
 
 Reference numbers are copied here (the project never reads /work/shared at run time):
 
@@ -18,7 +18,9 @@ import math
 import numpy as np
 import pytest
 
-from guide_health.models import roller_numerical as rn
+from guide_health.models.contact import elastic, hertz_line
+from guide_health.models.slewing import half_space
+from guide_health.models.slewing import numerical_roller as rn
 
 # ---- seed 003 example -----------------------------------------------------------------------
 SEED_E = 210.0e9
@@ -52,19 +54,19 @@ def seed_params(**over):
 
 
 def seed_estar() -> float:
-    return rn.composite_modulus_plane_strain(SEED_E, SEED_NU)
+    return elastic.effective_modulus_pa(SEED_E, SEED_NU)
 
 
 # ---------------------------------------------------------------------------------------------
 # Elastic constants, Hertz, profiles
 # ---------------------------------------------------------------------------------------------
-def test_composite_modulus_and_seed_hertz_p0():
+def test_effective_modulus_and_seed_hertz_p0():
     e_star = seed_estar()
     assert e_star == pytest.approx(210e9 / (2 * (1 - 0.09)), rel=1e-12)
     assert e_star / 1e9 == pytest.approx(115.4, abs=0.05)
-    p0, _b = rn.hertz_line_contact(SEED_Q / SEED_L, SEED_D / 2, e_star)
+    p0, _b = hertz_line.hertz_line_pressure_and_half_width(SEED_Q / SEED_L, SEED_D / 2, e_star)
     assert p0 / 1e6 == pytest.approx(SEED_HERTZ_P0_MPA, rel=1e-3)
-    p0_log, _ = rn.hertz_line_contact(LOG_LINE_LOAD, LOG_D / 2, LOG_ESTAR)
+    p0_log, _ = hertz_line.hertz_line_pressure_and_half_width(LOG_LINE_LOAD, LOG_D / 2, LOG_ESTAR)
     assert p0_log / 1e9 == pytest.approx(2.000, abs=1e-3)
 
 
@@ -97,7 +99,7 @@ def test_profile_drop_definitions():
 def test_dcfft_equals_direct_non_periodic_summation():
     rng = np.random.default_rng(3)
     nx, ny, dx, dy, e_star = 7, 11, 1.0e-5, 3.0e-5, 1.0e11
-    op = rn.DcFftDisplacementOperator(nx, ny, dx, dy, e_star)
+    op = half_space.DcFftDisplacementOperator(nx, ny, dx, dy, e_star)
     p = rng.random((nx, ny))
     u = op(p)
     x = np.arange(nx) * dx
@@ -105,11 +107,11 @@ def test_dcfft_equals_direct_non_periodic_summation():
     direct = np.empty((nx, ny))
     for i in range(nx):
         for j in range(ny):
-            k = rn.love_rectangle_influence(x[i] - x[:, None], y[j] - y[None, :], dx, dy, e_star)
+            k = half_space.love_rectangle_influence(x[i] - x[:, None], y[j] - y[None, :], dx, dy, e_star)
             direct[i, j] = (k * p).sum()
     assert np.abs(u - direct).max() <= 1e-12 * np.abs(direct).max()
     # a plain periodic FFT (no padding) would differ by the wrap-around: make sure we are not that
-    kernel = rn.love_rectangle_influence(
+    kernel = half_space.love_rectangle_influence(
         np.where(np.arange(nx) <= nx // 2, np.arange(nx), np.arange(nx) - nx)[:, None] * dx,
         np.where(np.arange(ny) <= ny // 2, np.arange(ny), np.arange(ny) - ny)[None, :] * dy, dx, dy, e_star)
     periodic = np.fft.irfft2(np.fft.rfft2(p) * np.fft.rfft2(kernel), s=p.shape)
@@ -119,7 +121,7 @@ def test_dcfft_equals_direct_non_periodic_summation():
 def test_love_coefficient_far_field_is_boussinesq_point_load():
     dx, dy, e_star = 1.0e-5, 3.0e-5, 1.0e11
     r = 60 * dx
-    k = float(rn.love_rectangle_influence(np.array(r), np.array(0.0), dx, dy, e_star))
+    k = float(half_space.love_rectangle_influence(np.array(r), np.array(0.0), dx, dy, e_star))
     assert k == pytest.approx(dx * dy / (math.pi * e_star * r), rel=1e-3)
 
 
@@ -127,13 +129,13 @@ def test_elliptical_strip_centre_displacement_matches_rectangle_formula():
     """Hertz-elliptical pressure, uniform over the seed roller length: the DC-FFT displacement at
     the centre equals P/(pi l E*) (1.886 + ln(l/a)) (seed eq. 2), l = half-length."""
     e_star = seed_estar()
-    p0, b = rn.hertz_line_contact(SEED_Q / SEED_L, SEED_D / 2, e_star)
+    p0, b = hertz_line.hertz_line_pressure_and_half_width(SEED_Q / SEED_L, SEED_D / 2, e_star)
     nx, ny = 64, 256
     dx, dy = 2 * b / nx, SEED_L / ny
     x = -b + (np.arange(nx) + 0.5) * dx
     p = np.repeat((p0 * np.sqrt(np.clip(1 - (x / b) ** 2, 0, None)))[:, None], ny, axis=1)
     p *= SEED_Q / (p.sum() * dx * dy)
-    u = rn.DcFftDisplacementOperator(nx, ny, dx, dy, e_star)(p)
+    u = half_space.DcFftDisplacementOperator(nx, ny, dx, dy, e_star)(p)
     half = SEED_L / 2
     formula = SEED_Q / (math.pi * half * e_star) * (1.886 + math.log(half / b))
     assert u[nx // 2, ny // 2] == pytest.approx(formula, rel=2e-3)
@@ -168,7 +170,8 @@ def test_finite_straight_roller_centre_is_hertzian():
         res = rn.solve_finite_roller_contact(LOG_D, length, LOG_LINE_LOAD * length, LOG_ESTAR,
                                              "straight", end_radius_m=0.0, nx=32, ny=256)
         j = res.y_m.size // 2
-        local_p0, local_b = rn.hertz_line_contact(res.line_load_along_roller_n_m[j], LOG_D / 2, LOG_ESTAR)
+        local_p0, local_b = hertz_line.hertz_line_pressure_and_half_width(res.line_load_along_roller_n_m[j],
+                                                                          LOG_D / 2, LOG_ESTAR)
         assert res.peak_pressure_along_roller_pa[j] == pytest.approx(local_p0, rel=0.02)
         assert res.half_width_along_roller_m[j] == pytest.approx(local_b, rel=0.02)
         ratios.append(res.p0_center_pa / res.hertz_p0_pa)
@@ -193,7 +196,7 @@ LOG_CASES = {
 @pytest.mark.parametrize("name", sorted(LOG_CASES))
 def test_log_profile_reproduces_published_p_max(name):
     coeff_fn, published = LOG_CASES[name]
-    p0, _ = rn.hertz_line_contact(LOG_LINE_LOAD, LOG_D / 2, LOG_ESTAR)
+    p0, _ = hertz_line.hertz_line_pressure_and_half_width(LOG_LINE_LOAD, LOG_D / 2, LOG_ESTAR)
     coarse = _log_case(coeff_fn(), 32, 128)
     fine = _log_case(coeff_fn(), 64, 256)
     assert fine.max_pressure_pa / p0 == pytest.approx(published, rel=0.01)
@@ -207,9 +210,9 @@ def test_log_profile_mesh_convergence(name):
     coeff_fn, published = LOG_CASES[name]
     rows = rn.mesh_convergence_study([(32, 128), (64, 256), (64, 512), (128, 512), (128, 1024)],
                                      roller_diameter_m=LOG_D, roller_length_m=LOG_L, load_n=LOG_W,
-                                     composite_modulus_pa=LOG_ESTAR, profile="logarithmic",
+                                     effective_modulus_pa=LOG_ESTAR, profile="logarithmic",
                                      log_coeff_m=coeff_fn())
-    p0, _ = rn.hertz_line_contact(LOG_LINE_LOAD, LOG_D / 2, LOG_ESTAR)
+    p0, _ = hertz_line.hertz_line_pressure_and_half_width(LOG_LINE_LOAD, LOG_D / 2, LOG_ESTAR)
     for row in rows[1:]:
         assert abs(row["p_max_rel_change"]) < 0.002
     assert rows[-1]["p_max_pa"] / p0 == pytest.approx(published, rel=0.005)
@@ -220,7 +223,7 @@ def test_log_profile_mesh_convergence(name):
 # ---------------------------------------------------------------------------------------------
 def test_sharp_edge_pressure_grows_with_refinement():
     rows = rn.mesh_convergence_study([(16, 64), (32, 128), (64, 256)], roller_diameter_m=LOG_D,
-                                     roller_length_m=LOG_L, load_n=LOG_W, composite_modulus_pa=LOG_ESTAR,
+                                     roller_length_m=LOG_L, load_n=LOG_W, effective_modulus_pa=LOG_ESTAR,
                                      profile="straight", end_radius_m=0.0)
     pmax = [r["p_max_pa"] for r in rows]
     assert pmax[0] < pmax[1] < pmax[2]
@@ -234,7 +237,7 @@ def test_sharp_edge_pressure_grows_with_refinement():
 
 def test_finite_end_radius_p_max_converges():
     rows = rn.mesh_convergence_study([(64, 256), (64, 512)], roller_diameter_m=SEED_D, roller_length_m=SEED_L,
-                                     load_n=SEED_Q, composite_modulus_pa=seed_estar(), profile="straight",
+                                     load_n=SEED_Q, effective_modulus_pa=seed_estar(), profile="straight",
                                      end_radius_m=SEED_END_RADIUS)
     assert abs(rows[1]["p_max_rel_change"]) < 0.02
     assert abs(rows[1]["end_stress_ratio"] / rows[0]["end_stress_ratio"] - 1) < 0.02
@@ -243,13 +246,13 @@ def test_finite_end_radius_p_max_converges():
 @pytest.mark.slow
 def test_finite_end_radius_mesh_convergence_fine():
     rows = rn.mesh_convergence_study([(64, 256), (64, 512), (128, 512), (128, 1024)], roller_diameter_m=SEED_D,
-                                     roller_length_m=SEED_L, load_n=SEED_Q, composite_modulus_pa=seed_estar(),
+                                     roller_length_m=SEED_L, load_n=SEED_Q, effective_modulus_pa=seed_estar(),
                                      profile="straight", end_radius_m=SEED_END_RADIUS)
     for row in rows[1:]:
         assert abs(row["p_max_rel_change"]) < 0.02
     # the edge of a sharp roller on the same grids keeps growing
     sharp = rn.mesh_convergence_study([(32, 128), (64, 256), (128, 512)], roller_diameter_m=SEED_D,
-                                      roller_length_m=SEED_L, load_n=SEED_Q, composite_modulus_pa=seed_estar(),
+                                      roller_length_m=SEED_L, load_n=SEED_Q, effective_modulus_pa=seed_estar(),
                                       profile="straight", end_radius_m=0.0)
     assert all(r["p_max_rel_change"] > 0.10 for r in sharp[1:])
 

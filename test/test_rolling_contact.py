@@ -15,7 +15,9 @@ import pytest
 from scipy.optimize import brentq
 
 from guide_health import cli
-from guide_health.models import ball_contact as bc
+from guide_health.models.contact import hertz_point
+from guide_health.models.rolling import ball_contact as bc
+from guide_health.models.rolling import carriage, lubrication
 from guide_health.params import WEAR_MONITOR_DEFAULTS
 
 REPO = Path(__file__).resolve().parents[1]
@@ -41,7 +43,8 @@ LAMBDA_BELOW_0P4_FOR_SPEED_BELOW = 0.1
 LAMBDA_NEAR_1_AT_M_S = 0.5
 SPEED_FACTOR = 3.0                  # tolerance on regime boundaries (brief)
 
-E_PRIME = E_PA / (1.0 - NU ** 2)
+E_PRIME = E_PA / (1.0 - NU ** 2)      # Hamrock's reduced modulus E' (the published formulas below)
+E_STAR = E_PRIME / 2                  # contact modulus E* = E'/2, the models' elastic constant
 
 
 def seed_params(**overrides) -> dict:
@@ -74,7 +77,7 @@ def test_groove_radii():
 @pytest.mark.parametrize("load_n, _film, p_gpa, a_mm", TABLE1)
 def test_table1_hertz_within_half_percent(load_n, _film, p_gpa, a_mm):
     r_x, r_y = radii()
-    c = bc.hertz_point_contact(load_n, r_x, r_y, E_PRIME)
+    c = hertz_point.hertz_point_contact(load_n, r_x, r_y, E_STAR)
     assert c.p_max_pa / 1e9 == pytest.approx(p_gpa, rel=5e-3)
     assert c.semi_axis_x_m * 1e3 == pytest.approx(a_mm, rel=5e-3)      # rolling direction = minor axis
     assert c.semi_axis_y_m > 5 * c.semi_axis_x_m
@@ -82,7 +85,7 @@ def test_table1_hertz_within_half_percent(load_n, _film, p_gpa, a_mm):
 
 def test_circular_limit_is_closed_form_hertz():
     radius, load, e_star = 5e-3, 1000.0, E_PRIME / 2
-    c = bc.hertz_point_contact(load, radius, radius, E_PRIME)
+    c = hertz_point.hertz_point_contact(load, radius, radius, E_STAR)
     a = (3 * load * radius / (4 * e_star)) ** (1 / 3)
     assert c.semi_axis_x_m == pytest.approx(a, rel=1e-12)
     assert c.semi_axis_y_m == pytest.approx(a, rel=1e-12)
@@ -90,7 +93,7 @@ def test_circular_limit_is_closed_form_hertz():
     assert c.approach_m == pytest.approx(a * a / radius, rel=1e-12)
     # the elliptic-integral branch (and its near-circular series) converges to the same closed form (kappa -> 1)
     for excess in (1e-9, 1e-6, 2e-5, 1e-3):
-        near = bc.hertz_point_contact(load, radius, radius * (1 + excess), E_PRIME)
+        near = hertz_point.hertz_point_contact(load, radius, radius * (1 + excess), E_STAR)
         assert near.axis_ratio - 1.0 == pytest.approx(2.0 * excess / 3.0, rel=2 * excess + 1e-6)
         for got, want in ((near.semi_axis_x_m, a), (near.semi_axis_y_m, a), (near.p_max_pa, c.p_max_pa),
                           (near.approach_m, c.approach_m)):
@@ -105,7 +108,7 @@ def test_exact_hertz_against_hamrock_brewe(ratio):
     r_x = 4e-3
     r_y = ratio * r_x
     load = 500.0
-    c = bc.hertz_point_contact(load, r_x, r_y, E_PRIME)
+    c = hertz_point.hertz_point_contact(load, r_x, r_y, E_STAR)
     k_hb = 1.0339 * ratio ** 0.636
     e_hb = 1.0003 + 0.5968 / ratio
     f_hb = 1.5277 + 0.6023 * math.log(ratio)
@@ -119,15 +122,15 @@ def test_exact_hertz_against_hamrock_brewe(ratio):
     assert c.semi_axis_y_m == pytest.approx(b_hb, rel=0.02)
     assert c.approach_m == pytest.approx(delta_hb, rel=0.03)
     # swapping the radii swaps the axes
-    swapped = bc.hertz_point_contact(load, r_y, r_x, E_PRIME)
+    swapped = hertz_point.hertz_point_contact(load, r_y, r_x, E_STAR)
     assert swapped.semi_axis_x_m == pytest.approx(c.semi_axis_y_m, rel=1e-12)
     assert swapped.semi_axis_y_m == pytest.approx(c.semi_axis_x_m, rel=1e-12)
 
 
 def test_hertz_load_scaling():
     r_x, r_y = radii()
-    c1 = bc.hertz_point_contact(385.0, r_x, r_y, E_PRIME)
-    c8 = bc.hertz_point_contact(8 * 385.0, r_x, r_y, E_PRIME)
+    c1 = hertz_point.hertz_point_contact(385.0, r_x, r_y, E_STAR)
+    c8 = hertz_point.hertz_point_contact(8 * 385.0, r_x, r_y, E_STAR)
     assert c8.semi_axis_x_m / c1.semi_axis_x_m == pytest.approx(2.0, rel=1e-10)
     assert c8.p_max_pa / c1.p_max_pa == pytest.approx(2.0, rel=1e-10)
     assert c8.approach_m / c1.approach_m == pytest.approx(4.0, rel=1e-10)
@@ -137,19 +140,19 @@ def test_hertz_load_scaling():
 # --------------------------------------------------------------------------------- load distribution
 
 def stiffness() -> float:
-    return bc.ball_stiffness_n_per_m15(*radii(), E_PRIME)
+    return carriage.ball_stiffness_n_per_m15(*radii(), E_STAR)
 
 
 def test_ball_stiffness_is_two_hertz_contacts_in_series():
     k_b = stiffness()
-    c = bc.hertz_point_contact(385.0, *radii(), E_PRIME)
+    c = hertz_point.hertz_point_contact(385.0, *radii(), E_STAR)
     assert k_b * (2 * c.approach_m) ** 1.5 == pytest.approx(385.0, rel=1e-10)
 
 
 @pytest.mark.parametrize("preload", [385.0, 635.0, 1042.0, 1450.0])
 @pytest.mark.parametrize("load", [-20000.0, -3000.0, 0.0, 500.0, 5000.0, 16000.0, 40000.0])
 def test_load_distribution_equilibrium(preload, load):
-    d = bc.carriage_load_distribution(load, preload, CONTACT_ANGLE_DEG, BALLS_PER_ROW, stiffness())
+    d = carriage.carriage_load_distribution(load, preload, CONTACT_ANGLE_DEG, BALLS_PER_ROW, stiffness())
     sin_a = math.sin(math.radians(CONTACT_ANGLE_DEG))
     vertical = sum(f * s for f, s in zip(d.row_ball_loads_n, (1, 1, -1, -1))) * BALLS_PER_ROW * sin_a
     assert vertical == pytest.approx(load, abs=1e-6 * max(1.0, abs(load)))
@@ -164,14 +167,14 @@ def test_load_distribution_equilibrium(preload, load):
     if load < -lift_off:
         assert d.upper_ball_load_n == 0.0
     q = abs(load) / (2 * BALLS_PER_ROW * sin_a * preload)
-    assert d.max_ball_load_n == pytest.approx(preload * bc.upper_ball_load_ratio(q), rel=1e-9)
+    assert d.max_ball_load_n == pytest.approx(preload * carriage.upper_ball_load_ratio(q), rel=1e-9)
 
 
 def test_fig4_working_load_rises_with_load_and_preload():
     loads = np.linspace(0.0, 30000.0, 61)
     preloads = [385.0, 635.0, 1042.0, 1450.0]
     k_b = stiffness()
-    fu = np.array([[bc.carriage_load_distribution(f, p, CONTACT_ANGLE_DEG, BALLS_PER_ROW, k_b).upper_ball_load_n
+    fu = np.array([[carriage.carriage_load_distribution(f, p, CONTACT_ANGLE_DEG, BALLS_PER_ROW, k_b).upper_ball_load_n
                     for f in loads] for p in preloads])
     assert np.all(np.diff(fu, axis=1) > 0)                     # F_u rises with F
     assert np.all(np.diff(fu, axis=0) >= -1e-9)                # never falls with preload
@@ -185,14 +188,16 @@ def test_fig4_working_load_rises_with_load_and_preload():
 
 def test_greenwood_tripp_integrals():
     for t in (-3.0, -0.5, 0.0, 0.7, 2.5):
-        assert bc.greenwood_tripp_integral(2.0, t) == pytest.approx(bc.greenwood_tripp_f2(t), rel=1e-8)
-        assert bc.greenwood_tripp_integral(0.0, t) == pytest.approx(0.5 * math.erfc(t / math.sqrt(2)), rel=1e-8)
-    assert bc.greenwood_tripp_integral(2.5, 0.0) == pytest.approx(0.6166, rel=1e-3)
+        assert lubrication.greenwood_tripp_integral(2.0, t) == pytest.approx(lubrication.greenwood_tripp_f2(t),
+                                                                             rel=1e-8)
+        assert lubrication.greenwood_tripp_integral(0.0, t) == pytest.approx(0.5 * math.erfc(t / math.sqrt(2)),
+                                                                             rel=1e-8)
+    assert lubrication.greenwood_tripp_integral(2.5, 0.0) == pytest.approx(0.6166, rel=1e-3)
 
 
 def test_entrainment_speed_is_half_the_carriage_speed():
-    assert bc.entrainment_speed(0.4) == pytest.approx(0.2)
-    assert bc.entrainment_speed(-0.4) == pytest.approx(0.2)
+    assert lubrication.entrainment_speed(0.4) == pytest.approx(0.2)
+    assert lubrication.entrainment_speed(-0.4) == pytest.approx(0.2)
     r = bc.rolling_contact_report(seed_params(), None, 0.4)
     assert r["entrainment_speed_m_s"] == pytest.approx(0.2)
 
@@ -277,7 +282,7 @@ def test_regimes_vs_speed():
     assert regimes[0.1] == regimes[0.5] == regimes[1.0] == "mixed"      # seed: mixed over 0.005-1 m/s
     assert regimes[20.0] == "full_film"
     lam, _ = speed_functions()
-    v_boundary = crossing_speed(lam, bc.LAMBDA_BOUNDARY)
+    v_boundary = crossing_speed(lam, lubrication.LAMBDA_BOUNDARY)
     assert BOUNDARY_BELOW_M_S / SPEED_FACTOR <= v_boundary <= BOUNDARY_BELOW_M_S * SPEED_FACTOR
 
 

@@ -8,8 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from guide_health.models.roller_contact import SlewingContactModel, axial_row_roller_loads, slewing_contact_report
-from guide_health.models.slewing import SlewingMonitor, analyse_slewing_run
+from guide_health.analysis.slewing_replay import analyse_slewing_run
+from guide_health.models.slewing.monitor import SlewingContactModel, SlewingMonitor, slewing_contact_report
+from guide_health.models.slewing.row_loads import axial_row_roller_loads
 from guide_health.nodes.slewing_monitor import ROLLER_CONTACT_KEYS
 from guide_health.params import SLEWING_MONITOR_DEFAULTS
 from guide_health.simulate_slewing import simulate_slewing
@@ -61,7 +62,7 @@ def test_worst_case_per_period_and_levels_from_the_allowable():
 
 
 def test_numerical_model_is_tabulated_once_and_matches_a_direct_solve():
-    from guide_health.models.roller_contact import _numerical_report
+    from guide_health.models.slewing.monitor import _numerical_report
 
     p = dict(PARAMS, stress_model="numerical", roller_end_radius_m=2e-3, numerical_table_loads=8,
              numerical_table_min_load_n=2e4, numerical_table_max_load_n=2e5)

@@ -15,7 +15,7 @@ import sys
 from typing import Any
 
 from guide_health.errors import InputError
-from guide_health.models import ball_contact as bc
+from guide_health.models.rolling import ball_contact as bc
 from guide_health.params import wear_monitor_params
 
 DEFAULT_SPEED_M_S = 0.1

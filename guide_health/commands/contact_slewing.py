@@ -14,7 +14,8 @@ import math
 from typing import Any
 
 from guide_health.errors import InputError
-from guide_health.models import roller_contact as rc
+from guide_health.models.slewing import finite_roller, mcewen
+from guide_health.models.slewing import monitor as rc
 from guide_health.params import SLEWING_MONITOR_DEFAULTS, load_node_params, validate_slewing_params
 
 
@@ -94,8 +95,8 @@ def _plot(params: dict[str, Any], report: dict[str, Any], path: str) -> None:
     load = float(report["roller_load_max_n"])
     if load <= 0:
         raise InputError("nothing to plot: no roller is loaded")
-    contact = rc.finite_roller_contact(load, params["roller_length_m"], params["roller_diameter_m"],
-                                       params["youngs_modulus_pa"], params["poisson"])
+    contact = finite_roller.finite_roller_contact(load, params["roller_length_m"], params["roller_diameter_m"],
+                                                  params["youngs_modulus_pa"], params["poisson"])
     s = contact.scalars
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.5))
     ax = axes[0]
@@ -110,7 +111,7 @@ def _plot(params: dict[str, Any], report: dict[str, Any], path: str) -> None:
         for name, a, p0 in (("end", s.end_half_width_m, s.p0_end_pa), ("centre", s.centre_half_width_m, s.p0_centre_pa),
                             ("ideal Hertz", s.hertz.half_width_m, s.hertz.p0_pa)):
             z = np.linspace(0.0, 3.0 * a, 301)
-            field = rc.mcewen_stress_field(np.zeros_like(z), z, a, p0, params["friction"], params["poisson"])
+            field = mcewen.mcewen_stress_field(np.zeros_like(z), z, a, p0, params["friction"], params["poisson"])
             ax.plot(z * 1e3, getattr(field, key) * 1e-6, label=f"{name} (x = 0)")
         ax.set_xlabel("depth z [mm]")
         ax.set_ylabel(f"{label} [MPa]")

@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from guide_health.errors import InputError
-from guide_health.models import life as lm
+from guide_health.models.rolling import rating_life as lm
+from guide_health.models.rolling import weibull
 from guide_health.params import WEAR_MONITOR_DEFAULTS, load_node_params
 
 
@@ -221,7 +222,7 @@ def _weibull_rows(args) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         bad = np.flatnonzero((j < 1) | (j != np.round(j)))
         if bad.size:
             raise InputError(f"{args.csv}: line {bad[0] + 2}: failure_interval must be a whole number >= 1")
-        lo, up = lm.intervals_from_index(j, interval)
+        lo, up = weibull.intervals_from_index(j, interval)
     else:
         raise InputError(f"{args.csv}: need columns lower_km,upper_km or failure_interval "
                          f"(found {','.join(header)})")
@@ -235,7 +236,7 @@ def _run_weibull(args) -> dict:
     frac = None if args.load_fraction is None else _positive(args.load_fraction, "--load-fraction")
     lo, up, counts = _weibull_rows(args)
     try:
-        fit = lm.fit_weibull(lo, up, counts, confidence=args.confidence, ci_method=args.ci_method)
+        fit = weibull.fit_weibull(lo, up, counts, confidence=args.confidence, ci_method=args.ci_method)
     except ValueError as exc:
         raise InputError(str(exc)) from None
     out = {"mode": "weibull", "n": fit.n, "failures": fit.failures, "suspended": fit.n - fit.failures,
@@ -257,13 +258,13 @@ def _run_weibull(args) -> dict:
 
     # seed 004 Sec. 3.2: failures spread evenly in their interval, then treated as exact lives
     rep = np.repeat(np.arange(lo.size), counts.astype(int))
-    lives = lm.equal_spacing_lives_km(lo[rep], up[rep])
+    lives = weibull.equal_spacing_lives_km(lo[rep], up[rep])
     failed = lives[np.isfinite(lives)]
     eq = {"lives_km": sorted(failed.tolist()),
           "mean_km": float(failed.mean()) if failed.size else float("nan")}
     try:
         susp = up[rep] == np.inf
-        efit = lm.fit_weibull(np.where(susp, lo[rep], lives), np.where(susp, np.inf, lives),
+        efit = weibull.fit_weibull(np.where(susp, lo[rep], lives), np.where(susp, np.inf, lives),
                               confidence=args.confidence, ci_method="wald")
         eq.update({"shape": efit.shape, "scale_km": efit.scale_km, "b10_km": efit.b_life_km})
         if frac is not None:

@@ -135,7 +135,7 @@ def is_slewing_bag(bag: Path) -> bool:
 def run_slewing(args, bag: Path) -> dict:
     """A slewing bag: every load through the slewing_monitor core; the worst roller of the run."""
     from guide_health.bags import ProgressBar, read_slewing_bag
-    from guide_health.models.slewing import analyse_slewing_run
+    from guide_health.analysis.slewing_replay import analyse_slewing_run
     from guide_health.params import SLEWING_MONITOR_DEFAULTS, load_node_params
 
     params = load_node_params(args.params, "slewing_monitor", SLEWING_MONITOR_DEFAULTS)

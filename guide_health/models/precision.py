@@ -40,7 +40,7 @@ class PrecisionMonitor:
         self.load_samples = 0            # accepted load samples
         self.rolling = None
         if params.get("guide_type") == "rolling":
-            from guide_health.models.rolling_guide import RollingGuideMonitor
+            from guide_health.models.rolling.rolling_guide import RollingGuideMonitor
 
             self.rolling = RollingGuideMonitor(params)
 

@@ -14,7 +14,7 @@ from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from guide_health.models.slewing import SlewingMonitor
+from guide_health.models.slewing.monitor import SlewingMonitor
 from guide_health.nodes.common import run_node
 from guide_health.nodes.status import StatusTask, StatusUpdater
 from guide_health.params import SLEWING_MONITOR_SCHEMA, declare_parameters

@@ -17,11 +17,10 @@ from typing import Any
 
 import numpy as np
 
-from guide_health.models.ball_contact import LubricationRegimeEstimator
-from guide_health.models.life import FatigueAccumulator
-
-OK, WARN, ERROR = 0, 1, 2
-REGIMES = ("boundary", "mixed", "full_film")
+from guide_health.models.levels import ERROR, OK, WARN, Level
+from guide_health.models.rolling.ball_contact import LubricationRegimeEstimator
+from guide_health.models.rolling.lubrication import REGIMES
+from guide_health.models.rolling.rating_life import FatigueAccumulator
 
 
 class RollingGuideMonitor:
@@ -112,7 +111,7 @@ class RollingGuideMonitor:
             "full_film_share_total": self.regime_travel_m["full_film"] / total if total > 0 else math.nan,
         }
 
-    def lubrication_level(self) -> tuple[int, str]:
+    def lubrication_level(self) -> tuple[Level, str]:
         share = self.boundary_share
         limit = self.params["boundary_share_warn"]
         if math.isfinite(share) and share > limit:

@@ -1,16 +1,8 @@
-"""Numerical (non-Hertz) contact of a finite roller on an elastic half-space.
+"""Numerical (non-Hertz) contact of a finite roller on an elastic half-space, and its tabulated form for the
+slewing monitor.
 
-Pure physics: numpy/scipy only, SI units (m, N, Pa), no ROS, no I/O.
-
-The contact plane is discretised into ``nx x ny`` rectangular elements of uniform pressure
-(x across the rolling direction / contact width, y along the roller axis). The surface
-displacement of one element is Love's (1929) closed form for a uniformly loaded rectangle
-on a half-space (Johnson, *Contact Mechanics*, 1985, eq. 3.25). The unknown pressure is found by
-the Polonsky & Keer (1999) constrained conjugate-gradient method (non-negative pressure, load
-balance with the rigid-body approach as Lagrange multiplier); every displacement evaluation is a
-non-periodic discrete convolution done with the DC-FFT of Liu, Wang & Liu (2000): the kernel is
-laid out on a 2N grid with its wrap-around, the pressure is zero-padded, and only the first N
-outputs are kept, so the result equals the direct summation to round-off.
+Pure physics: numpy/scipy only, SI units (m, N, Pa), no ROS, no I/O. The solver (Love influence
+coefficients, DC-FFT, Polonsky & Keer CG) is :mod:`guide_health.models.slewing.half_space`.
 
 Geometry (INTERFACES.md, slewing_monitor): roller of diameter D and length L on a flat raceway
 (effective radius R_eff = D/2 unless given), profile drop z(y) from the roller mid-length,
@@ -34,84 +26,36 @@ A sharp-edged straight roller (end radius 0) has a singular edge pressure in the
 end stresses are flagged unreliable for it.
 """
 from __future__ import annotations
+from __future__ import annotations
 
 import math
 import time
 import timeit
 from dataclasses import dataclass, field
-from functools import lru_cache
-from typing import Any, Callable, Sequence
+from typing import Any, NamedTuple, Sequence
 
 import numpy as np
-import scipy.fft as sfft
 
-__all__ = [
-    "composite_modulus_plane_strain",
-    "hertz_line_contact",
-    "lundberg_log_profile_coefficient",
-    "iso_ts16281_log_profile_coefficient",
-    "roller_profile_drop",
-    "love_rectangle_influence",
-    "contact_half_width_along_roller",
-    "DcFftDisplacementOperator",
-    "solve_pressure_polonsky_keer",
-    "solve_plane_strain_line_contact",
-    "RollerContactResult",
-    "solve_finite_roller_contact",
-    "mesh_convergence_study",
-    "numerical_contact_report",
-    "RollerContactTable",
-    "build_roller_contact_table",
-    "time_table_lookup",
-]
+from guide_health.models.contact.elastic import effective_modulus_pa
+from guide_health.models.contact.hertz_line import hertz_line_pressure_and_half_width
+from guide_health.models.slewing.half_space import (DcFftDisplacementOperator, cached_displacement_operator,
+                                                    solve_pressure_polonsky_keer)
 
 PROFILES = ("straight", "crowned", "logarithmic")
 MIN_END_RADIUS_ELEMENTS = 8.0  # end radius / dy needed before a straight roller's end peak is trusted
 
 
 # ---------------------------------------------------------------------------------------------
-# Elastic constants and classical line contact
+# Roller profiles
 # ---------------------------------------------------------------------------------------------
-def composite_modulus_plane_strain(
-    youngs_modulus_1_pa: float,
-    poisson_1: float,
-    youngs_modulus_2_pa: float | None = None,
-    poisson_2: float | None = None,
-) -> float:
-    """Plane-strain composite modulus E* [Pa]: 1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2.
-
-    Body 2 defaults to the same material as body 1 (two equal steels: E* = E / (2 (1 - nu^2)),
-    115.4 GPa for E = 210 GPa, nu = 0.3). Johnson, *Contact Mechanics* (1985), eq. 4.22.
-    """
-    e2 = youngs_modulus_1_pa if youngs_modulus_2_pa is None else youngs_modulus_2_pa
-    n2 = poisson_1 if poisson_2 is None else poisson_2
-    if youngs_modulus_1_pa <= 0 or e2 <= 0:
-        raise ValueError("Young's moduli must be positive")
-    return 1.0 / ((1.0 - poisson_1 ** 2) / youngs_modulus_1_pa + (1.0 - n2 ** 2) / e2)
-
-
-def hertz_line_contact(
-    load_per_length_n_m: float, effective_radius_m: float, composite_modulus_pa: float
-) -> tuple[float, float]:
-    """Hertz 2D line contact: (p0 [Pa], half-width b [m]).
-
-    p0 = sqrt(P' E* / (pi R)), b = sqrt(4 P' R / (pi E*)) with P' the load per unit length [N/m],
-    R the effective radius [m] and E* the plane-strain composite modulus [Pa].
-    Johnson, *Contact Mechanics* (1985), eqs. 4.43-4.45.
-    """
-    p0 = math.sqrt(load_per_length_n_m * composite_modulus_pa / (math.pi * effective_radius_m))
-    b = math.sqrt(4.0 * load_per_length_n_m * effective_radius_m / (math.pi * composite_modulus_pa))
-    return p0, b
-
-
-def lundberg_log_profile_coefficient(load_per_length_n_m: float, composite_modulus_pa: float) -> float:
+def lundberg_log_profile_coefficient(load_per_length_n_m: float, effective_modulus_pa: float) -> float:
     """Lundberg (1939) logarithmic-profile coefficient [m]: 2 P' / (pi E*).
 
     With z(y) = coeff ln(1 / (1 - (2y/L)^2)) the line contact of length L carries an (almost)
     axially uniform pressure at the design load P' [N/m]. Lundberg, G., Elastische Berührung
     zweier Halbräume, Forsch. Ing.-Wes. 10 (1939) 201-211.
     """
-    return 2.0 * load_per_length_n_m / (math.pi * composite_modulus_pa)
+    return 2.0 * load_per_length_n_m / (math.pi * effective_modulus_pa)
 
 
 def iso_ts16281_log_profile_coefficient(roller_diameter_m: float) -> float:
@@ -165,19 +109,8 @@ def roller_profile_drop(
 
 
 # ---------------------------------------------------------------------------------------------
-# Influence coefficients and DC-FFT
+# Contact width and the infinitely long roller
 # ---------------------------------------------------------------------------------------------
-def _love_antiderivative(s: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """F(s, t) = s asinh(t/|s|) + t asinh(s/|t|), the double antiderivative of 1/sqrt(s^2 + t^2)
-    (odd in s and in t, F = 0 on the axes)."""
-    s = np.asarray(s, dtype=float)
-    t = np.asarray(t, dtype=float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        a = np.where(s != 0.0, s * np.arcsinh(t / np.abs(s)), 0.0)
-        b = np.where(t != 0.0, t * np.arcsinh(s / np.abs(t)), 0.0)
-    return a + b
-
-
 def contact_half_width_along_roller(pressure_pa: np.ndarray, dx_m: float) -> tuple[np.ndarray, np.ndarray]:
     """Contact half-widths per axial column of a pressure field p(x, y) [Pa], x spacing dx [m].
 
@@ -200,159 +133,10 @@ def contact_half_width_along_roller(pressure_pa: np.ndarray, dx_m: float) -> tup
     return a_eq, a_loaded
 
 
-def love_rectangle_influence(
-    x_m: np.ndarray, y_m: np.ndarray, dx_m: float, dy_m: float, composite_modulus_pa: float
-) -> np.ndarray:
-    """Normal surface displacement [m per Pa] at (x, y) [m] of a unit uniform pressure on the
-    rectangle |x| <= dx/2, |y| <= dy/2 of an elastic half-space, summed over both bodies.
-
-    u = 1/(pi E*) [F(x + a, y + b) - F(x + a, y - b) - F(x - a, y + b) + F(x - a, y - b)],
-    a = dx/2, b = dy/2, F as in :func:`_love_antiderivative`. Boussinesq point-force solution
-    integrated over the rectangle: Love, A. E. H., Phil. Trans. R. Soc. A 228 (1929) 377-420;
-    Johnson (1985) eq. 3.25.
-    """
-    a = 0.5 * dx_m
-    b = 0.5 * dy_m
-    x = np.asarray(x_m, dtype=float)
-    y = np.asarray(y_m, dtype=float)
-    f = (
-        _love_antiderivative(x + a, y + b)
-        - _love_antiderivative(x + a, y - b)
-        - _love_antiderivative(x - a, y + b)
-        + _love_antiderivative(x - a, y - b)
-    )
-    return f / (math.pi * composite_modulus_pa)
-
-
-class DcFftDisplacementOperator:
-    """Non-periodic discrete convolution u = K * p on an ``nx x ny`` grid via DC-FFT.
-
-    The influence kernel K(i dx, j dy) is built on a (2 nx) x (2 ny) grid with wrap-around order
-    (indices nx+1..2nx-1 hold the negative offsets), the pressure is zero-padded to the same size,
-    and the first nx x ny outputs of the circular convolution are the exact linear convolution.
-    Liu, S., Wang, Q., Liu, G., Wear 243 (2000) 101-111.
-    With ``periodic_y`` the y direction is circular instead (period ny dy, kernel truncated to
-    one period): a pressure uniform in y then sees the displacement of a strip of length ny dy,
-    i.e. the 2D line-contact kernel -2/(pi E*) ln|x| + const up to O((x / (ny dy))^2) -- the
-    plane-strain limit of an infinitely long roller.
-    Units: pressure [Pa] in, displacement [m] out.
-    """
-
-    def __init__(self, nx: int, ny: int, dx_m: float, dy_m: float, composite_modulus_pa: float,
-                 workers: int = -1, periodic_y: bool = False) -> None:
-        self.nx, self.ny = int(nx), int(ny)
-        self.dx, self.dy = float(dx_m), float(dy_m)
-        self.workers = workers
-        self.periodic_y = bool(periodic_y)
-        ix = np.arange(2 * self.nx)
-        ox = np.where(ix < self.nx, ix, ix - 2 * self.nx).astype(float) * self.dx
-        ox[self.nx] = 0.0  # never reaches the kept outputs; any value works
-        if self.periodic_y:
-            # circular in y: one period of ny elements, offsets -ny/2 .. ny/2 (plane-strain limit)
-            iy = np.arange(self.ny)
-            oy = np.where(iy <= self.ny // 2, iy, iy - self.ny).astype(float) * self.dy
-            self._shape = (2 * self.nx, self.ny)
-        else:
-            iy = np.arange(2 * self.ny)
-            oy = np.where(iy < self.ny, iy, iy - 2 * self.ny).astype(float) * self.dy
-            oy[self.ny] = 0.0
-            self._shape = (2 * self.nx, 2 * self.ny)
-        kernel = love_rectangle_influence(ox[:, None], oy[None, :], self.dx, self.dy, composite_modulus_pa)
-        kernel[self.nx, :] = 0.0
-        if not self.periodic_y:
-            kernel[:, self.ny] = 0.0
-        self.kernel_hat = sfft.rfft2(kernel, workers=workers)
-        self.self_influence_m_per_pa = float(kernel[0, 0])
-
-    def __call__(self, pressure_pa: np.ndarray) -> np.ndarray:
-        shape = self._shape
-        p_hat = sfft.rfft2(pressure_pa, s=shape, workers=self.workers)
-        u = sfft.irfft2(p_hat * self.kernel_hat, s=shape, workers=self.workers)
-        return u[: self.nx, : self.ny]
-
-
-@lru_cache(maxsize=16)
-def _cached_operator(nx: int, ny: int, dx_m: float, dy_m: float, e_star: float) -> DcFftDisplacementOperator:
-    return DcFftDisplacementOperator(nx, ny, dx_m, dy_m, e_star)
-
-
-# ---------------------------------------------------------------------------------------------
-# Polonsky-Keer conjugate gradient
-# ---------------------------------------------------------------------------------------------
-def solve_pressure_polonsky_keer(
-    gap_undeformed_m: np.ndarray,
-    element_area_m2: float,
-    total_load_n: float,
-    displacement: Callable[[np.ndarray], np.ndarray],
-    tol: float = 1e-9,
-    max_iter: int = 1000,
-    initial_pressure_pa: np.ndarray | None = None,
-) -> tuple[np.ndarray, float, int, float]:
-    """Frictionless normal contact with prescribed total load by the Polonsky-Keer CG method.
-
-    Find p >= 0 [Pa] and the rigid approach delta [m] such that the gap
-    h = h0 + u(p) - delta is >= 0, p h = 0 elementwise and sum(p) A = W.
-    Elements with h0 = +inf can never touch (their pressure stays 0).
-
-    Returns (pressure [Pa], approach [m], iterations, last relative pressure change).
-    Polonsky, I. A., Keer, L. M., Wear 231 (1999) 206-219 (Sect. 3, with the approach as the
-    Lagrange multiplier of the load balance).
-    """
-    h0 = np.asarray(gap_undeformed_m, dtype=float)
-    can_touch = np.isfinite(h0)
-    h0f = np.where(can_touch, h0, 0.0)
-    if total_load_n <= 0:
-        raise ValueError("total load must be positive")
-    if not can_touch.any():
-        raise ValueError("no element can come into contact")
-    if initial_pressure_pa is None:
-        p = np.where(can_touch, total_load_n / (element_area_m2 * can_touch.sum()), 0.0)
-    else:
-        p = np.where(can_touch, np.maximum(initial_pressure_pa, 0.0), 0.0)
-        p *= total_load_n / (element_area_m2 * p.sum())
-    t = np.zeros_like(p)
-    g_norm_old = 1.0
-    conjugate = False
-    eps = np.inf
-    it = 0
-    for it in range(1, max_iter + 1):
-        g = h0f + displacement(p)
-        in_contact = p > 0.0
-        g_bar = g[in_contact].mean()
-        g -= g_bar
-        g_norm = float(np.sum(g[in_contact] ** 2))
-        if conjugate:
-            t = np.where(in_contact, g + (g_norm / g_norm_old) * t, 0.0)
-        else:
-            t = np.where(in_contact, g, 0.0)
-        g_norm_old = g_norm
-        r = displacement(t)
-        r -= r[in_contact].mean()
-        denom = float(np.sum(r[in_contact] * t[in_contact]))
-        if denom == 0.0:
-            break
-        tau = float(np.sum(g[in_contact] * t[in_contact])) / denom
-        p_old = p
-        p = np.where(in_contact, p - tau * t, 0.0)
-        np.maximum(p, 0.0, out=p)
-        overlap = (p == 0.0) & (g < 0.0) & can_touch
-        conjugate = not overlap.any()
-        if not conjugate:
-            p[overlap] -= tau * g[overlap]
-        p *= total_load_n / (element_area_m2 * p.sum())
-        eps = float(np.abs(p - p_old).sum() * element_area_m2 / total_load_n)
-        if eps < tol:
-            break
-    u = displacement(p)
-    in_contact = p > 0.0
-    approach = float(np.mean(h0f[in_contact] + u[in_contact]))
-    return p, approach, it, eps
-
-
 def solve_plane_strain_line_contact(
     load_per_length_n_m: float,
     effective_radius_m: float,
-    composite_modulus_pa: float,
+    effective_modulus_pa: float,
     nx: int = 64,
     x_half_extent_over_b: float = 1.6,
     period_length_m: float | None = None,
@@ -363,21 +147,21 @@ def solve_plane_strain_line_contact(
     Love coefficients and Polonsky-Keer CG as the finite roller, but circular (periodic) in y so
     the pressure is uniform along the roller: the numerical counterpart of Hertz's line contact.
 
-    Inputs: line load P' [N/m], effective radius R [m], composite modulus E* [Pa].
+    Inputs: line load P' [N/m], effective radius R [m], contact modulus E* [Pa].
     Returns x [m], p(x) [Pa], p_max [Pa], contact half-widths [m] (see
     :func:`contact_half_width_along_roller`), the Hertz p0 and b for comparison, and the load
     check sum(p) dx [N/m]. (The approach is not returned: in 2D it is defined only up to a
     constant that depends on the period length.)
     Johnson (1985) sect. 4.2 (Hertz line contact); Polonsky & Keer (1999); Liu, Wang & Liu (2000).
     """
-    p0_h, b_h = hertz_line_contact(load_per_length_n_m, effective_radius_m, composite_modulus_pa)
+    p0_h, b_h = hertz_line_pressure_and_half_width(load_per_length_n_m, effective_radius_m, effective_modulus_pa)
     lp = 50.0 * b_h if period_length_m is None else float(period_length_m)
     dy = lp / ny
     x_half = x_half_extent_over_b * b_h
     dx = 2.0 * x_half / nx
     x = -x_half + (np.arange(nx) + 0.5) * dx
     h0 = np.repeat((x ** 2 / (2.0 * effective_radius_m))[:, None], ny, axis=1)
-    op = DcFftDisplacementOperator(nx, ny, dx, dy, composite_modulus_pa, periodic_y=True)
+    op = DcFftDisplacementOperator(nx, ny, dx, dy, effective_modulus_pa, periodic_y=True)
     p, _approach, iters, eps = solve_pressure_polonsky_keer(h0, dx * dy, load_per_length_n_m * lp, op, tol=tol)
     px = p.mean(axis=1)
     a_eq, a_loaded = contact_half_width_along_roller(px[:, None], dx)
@@ -434,7 +218,7 @@ def solve_finite_roller_contact(
     roller_diameter_m: float,
     roller_length_m: float,
     load_n: float,
-    composite_modulus_pa: float,
+    effective_modulus_pa: float,
     profile: str = "straight",
     end_radius_m: float = 0.0,
     crown_drop_m: float = 0.0,
@@ -450,7 +234,7 @@ def solve_finite_roller_contact(
     """Pressure under a finite-length roller on a flat raceway (elastic half-spaces).
 
     Inputs: roller diameter D [m], length L [m] (the whole profiled length), total normal load
-    W [N], composite modulus E* [Pa], profile as in :func:`roller_profile_drop`. The effective
+    W [N], contact modulus E* [Pa], profile as in :func:`roller_profile_drop`. The effective
     radius across the rolling direction defaults to D/2 (flat raceway); pass
     R_eff = (D/2) R_race / (R_race +- D/2) for a curved raceway.
     Grid: ``nx`` elements across x in [-X, X], X = ``x_half_extent_over_b`` times the Hertz
@@ -464,55 +248,105 @@ def solve_finite_roller_contact(
         raise ValueError("roller diameter and length must be positive")
     r_eff = 0.5 * roller_diameter_m if effective_radius_m is None else float(effective_radius_m)
     line_load = load_n / roller_length_m
-    p0_h, b_h = hertz_line_contact(line_load, r_eff, composite_modulus_pa)
+    p0_h, b_h = hertz_line_pressure_and_half_width(line_load, r_eff, effective_modulus_pa)
     dy = roller_length_m / ny
     y = -0.5 * roller_length_m + (np.arange(ny) + 0.5) * dy
     z = roller_profile_drop(y, roller_length_m, profile, end_radius_m, crown_drop_m, log_coeff_m)
+    grid = _solve_on_widening_grid(z, dy, r_eff, load_n, effective_modulus_pa, nx, x_half_extent_over_b, b_h,
+                                   tol, max_iter, auto_extend)
+    info = {"profile": profile, "end_radius_m": end_radius_m, "crown_drop_m": crown_drop_m,
+            "log_coeff_m": log_coeff_m, "effective_radius_m": r_eff, "nx": nx, "ny": ny,
+            "x_half_extent_m": grid.x_half_extent_m, "touches_x_border": grid.touches_x_border,
+            "converged": grid.residual < tol}
+    return _roller_contact_result(grid, y, roller_length_m, load_n, p0_h, b_h, t_start, info)
+
+
+class _GridSolution(NamedTuple):
+    """Pressure on the accepted x grid of :func:`_solve_on_widening_grid` (SI units)."""
+
+    x_m: np.ndarray                      # element centres across the contact width, (nx,)
+    dx_m: float
+    dy_m: float
+    gap_undeformed_m: np.ndarray         # h0(x, y), +inf where no contact is possible, (nx, ny)
+    displacement: DcFftDisplacementOperator
+    pressure_pa: np.ndarray              # (nx, ny)
+    approach_m: float
+    iterations: int
+    residual: float
+    x_half_extent_m: float
+    touches_x_border: bool
+
+
+def _solve_on_widening_grid(profile_drop_m: np.ndarray, dy_m: float, effective_radius_m: float, load_n: float,
+                            effective_modulus_pa: float, nx: int, x_half_extent_over_b: float,
+                            hertz_half_width_m: float, tol: float, max_iter: int,
+                            auto_extend: bool) -> _GridSolution:
+    """Polonsky-Keer solve on ``nx`` elements across x in [-X, X], X = factor b (b the Hertz half-width of
+    the mean line load, factor from ``x_half_extent_over_b``); while the contact reaches the x border (and
+    ``auto_extend``), X is widened by 1.4x and the problem re-solved (at most 6 attempts)."""
+    ny = profile_drop_m.size
     factor = float(x_half_extent_over_b)
     for _attempt in range(6):
-        x_half = factor * b_h
+        x_half = factor * hertz_half_width_m
         dx = 2.0 * x_half / nx
         x = -x_half + (np.arange(nx) + 0.5) * dx
-        h0 = x[:, None] ** 2 / (2.0 * r_eff) + z[None, :]
-        op = _cached_operator(nx, ny, dx, dy, float(composite_modulus_pa))
+        h0 = x[:, None] ** 2 / (2.0 * effective_radius_m) + profile_drop_m[None, :]
+        op = cached_displacement_operator(nx, ny, dx, dy_m, float(effective_modulus_pa))
         p, approach, iters, eps = solve_pressure_polonsky_keer(
-            h0, dx * dy, load_n, op, tol=tol, max_iter=max_iter
+            h0, dx * dy_m, load_n, op, tol=tol, max_iter=max_iter
         )
         touches_border = bool((p[0, :] > 0).any() or (p[-1, :] > 0).any())
         if not (auto_extend and touches_border):
             break
         factor *= 1.4
-    area = dx * dy
-    peak = p.max(axis=0)
-    half_width, half_width_loaded = contact_half_width_along_roller(p, dx)
-    i_max = np.unravel_index(int(np.argmax(p)), p.shape)
+    return _GridSolution(x, dx, dy_m, h0, op, p, approach, iters, eps, x_half, touches_border)
+
+
+def _centre_and_end_peaks(peak_pa: np.ndarray, y_m: np.ndarray, roller_length_m: float) -> tuple[float, float, int]:
+    """(p0 at mid-length, max p0 in the end zones |y| >= L/4, index of that end peak) of p0(y) [Pa]."""
+    ny = peak_pa.size
     if ny % 2:
-        p0_c = float(peak[ny // 2])
+        p0_c = float(peak_pa[ny // 2])
     else:
-        p0_c = float(0.5 * (peak[ny // 2 - 1] + peak[ny // 2]))
-    end_zone = np.abs(y) >= 0.25 * roller_length_m
-    j_end = int(np.argmax(np.where(end_zone, peak, -np.inf)))
-    p0_e = float(peak[j_end])
-    u = op(p)
-    gap = np.where(np.isfinite(h0), h0, np.inf) + u - approach
+        p0_c = float(0.5 * (peak_pa[ny // 2 - 1] + peak_pa[ny // 2]))
+    end_zone = np.abs(y_m) >= 0.25 * roller_length_m
+    j_end = int(np.argmax(np.where(end_zone, peak_pa, -np.inf)))
+    return p0_c, float(peak_pa[j_end]), j_end
+
+
+def _complementarity(grid: _GridSolution) -> tuple[float, float]:
+    """(max |gap| over loaded elements, min gap over unloaded touchable elements) [m] of a solution."""
+    p = grid.pressure_pa
+    h0 = grid.gap_undeformed_m
+    gap = np.where(np.isfinite(h0), h0, np.inf) + grid.displacement(p) - grid.approach_m
     loaded = p > 0
     compl = float(np.abs(gap[loaded]).max()) if loaded.any() else 0.0
     unloaded = (~loaded) & np.isfinite(gap)
     min_gap = float(gap[unloaded].min()) if unloaded.any() else float("inf")
+    return compl, min_gap
+
+
+def _roller_contact_result(grid: _GridSolution, y_m: np.ndarray, roller_length_m: float, load_n: float,
+                           hertz_p0_pa: float, hertz_half_width_m: float, t_start: float,
+                           info: dict[str, Any]) -> RollerContactResult:
+    """Peaks, half-widths, line loads and checks of a grid solution (conventions: module docstring)."""
+    p, dx = grid.pressure_pa, grid.dx_m
+    peak = p.max(axis=0)
+    half_width, half_width_loaded = contact_half_width_along_roller(p, dx)
+    i_max = np.unravel_index(int(np.argmax(p)), p.shape)
+    p0_c, p0_e, j_end = _centre_and_end_peaks(peak, y_m, roller_length_m)
+    compl, min_gap = _complementarity(grid)
     return RollerContactResult(
-        x_m=x, y_m=y, pressure_pa=p, approach_m=approach, load_n=float(load_n),
-        load_check_n=float(p.sum() * area),
-        max_pressure_pa=float(p[i_max]), max_pressure_y_m=float(abs(y[i_max[1]])),
+        x_m=grid.x_m, y_m=y_m, pressure_pa=p, approach_m=grid.approach_m, load_n=float(load_n),
+        load_check_n=float(p.sum() * (dx * grid.dy_m)),
+        max_pressure_pa=float(p[i_max]), max_pressure_y_m=float(abs(y_m[i_max[1]])),
         peak_pressure_along_roller_pa=peak, half_width_along_roller_m=half_width,
         loaded_half_width_along_roller_m=half_width_loaded, line_load_along_roller_n_m=p.sum(axis=0) * dx,
-        p0_center_pa=p0_c, p0_end_pa=p0_e, p0_end_y_m=float(abs(y[j_end])),
+        p0_center_pa=p0_c, p0_end_pa=p0_e, p0_end_y_m=float(abs(y_m[j_end])),
         end_stress_ratio=p0_e / p0_c if p0_c > 0 else float("inf"),
-        hertz_p0_pa=p0_h, hertz_half_width_m=b_h, iterations=iters, residual=eps,
-        complementarity_gap_m=compl, min_gap_outside_m=min_gap,
-        solve_time_s=time.perf_counter() - t_start,
-        info={"profile": profile, "end_radius_m": end_radius_m, "crown_drop_m": crown_drop_m,
-              "log_coeff_m": log_coeff_m, "effective_radius_m": r_eff, "nx": nx, "ny": ny,
-              "x_half_extent_m": x_half, "touches_x_border": touches_border, "converged": eps < tol},
+        hertz_p0_pa=hertz_p0_pa, hertz_half_width_m=hertz_half_width_m, iterations=grid.iterations,
+        residual=grid.residual, complementarity_gap_m=compl, min_gap_outside_m=min_gap,
+        solve_time_s=time.perf_counter() - t_start, info=info,
     )
 
 
@@ -549,7 +383,7 @@ def _profile_from_params(params: dict[str, Any], roller_load_n: float) -> dict[s
     """Resolve the roller-profile parameters (INTERFACES.md names) into solver keyword args."""
     d = float(params["roller_diameter_m"])
     length = float(params["roller_length_m"])
-    e_star = composite_modulus_plane_strain(float(params["youngs_modulus_pa"]), float(params["poisson"]))
+    e_star = effective_modulus_pa(float(params["youngs_modulus_pa"]), float(params["poisson"]))
     profile = str(params.get("roller_profile", "straight"))
     if profile not in PROFILES:
         raise ValueError(f"roller_profile must be one of {PROFILES}, got {profile!r}")
@@ -559,7 +393,7 @@ def _profile_from_params(params: dict[str, Any], roller_load_n: float) -> dict[s
     return {
         "roller_diameter_m": d,
         "roller_length_m": length,
-        "composite_modulus_pa": e_star,
+        "effective_modulus_pa": e_star,
         "profile": profile,
         "end_radius_m": float(params.get("roller_end_radius_m", 0.0)),
         "crown_drop_m": float(params.get("crown_drop_m", 0.0)),
@@ -682,7 +516,7 @@ def build_roller_contact_table(
     p = dict(params)
     if str(p.get("roller_profile", "straight")) == "logarithmic" and float(p.get("log_profile_coeff_m", 0.0)) <= 0:
         wd = math.sqrt(load_min_n * load_max_n) if design_load_n is None else float(design_load_n)
-        e_star = composite_modulus_plane_strain(float(p["youngs_modulus_pa"]), float(p["poisson"]))
+        e_star = effective_modulus_pa(float(p["youngs_modulus_pa"]), float(p["poisson"]))
         p["log_profile_coeff_m"] = lundberg_log_profile_coefficient(wd / float(p["roller_length_m"]), e_star)
     loads = np.geomspace(load_min_n, load_max_n, n_loads)
     rows = []

@@ -1,0 +1,1 @@
+"""Offline analyses of recorded runs with the live nodes' models."""

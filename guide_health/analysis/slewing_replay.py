@@ -1,0 +1,45 @@
+"""Offline analysis of a slewing-bearing load history with the live node's core (``SlewingMonitor``)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from guide_health.models.levels import ERROR, OK, WARN
+from guide_health.models.slewing.monitor import SlewingMonitor
+
+
+def analyse_slewing_run(run, params: dict, progress=None) -> tuple[SlewingMonitor, dict]:
+    """Every load sample of a SlewingLoadRun through SlewingMonitor (the node's rules); returns the
+    monitor and a report: the worst roller of the whole run (its loads and time), counts of samples per
+    level, and `p_max_MPa` per sample for plots (key `series`)."""
+    monitor = SlewingMonitor(params)
+    n = int(np.asarray(run.t_ns).size)
+    p_max = np.full(n, np.nan)
+    levels = {OK: 0, WARN: 0, ERROR: 0}
+    worst_i = -1
+    worst = None
+    for i, (fa, fr, mt) in enumerate(zip(np.asarray(run.axial_n, float).tolist(),
+                                         np.asarray(run.radial_n, float).tolist(),
+                                         np.asarray(run.moment_nm, float).tolist())):
+        if monitor.on_loads(fa, fr, mt) is None:
+            rep = monitor.worst_sample
+            p_max[i] = rep["p_max_MPa"]
+            levels[int(rep["level"])] += 1
+            if worst is None or rep["p_max_MPa"] > worst["p_max_MPa"]:
+                worst, worst_i = rep, i
+        if progress is not None and (i % 20000 == 0 or i == n - 1):
+            progress(i + 1, n)
+    report = dict(worst or {})
+    report.update(
+        loads=n, rejected_loads=monitor.rejected,
+        samples_ok=levels[OK], samples_warn=levels[WARN], samples_error=levels[ERROR],
+        worst_t_s=(float(run.t_ns[worst_i] - run.t_ns[0]) * 1e-9) if worst_i >= 0 else math.nan,
+        worst_axial_n=float(run.axial_n[worst_i]) if worst_i >= 0 else math.nan,
+        worst_radial_n=float(run.radial_n[worst_i]) if worst_i >= 0 else math.nan,
+        worst_moment_nm=float(run.moment_nm[worst_i]) if worst_i >= 0 else math.nan,
+        duration_h=(float(run.t_ns[-1] - run.t_ns[0]) * 1e-9 / 3600.0) if n else 0.0,
+        messages=n,
+    )
+    report["series"] = p_max
+    return monitor, report
