@@ -93,7 +93,7 @@ SIMULATION_DEFAULTS: dict[str, Any] = {
     "retract_load_max_n": 0.0,          # uniform retract_load_n .. min(max, the job's feed load)
     "stroke_mean_max_m": 0.0,           # uniform stroke_mean_m .. max
     "stroke_skew_max": 0.0,             # stroke_skew + uniform(-max, max)
-    # effects of `simulate --effect` (models/wear_effects.py)
+    # effects of `simulate --effect` (models/wear/effects.py)
     "running_in_distance_m": 100.0,     # s0 of running_in
     "load_reference_n": 1000.0,         # W_ref of load_exponent
     # guide temperature (topic guide/temperature when temperature_rate_hz > 0)

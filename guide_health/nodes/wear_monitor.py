@@ -33,7 +33,9 @@ from guide_health.diagnostics import (
     make_array,
     make_status,
 )
-from guide_health.models.precision import STALE, PrecisionMonitor, StampAlignedFeed
+from guide_health.models.levels import STALE
+from guide_health.models.wear.feed import StampAlignedFeed
+from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.nodes.common import run_node
 from guide_health.params import (
     WEAR_MONITOR_DEFAULTS,

@@ -4,7 +4,7 @@ Every pair of consecutive axis samples is a sliding segment: distance ds = |dx|,
 the latest load stamped at or before the segment's end sample (the monitor's rule), direction, and the
 length L of the pass (monotone run of the axis) it belongs to. Segments are summed into cells of
 (time block, direction, speed bin, load bin): bins 10 % wide in log speed and log load and blocks of
-``block_s`` seconds, so every effect multiplier (models/wear_effects.py), evaluated at a cell's
+``block_s`` seconds, so every effect multiplier (models/wear/effects.py), evaluated at a cell's
 work-weighted means, is the segment sum to well below the measurement noise. A fine cell belongs to the
 measurement interval of its work-weighted mean time (an error of at most half a block of wear at a
 measurement); cells of one interval with the same direction and bins are then merged, keeping the
@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from guide_health.models.wear_effects import pass_weight_per_m
+from guide_health.models.wear.effects import pass_weight_per_m
 from guide_health.runs import MachineRun
 
 # per-cell sums: work-weighted where the name says *_w

@@ -1,8 +1,8 @@
 """The precision-retention model of one guide: the single object behind the live node and offline replay.
 
 It validates samples (bad ones are rejected with a reason and never change the state), integrates the
-Archard work (:class:`~guide_health.models.wear.WearIntegrator`), updates K from measured straightness
-(:class:`~guide_health.models.calibration.WearCoefficientEstimator`) and reports straightness, wear and
+Archard work (:class:`~guide_health.models.wear.archard.WearIntegrator`), updates K from measured
+straightness (:class:`~guide_health.models.wear.calibration.WearCoefficientEstimator`) and reports straightness, wear and
 remaining precision life (seed 000 Eqs. 7, 10, 11, 12) with a 90 % interval.
 """
 from __future__ import annotations
@@ -12,11 +12,9 @@ from typing import Any, Callable
 
 import numpy as np
 
-from guide_health.models.calibration import WearCoefficientEstimator, remaining_life_s
-from guide_health.models.wear import WearGeometry, WearIntegrator, straightness_from_wear_volume_m
-
-OK, WARN, ERROR, STALE = 0, 1, 2, 3
-LEVEL_NAMES = {OK: "OK", WARN: "WARN", ERROR: "ERROR", STALE: "STALE"}
+from guide_health.models.levels import Level
+from guide_health.models.wear.archard import WearGeometry, WearIntegrator, straightness_from_wear_volume_m
+from guide_health.models.wear.calibration import WearCoefficientEstimator, remaining_life_s
 
 
 class PrecisionMonitor:
@@ -225,20 +223,20 @@ class PrecisionMonitor:
                 result["message"] = f"{result['message']}; {text}"
         return result
 
-    def _judge(self, r: dict) -> tuple[int, str]:
+    def _judge(self, r: dict) -> tuple[Level, str]:
         p = self.params
         a = r["straightness_um"]
         limit = r["straightness_limit_um"]
         life = r["remaining_life_h"]
         if math.isnan(a):
-            return WARN, "no wear estimate yet (waiting for motion and load)"
-        level = OK
+            return Level.WARN, "no wear estimate yet (waiting for motion and load)"
+        level = Level.OK
         if a >= limit:
-            return ERROR, f"straightness {a:.1f} um exceeds the limit {limit:.1f} um: precision lost"
+            return Level.ERROR, f"straightness {a:.1f} um exceeds the limit {limit:.1f} um: precision lost"
         if life < p["life_error_h"]:
-            level = ERROR
+            level = Level.ERROR
         elif life < p["life_warn_h"] or a > p["straightness_warn_fraction"] * limit:
-            level = WARN
+            level = Level.WARN
         if math.isfinite(life):
             text = f"remaining precision life {life:.0f} h at current duty (straightness {a:.1f} of {limit:.0f} um)"
         else:
@@ -274,85 +272,3 @@ class PrecisionMonitor:
         if self.rolling is not None and state.get("rolling"):
             self.rolling.restore(state["rolling"])
 
-
-class StampAlignedFeed:
-    """Live inputs aligned by header stamps, with the offline rule of process_run: a joint sample is
-    integrated with the latest load whose stamp is <= its own.
-
-    Joint and load messages come from different DDS writers, which keep order per writer only, so a
-    load change (or the very first load) can arrive after joint samples stamped later than it. Joint
-    samples newer than the latest load therefore wait here until a load stamped after them arrives
-    (then the load they need is known) or until they have waited `window_s` of wall time (then the load
-    stream is just slower, and they take the latest load, as without alignment). window_s = 0 integrates
-    every sample on arrival. Validation happens on arrival, so bad samples are rejected at once.
-    Every method returns the rejection reasons of the samples it handled.
-    """
-
-    def __init__(self, monitor: PrecisionMonitor, window_s: float = 0.5):
-        from collections import deque
-
-        if window_s < 0:
-            raise ValueError("window_s must be >= 0")
-        self.monitor = monitor
-        self.window_s = float(window_s)
-        self.pending = deque()              # (t_ns, position_m, velocity_m_s, arrival_s)
-        self._last_accepted_t_ns: int | None = None
-
-    def _validate_joint(self, t_ns: int, position_m: float, velocity_m_s: float) -> str | None:
-        m = self.monitor
-        if not (math.isfinite(position_m) and math.isfinite(velocity_m_s)):
-            return m._reject("non-finite joint position/velocity")
-        last = self._last_accepted_t_ns
-        if last is None:
-            last = m.integrator.last_t_ns
-        if last is not None and t_ns <= last:
-            return m._reject("joint_states time going backwards")
-        return None
-
-    def joint(self, t_ns: int, position_m: float, velocity_m_s: float, now_s: float) -> list[str]:
-        reason = self._validate_joint(t_ns, position_m, velocity_m_s)
-        if reason is not None:
-            return [reason]
-        self._last_accepted_t_ns = int(t_ns)
-        load_t = self.monitor.load_t_ns
-        if self.window_s == 0 or (not self.pending and load_t is not None and t_ns < load_t):
-            # nothing can come that changes this sample's load (or alignment is off)
-            return self._integrate([(t_ns, position_m, velocity_m_s)]) + self.flush_aged(now_s)
-        self.pending.append((int(t_ns), position_m, velocity_m_s, now_s))
-        return self.flush_aged(now_s)
-
-    def load(self, t_ns: int, load_n: float, now_s: float) -> list[str]:
-        m = self.monitor
-        if not math.isfinite(load_n) or load_n < 0 or (m.load_t_ns is not None and t_ns <= m.load_t_ns):
-            return [m.on_load(t_ns, load_n)]          # rejected by the monitor's own rule
-        reasons = self._integrate(self._take(lambda t: t < t_ns))   # they used the previous load
-        r = m.on_load(t_ns, load_n)
-        return reasons + ([r] if r else []) + self.flush_aged(now_s)
-
-    def flush_aged(self, now_s: float) -> list[str]:
-        """Integrate samples that waited longer than the window (with the latest load)."""
-        if not self.pending or now_s - self.pending[0][3] <= self.window_s:
-            return []
-        cutoff = now_s - self.window_s
-        batch = []
-        while self.pending and self.pending[0][3] < cutoff:
-            batch.append(self.pending.popleft()[:3])
-        return self._integrate(batch)
-
-    def flush_all(self) -> list[str]:
-        """Integrate everything waiting (before a straightness measurement, a checkpoint, shutdown)."""
-        return self._integrate(self._take(lambda t: True))
-
-    def _take(self, older) -> list:
-        batch = []
-        while self.pending and older(self.pending[0][0]):
-            batch.append(self.pending.popleft()[:3])
-        return batch
-
-    def _integrate(self, samples) -> list[str]:
-        reasons = []
-        for t_ns, x, v in samples:
-            r = self.monitor.on_joint(t_ns, x, v)
-            if r:
-                reasons.append(r)
-        return reasons

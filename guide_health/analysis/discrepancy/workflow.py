@@ -12,10 +12,10 @@ from typing import Any
 
 import numpy as np
 
-from guide_health.discrepancy.analysis import disagreement
-from guide_health.discrepancy.duty import DutyCells
-from guide_health.discrepancy.model import FitResult, WearProblem, rel_errors
-from guide_health.discrepancy.selection import BIC_THRESHOLD, forward_selection
+from guide_health.analysis.discrepancy.analysis import disagreement
+from guide_health.analysis.discrepancy.duty import DutyCells
+from guide_health.analysis.discrepancy.model import FitResult, WearProblem, rel_errors
+from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD, forward_selection
 
 # what each effect means, for the report
 EFFECT_MEANING = {

@@ -1,0 +1,1 @@
+"""Offline analyses of recorded runs (bags): replay, life tests, the discrepancy workflow."""
