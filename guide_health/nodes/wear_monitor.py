@@ -35,6 +35,8 @@ from guide_health.diagnostics import (
 )
 from guide_health.models.levels import STALE
 from guide_health.models.wear.feed import StampAlignedFeed
+from guide_health.models.wear.input_rules import (EMPTY_JOINT_STATES, JOINT_POSITION_MISSING, MALFORMED_JOINT_STATES,
+                                                  MALFORMED_LOAD, STRAIGHTNESS_WITHOUT_TIME_BASE, joint_missing)
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.nodes.common import run_node
 from guide_health.params import (
@@ -131,7 +133,7 @@ class WearMonitorNode(Node):
                 msg = deserialize_message(raw, JointState)
             except Exception:  # noqa: BLE001 - anything undecodable is malformed input
                 self._last_arrival["joint_states"] = time.monotonic()
-                self._rejected(self.monitor._reject("malformed joint_states message"))
+                self._rejected(self.monitor.rejected.reject(MALFORMED_JOINT_STATES))
                 return
             self._on_joint(msg)
             return
@@ -152,7 +154,7 @@ class WearMonitorNode(Node):
                 msg = deserialize_message(raw, WrenchStamped)
             except Exception:  # noqa: BLE001
                 self._last_arrival["guide/load"] = time.monotonic()
-                self._rejected(self.monitor._reject("malformed guide/load message"))
+                self._rejected(self.monitor.rejected.reject(MALFORMED_LOAD))
                 return
             self._on_load(msg)
             return
@@ -172,15 +174,15 @@ class WearMonitorNode(Node):
     def _on_joint(self, msg: JointState) -> None:
         self._last_arrival["joint_states"] = time.monotonic()
         if not msg.name or len(msg.position) == 0:
-            self._rejected(self.monitor._reject("empty joint_states arrays"))
+            self._rejected(self.monitor.rejected.reject(EMPTY_JOINT_STATES))
             return
         try:
             i = list(msg.name).index(self.joint)
         except ValueError:
-            self._rejected(self.monitor._reject(f"joint '{self.joint}' not in joint_states"))
+            self._rejected(self.monitor.rejected.reject(joint_missing(self.joint)))
             return
         if i >= len(msg.position):
-            self._rejected(self.monitor._reject("joint_states position shorter than name"))
+            self._rejected(self.monitor.rejected.reject(JOINT_POSITION_MISSING))
             return
         velocity = msg.velocity[i] if i < len(msg.velocity) else 0.0
         t1 = time.perf_counter()
@@ -201,7 +203,7 @@ class WearMonitorNode(Node):
         self._rejected_all(self.feed.flush_all())    # the joint samples that came before it count
         t = self.monitor.integrator.last_t_ns
         if t is None:
-            self._rejected(self.monitor._reject("straightness before any joint_states (no time base)"))
+            self._rejected(self.monitor.rejected.reject(STRAIGHTNESS_WITHOUT_TIME_BASE))
             return
         self._rejected(self.monitor.on_straightness(t, float(msg.data)))
 

@@ -11,6 +11,7 @@ axis position and load samples (Eq. 10 in differential form, dV = K W ds / H), s
 K can be updated from measurements afterwards without re-integrating (every wear quantity is linear in K).
 It serves the live node sample by sample (``advance``) and offline replay over whole arrays
 (``advance_many``), with identical arithmetic: the offline path is the same formulas vectorised.
+Callers pass only samples accepted by :mod:`guide_health.models.wear.input_rules`.
 
 Two straightness models:
 - ``eq7``: seed 000 Eq. 7 with l_min / l_max from parameters or from the observed strokes.

@@ -1,9 +1,9 @@
 """Live inputs aligned by header stamps: the live node's way to the offline load rule."""
 from __future__ import annotations
 
-import math
 from collections import deque
 
+from guide_health.models.wear.input_rules import check_joint_sample, check_load_sample
 from guide_health.models.wear.precision import PrecisionMonitor
 
 
@@ -16,7 +16,8 @@ class StampAlignedFeed:
     samples newer than the latest load therefore wait here until a load stamped after them arrives
     (then the load they need is known) or until they have waited `window_s` of wall time (then the load
     stream is just slower, and they take the latest load, as without alignment). window_s = 0 integrates
-    every sample on arrival. Validation happens on arrival, so bad samples are rejected at once.
+    every sample on arrival. Validation (:mod:`guide_health.models.wear.input_rules`) happens on arrival,
+    so bad samples are rejected at once and counted in the monitor's ``rejected``.
     Every method returns the rejection reasons of the samples it handled.
     """
 
@@ -29,15 +30,11 @@ class StampAlignedFeed:
         self._last_accepted_t_ns: int | None = None
 
     def _validate_joint(self, t_ns: int, position_m: float, velocity_m_s: float) -> str | None:
-        m = self.monitor
-        if not (math.isfinite(position_m) and math.isfinite(velocity_m_s)):
-            return m._reject("non-finite joint position/velocity")
         last = self._last_accepted_t_ns
         if last is None:
-            last = m.integrator.last_t_ns
-        if last is not None and t_ns <= last:
-            return m._reject("joint_states time going backwards")
-        return None
+            last = self.monitor.integrator.last_t_ns
+        reason = check_joint_sample(t_ns, position_m, velocity_m_s, last)
+        return None if reason is None else self.monitor.rejected.reject(reason)
 
     def joint(self, t_ns: int, position_m: float, velocity_m_s: float, now_s: float) -> list[str]:
         reason = self._validate_joint(t_ns, position_m, velocity_m_s)
@@ -53,8 +50,8 @@ class StampAlignedFeed:
 
     def load(self, t_ns: int, load_n: float, now_s: float) -> list[str]:
         m = self.monitor
-        if not math.isfinite(load_n) or load_n < 0 or (m.load_t_ns is not None and t_ns <= m.load_t_ns):
-            return [m.on_load(t_ns, load_n)]          # rejected by the monitor's own rule
+        if check_load_sample(t_ns, load_n, m.load_t_ns) is not None:
+            return [m.on_load(t_ns, load_n)]          # rejected (and counted) by the monitor
         reasons = self._integrate(self._take(lambda t: t < t_ns))   # they used the previous load
         r = m.on_load(t_ns, load_n)
         return reasons + ([r] if r else []) + self.flush_aged(now_s)
