@@ -17,8 +17,8 @@ import numpy as np
 from scipy import stats
 
 from guide_health.errors import InputError
-from guide_health.models.wear import WearGeometry, WearIntegrator, straightness_from_wear_volume_m
-from guide_health.models.wear_effects import (EFFECT_IDS, WearEffects, measured_straightness_m,
+from guide_health.models.wear.archard import WearGeometry, WearIntegrator, straightness_from_wear_volume_m
+from guide_health.models.wear.effects import (EFFECT_IDS, WearEffects, measured_straightness_m,
                                               pass_weight_per_m, running_in_factor_mean,
                                               straightness_wear_m, wear_rate_multiplier)
 from guide_health.runs import MachineRun
@@ -304,7 +304,7 @@ def true_straightness_loss_per_k_m(params: dict[str, Any], knot_t: np.ndarray, k
 def effective_work_at(knots: MachineKnots, at_s: np.ndarray, effects: WearEffects,
                       slider_length_m: float) -> tuple[np.ndarray, np.ndarray]:
     """Effective Archard work G = sum W ds m [N m] and pass work P = sum W ds m / max(L, L_s) [N] of the
-    exact motion at times ``at_s`` (models/wear_effects.py; m = 1 without effects)."""
+    exact motion at times ``at_s`` (models/wear/effects.py; m = 1 without effects)."""
     ds = np.abs(np.diff(knots.x_m))
     dt = np.diff(knots.t_s)
     s = np.concatenate(([0.0], np.cumsum(ds)))

@@ -18,11 +18,11 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from guide_health.discrepancy.duty import DutyCellAccumulator, duty_cells_from_runs
-from guide_health.discrepancy.model import WearProblem
-from guide_health.discrepancy.selection import forward_selection, select_pin_on_disc_law
-from guide_health.discrepancy.workflow import diagnose_cells
-from guide_health.models import wear_effects as we
+from guide_health.analysis.discrepancy.duty import DutyCellAccumulator, duty_cells_from_runs
+from guide_health.analysis.discrepancy.model import WearProblem
+from guide_health.analysis.discrepancy.selection import forward_selection, select_pin_on_disc_law
+from guide_health.analysis.discrepancy.workflow import diagnose_cells
+from guide_health.models.wear import effects as we
 from guide_health.params import simulation_params, wear_monitor_params
 from guide_health.runs import MachineRun
 from guide_health.simulate import cycle_knots, simulate_machine, true_straightness_loss_per_k_m

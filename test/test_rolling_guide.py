@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from guide_health.models.rolling.rating_life import rating_life_km
-from guide_health.models.precision import PrecisionMonitor
+from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.params import wear_monitor_params
 from guide_health.runs import MachineRun
 

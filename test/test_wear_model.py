@@ -5,11 +5,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from guide_health.models.calibration import WearCoefficientEstimator, fit_pin_on_disc, remaining_life_s
-from guide_health.models.precision import PrecisionMonitor
-from guide_health.models.wear import (StrokeTracker, WearGeometry, WearIntegrator, archard_wear_volume_m3,
-                                      minimum_zone_straightness_m, precision_life_eq12_s,
-                                      straightness_from_wear_volume_m, straightness_loss_eq11_m)
+from guide_health.models.wear.archard import (WearGeometry, WearIntegrator, archard_wear_volume_m3,
+                                              precision_life_eq12_s, straightness_from_wear_volume_m,
+                                              straightness_loss_eq11_m)
+from guide_health.models.wear.calibration import WearCoefficientEstimator, fit_pin_on_disc, remaining_life_s
+from guide_health.models.wear.precision import PrecisionMonitor
+from guide_health.models.wear.straightness import StrokeTracker, minimum_zone_straightness_m
 from guide_health.params import simulation_params, wear_monitor_params
 from guide_health.simulate import machine_knots, simulate_machine
 
@@ -217,7 +218,8 @@ def test_estimator_prior_only_and_remaining_life_closed_form():
 def test_stamp_aligned_feed_gives_the_offline_load_rule_whatever_the_arrival_order():
     """Joint samples that arrive before the load stamped earlier than them wait for it (or for the
     window); the result equals process_run on the same samples, and differs without alignment."""
-    from guide_health.models.precision import PrecisionMonitor, StampAlignedFeed
+    from guide_health.models.wear.feed import StampAlignedFeed
+    from guide_health.models.wear.precision import PrecisionMonitor
     from guide_health.runs import MachineRun
 
     params = wear_monitor_params(BENCH)

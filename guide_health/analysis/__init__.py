@@ -1,1 +1,2 @@
-"""Offline analyses of recorded runs with the live nodes' models."""
+"""Offline analyses of recorded runs (bags) with the live nodes' models: replay, life tests, slewing replay,
+the discrepancy workflow."""

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from guide_health.errors import InputError
-from guide_health.models.calibration import fit_pin_on_disc
+from guide_health.models.wear.calibration import fit_pin_on_disc
 
 REQUIRED = ("speed_m_s", "load_n", "wear_rate_m3_s")
 
@@ -58,6 +58,6 @@ def run(args) -> dict:
         "regression": "ordinary least squares through the origin, gamma = c W v; K = c H",
     }
     if args.wear_law:
-        from guide_health.discrepancy.selection import select_pin_on_disc_law
+        from guide_health.analysis.discrepancy.selection import select_pin_on_disc_law
         result["wear_law"] = select_pin_on_disc_law(rows["speed_m_s"], rows["load_n"], rows["wear_rate_m3_s"])
     return result

@@ -27,7 +27,7 @@ def add_arguments(parser) -> None:
 def read_duty(bag, params: dict, namespace=None, progress=None):
     """Stream a machine bag into duty cells (memory bounded by one chunk)."""
     from guide_health.bags import iter_machine_bag
-    from guide_health.discrepancy.duty import DutyCellAccumulator
+    from guide_health.analysis.discrepancy.duty import DutyCellAccumulator
 
     acc = DutyCellAccumulator(params["slider_length_m"])
     messages = 0
@@ -39,9 +39,9 @@ def read_duty(bag, params: dict, namespace=None, progress=None):
 
 def run(args) -> dict:
     from guide_health.bags import ProgressBar
-    from guide_health.discrepancy.report import write_report
-    from guide_health.discrepancy.selection import BIC_THRESHOLD
-    from guide_health.discrepancy.workflow import diagnose_cells
+    from guide_health.analysis.discrepancy.report import write_report
+    from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD
+    from guide_health.analysis.discrepancy.workflow import diagnose_cells
 
     if not 0.0 <= args.heldout_fraction < 0.9:
         raise InputError("--heldout-fraction must be in [0, 0.9)")

@@ -10,7 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from guide_health.models.precision import LEVEL_NAMES, PrecisionMonitor
+from guide_health.models.levels import LEVEL_NAMES
+from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.params import wear_monitor_params
 
 

@@ -22,7 +22,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="random seed (strokes, noise)")
     parser.add_argument("--namespace", default="", help="topic namespace, e.g. /m1")
     parser.add_argument("--effect", action="append", metavar="NAME=VALUE",
-                        help="physics the baseline model lacks, hidden in the truth (models/wear_effects.py), "
+                        help="physics the baseline model lacks, hidden in the truth (models/wear/effects.py), "
                              "VALUE in SI: running_in=r (K starts at (1+r) K, s0 = running_in_distance_m), "
                              "retract_asymmetry=rho, speed_dependent_wear=v_lift [m/s], load_exponent=n, "
                              "stroke_distribution=w, thermal_drift=c_T [m/K], initial_offset=delta [m]")

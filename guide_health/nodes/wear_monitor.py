@@ -25,7 +25,10 @@ from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
 
 from guide_health.bags import JOINT_STATE, MISSING, WRENCH_STAMPED, RawMessageDecoder
-from guide_health.models.precision import PrecisionMonitor, StampAlignedFeed
+from guide_health.models.wear.feed import StampAlignedFeed
+from guide_health.models.wear.input_rules import (EMPTY_JOINT_STATES, JOINT_POSITION_MISSING, MALFORMED_JOINT_STATES,
+                                                  MALFORMED_LOAD, STRAIGHTNESS_WITHOUT_TIME_BASE, joint_missing)
+from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.nodes.common import run_node
 from guide_health.nodes.status import RejectionLog, StatusTask, StatusUpdater
 from guide_health.params import WEAR_MONITOR_SCHEMA, declare_parameters
@@ -129,7 +132,7 @@ class WearMonitorNode(Node):
                 msg = deserialize_message(raw, JointState)
             except Exception:  # noqa: BLE001 - anything undecodable is malformed input
                 self.updater.touch("joint_states")
-                self._rejected(self.monitor._reject("malformed joint_states message"))
+                self._rejected(self.monitor.rejected.reject(MALFORMED_JOINT_STATES))
                 return
             self._on_joint(msg)
             return
@@ -150,7 +153,7 @@ class WearMonitorNode(Node):
                 msg = deserialize_message(raw, WrenchStamped)
             except Exception:  # noqa: BLE001
                 self.updater.touch("guide/load")
-                self._rejected(self.monitor._reject("malformed guide/load message"))
+                self._rejected(self.monitor.rejected.reject(MALFORMED_LOAD))
                 return
             self._on_load(msg)
             return
@@ -170,15 +173,15 @@ class WearMonitorNode(Node):
     def _on_joint(self, msg: JointState) -> None:
         self.updater.touch("joint_states")
         if not msg.name or len(msg.position) == 0:
-            self._rejected(self.monitor._reject("empty joint_states arrays"))
+            self._rejected(self.monitor.rejected.reject(EMPTY_JOINT_STATES))
             return
         try:
             i = list(msg.name).index(self.joint)
         except ValueError:
-            self._rejected(self.monitor._reject(f"joint '{self.joint}' not in joint_states"))
+            self._rejected(self.monitor.rejected.reject(joint_missing(self.joint)))
             return
         if i >= len(msg.position):
-            self._rejected(self.monitor._reject("joint_states position shorter than name"))
+            self._rejected(self.monitor.rejected.reject(JOINT_POSITION_MISSING))
             return
         velocity = msg.velocity[i] if i < len(msg.velocity) else 0.0
         t1 = time.perf_counter()
@@ -199,7 +202,7 @@ class WearMonitorNode(Node):
         self._rejected_all(self.feed.flush_all())    # the joint samples that came before it count
         t = self.monitor.integrator.last_t_ns
         if t is None:
-            self._rejected(self.monitor._reject("straightness before any joint_states (no time base)"))
+            self._rejected(self.monitor.rejected.reject(STRAIGHTNESS_WITHOUT_TIME_BASE))
             return
         self._rejected(self.monitor.on_straightness(t, float(msg.data)))
 

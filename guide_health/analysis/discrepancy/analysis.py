@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from guide_health.discrepancy.model import WearProblem
+from guide_health.analysis.discrepancy.model import WearProblem
 
 
 def runs_test(residuals: np.ndarray) -> dict[str, float]:

@@ -1,7 +1,7 @@
 """The wear model with any set of effects, evaluated over duty cells at the measurement times, and its
 least-squares fit (scipy.optimize.least_squares) with parameter uncertainty.
 
-Prediction of the measured straightness at measurement j (models/wear_effects.py, seed 000 Eq. 7/10):
+Prediction of the measured straightness at measurement j (models/wear/effects.py, seed 000 Eq. 7/10):
 
     y_j = A0 + delta + c_T (T_j - T_0)
           + K / (H b) [(1 - w) 2 G_j / (l_min + l_max) + w P_j],
@@ -19,8 +19,8 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
-from guide_health.discrepancy.duty import DutyCells
-from guide_health.models.wear_effects import (EFFECT_IDS, WearEffects, measured_straightness_m,
+from guide_health.analysis.discrepancy.duty import DutyCells
+from guide_health.models.wear.effects import (EFFECT_IDS, WearEffects, measured_straightness_m,
                                               running_in_factor_spread, straightness_wear_m, wear_rate_multiplier)
 
 UM = 1e6

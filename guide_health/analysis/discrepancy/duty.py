@@ -1,19 +1,22 @@
 """Duty cells: a machine's motion and load reduced to what the wear effects depend on (numpy, SI).
 
-Every pair of consecutive axis samples is a sliding segment: distance ds = |dx|, speed ds/dt, load W =
-the latest load stamped at or before the segment's end sample (the monitor's rule), direction, and the
-length L of the pass (monotone run of the axis) it belongs to. Segments are summed into cells of
-(time block, direction, speed bin, load bin): bins 10 % wide in log speed and log load and blocks of
-``block_s`` seconds, so every effect multiplier (models/wear_effects.py), evaluated at a cell's
-work-weighted means, is the segment sum to well below the measurement noise. A fine cell belongs to the
-measurement interval of its work-weighted mean time (an error of at most half a block of wear at a
-measurement); cells of one interval with the same direction and bins are then merged, keeping the
-variance of the sliding distance for the running-in term. A 20 h bag at 50 Hz (3.6 M segments)
-becomes a few thousand cells.
+Samples count by the input rules of the precision monitor (:mod:`guide_health.models.wear.input_rules`,
+the same functions), so ``diagnose`` sees the data ``replay`` sees. Every pair of consecutive accepted
+axis samples is a sliding segment: distance ds = |dx|, speed ds/dt, load W = the latest accepted load
+stamped at or before the segment's end sample, direction, and the length L of the pass (monotone run of
+the axis) it belongs to; before the first accepted load the distance counts and the wear does not.
+Segments are summed into cells of (time block, direction, speed bin, load bin): bins 10 % wide in log
+speed and log load and blocks of ``block_s`` seconds, so every effect multiplier (models/wear/effects.py),
+evaluated at a cell's work-weighted means, is the segment sum to well below the measurement noise. A fine
+cell belongs to the measurement interval of its work-weighted mean time (an error of at most half a block
+of wear at a measurement); cells of one interval with the same direction and bins are then merged,
+keeping the variance of the sliding distance for the running-in term. A 20 h bag at 50 Hz (3.6 M
+segments) becomes a few thousand cells.
 
 Streaming: :meth:`DutyCellAccumulator.add` takes consecutive :class:`MachineRun` chunks (as
-``bags.iter_machine_bag`` yields them) and carries the last sample, the last load and the unfinished
-pass to the next chunk, so memory is bounded by one chunk and the result does not depend on chunking.
+``bags.iter_machine_bag`` yields them) and carries the last accepted sample, load and measurement and
+the unfinished pass to the next chunk, so memory is bounded by one chunk and the result does not depend
+on chunking.
 """
 from __future__ import annotations
 
@@ -22,7 +25,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from guide_health.models.wear_effects import pass_weight_per_m
+from guide_health.models.wear.effects import pass_weight_per_m
+from guide_health.models.wear.input_rules import RejectionCounter, accept_run, accept_straightness_samples
 from guide_health.runs import MachineRun
 
 # per-cell sums: work-weighted where the name says *_w
@@ -54,11 +58,12 @@ class DutyCells:
     temperature_t_s: np.ndarray
     temperature_c: np.ndarray
     pass_lengths_m: np.ndarray          # every completed pass (for l_min, l_max)
-    segments: int
-    rejected_segments: int
+    segments: int                       # sliding segments with a known load
+    rejected_segments: int              # sliding segments before the first accepted load (no wear)
     total_distance_m: float
     duration_s: float
     metadata: dict = field(default_factory=dict)
+    rejected_samples: dict = field(default_factory=dict)   # input samples rejected, by reason
 
     @property
     def cells(self) -> int:
@@ -77,6 +82,7 @@ class DutyCellAccumulator:
         self._last_x = math.nan
         self._last_load_t: int | None = None
         self._last_load = math.nan
+        self._last_meas_t: int | None = None
         self._s_m = 0.0                        # cumulative sliding distance
         self._carry: dict[str, np.ndarray] | None = None   # segments of the unfinished pass
         self._cell_parts: list[tuple[np.ndarray, dict]] = []
@@ -86,7 +92,8 @@ class DutyCellAccumulator:
         self._temp_c: list[np.ndarray] = []
         self._passes: list[np.ndarray] = []
         self.segments = 0
-        self.rejected = 0
+        self.rejected = 0                      # segments without a known load
+        self.rejected_samples = RejectionCounter()
         self.metadata: dict = {}
         self._t_end_ns: int | None = None
 
@@ -95,32 +102,31 @@ class DutyCellAccumulator:
         """One chunk (in time order after the previous one)."""
         if run.metadata and not self.metadata:
             self.metadata = dict(run.metadata)
-        jt = np.asarray(run.joint_t_ns, dtype=np.int64)
+        stamps = [np.asarray(a, dtype=np.int64) for a in (run.joint_t_ns, run.load_t_ns, run.straightness_t_ns)]
         if self.t0_ns is None:
-            firsts = [int(a[0]) for a in (jt, run.load_t_ns, run.straightness_t_ns) if len(a)]
+            firsts = [int(a[0]) for a in stamps if len(a)]
             if not firsts:
                 return
             self.t0_ns = min(firsts)
-        self._meas_t.append(np.asarray(run.straightness_t_ns, dtype=np.int64))
-        self._meas_y.append(np.asarray(run.straightness_m, dtype=float))
-        self._temp_t.append(np.asarray(run.temperature_t_ns, dtype=np.int64))
-        self._temp_c.append(np.asarray(run.temperature_c, dtype=float))
-        for a in (jt, run.load_t_ns, run.straightness_t_ns):
+        for a in stamps:
             if len(a):
                 self._t_end_ns = max(self._t_end_ns or int(a[-1]), int(a[-1]))
-        # loads: the latest at or before each joint sample (carried across chunks)
-        lt = np.asarray(run.load_t_ns, dtype=np.int64)
-        lw = np.asarray(run.load_n, dtype=float)
-        if self._last_load_t is not None:
-            lt = np.concatenate(([self._last_load_t], lt))
-            lw = np.concatenate(([self._last_load], lw))
-        if lt.size:
-            self._last_load_t, self._last_load = int(lt[-1]), float(lw[-1])
-        if jt.size == 0:
-            return
-        x = np.asarray(run.joint_position_m, dtype=float)
-        idx = np.searchsorted(lt, jt, side="right") - 1
-        load = np.where(idx >= 0, lw[np.clip(idx, 0, None)] if lw.size else np.nan, np.nan)
+        accepted = accept_run(run, self._last_t_ns, self._last_load_t, self._last_load)
+        measurements = accept_straightness_samples(stamps[2], run.straightness_m, self._last_meas_t)
+        self.rejected_samples.count_all({**accepted.rejected, **measurements.rejected})
+        self._meas_t.append(stamps[2][measurements.accepted])
+        self._meas_y.append(np.asarray(run.straightness_m, dtype=float)[measurements.accepted])
+        if self._meas_t[-1].size:
+            self._last_meas_t = int(self._meas_t[-1][-1])
+        self._temp_t.append(np.asarray(run.temperature_t_ns, dtype=np.int64))
+        self._temp_c.append(np.asarray(run.temperature_c, dtype=float))
+        if accepted.load_t_ns.size:
+            self._last_load_t, self._last_load = int(accepted.load_t_ns[-1]), float(accepted.load_n[-1])
+        if accepted.joint_t_ns.size:
+            self._add_segments(accepted.joint_t_ns, accepted.joint_position_m, accepted.load_at_joint_n)
+
+    def _add_segments(self, jt: np.ndarray, x: np.ndarray, load: np.ndarray) -> None:
+        """Segments ending at the accepted joint samples ``jt`` (stamps increasing, positions finite)."""
         if self._last_t_ns is not None:
             t_all = np.concatenate(([self._last_t_ns], jt))
             x_all = np.concatenate(([self._last_x], x))
@@ -132,14 +138,14 @@ class DutyCellAccumulator:
         dt = np.diff(t_all) * 1e-9
         dx = np.diff(x_all)
         seg_load = load[-dx.size:]
-        ok = (dt > 0) & np.isfinite(dx) & np.isfinite(seg_load) & (seg_load >= 0)
-        self.rejected += int((~ok & (dt > 0) & np.isfinite(dx) & (dx != 0)).sum())
         ds = np.abs(dx)
-        moving = ok & (ds > 0)
+        moving = ds > 0
+        unloaded = moving & np.isnan(seg_load)     # before the first accepted load
+        self.rejected += int(unloaded.sum())
         s_end = self._s_m + np.cumsum(np.where(moving, ds, 0.0))
-        self._s_m = float(s_end[-1]) if s_end.size else self._s_m
+        self._s_m = float(s_end[-1])
         sel = np.flatnonzero(moving)
-        self.segments += int(sel.size)
+        self.segments += int(sel.size) - int(unloaded.sum())
         seg = {
             "t_s": (t_all[1:][sel] - self.t0_ns) * 1e-9,
             "ds": ds[sel],
@@ -209,10 +215,6 @@ class DutyCellAccumulator:
         my = np.concatenate(self._meas_y) if self._meas_y else np.zeros(0)
         tt = np.concatenate(self._temp_t) if self._temp_t else np.zeros(0, np.int64)
         tc = np.concatenate(self._temp_c) if self._temp_c else np.zeros(0)
-        keep = np.isfinite(my)
-        mt, my = mt[keep], my[keep]
-        o = np.argsort(mt, kind="stable")
-        mt, my = mt[o], my[o]
         keep = np.isfinite(tc)
         tt, tc = tt[keep], tc[keep]
         o = np.argsort(tt, kind="stable")
@@ -265,6 +267,7 @@ class DutyCellAccumulator:
             total_distance_m=self._s_m,
             duration_s=((self._t_end_ns or t0) - t0) * 1e-9,
             metadata=self.metadata,
+            rejected_samples=dict(self.rejected_samples),
         )
 
 

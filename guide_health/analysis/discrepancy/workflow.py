@@ -12,10 +12,10 @@ from typing import Any
 
 import numpy as np
 
-from guide_health.discrepancy.analysis import disagreement
-from guide_health.discrepancy.duty import DutyCells
-from guide_health.discrepancy.model import FitResult, WearProblem, rel_errors
-from guide_health.discrepancy.selection import BIC_THRESHOLD, forward_selection
+from guide_health.analysis.discrepancy.analysis import disagreement
+from guide_health.analysis.discrepancy.duty import DutyCells
+from guide_health.analysis.discrepancy.model import FitResult, WearProblem, rel_errors
+from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD, forward_selection
 
 # what each effect means, for the report
 EFFECT_MEANING = {
@@ -93,6 +93,7 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
             "heldout_from_h": float(problem.t_s[problem.heldout_mask][0] / 3600.0) if problem.heldout_mask.any() else math.nan,
             "duration_h": cells.duration_s / 3600.0, "sliding_distance_m": cells.total_distance_m,
             "segments": cells.segments, "rejected_segments": cells.rejected_segments, "cells": cells.cells,
+            "rejected_samples": dict(cells.rejected_samples),
             "stroke_sum_m": problem.stroke_sum_m, "feed_speed_m_s": problem.feed_speed_m_s,
             "retract_speed_m_s": problem.retract_speed_m_s,
             "retract_direction": "+x" if problem.retract_sign > 0 else "-x",

@@ -1,9 +1,10 @@
 """The precision-retention model of one guide: the single object behind the live node and offline replay.
 
-It validates samples (bad ones are rejected with a reason and never change the state), integrates the
-Archard work (:class:`~guide_health.models.wear.WearIntegrator`), updates K from measured straightness
-(:class:`~guide_health.models.calibration.WearCoefficientEstimator`) and reports straightness, wear and
-remaining precision life (seed 000 Eqs. 7, 10, 11, 12) with a 90 % interval.
+It validates samples with :mod:`guide_health.models.wear.input_rules` (bad ones are rejected with a
+reason and never change the state), integrates the Archard work
+(:class:`~guide_health.models.wear.archard.WearIntegrator`), updates K from measured straightness
+(:class:`~guide_health.models.wear.calibration.WearCoefficientEstimator`) and reports straightness, wear
+and remaining precision life (seed 000 Eqs. 7, 10, 11, 12) with a 90 % interval.
 """
 from __future__ import annotations
 
@@ -12,11 +13,11 @@ from typing import Any, Callable
 
 import numpy as np
 
-from guide_health.models.calibration import WearCoefficientEstimator, remaining_life_s
-from guide_health.models.wear import WearGeometry, WearIntegrator, straightness_from_wear_volume_m
-
-OK, WARN, ERROR, STALE = 0, 1, 2, 3
-LEVEL_NAMES = {OK: "OK", WARN: "WARN", ERROR: "ERROR", STALE: "STALE"}
+from guide_health.models.levels import Level
+from guide_health.models.wear.archard import WearGeometry, WearIntegrator, straightness_from_wear_volume_m
+from guide_health.models.wear.calibration import WearCoefficientEstimator, remaining_life_s
+from guide_health.models.wear.input_rules import (RejectionCounter, accept_run, check_joint_sample,
+                                                  check_load_sample, check_straightness_sample)
 
 
 class PrecisionMonitor:
@@ -36,7 +37,7 @@ class PrecisionMonitor:
         )
         self.load_n = math.nan           # latest accepted load
         self.load_t_ns: int | None = None
-        self.rejected: dict[str, int] = {}
+        self.rejected = RejectionCounter()   # by reason; the node counts its message-level reasons here too
         self.load_samples = 0            # accepted load samples
         self.rolling = None
         if params.get("guide_type") == "rolling":
@@ -45,41 +46,32 @@ class PrecisionMonitor:
             self.rolling = RollingGuideMonitor(params)
 
     # --- input validation + live updates (O(1) per sample) ---------------------------------------
-    def _reject(self, reason: str) -> str:
-        self.rejected[reason] = self.rejected.get(reason, 0) + 1
-        return reason
-
     def on_joint(self, t_ns: int, position_m: float, velocity_m_s: float = 0.0) -> str | None:
         """Axis sample; returns the rejection reason or None when accepted."""
-        if not (math.isfinite(position_m) and math.isfinite(velocity_m_s)):
-            return self._reject("non-finite joint position/velocity")
-        last = self.integrator.last_t_ns
-        if last is not None and t_ns <= last:
-            return self._reject("joint_states time going backwards")
+        reason = check_joint_sample(t_ns, position_m, velocity_m_s, self.integrator.last_t_ns)
+        if reason is not None:
+            return self.rejected.reject(reason)
         self.integrator.advance(t_ns, position_m, self.load_n)
         if self.rolling is not None:
             self.rolling.advance(t_ns, position_m, self.load_n)
         return None
 
     def on_load(self, t_ns: int, load_n: float) -> str | None:
-        if not math.isfinite(load_n):
-            return self._reject("non-finite load")
-        if load_n < 0:
-            return self._reject("negative load (tension on the guide)")
-        if self.load_t_ns is not None and t_ns <= self.load_t_ns:
-            return self._reject("load time going backwards")
+        """Guide-load sample [N]; returns the rejection reason or None when accepted."""
+        reason = check_load_sample(t_ns, load_n, self.load_t_ns)
+        if reason is not None:
+            return self.rejected.reject(reason)
         self.load_n = float(load_n)
         self.load_t_ns = int(t_ns)
         self.load_samples += 1
         return None
 
     def on_straightness(self, t_ns: int, straightness_m: float) -> str | None:
-        if not math.isfinite(straightness_m):
-            return self._reject("non-finite straightness")
-        if straightness_m < 0:
-            return self._reject("negative straightness")
-        if self.estimator.measurement_t_ns and t_ns < self.estimator.measurement_t_ns[-1]:
-            return self._reject("straightness time going backwards")
+        """Straightness measurement [m]; returns the rejection reason or None when accepted."""
+        times = self.estimator.measurement_t_ns
+        reason = check_straightness_sample(t_ns, straightness_m, times[-1] if times else None)
+        if reason is not None:
+            return self.rejected.reject(reason)
         self.estimator.add(t_ns, straightness_m, self.integrator.straightness_loss_per_k_m(),
                            self.integrator.archard_work_nm)
         return None
@@ -88,36 +80,14 @@ class PrecisionMonitor:
     def process_run(self, run, progress: Callable[[int, int], None] | None = None) -> None:
         """Feed a whole :class:`~guide_health.runs.MachineRun` with the same rules as the live callbacks.
 
-        Samples are filtered with the live validation rules (vectorised), the latest load at each joint
-        sample is found by binary search, and the integration is split at the measurement times so each
+        Samples are filtered with the input rules (vectorised), the latest load at each joint sample is
+        found by binary search, and the integration is split at the measurement times so each
         measurement sees the wear state at its own time.
         """
-        jt = np.asarray(run.joint_t_ns, dtype=np.int64)
-        jx = np.asarray(run.joint_position_m, dtype=float)
-        jv = np.asarray(run.joint_velocity_m_s, dtype=float)
-        ok = np.isfinite(jx)
-        if jv.size == jx.size:
-            ok &= np.isfinite(jv)
-        self._count_rejected("non-finite joint position/velocity", int((~ok).sum()))
-        jt, jx = jt[ok], jx[ok]
-        jt, jx = self._monotonic(jt, jx, self.integrator.last_t_ns, "joint_states time going backwards")
-
-        lt = np.asarray(run.load_t_ns, dtype=np.int64)
-        lw = np.asarray(run.load_n, dtype=float)
-        finite = np.isfinite(lw)
-        self._count_rejected("non-finite load", int((~finite).sum()))
-        lt, lw = lt[finite], lw[finite]
-        negative = lw < 0
-        self._count_rejected("negative load (tension on the guide)", int(negative.sum()))
-        lt, lw = lt[~negative], lw[~negative]
-        lt, lw = self._monotonic(lt, lw, self.load_t_ns, "load time going backwards")
-        self.load_samples += int(lt.size)
-        # latest accepted load at (or before) each joint sample; the carried-over load before the first
-        if self.load_t_ns is not None:
-            lt = np.concatenate(([self.load_t_ns], lt))
-            lw = np.concatenate(([self.load_n], lw))
-        idx = np.searchsorted(lt, jt, side="right") - 1
-        load_at_joint = np.where(idx >= 0, lw[np.clip(idx, 0, None)] if lw.size else np.nan, np.nan)
+        accepted = accept_run(run, self.integrator.last_t_ns, self.load_t_ns, self.load_n)
+        self.rejected.count_all(accepted.rejected)
+        self.load_samples += int(accepted.load_t_ns.size)
+        jt, jx, load_at_joint = accepted.joint_t_ns, accepted.joint_position_m, accepted.load_at_joint_n
 
         st = np.asarray(run.straightness_t_ns, dtype=np.int64)
         sm = np.asarray(run.straightness_m, dtype=float)
@@ -140,9 +110,9 @@ class PrecisionMonitor:
                 self._advance_many(jt[lo:hi], jx[lo:hi], load_at_joint[lo:hi])
                 if progress:
                     progress(hi, total)
-        if lt.size:
-            self.load_t_ns = int(lt[-1])
-            self.load_n = float(lw[-1])
+        if accepted.load_t_ns.size:
+            self.load_t_ns = int(accepted.load_t_ns[-1])
+            self.load_n = float(accepted.load_n[-1])
 
     def _advance_many(self, t_ns, position_m, load_n) -> None:
         self.integrator.advance_many(t_ns, position_m, load_n)
@@ -152,20 +122,6 @@ class PrecisionMonitor:
     def fatigue_report(self) -> dict[str, Any] | None:
         """The `<joint> fatigue` numbers, level and message (rolling guides; None for sliding)."""
         return None if self.rolling is None else self.rolling.fatigue_report()
-
-    def _count_rejected(self, reason: str, count: int) -> None:
-        if count:
-            self.rejected[reason] = self.rejected.get(reason, 0) + count
-
-    def _monotonic(self, t: np.ndarray, values: np.ndarray, last_t: int | None, reason: str):
-        """Keep samples whose stamp exceeds every earlier accepted stamp (the live rule)."""
-        if t.size == 0:
-            return t, values
-        previous_max = np.maximum.accumulate(np.concatenate(([np.iinfo(np.int64).min if last_t is None
-                                                               else last_t], t[:-1])))
-        keep = t > previous_max
-        self._count_rejected(reason, int((~keep).sum()))
-        return t[keep], values[keep]
 
     # --- results ------------------------------------------------------------------------------------
     def measurement_losses_per_k_m(self) -> np.ndarray:
@@ -213,7 +169,7 @@ class PrecisionMonitor:
             "straightness_model": self.geometry.straightness_model,
             "samples": self.integrator.samples,
             "load_samples": self.load_samples,
-            "rejected_samples": int(sum(self.rejected.values())),
+            "rejected_samples": self.rejected.total,
         }
         result["level"], result["message"] = self._judge(result)
         if self.rolling is not None:
@@ -225,20 +181,20 @@ class PrecisionMonitor:
                 result["message"] = f"{result['message']}; {text}"
         return result
 
-    def _judge(self, r: dict) -> tuple[int, str]:
+    def _judge(self, r: dict) -> tuple[Level, str]:
         p = self.params
         a = r["straightness_um"]
         limit = r["straightness_limit_um"]
         life = r["remaining_life_h"]
         if math.isnan(a):
-            return WARN, "no wear estimate yet (waiting for motion and load)"
-        level = OK
+            return Level.WARN, "no wear estimate yet (waiting for motion and load)"
+        level = Level.OK
         if a >= limit:
-            return ERROR, f"straightness {a:.1f} um exceeds the limit {limit:.1f} um: precision lost"
+            return Level.ERROR, f"straightness {a:.1f} um exceeds the limit {limit:.1f} um: precision lost"
         if life < p["life_error_h"]:
-            level = ERROR
+            level = Level.ERROR
         elif life < p["life_warn_h"] or a > p["straightness_warn_fraction"] * limit:
-            level = WARN
+            level = Level.WARN
         if math.isfinite(life):
             text = f"remaining precision life {life:.0f} h at current duty (straightness {a:.1f} of {limit:.0f} um)"
         else:
@@ -274,85 +230,3 @@ class PrecisionMonitor:
         if self.rolling is not None and state.get("rolling"):
             self.rolling.restore(state["rolling"])
 
-
-class StampAlignedFeed:
-    """Live inputs aligned by header stamps, with the offline rule of process_run: a joint sample is
-    integrated with the latest load whose stamp is <= its own.
-
-    Joint and load messages come from different DDS writers, which keep order per writer only, so a
-    load change (or the very first load) can arrive after joint samples stamped later than it. Joint
-    samples newer than the latest load therefore wait here until a load stamped after them arrives
-    (then the load they need is known) or until they have waited `window_s` of wall time (then the load
-    stream is just slower, and they take the latest load, as without alignment). window_s = 0 integrates
-    every sample on arrival. Validation happens on arrival, so bad samples are rejected at once.
-    Every method returns the rejection reasons of the samples it handled.
-    """
-
-    def __init__(self, monitor: PrecisionMonitor, window_s: float = 0.5):
-        from collections import deque
-
-        if window_s < 0:
-            raise ValueError("window_s must be >= 0")
-        self.monitor = monitor
-        self.window_s = float(window_s)
-        self.pending = deque()              # (t_ns, position_m, velocity_m_s, arrival_s)
-        self._last_accepted_t_ns: int | None = None
-
-    def _validate_joint(self, t_ns: int, position_m: float, velocity_m_s: float) -> str | None:
-        m = self.monitor
-        if not (math.isfinite(position_m) and math.isfinite(velocity_m_s)):
-            return m._reject("non-finite joint position/velocity")
-        last = self._last_accepted_t_ns
-        if last is None:
-            last = m.integrator.last_t_ns
-        if last is not None and t_ns <= last:
-            return m._reject("joint_states time going backwards")
-        return None
-
-    def joint(self, t_ns: int, position_m: float, velocity_m_s: float, now_s: float) -> list[str]:
-        reason = self._validate_joint(t_ns, position_m, velocity_m_s)
-        if reason is not None:
-            return [reason]
-        self._last_accepted_t_ns = int(t_ns)
-        load_t = self.monitor.load_t_ns
-        if self.window_s == 0 or (not self.pending and load_t is not None and t_ns < load_t):
-            # nothing can come that changes this sample's load (or alignment is off)
-            return self._integrate([(t_ns, position_m, velocity_m_s)]) + self.flush_aged(now_s)
-        self.pending.append((int(t_ns), position_m, velocity_m_s, now_s))
-        return self.flush_aged(now_s)
-
-    def load(self, t_ns: int, load_n: float, now_s: float) -> list[str]:
-        m = self.monitor
-        if not math.isfinite(load_n) or load_n < 0 or (m.load_t_ns is not None and t_ns <= m.load_t_ns):
-            return [m.on_load(t_ns, load_n)]          # rejected by the monitor's own rule
-        reasons = self._integrate(self._take(lambda t: t < t_ns))   # they used the previous load
-        r = m.on_load(t_ns, load_n)
-        return reasons + ([r] if r else []) + self.flush_aged(now_s)
-
-    def flush_aged(self, now_s: float) -> list[str]:
-        """Integrate samples that waited longer than the window (with the latest load)."""
-        if not self.pending or now_s - self.pending[0][3] <= self.window_s:
-            return []
-        cutoff = now_s - self.window_s
-        batch = []
-        while self.pending and self.pending[0][3] < cutoff:
-            batch.append(self.pending.popleft()[:3])
-        return self._integrate(batch)
-
-    def flush_all(self) -> list[str]:
-        """Integrate everything waiting (before a straightness measurement, a checkpoint, shutdown)."""
-        return self._integrate(self._take(lambda t: True))
-
-    def _take(self, older) -> list:
-        batch = []
-        while self.pending and older(self.pending[0][0]):
-            batch.append(self.pending.popleft()[:3])
-        return batch
-
-    def _integrate(self, samples) -> list[str]:
-        reasons = []
-        for t_ns, x, v in samples:
-            r = self.monitor.on_joint(t_ns, x, v)
-            if r:
-                reasons.append(r)
-        return reasons
