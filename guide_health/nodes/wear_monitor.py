@@ -40,7 +40,7 @@ from guide_health.params import (
     declare_parameters,
     validate_wear_params,
 )
-from guide_health.state_store import StateStore
+from guide_health.io.state_store import StateStore
 
 # Reliable + keep_all: when the callbacks lag, the reader's history fills and a reliable writer waits
 # (back-pressure) instead of the reader overwriting unprocessed samples as keep_last would; a sensor
