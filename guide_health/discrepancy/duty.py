@@ -12,8 +12,9 @@ variance of the sliding distance for the running-in term. A 20 h bag at 50 Hz (3
 becomes a few thousand cells.
 
 Streaming: :meth:`DutyCellAccumulator.add` takes consecutive :class:`MachineRun` chunks (as
-``bags.iter_machine_bag`` yields them) and carries the last sample, the last load and the unfinished
-pass to the next chunk, so memory is bounded by one chunk and the result does not depend on chunking.
+``io.bag_reader.iter_machine_bag`` yields them) and carries the last sample, the last load and the
+unfinished pass to the next chunk, so memory is bounded by one chunk and the result does not depend on
+chunking.
 """
 from __future__ import annotations
 

@@ -221,7 +221,7 @@ def play(args, rclpy_args) -> int:
     except ImportError:  # pragma: no cover - other rclpy layouts
         RCLError = RuntimeError
 
-    from guide_health.bags import iter_raw_messages, open_bag
+    from guide_health.io.storage import iter_raw_messages, open_storage
 
     if args.rate is not None and not args.rate > 0:
         raise InputError("--rate must be > 0")
@@ -230,7 +230,7 @@ def play(args, rclpy_args) -> int:
         raise InputError("--max-rate must be >= 0")
     pacer = Pacer(args.rate, max_rate or None, args.burst)
 
-    with open_bag(args.bag) as reader:
+    with open_storage(args.bag, checked=True) as reader:
         connections = list(reader.connections)
         if args.topics:
             unknown = sorted(set(args.topics) - {c.topic for c in connections})
@@ -291,7 +291,7 @@ def play(args, rclpy_args) -> int:
             blocked = 0.0
             t_start = time.monotonic()
             due = pacer.due
-            for conn, log_t, raw in iter_raw_messages(reader, connections, args.bag, start_ns):
+            for conn, log_t, raw in iter_raw_messages(reader, connections, start_ns):
                 when = t_start + due(log_t)
                 if when > time.monotonic():
                     _sleep_until(when)

@@ -5,7 +5,7 @@ Subscribes `joint_states`, `guide/load`, `guide/straightness` (and `guide/temper
 so a bag replayed at any rate gives the same numbers. State persists in SQLite (`state_file`).
 
 Executor (parameter `executor`): `events` (default) spins rclpy's EventsExecutor with raw subscriptions
-for joint_states and guide/load, decoded at fixed CDR offsets (guide_health.bags.RawMessageDecoder, a few
+for joint_states and guide/load, decoded at fixed CDR offsets (guide_health.io.cdr.RawMessageDecoder, a few
 us) instead of rclpy deserialisation; it handles messages in arrival order across topics, so a
 header-less straightness message is dated by the joint samples published before it. `single_threaded`
 is rclpy's SingleThreadedExecutor with deserialised messages (the reference; it takes one message per
@@ -25,7 +25,8 @@ from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
 
-from guide_health.bags import JOINT_STATE, MISSING, WRENCH_STAMPED, RawMessageDecoder
+from guide_health.io.cdr import MISSING, RawMessageDecoder
+from guide_health.io.interfaces import JOINT_STATE, WRENCH_STAMPED
 from guide_health.diagnostics import (
     EXTRA_PRECISION_KEYS,
     FATIGUE_KEYS,
