@@ -15,7 +15,7 @@ setup(
         ("share/" + package_name + "/config", glob("config/*.yaml")),
         ("share/" + package_name + "/launch", glob("launch/*.py")),
     ],
-    install_requires=["setuptools", "numpy", "scipy", "rosbags", "pyyaml", "matplotlib"],
+    install_requires=["setuptools", "numpy", "scipy", "rosbags", "pyyaml", "matplotlib", "tqdm"],
     zip_safe=True,
     maintainer="guide_health developers",
     maintainer_email="guide-health@example.com",

@@ -16,7 +16,8 @@ import sys
 import time
 from pathlib import Path
 
-from guide_health.bags import read_machine_bag, write_machine_bag
+from guide_health.io.bag_reader import read_machine_bag
+from guide_health.io.bag_writer import write_machine_bag
 from guide_health.commands.replay import analyse, write_outputs
 from guide_health.models.levels import LEVEL_NAMES
 from guide_health.nodes.session import (DiagnosticsCollector, clean_fastdds_shm, isolated_ros_env, play_bag,

@@ -1,4 +1,4 @@
-"""guide_health.bags (rosbag2 <-> numpy) and the bag_player node.
+"""guide_health.io (rosbag2 <-> numpy: CDR codec, bag reader and writer, bag info) and the bag_player node.
 
 Offline tests need no ROS; the one test marked `ros` runs bag_player as a separate process against
 an rclpy subscriber in this process.
@@ -19,7 +19,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from guide_health import bags
+from guide_health.io import bag_reader, bag_writer, cdr
+from guide_health.io.bag_info import bag_info
+from guide_health.io.interfaces import FLOAT64, JOINT_STATE, TEMPERATURE, WRENCH_STAMPED
+from guide_health.io.progress import ProgressBar
+from guide_health.io.typestore import header, message, typestore
 from guide_health.errors import InputError
 from guide_health.nodes.bag_player import Pacer, bag_namespace, compute_schedule, output_topic
 from guide_health.runs import MachineRun, SlewingLoadRun
@@ -66,18 +70,18 @@ def assert_runs_equal(got: MachineRun, want: MachineRun) -> None:
 @pytest.mark.parametrize("storage", STORAGES)
 def test_roundtrip_exact(tmp_path, storage):
     run = make_run()
-    path = bags.write_machine_bag(run, tmp_path / "bag", storage)
-    got = bags.read_machine_bag(path)
+    path = bag_writer.write_machine_bag(run, tmp_path / "bag", storage)
+    got = bag_reader.read_machine_bag(path)
     assert_runs_equal(got, run)
     assert got.metadata == json.loads(json.dumps(run.metadata, default=lambda a: a.tolist()))
 
-    info = bags.bag_info(path)
+    info = bag_info(path)
     assert info["storage"] == storage
     assert info["messages"] == run.messages
-    assert info["topics"]["/joint_states"] == {"type": bags.JOINT_STATE, "count": 3000}
+    assert info["topics"]["/joint_states"] == {"type": JOINT_STATE, "count": 3000}
     assert info["topics"]["/guide/load"]["count"] == 300
-    assert info["topics"]["/guide/straightness"] == {"type": bags.FLOAT64, "count": 6}
-    assert info["topics"]["/guide/temperature"]["type"] == bags.TEMPERATURE
+    assert info["topics"]["/guide/straightness"] == {"type": FLOAT64, "count": 6}
+    assert info["topics"]["/guide/temperature"]["type"] == TEMPERATURE
     assert info["duration_s"] == pytest.approx(run.duration_s, abs=1e-9)
 
 
@@ -87,8 +91,8 @@ def test_log_time_order_and_stamps(tmp_path, storage):
     from rosbags.rosbag2 import Reader
 
     run = make_run(500)
-    path = bags.write_machine_bag(run, tmp_path / "bag", storage, namespace="/m7")
-    ts = bags._typestore()
+    path = bag_writer.write_machine_bag(run, tmp_path / "bag", storage, namespace="/m7")
+    ts = typestore()
     with Reader(path) as reader:
         log = [(c.topic, t, raw) for c, t, raw in reader.messages()]
     times = [t for _, t, _ in log]
@@ -96,52 +100,52 @@ def test_log_time_order_and_stamps(tmp_path, storage):
     for topic, t, raw in log[:50]:
         assert topic.startswith("/m7/")
         if topic.endswith("joint_states") or topic.endswith("load"):
-            stamp = ts.deserialize_cdr(raw, bags.JOINT_STATE if "joint" in topic else bags.WRENCH_STAMPED).header.stamp
+            stamp = ts.deserialize_cdr(raw, JOINT_STATE if "joint" in topic else WRENCH_STAMPED).header.stamp
             assert stamp.sec * 1_000_000_000 + stamp.nanosec == t
-    got = bags.read_machine_bag(path)                  # namespace auto-detected
+    got = bag_reader.read_machine_bag(path)            # namespace auto-detected
     assert_runs_equal(got, run)
 
 
 def test_encoders_equal_serialize_cdr():
     """The numpy templates give exactly the bytes of rosbags serialize_cdr."""
-    ts = bags._typestore()
+    ts = typestore()
     rng = np.random.default_rng(0)
     t = np.array([0, 1, 999_999_999, T0, 2**31 * 10**9 - 1], dtype=np.int64)
     vals = rng.normal(size=(t.size, 6))
     vals[1, 0] = np.nan
     for joint, with_vel, frame in (("x", True, ""), ("axis_x12", False, "base_link"), ("z", True, "abc")):
-        got = bags.encode_joint_states(t, vals[:, 0], vals[:, 1] if with_vel else None, joint, frame)
+        got = cdr.encode_joint_states(t, vals[:, 0], vals[:, 1] if with_vel else None, joint, frame)
         for k in range(t.size):
-            msg = bags._msg(bags.JOINT_STATE, header=bags._header(t[k], frame), name=[joint],
-                            position=vals[k:k + 1, 0].copy(),
-                            velocity=vals[k:k + 1, 1].copy() if with_vel else np.zeros(0), effort=np.zeros(0))
-            assert got[k] == bytes(ts.serialize_cdr(msg, bags.JOINT_STATE)), (joint, k)
-    got = bags.encode_wrench_stamped(t, vals[:, :3], vals[:, 3:])
+            msg = message(JOINT_STATE, header=header(t[k], frame), name=[joint],
+                          position=vals[k:k + 1, 0].copy(),
+                          velocity=vals[k:k + 1, 1].copy() if with_vel else np.zeros(0), effort=np.zeros(0))
+            assert got[k] == bytes(ts.serialize_cdr(msg, JOINT_STATE)), (joint, k)
+    got = cdr.encode_wrench_stamped(t, vals[:, :3], vals[:, 3:])
     for k in range(t.size):
-        vec = lambda v: bags._msg("geometry_msgs/msg/Vector3", x=v[0], y=v[1], z=v[2])  # noqa: E731
-        msg = bags._msg(bags.WRENCH_STAMPED, header=bags._header(t[k]), wrench=bags._msg(
+        vec = lambda v: message("geometry_msgs/msg/Vector3", x=v[0], y=v[1], z=v[2])  # noqa: E731
+        msg = message(WRENCH_STAMPED, header=header(t[k]), wrench=message(
             "geometry_msgs/msg/Wrench", force=vec(vals[k, :3]), torque=vec(vals[k, 3:])))
-        assert got[k] == bytes(ts.serialize_cdr(msg, bags.WRENCH_STAMPED))
-    got = bags.encode_temperature(t, vals[:, 0], 0.25)
+        assert got[k] == bytes(ts.serialize_cdr(msg, WRENCH_STAMPED))
+    got = cdr.encode_temperature(t, vals[:, 0], 0.25)
     for k in range(t.size):
-        msg = bags._msg(bags.TEMPERATURE, header=bags._header(t[k]), temperature=vals[k, 0], variance=0.25)
-        assert got[k] == bytes(ts.serialize_cdr(msg, bags.TEMPERATURE))
-    got = bags.encode_float64(vals[:, 2])
+        msg = message(TEMPERATURE, header=header(t[k]), temperature=vals[k, 0], variance=0.25)
+        assert got[k] == bytes(ts.serialize_cdr(msg, TEMPERATURE))
+    got = cdr.encode_float64(vals[:, 2])
     for k in range(t.size):
-        assert got[k] == bytes(ts.serialize_cdr(bags._msg(bags.FLOAT64, data=vals[k, 2]), bags.FLOAT64))
+        assert got[k] == bytes(ts.serialize_cdr(message(FLOAT64, data=vals[k, 2]), FLOAT64))
     with pytest.raises(InputError):
-        bags.encode_joint_states([2**31 * 10**9], [0.0])           # beyond int32 seconds
+        cdr.encode_joint_states([2**31 * 10**9], [0.0])           # beyond int32 seconds
 
 
 @pytest.mark.parametrize("storage", STORAGES)
 def test_fast_path_equals_deserialize_path(tmp_path, storage):
     run = make_run(2500, velocity=False, joint="axis_x")
-    path = bags.write_machine_bag(run, tmp_path / "bag", storage)
+    path = bag_writer.write_machine_bag(run, tmp_path / "bag", storage)
     fast_stats, slow_stats = {}, {}
     progress = []
-    fast = bags.read_machine_bag(path, joint="axis_x", stats=fast_stats, chunk_messages=700,
-                                 progress=lambda d, t: progress.append((d, t)))
-    slow = bags.read_machine_bag(path, joint="axis_x", fast=False, stats=slow_stats)
+    fast = bag_reader.read_machine_bag(path, joint="axis_x", stats=fast_stats, chunk_messages=700,
+                                       progress=lambda d, t: progress.append((d, t)))
+    slow = bag_reader.read_machine_bag(path, joint="axis_x", fast=False, stats=slow_stats)
     assert_runs_equal(fast, slow)
     assert_runs_equal(fast, run)
     assert fast.joint_velocity_m_s.size == 0                    # no velocity in the bag -> empty
@@ -160,7 +164,7 @@ def _mixed_joint_state_bag(path: Path, fastdds_bytes: bool):
     if fastdds_bytes:
         from rclpy.serialization import serialize_message      # garbage padding and trailing bytes
         from sensor_msgs.msg import JointState as RosJointState
-    ts = bags._typestore()
+    ts = typestore()
     rng = np.random.default_rng(7)
     cases = [  # names, has position for all, has velocity, frame_id, encoder
         (["x"], True, True, "", "rosbags"),
@@ -189,9 +193,9 @@ def _mixed_joint_state_bag(path: Path, fastdds_bytes: bool):
             raw = bytes(serialize_message(msg))
             n_rclpy += 1
         else:
-            msg = bags._msg(bags.JOINT_STATE, header=bags._header(t, frame), name=names,
-                            position=pos, velocity=vel, effort=np.zeros(0))
-            raw = bytes(ts.serialize_cdr(msg, bags.JOINT_STATE, little_endian=(how != "big_endian")))
+            msg = message(JOINT_STATE, header=header(t, frame), name=names,
+                          position=pos, velocity=vel, effort=np.zeros(0))
+            raw = bytes(ts.serialize_cdr(msg, JOINT_STATE, little_endian=(how != "big_endian")))
         messages.append((t, raw))
         if "x" in names and has_pos:
             j = names.index("x")
@@ -199,7 +203,7 @@ def _mixed_joint_state_bag(path: Path, fastdds_bytes: bool):
         else:
             n_missing += 1
     with Writer(path, version=9) as writer:
-        conn = writer.add_connection("/joint_states", bags.JOINT_STATE, typestore=ts)
+        conn = writer.add_connection("/joint_states", JOINT_STATE, typestore=ts)
         for t, raw in messages:
             writer.write(conn, t, raw)
     exp = np.array(expected, dtype=object)
@@ -212,10 +216,10 @@ def test_mixed_layouts_fall_back_and_extract_joint(tmp_path, fastdds_bytes):
     t, pos, vel, n_missing, n_rclpy = _mixed_joint_state_bag(tmp_path / "mixed", fastdds_bytes)
     stats, slow_stats = {}, {}
     with pytest.warns(UserWarning, match="without joint 'x'"):
-        fast = bags.read_machine_bag(tmp_path / "mixed", joint="x", stats=stats, chunk_messages=150)
+        fast = bag_reader.read_machine_bag(tmp_path / "mixed", joint="x", stats=stats, chunk_messages=150)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        slow = bags.read_machine_bag(tmp_path / "mixed", joint="x", fast=False, stats=slow_stats)
+        slow = bag_reader.read_machine_bag(tmp_path / "mixed", joint="x", fast=False, stats=slow_stats)
     np.testing.assert_array_equal(fast.joint_t_ns, t)
     np.testing.assert_array_equal(fast.joint_position_m, pos)
     np.testing.assert_array_equal(fast.joint_velocity_m_s, vel)        # NaN where x has no velocity
@@ -233,14 +237,14 @@ def test_mixed_layouts_fall_back_and_extract_joint(tmp_path, fastdds_bytes):
 def test_malformed_messages_are_counted_not_fatal(tmp_path):
     from rosbags.rosbag2 import Writer
 
-    good = bags.encode_joint_states(T0 + np.arange(10), np.arange(10.0), np.arange(10.0))
+    good = cdr.encode_joint_states(T0 + np.arange(10), np.arange(10.0), np.arange(10.0))
     with Writer(tmp_path / "bad_msgs", version=9) as writer:
-        conn = writer.add_connection("/joint_states", bags.JOINT_STATE, typestore=bags._typestore())
+        conn = writer.add_connection("/joint_states", JOINT_STATE, typestore=typestore())
         for k, raw in enumerate(good):
             writer.write(conn, T0 + k, raw if k % 3 else raw[:20])      # every third one truncated
     stats = {}
     with pytest.warns(UserWarning, match="4 malformed"):
-        run = bags.read_machine_bag(tmp_path / "bad_msgs", stats=stats)
+        run = bag_reader.read_machine_bag(tmp_path / "bad_msgs", stats=stats)
     assert stats["joint_states"]["malformed"] == 4
     np.testing.assert_array_equal(run.joint_position_m, [k for k in range(10) if k % 3])
 
@@ -252,52 +256,53 @@ def test_slewing_roundtrip(tmp_path, storage):
     run = SlewingLoadRun(t_ns=T0 + np.arange(n, dtype=np.int64) * 10_000_000,
                          axial_n=rng.normal(2e5, 1e4, n), radial_n=np.abs(rng.normal(5e4, 1e3, n)),
                          moment_nm=np.abs(rng.normal(1e5, 1e3, n)), metadata={"bearing": "131.32.2000.00Z"})
-    path = bags.write_slewing_bag(run, tmp_path / "slew", storage, namespace="crane")
-    got = bags.read_slewing_bag(path)
+    path = bag_writer.write_slewing_bag(run, tmp_path / "slew", storage, namespace="crane")
+    got = bag_reader.read_slewing_bag(path)
     for name in ("t_ns", "axial_n", "radial_n", "moment_nm"):
         np.testing.assert_array_equal(getattr(got, name), getattr(run, name), err_msg=name)
     assert got.metadata == run.metadata
-    assert bags.bag_info(path)["topics"]["/crane/slewing/load"]["count"] == n
+    assert bag_info(path)["topics"]["/crane/slewing/load"]["count"] == n
 
 
 def test_namespaces(tmp_path):
     run = make_run(200)
-    path = bags.write_machine_bag(run, tmp_path / "m1", "sqlite3", namespace="/m1")
-    assert_runs_equal(bags.read_machine_bag(path), run)
-    assert_runs_equal(bags.read_machine_bag(path, namespace="/m1"), run)
+    path = bag_writer.write_machine_bag(run, tmp_path / "m1", "sqlite3", namespace="/m1")
+    assert_runs_equal(bag_reader.read_machine_bag(path), run)
+    assert_runs_equal(bag_reader.read_machine_bag(path, namespace="/m1"), run)
     with pytest.raises(InputError, match="joint_states"):
-        bags.read_machine_bag(tmp_path / "m1", namespace="/m2")
+        bag_reader.read_machine_bag(tmp_path / "m1", namespace="/m2")
     # two machines in one bag: auto-detection refuses, an explicit namespace works
     from rosbags.rosbag2 import Writer
 
     with Writer(tmp_path / "two", version=9) as writer:
         for ns in ("/a", "/b"):
-            conn = writer.add_connection(f"{ns}/joint_states", bags.JOINT_STATE, typestore=bags._typestore())
-            for k, raw in enumerate(bags.encode_joint_states(T0 + np.arange(5), np.arange(5.0) + (ns == "/b"))):
+            conn = writer.add_connection(f"{ns}/joint_states", JOINT_STATE, typestore=typestore())
+            raws = cdr.encode_joint_states(T0 + np.arange(5), np.arange(5.0) + (ns == "/b"))
+            for k, raw in enumerate(raws):
                 writer.write(conn, T0 + k, raw)
     with pytest.raises(InputError, match="several"):
-        bags.read_machine_bag(tmp_path / "two")
-    np.testing.assert_array_equal(bags.read_machine_bag(tmp_path / "two", namespace="/b").joint_position_m,
-                                  np.arange(5.0) + 1)
+        bag_reader.read_machine_bag(tmp_path / "two")
+    np.testing.assert_array_equal(
+        bag_reader.read_machine_bag(tmp_path / "two", namespace="/b").joint_position_m, np.arange(5.0) + 1)
 
 
 def test_overwrite_refused_and_bad_runs(tmp_path):
     run = make_run(100)
-    path = bags.write_machine_bag(run, tmp_path / "bag", "sqlite3")
+    path = bag_writer.write_machine_bag(run, tmp_path / "bag", "sqlite3")
     before = sorted(p.name for p in path.iterdir())
     with pytest.raises(InputError, match="exists"):
-        bags.write_machine_bag(run, path, "mcap")
+        bag_writer.write_machine_bag(run, path, "mcap")
     (tmp_path / "file").write_text("keep me")
     with pytest.raises(InputError, match="exists"):
-        bags.write_machine_bag(run, tmp_path / "file", "sqlite3")
+        bag_writer.write_machine_bag(run, tmp_path / "file", "sqlite3")
     assert (tmp_path / "file").read_text() == "keep me"
     assert sorted(p.name for p in path.iterdir()) == before
     with pytest.raises(InputError, match="storage"):
-        bags.write_machine_bag(run, tmp_path / "x", "rosbag1")
+        bag_writer.write_machine_bag(run, tmp_path / "x", "rosbag1")
     bad = make_run(100)
     bad.joint_position_m = bad.joint_position_m[:-1]
     with pytest.raises(InputError, match="joint_states"):
-        bags.write_machine_bag(bad, tmp_path / "y", "sqlite3")
+        bag_writer.write_machine_bag(bad, tmp_path / "y", "sqlite3")
     assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
 
 
@@ -320,12 +325,12 @@ def _damage(path: Path, how: str) -> None:
 @pytest.mark.parametrize("storage", STORAGES)
 @pytest.mark.parametrize("how", ["truncate", "scramble", "metadata", "missing_file"])
 def test_corrupt_bag_raises_input_error(tmp_path, storage, how):
-    path = bags.write_machine_bag(make_run(3000), tmp_path / "bag", storage)
+    path = bag_writer.write_machine_bag(make_run(3000), tmp_path / "bag", storage)
     _damage(path, how)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")        # scrambled message bytes may only be "malformed"
         try:
-            run = bags.read_machine_bag(path)
+            run = bag_reader.read_machine_bag(path)
         except InputError as exc:
             assert "\n" not in str(exc) and str(path) in str(exc)
             return
@@ -340,15 +345,15 @@ def test_not_a_bag(tmp_path):
     (tmp_path / "emptydir").mkdir()
     for p in ("missing", "notes.txt", "fake.db3", "fake.mcap", "emptydir"):
         with pytest.raises(InputError) as err:
-            bags.read_machine_bag(tmp_path / p)
+            bag_reader.read_machine_bag(tmp_path / p)
         assert "\n" not in str(err.value)
         with pytest.raises(InputError):
-            bags.bag_info(tmp_path / p)
+            bag_info(tmp_path / p)
 
 
 def test_progress_bar_renders_and_is_rate_limited():
     out = io.StringIO()
-    bar = bags.ProgressBar("reading", stream=out, force=True, max_hz=5)
+    bar = ProgressBar("reading", stream=out, force=True, max_hz=5)
     bar(0, 1000)
     for k in range(1, 1000):
         bar(k, 1000)                           # fast calls: rate limited, only the first draws
@@ -358,14 +363,15 @@ def test_progress_bar_renders_and_is_rate_limited():
     assert "1000/1000 msg" in text and "msg/s" in text and "done" in text
     assert "ETA" in bar.render(10, 100, 1.0)
     quiet = io.StringIO()
-    off = bags.ProgressBar(stream=quiet)       # StringIO is not a TTY: disabled
+    off = ProgressBar(stream=quiet)       # StringIO is not a TTY: disabled
     off(1, 2)
     off(2, 2)
     assert quiet.getvalue() == ""
 
 
-def test_bags_module_does_not_import_rclpy():
-    code = "import sys, guide_health.bags; sys.exit('rclpy' in sys.modules)"
+def test_io_modules_do_not_import_rclpy():
+    code = ("import sys, guide_health.io.bag_reader, guide_health.io.bag_writer, guide_health.io.bag_info, "
+            "guide_health.io.progress, guide_health.io.state_store; sys.exit('rclpy' in sys.modules)")
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]))
     assert subprocess.run([sys.executable, "-c", code], env=env, cwd=REPO, timeout=60).returncode == 0
 
@@ -472,7 +478,7 @@ def test_bag_player_delivers_every_message(tmp_path, ros_env):
     n = 5000
     run = MachineRun(joint_t_ns=T0 + np.arange(n, dtype=np.int64) * 1_000_000,
                      joint_position_m=np.linspace(0, 0.5, n), joint_velocity_m_s=np.full(n, 0.5))
-    path = bags.write_machine_bag(run, tmp_path / "bag", "sqlite3", namespace="/m1")
+    path = bag_writer.write_machine_bag(run, tmp_path / "bag", "sqlite3", namespace="/m1")
 
     try:
         from rclpy.experimental import EventsExecutor
@@ -522,7 +528,7 @@ def test_bag_player_delivers_every_message(tmp_path, ros_env):
         print(f"\nbag_player -> subscriber: {len(received)}/{n} messages, ~{rate:,.0f} msg/s received; "
               f"player: {summary[-1] if summary else err.strip()}")
         assert len(received) == n
-        decoded = bags._decode(received, *bags._decoder(bags.JOINT_STATE, "x"))
+        decoded = cdr.decode_chunk(received, cdr.codec_for(JOINT_STATE, "x"))
         np.testing.assert_array_equal(decoded.values["position"], run.joint_position_m)   # order kept
         executor.shutdown()
         node.destroy_node()
@@ -545,9 +551,9 @@ def test_streamed_replay_equals_whole_bag_replay(tmp_path, storage):
     params = wear_monitor_params(cfg)
     sim = dict(simulation_params(cfg), duration_h=1.0, joint_state_rate_hz=10.0, measurement_interval_h=0.2)
     bag = tmp_path / "b"
-    bags.write_machine_bag(simulate_machine(params, sim, seed=2), bag, storage=storage)
-    whole = analyse(bags.read_machine_bag(bag), params)[1]
-    chunks = list(bags.iter_machine_bag(bag, chunk_messages=977))
+    bag_writer.write_machine_bag(simulate_machine(params, sim, seed=2), bag, storage=storage)
+    whole = analyse(bag_reader.read_machine_bag(bag), params)[1]
+    chunks = list(bag_reader.iter_machine_bag(bag, chunk_messages=977))
     assert len(chunks) > 30 and max(c.messages for c in chunks) <= 977
     _, streamed, timing = analyse_bag(bag, params, chunk_messages=977)
     for key in ("straightness_um", "remaining_life_h", "sliding_distance_m", "wear_coefficient",

@@ -10,7 +10,8 @@ import pytest
 
 pytest.importorskip("rclpy")
 
-from guide_health.bags import read_machine_bag, write_machine_bag  # noqa: E402
+from guide_health.io.bag_reader import read_machine_bag  # noqa: E402
+from guide_health.io.bag_writer import write_machine_bag  # noqa: E402
 from guide_health.commands.replay import analyse  # noqa: E402
 from guide_health.nodes.session import (DiagnosticsCollector, clean_fastdds_shm, isolated_ros_env,  # noqa: E402
                                         play_bag, start_node, stop_node)

@@ -26,7 +26,7 @@ def add_arguments(parser) -> None:
 
 def read_duty(bag, params: dict, namespace=None, progress=None):
     """Stream a machine bag into duty cells (memory bounded by one chunk)."""
-    from guide_health.bags import iter_machine_bag
+    from guide_health.io.bag_reader import iter_machine_bag
     from guide_health.analysis.discrepancy.duty import DutyCellAccumulator
 
     acc = DutyCellAccumulator(params["slider_length_m"])
@@ -38,7 +38,7 @@ def read_duty(bag, params: dict, namespace=None, progress=None):
 
 
 def run(args) -> dict:
-    from guide_health.bags import ProgressBar
+    from guide_health.io.progress import ProgressBar
     from guide_health.analysis.discrepancy.report import write_report
     from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD
     from guide_health.analysis.discrepancy.workflow import diagnose_cells

@@ -41,7 +41,7 @@ def analyse_bag(bag, params: dict, namespace: str | None = None, progress=None,
     """Stream a bag through the precision model chunk by chunk (memory bounded by one chunk, whatever
     the bag's size); identical to analyse(read_machine_bag(bag)) to rounding. Returns the monitor, its
     report and timings {read_s, model_s}."""
-    from guide_health.bags import iter_machine_bag
+    from guide_health.io.bag_reader import iter_machine_bag
 
     monitor = PrecisionMonitor(params)
     messages = 0
@@ -126,7 +126,7 @@ def plot_report(path: Path, monitor: PrecisionMonitor, report: dict, t_h, measur
 
 
 def is_slewing_bag(bag: Path) -> bool:
-    from guide_health.bags import bag_topic_types
+    from guide_health.io.bag_info import bag_topic_types
 
     topics = bag_topic_types(bag)
     return (any(t.endswith("slewing/load") for t in topics)
@@ -135,7 +135,8 @@ def is_slewing_bag(bag: Path) -> bool:
 
 def run_slewing(args, bag: Path) -> dict:
     """A slewing bag: every load through the slewing_monitor core; the worst roller of the run."""
-    from guide_health.bags import ProgressBar, read_slewing_bag
+    from guide_health.io.bag_reader import read_slewing_bag
+    from guide_health.io.progress import ProgressBar
     from guide_health.analysis.slewing_replay import analyse_slewing_run
     from guide_health.params import SLEWING_MONITOR_DEFAULTS, load_node_params
 
@@ -182,7 +183,7 @@ def run_slewing(args, bag: Path) -> dict:
 
 
 def run(args) -> dict:
-    from guide_health.bags import ProgressBar
+    from guide_health.io.progress import ProgressBar
 
     bag = Path(args.bag)
     if bag.exists() and is_slewing_bag(bag):

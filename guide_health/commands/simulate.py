@@ -29,7 +29,7 @@ def add_arguments(parser) -> None:
 
 
 def run_slewing(args) -> dict:
-    from guide_health.bags import write_slewing_bag
+    from guide_health.io.bag_writer import write_slewing_bag
     from guide_health.params import SLEWING_SIMULATION_DEFAULTS, load_node_params
     from guide_health.simulate_slewing import simulate_slewing
 
@@ -53,7 +53,7 @@ def run_slewing(args) -> dict:
 
 
 def run(args) -> dict:
-    from guide_health.bags import write_machine_bag
+    from guide_health.io.bag_writer import write_machine_bag
 
     if args.kind == "slewing":
         return run_slewing(args)

@@ -362,10 +362,10 @@ def wait_all_acked(pubs, timeout_s: float) -> bool:
 def play(args, rclpy_args) -> int:
     import rclpy
 
-    from guide_health.bags import iter_raw_messages, open_bag
+    from guide_health.io.storage import iter_raw_messages, open_storage
 
     pacer = pacer_from_args(args)
-    with open_bag(args.bag) as reader:
+    with open_storage(args.bag, checked=True) as reader:
         connections, types = select_connections(reader, args.bag, args.topics)
         classes = {topic: message_class(t) for topic, t in types.items()}
         total = int(sum(c.msgcount for c in connections))
@@ -379,7 +379,7 @@ def play(args, rclpy_args) -> int:
                 wait_for_subscribers(playback.pubs.values(), args.wait_subscribers, args.wait_timeout)
             if args.start_delay > 0:
                 time.sleep(args.start_delay)
-            messages = iter_raw_messages(reader, connections, args.bag, start_ns)
+            messages = iter_raw_messages(reader, connections, start_ns)
             sent, blocked, t_start, t_sent = publish_in_order(messages, playback, pacer, args)
             acked = wait_all_acked(playback.pubs.values(), args.ack_timeout)
             t_total = time.monotonic() - t_start

@@ -5,7 +5,7 @@ Subscribes `joint_states`, `guide/load`, `guide/straightness` (and `guide/temper
 so a bag replayed at any rate gives the same numbers. State persists in SQLite (`state_file`).
 
 Executor (parameter `executor`): `events` (default) spins rclpy's EventsExecutor with raw subscriptions
-for joint_states and guide/load, decoded at fixed CDR offsets (guide_health.bags.RawMessageDecoder, a few
+for joint_states and guide/load, decoded at fixed CDR offsets (guide_health.io.cdr.RawMessageDecoder, a few
 us) instead of rclpy deserialisation; it handles messages in arrival order across topics, so a
 header-less straightness message is dated by the joint samples published before it. `single_threaded`
 is rclpy's SingleThreadedExecutor with deserialised messages (the reference; it takes one message per
@@ -24,7 +24,9 @@ from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
 
-from guide_health.bags import JOINT_STATE, MISSING, WRENCH_STAMPED, RawMessageDecoder
+from guide_health.io.cdr import MISSING, RawMessageDecoder
+from guide_health.io.interfaces import JOINT_STATE, WRENCH_STAMPED
+from guide_health.io.state_store import StateStore
 from guide_health.models.wear.feed import StampAlignedFeed
 from guide_health.models.wear.input_rules import (EMPTY_JOINT_STATES, JOINT_POSITION_MISSING, MALFORMED_JOINT_STATES,
                                                   MALFORMED_LOAD, STRAIGHTNESS_WITHOUT_TIME_BASE, joint_missing)
@@ -32,7 +34,6 @@ from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.nodes.common import run_node
 from guide_health.nodes.status import RejectionLog, StatusTask, StatusUpdater
 from guide_health.params import WEAR_MONITOR_SCHEMA, declare_parameters
-from guide_health.state_store import StateStore
 
 # Reliable + keep_all: when the callbacks lag, the reader's history fills and a reliable writer waits
 # (back-pressure) instead of the reader overwriting unprocessed samples as keep_last would; a sensor

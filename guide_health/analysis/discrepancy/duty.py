@@ -14,9 +14,9 @@ keeping the variance of the sliding distance for the running-in term. A 20 h bag
 segments) becomes a few thousand cells.
 
 Streaming: :meth:`DutyCellAccumulator.add` takes consecutive :class:`MachineRun` chunks (as
-``bags.iter_machine_bag`` yields them) and carries the last accepted sample, load and measurement and
-the unfinished pass to the next chunk, so memory is bounded by one chunk and the result does not depend
-on chunking.
+``io.bag_reader.iter_machine_bag`` yields them) and carries the last accepted sample, load and measurement
+and the unfinished pass to the next chunk, so memory is bounded by one chunk and the result does not
+depend on chunking.
 """
 from __future__ import annotations
 

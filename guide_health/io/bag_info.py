@@ -1,0 +1,38 @@
+"""What is in a bag: topics with types and counts, time span, storage and run metadata."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from .bag_metadata import bag_yaml, read_run_metadata
+from .storage import open_storage
+
+
+def bag_topic_types(path) -> dict[str, str]:
+    """{topic: message type} of a bag, cheaply (no message scan for a single-file sqlite3 bag)."""
+    with open_storage(path) as storage:
+        return {c.topic: c.msgtype for c in storage.connections}
+
+
+def bag_info(path) -> dict:
+    """Topics (type, count), message count, duration, storage and run metadata of a bag.
+
+    The bag is opened checked (rosbags reads every storage file's index), so a damaged bag raises
+    InputError here rather than showing counts from its metadata.yaml."""
+    path = Path(path)
+    with open_storage(path, checked=True) as storage:
+        count = int(storage.message_count)
+        topics = {c.topic: {"type": c.msgtype, "count": int(c.msgcount)} for c in storage.connections}
+        start = int(storage.start_ns) if count else None
+        end = int(storage.end_ns) - 1 if count else None
+    info = bag_yaml(path)
+    storage_id = info.get("storage_identifier") or {".db3": "sqlite3", ".mcap": "mcap"}.get(path.suffix)
+    return {
+        "path": str(path),
+        "storage": storage_id,
+        "topics": topics,
+        "messages": count,
+        "start_ns": start,
+        "end_ns": end,
+        "duration_s": (end - start) * 1e-9 if count else 0.0,
+        "metadata": read_run_metadata(path),
+    }

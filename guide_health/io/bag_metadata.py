@@ -1,0 +1,73 @@
+"""A bag directory's metadata.yaml, the run metadata stored in it, and one-line error texts.
+
+The run metadata (seed, truth, effects, ...) is a JSON string in metadata.yaml
+custom_data[METADATA_KEY]; bags written by other tools may carry it in a sidecar file SIDECAR_NAME.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+
+#: key of the run metadata (a JSON string) in the bag's metadata.yaml custom_data
+METADATA_KEY = "guide_health.metadata"
+#: a sidecar JSON file that is also read (bags written by other tools may carry one)
+SIDECAR_NAME = "guide_health_meta.json"
+
+
+def one_line(exc: BaseException, limit: int = 160) -> str:
+    """The text of `exc` on one line of at most `limit` characters (for InputError messages)."""
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def bag_yaml(path: Path) -> dict:
+    """rosbag2_bagfile_information of a bag directory's metadata.yaml; {} if absent or unreadable."""
+    meta = path / "metadata.yaml" if path.is_dir() else None
+    if meta is None or not meta.exists():
+        return {}
+    try:
+        import yaml
+
+        info = yaml.safe_load(meta.read_text(encoding="utf8")) or {}
+        return info.get("rosbag2_bagfile_information", {}) or {}
+    except Exception:  # noqa: BLE001 - the rosbags reader reports broken metadata itself
+        return {}
+
+
+def read_run_metadata(path: Path) -> dict:
+    """The run metadata of the bag at `path` ({} if none); InputError if it is not valid JSON."""
+    info = bag_yaml(path)
+    custom = info.get("custom_data") or {}
+    text = custom.get(METADATA_KEY) if isinstance(custom, dict) else None
+    sidecar = path / SIDECAR_NAME if path.is_dir() else None
+    if text is None and sidecar is not None and sidecar.exists():
+        text = sidecar.read_text(encoding="utf8")
+    if not text:
+        return {}
+    try:
+        value = json.loads(text)
+    except ValueError as exc:
+        raise InputError(f"bag {path}: run metadata is not valid JSON: {one_line(exc)}") from None
+    return value if isinstance(value, dict) else {"value": value}
+
+
+def _json_default(value):
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(f"metadata value of type {type(value).__name__} is not JSON serialisable")
+
+
+def run_metadata_json(metadata: dict | None) -> str:
+    """The run metadata as the JSON string stored in the bag (numpy values as numbers and lists)."""
+    try:
+        return json.dumps(metadata or {}, default=_json_default, allow_nan=True, sort_keys=True)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"run metadata is not JSON serialisable: {one_line(exc)}") from None

@@ -1,0 +1,168 @@
+"""Write machine and slewing runs as rosbag2 bags (version 9, Jazzy types) with rosbags.
+
+Messages are encoded with numpy templates (`cdr.encode_*`), merged across topics in log-time order, and
+written with log time = header stamp (Float64 straightness has no header: its time is the log time).
+The run metadata is stored as JSON in metadata.yaml custom_data[METADATA_KEY].
+"""
+from __future__ import annotations
+
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Callable
+
+import numpy as np
+
+from ..errors import InputError
+from ..runs import MachineRun, SlewingLoadRun
+from .bag_metadata import METADATA_KEY, one_line, run_metadata_json
+from .cdr import encode_float64, encode_joint_states, encode_temperature, encode_wrench_stamped, stamp_parts
+from .interfaces import FLOAT64, JOINT_STATE, TEMPERATURE, WRENCH_STAMPED, topic_name
+from .typestore import typestore
+
+if TYPE_CHECKING:
+    from .progress import ProgressFn
+
+STORAGES = ("sqlite3", "mcap")
+_WRITE_CHUNK = 100_000            # messages encoded per merge window when writing
+
+
+@dataclass
+class _TopicSeries:
+    """One topic to write: its log times and how to encode any of its rows."""
+
+    topic: str
+    msgtype: str
+    t_ns: np.ndarray                          # log time (= header stamp)
+    encode: Callable[[np.ndarray], list]      # row indices -> list of CDR bytes
+
+
+def _check_len(name: str, t: np.ndarray, *arrays) -> None:
+    for values in arrays:
+        if len(values) != len(t):
+            raise InputError(f"{name}: {len(values)} values for {len(t)} time stamps")
+    if t.size and t.min() < 0:
+        raise InputError(f"{name}: negative time stamp")
+
+
+def _write_bag(series: list[_TopicSeries], path, storage: str, metadata: dict,
+               progress: ProgressFn | None = None) -> Path:
+    """Write `series` merged by log time into a new bag at `path`; removes it again on any error."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    path = Path(path)
+    if storage not in STORAGES:
+        raise InputError(f"unknown storage {storage!r}: use one of {', '.join(STORAGES)}")
+    if path.exists():
+        raise InputError(f"{path} exists already: not overwriting")
+    meta_json = run_metadata_json(metadata)
+    # every series gets a connection (an empty topic is still declared, so readers find it)
+    times = np.concatenate([s.t_ns for s in series] + [np.zeros(0, np.int64)])
+    which = np.concatenate([np.full(s.t_ns.size, k, np.int16) for k, s in enumerate(series)]
+                           + [np.zeros(0, np.int16)])
+    local = np.concatenate([np.arange(s.t_ns.size) for s in series] + [np.zeros(0, np.int64)])
+    order = np.argsort(times, kind="stable")          # merge topics by log time
+    total = int(order.size)
+
+    writer = Writer(path, version=9, storage_plugin=StoragePlugin[storage.upper()])
+    try:
+        writer.open()
+    except Exception as exc:
+        raise InputError(f"cannot create bag {path}: {one_line(exc)}") from None
+    try:
+        store = typestore()
+        conns = [writer.add_connection(s.topic, s.msgtype, typestore=store) for s in series]
+        writer.set_custom_data(METADATA_KEY, meta_json)
+        write = writer.write
+        for start in range(0, total, _WRITE_CHUNK):
+            sel = order[start:start + _WRITE_CHUNK]
+            w_sel, l_sel = which[sel], local[sel]
+            msgs: list = [None] * sel.size
+            for k in np.unique(w_sel):
+                pos = np.flatnonzero(w_sel == k)
+                for p, raw in zip(pos.tolist(), series[k].encode(l_sel[pos])):
+                    msgs[p] = raw
+            for c, t, raw in zip(w_sel.tolist(), times[sel].tolist(), msgs):
+                write(conns[c], t, raw)
+            if progress is not None:
+                progress(start + sel.size, total)
+        writer.close()
+    except BaseException:
+        try:
+            writer.abort()
+        finally:
+            shutil.rmtree(path, ignore_errors=True)
+        raise
+    if progress is not None and total == 0:
+        progress(0, 0)
+    return path
+
+
+def write_machine_bag(run: MachineRun, path, storage: str = "sqlite3", namespace: str = "",
+                      progress: ProgressFn | None = None) -> Path:
+    """Write `run` as a rosbag2 bag (version 9, Jazzy types) at `path` (a new directory).
+
+    Topics `<ns>/joint_states`, `<ns>/guide/load`, `<ns>/guide/straightness` and, when there are
+    temperatures, `<ns>/guide/temperature`; log time = header stamp; messages merged in time order.
+    `run.metadata` is stored as JSON in metadata.yaml custom_data[METADATA_KEY].
+    Raises InputError if `path` exists or the run's arrays do not fit together.
+    """
+    jt = np.asarray(run.joint_t_ns, dtype=np.int64)
+    pos = np.asarray(run.joint_position_m, dtype=np.float64)
+    vel = np.asarray(run.joint_velocity_m_s, dtype=np.float64)
+    _check_len("joint_states", jt, pos, *([vel] if vel.size else []))
+    lt = np.asarray(run.load_t_ns, dtype=np.int64)
+    load = np.asarray(run.load_n, dtype=np.float64)
+    _check_len("guide/load", lt, load)
+    st = np.asarray(run.straightness_t_ns, dtype=np.int64)
+    straight = np.asarray(run.straightness_m, dtype=np.float64)
+    _check_len("guide/straightness", st, straight)
+    tt = np.asarray(run.temperature_t_ns, dtype=np.int64)
+    temp = np.asarray(run.temperature_c, dtype=np.float64)
+    _check_len("guide/temperature", tt, temp)
+    for t in (jt, lt, tt):
+        stamp_parts(t)
+    name = run.joint_name or "x"
+
+    def load_msgs(i):
+        force = np.zeros((i.size, 3))
+        force[:, 2] = load[i]
+        return encode_wrench_stamped(lt[i], force)
+
+    series = [
+        _TopicSeries(topic_name(namespace, "joint_states"), JOINT_STATE, jt,
+                     lambda i: encode_joint_states(jt[i], pos[i], vel[i] if vel.size else None, name)),
+        _TopicSeries(topic_name(namespace, "guide/load"), WRENCH_STAMPED, lt, load_msgs),
+        _TopicSeries(topic_name(namespace, "guide/straightness"), FLOAT64, st,
+                     lambda i: encode_float64(straight[i])),
+        _TopicSeries(topic_name(namespace, "guide/temperature"), TEMPERATURE, tt,
+                     lambda i: encode_temperature(tt[i], temp[i])),
+    ]
+    # joint_states, load and straightness are always declared (empty topics too), temperature if any
+    keep = [s for s in series if s.t_ns.size or s.msgtype != TEMPERATURE]
+    return _write_bag(keep, path, storage, run.metadata, progress)
+
+
+def write_slewing_bag(run: SlewingLoadRun, path, storage: str = "sqlite3", namespace: str = "",
+                      progress: ProgressFn | None = None) -> Path:
+    """Write `<ns>/slewing/load` WrenchStamped: force.z = axial, force.x = radial, torque.x = moment."""
+    t = np.asarray(run.t_ns, dtype=np.int64)
+    axial = np.asarray(run.axial_n, dtype=np.float64)
+    radial = np.asarray(run.radial_n, dtype=np.float64)
+    moment = np.asarray(run.moment_nm, dtype=np.float64)
+    _check_len("slewing/load", t, axial, radial, moment)
+    stamp_parts(t)
+
+    def msgs(i):
+        force = np.zeros((i.size, 3))
+        force[:, 0] = radial[i]
+        force[:, 2] = axial[i]
+        torque = np.zeros((i.size, 3))
+        torque[:, 0] = moment[i]
+        return encode_wrench_stamped(t[i], force, torque)
+
+    series = [_TopicSeries(topic_name(namespace, "slewing/load"), WRENCH_STAMPED, t, msgs)]
+    return _write_bag(series, path, storage, run.metadata, progress)
+
+
+# ---------------------------------------------------------------------------------------------
