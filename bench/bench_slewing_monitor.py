@@ -32,7 +32,7 @@ def main() -> int:
     from guide_health.models.roller_contact import (SLEWING_MONITOR_DEFAULTS, _numerical_report,
                                                      slewing_contact_report_from_loads)
     from guide_health.models.slewing import SlewingMonitor
-    from guide_health.simulate_slewing import simulate_slewing
+    from guide_health.sim.slewing import simulate_slewing
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--messages", type=int, default=4000)

@@ -21,7 +21,7 @@ from guide_health.commands.replay import analyse, write_outputs
 from guide_health.live_session import (DiagnosticsCollector, clean_fastdds_shm, isolated_ros_env, play_bag,
                                        start_node, stop_node)
 from guide_health.params import simulation_params, wear_monitor_params
-from guide_health.simulate import simulate_machine
+from guide_health.sim.machine import simulate_machine
 
 ROOT = Path(__file__).resolve().parents[1]
 LEVELS = {0: "OK", 1: "WARN", 2: "ERROR", 3: "STALE"}

@@ -12,7 +12,7 @@ from guide_health.diagnostics import ROLLER_CONTACT_KEYS
 from guide_health.models.roller_contact import (SLEWING_MONITOR_DEFAULTS, SlewingContactModel,
                                                  axial_row_roller_loads, slewing_contact_report)
 from guide_health.models.slewing import SlewingMonitor, analyse_slewing_run
-from guide_health.simulate_slewing import simulate_slewing
+from guide_health.sim.slewing import simulate_slewing
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "config" / "slewing_131.32.2000.00Z.yaml"

@@ -11,7 +11,8 @@ from guide_health.models.wear import (StrokeTracker, WearGeometry, WearIntegrato
                                       minimum_zone_straightness_m, precision_life_eq12_s,
                                       straightness_from_wear_volume_m, straightness_loss_eq11_m)
 from guide_health.params import simulation_params, wear_monitor_params
-from guide_health.simulate import machine_knots, simulate_machine
+from guide_health.sim.machine import simulate_machine
+from guide_health.sim.motion import machine_knots
 
 ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT / "config" / "bench_000.yaml"

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from guide_health.errors import InputError
 from guide_health.params import simulation_params, wear_monitor_params
-from guide_health.simulate import parse_effects, simulate_machine
+from guide_health.sim.machine import parse_effects, simulate_machine
 
 
 def add_arguments(parser) -> None:
@@ -31,7 +31,7 @@ def add_arguments(parser) -> None:
 def run_slewing(args) -> dict:
     from guide_health.bags import write_slewing_bag
     from guide_health.params import load_node_params
-    from guide_health.simulate_slewing import SLEWING_SIMULATION_DEFAULTS, simulate_slewing
+    from guide_health.sim.slewing import SLEWING_SIMULATION_DEFAULTS, simulate_slewing
 
     if args.effect:
         raise InputError("--effect applies to machine bags only")

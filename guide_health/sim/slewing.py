@@ -14,7 +14,7 @@ import numpy as np
 
 from guide_health.errors import InputError
 from guide_health.runs import SlewingLoadRun
-from guide_health.simulate import START_TIME_NS
+from guide_health.sim.machine import START_TIME_NS
 
 #: duty of a mid-size crane on a 2 m slewing ring (131.32.2000 class); the moment range keeps the
 #: busiest roller near the seed's 103 kN example at the heaviest lifts
