@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 from guide_health.bags import read_machine_bag, write_machine_bag
-from guide_health.commands.replay import analyse, write_outputs
+from guide_health.analysis.replay import analyse, write_outputs
 from guide_health.live_session import (DiagnosticsCollector, clean_fastdds_shm, isolated_ros_env, play_bag,
                                        start_node, stop_node)
 from guide_health.params import simulation_params, wear_monitor_params

@@ -11,7 +11,7 @@ import pytest
 pytest.importorskip("rclpy")
 
 from guide_health.bags import read_machine_bag, write_machine_bag  # noqa: E402
-from guide_health.commands.replay import analyse  # noqa: E402
+from guide_health.analysis.replay import analyse  # noqa: E402
 from guide_health.live_session import (DiagnosticsCollector, clean_fastdds_shm, isolated_ros_env,  # noqa: E402
                                        play_bag, start_node, stop_node)
 from guide_health.params import simulation_params, wear_monitor_params  # noqa: E402
