@@ -79,7 +79,7 @@ def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
         temperature_t_ns=stamps_ns(temperature_t_s) if temperature_t_s is not None else np.zeros(0, np.int64),
         temperature_c=temperature_c,
         metadata={
-            "generator": "guide_health.simulate",
+            "generator": "guide_health.simulate",    # the name bags record (kept when simulate.py became sim/)
             "seed": seed,
             "effects": effects,
             "effect_parameters": {k: v for k, v in vars(wear_effects).items() if math.isfinite(v)},
