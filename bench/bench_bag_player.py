@@ -64,7 +64,7 @@ print(json.dumps({"received": count["n"], "span_s": span}), flush=True)
 def make_bag(n_joint: int, workdir: Path) -> Path:
     from guide_health.io.bag_writer import write_machine_bag
     from guide_health.params import simulation_params, wear_monitor_params
-    from guide_health.simulate import simulate_machine
+    from guide_health.sim.machine import simulate_machine
 
     bag = workdir / f"player_{n_joint}"
     if not bag.exists():

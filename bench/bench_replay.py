@@ -30,7 +30,7 @@ PARAMS = ROOT / "config" / "bench_000.yaml"
 def make_bag(n_joint: int, storage: str, workdir: Path) -> Path:
     from guide_health.io.bag_writer import write_machine_bag
     from guide_health.params import simulation_params, wear_monitor_params
-    from guide_health.simulate import simulate_machine
+    from guide_health.sim.machine import simulate_machine
 
     bag = workdir / f"replay_{n_joint}_{storage}"
     if bag.exists():

@@ -32,7 +32,7 @@ def main() -> int:
     from guide_health.models.slewing.monitor import (SlewingMonitor, _numerical_report,
                                                      slewing_contact_report_from_loads)
     from guide_health.params import SLEWING_MONITOR_DEFAULTS
-    from guide_health.simulate_slewing import simulate_slewing
+    from guide_health.sim.slewing import simulate_slewing
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--messages", type=int, default=4000)

@@ -16,14 +16,14 @@ import sys
 import time
 from pathlib import Path
 
+from guide_health.analysis.replay import analyse, write_outputs
 from guide_health.io.bag_reader import read_machine_bag
 from guide_health.io.bag_writer import write_machine_bag
-from guide_health.commands.replay import analyse, write_outputs
 from guide_health.models.levels import LEVEL_NAMES
 from guide_health.nodes.session import (DiagnosticsCollector, clean_fastdds_shm, isolated_ros_env, play_bag,
                                         start_node, stop_node)
 from guide_health.params import simulation_params, wear_monitor_params
-from guide_health.simulate import simulate_machine
+from guide_health.sim.machine import simulate_machine
 
 ROOT = Path(__file__).resolve().parents[1]
 

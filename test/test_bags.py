@@ -543,9 +543,9 @@ def test_bag_player_delivers_every_message(tmp_path, ros_env):
 @pytest.mark.parametrize("storage", ["sqlite3", "mcap"])
 def test_streamed_replay_equals_whole_bag_replay(tmp_path, storage):
     """iter_machine_bag chunks (bounded memory) through the model give the whole-bag result."""
-    from guide_health.commands.replay import analyse, analyse_bag
+    from guide_health.analysis.replay import analyse, analyse_bag
     from guide_health.params import simulation_params, wear_monitor_params
-    from guide_health.simulate import simulate_machine
+    from guide_health.sim.machine import simulate_machine
 
     cfg = Path(__file__).resolve().parents[1] / "config" / "bench_000.yaml"
     params = wear_monitor_params(cfg)

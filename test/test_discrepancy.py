@@ -25,7 +25,8 @@ from guide_health.analysis.discrepancy.workflow import diagnose_cells
 from guide_health.models.wear import effects as we
 from guide_health.params import simulation_params, wear_monitor_params
 from guide_health.runs import MachineRun
-from guide_health.simulate import cycle_knots, simulate_machine, true_straightness_loss_per_k_m
+from guide_health.sim.machine import simulate_machine, true_straightness_loss_per_k_m
+from guide_health.sim.motion import cycle_knots
 
 ROOT = Path(__file__).resolve().parents[1]
 JOBS = ROOT / "config" / "machine_jobs.yaml"
@@ -128,7 +129,7 @@ def test_truth_without_effects_is_eq7_of_the_monitor_family():
     knots = cycle_knots(np.random.default_rng(3), sim)
     at = np.arange(0.0, knots.t_s[-1], 1800.0)
     per_k = true_straightness_loss_per_k_m(params, knots.t_s, knots.x_m, knots.load_n, at, knots.strokes_m)
-    from guide_health.simulate import effective_work_at
+    from guide_health.sim.machine import effective_work_at
     g, _ = effective_work_at(knots, at, we.WearEffects(), params["slider_length_m"])
     eq7 = we.straightness_wear_m(1.0, params["hardness_pa"], params["contact_width_m"], g, g,
                                  float(knots.strokes_m.min() + knots.strokes_m.max()))

@@ -10,13 +10,13 @@ import pytest
 
 pytest.importorskip("rclpy")
 
+from guide_health.analysis.replay import analyse  # noqa: E402
 from guide_health.io.bag_reader import read_machine_bag  # noqa: E402
 from guide_health.io.bag_writer import write_machine_bag  # noqa: E402
-from guide_health.commands.replay import analyse  # noqa: E402
 from guide_health.nodes.session import (DiagnosticsCollector, clean_fastdds_shm, isolated_ros_env,  # noqa: E402
                                         play_bag, start_node, stop_node)
 from guide_health.params import simulation_params, wear_monitor_params  # noqa: E402
-from guide_health.simulate import simulate_machine  # noqa: E402
+from guide_health.sim.machine import simulate_machine  # noqa: E402
 
 pytestmark = pytest.mark.ros
 ROOT = Path(__file__).resolve().parents[1]

@@ -13,7 +13,7 @@ from guide_health.models.slewing.monitor import SlewingContactModel, SlewingMoni
 from guide_health.models.slewing.row_loads import axial_row_roller_loads
 from guide_health.nodes.slewing_monitor import ROLLER_CONTACT_KEYS
 from guide_health.params import SLEWING_MONITOR_DEFAULTS
-from guide_health.simulate_slewing import simulate_slewing
+from guide_health.sim.slewing import simulate_slewing
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "config" / "slewing_131.32.2000.00Z.yaml"

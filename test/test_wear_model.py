@@ -12,7 +12,8 @@ from guide_health.models.wear.calibration import WearCoefficientEstimator, fit_p
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.models.wear.straightness import StrokeTracker, minimum_zone_straightness_m
 from guide_health.params import simulation_params, wear_monitor_params
-from guide_health.simulate import machine_knots, simulate_machine
+from guide_health.sim.machine import simulate_machine
+from guide_health.sim.motion import machine_knots
 
 ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT / "config" / "bench_000.yaml"

@@ -1,2 +1,2 @@
-"""Offline analyses of recorded runs (bags) with the live nodes' models: replay, life tests, slewing replay,
-the discrepancy workflow."""
+"""Offline analyses of recorded runs (bags) with the live nodes' models, what the CLI commands call: replay,
+life tests, slewing replay, the discrepancy workflow."""

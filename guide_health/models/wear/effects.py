@@ -6,7 +6,7 @@ Eq. 7 with Eq. 5's j = 1/2, starting from a known A0:
     A(t) = A0 + 2 K G(t) / (H b (l_min + l_max)),        G(t) = sum_i W_i ds_i   [N m]
 
 Each effect below is a physical term with physical parameters. The simulator's truth
-(``guide_health.simulate``) and the candidates of ``guide_health.analysis.discrepancy`` evaluate the
+(``guide_health.sim.machine``) and the candidates of ``guide_health.analysis.discrepancy`` evaluate the
 *same* functions, so a hidden effect and the candidate that should find it are one model, not a fitted
 curve.
 

@@ -1,62 +1,33 @@
-"""`guide-health` command line: one module per sub-command under guide_health/commands/.
+"""The `guide-health` argparse tree and ``main``: one Command per sub-command in the modules of this package.
 
-Every sub-command module defines ``add_arguments(parser)`` and ``run(args) -> dict``. With ``--json``
-the returned dict is printed as exactly one JSON object on stdout; otherwise ``format_text(result)``
-(when the module defines it) or an indented key/value listing. Progress and logs go to stderr.
-Bad input raises :class:`guide_health.errors.InputError` and ends as one line on stderr, exit 2.
+Every sub-command is a :class:`guide_health.cli.command.Command`: options, run(args) -> dict, and an
+optional format_text. With ``--json`` the returned dict is printed as exactly one JSON object on stdout;
+otherwise ``format_text(result)`` (when the command has one) or an indented key/value listing. Progress and
+logs go to stderr. Bad input raises :class:`guide_health.errors.InputError` and ends as one line on
+stderr, exit 2.
 """
 from __future__ import annotations
 
 import argparse
 import importlib
 import json
-import math
 import os
 import sys
 
+from guide_health.cli.command import Command
+from guide_health.cli.text import format_key_values, jsonable
 from guide_health.errors import InputError
 
-# (command path, module, help)
+# (command path, "module:Command" in guide_health.cli, help)
 COMMANDS: list[tuple[tuple[str, ...], str, str]] = [
-    (("simulate",), "simulate", "write a rosbag2 bag of a simulated machine run"),
-    (("replay",), "replay", "offline analysis of a bag with the live node's models"),
-    (("diagnose",), "diagnose", "find and name the physics the model misses (discrepancy workflow)"),
-    (("calibrate", "pin-on-disc"), "calibrate_pin_on_disc", "wear coefficient K from pin-on-disc rows"),
-    (("contact", "slewing"), "contact_slewing", "slewing-bearing roller/raceway stresses"),
-    (("contact", "rolling"), "contact_rolling", "rolling-guide ball/groove contact and lubrication"),
-    (("life",), "life", "rating life, Miner consumption and C from life tests"),
+    (("simulate",), "simulate:SIMULATE", "write a rosbag2 bag of a simulated machine run"),
+    (("replay",), "replay:REPLAY", "offline analysis of a bag with the live node's models"),
+    (("diagnose",), "diagnose:DIAGNOSE", "find and name the physics the model misses (discrepancy workflow)"),
+    (("calibrate", "pin-on-disc"), "calibrate:PIN_ON_DISC", "wear coefficient K from pin-on-disc rows"),
+    (("contact", "slewing"), "contact:SLEWING", "slewing-bearing roller/raceway stresses"),
+    (("contact", "rolling"), "contact:ROLLING", "rolling-guide ball/groove contact and lubrication"),
+    (("life",), "life:LIFE", "rating life, Miner consumption and C from life tests"),
 ]
-
-
-def _jsonable(value):
-    """numpy scalars/arrays to plain Python for json (NaN/inf stay floats: json writes NaN/Infinity)."""
-    try:
-        import numpy as np
-    except ImportError:  # pragma: no cover
-        np = None
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if np is not None:
-        if isinstance(value, np.ndarray):
-            return _jsonable(value.tolist())
-        if isinstance(value, np.generic):
-            return value.item()
-    return value
-
-
-def _format_plain(result: dict, indent: str = "") -> str:
-    lines = []
-    for key, value in result.items():
-        if isinstance(value, dict):
-            lines.append(f"{indent}{key}:")
-            lines.append(_format_plain(value, indent + "  "))
-        elif isinstance(value, float):
-            lines.append(f"{indent}{key}: {value:.6g}" if math.isfinite(value) else f"{indent}{key}: {value}")
-        else:
-            lines.append(f"{indent}{key}: {value}")
-    return "\n".join(lines)
 
 
 class OneLineErrorParser(argparse.ArgumentParser):
@@ -75,6 +46,12 @@ def _selected(path: tuple[str, ...], argv: list[str] | None) -> bool:
     return words[:1] == [path[0]] and (len(words) < 2 or words[1] == path[1])
 
 
+def load_command(target: str) -> Command:
+    """The Command named ``module:NAME`` (module in guide_health.cli)."""
+    module_name, name = target.split(":")
+    return getattr(importlib.import_module(f"guide_health.cli.{module_name}"), name)
+
+
 def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     parser = OneLineErrorParser(
         prog="guide-health",
@@ -82,7 +59,7 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     )
     top = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     groups: dict[str, argparse._SubParsersAction] = {}
-    for path, module_name, help_text in COMMANDS:
+    for path, target, help_text in COMMANDS:
         if len(path) == 1:
             sub = top.add_parser(path[0], help=help_text, description=help_text)
         else:
@@ -90,18 +67,19 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
                 group_parser = top.add_parser(path[0], help=f"{path[0]} sub-commands")
                 groups[path[0]] = group_parser.add_subparsers(dest="subcommand", metavar="KIND", required=True)
             sub = groups[path[0]].add_parser(path[1], help=help_text, description=help_text)
-        sub.set_defaults(_module=module_name)
+        sub.set_defaults(_command=target)
         sub.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout")
         if not _selected(path, argv):
             continue
+        module_name = f"guide_health.cli.{target.split(':')[0]}"
         try:
-            module = importlib.import_module(f"guide_health.commands.{module_name}")
+            command = load_command(target)
         except ModuleNotFoundError as exc:
-            if exc.name != f"guide_health.commands.{module_name}":
+            if exc.name != module_name:
                 raise
             sub.set_defaults(_missing=True)
             continue
-        module.add_arguments(sub)
+        command.add_arguments(sub)
     return parser
 
 
@@ -112,9 +90,9 @@ def main(argv: list[str] | None = None) -> int:
     if getattr(args, "_missing", False):
         print(f"guide-health: error: '{args.command}' is not available in this build", file=sys.stderr)
         return 2
-    module = importlib.import_module(f"guide_health.commands.{args._module}")
+    command = load_command(args._command)
     try:
-        result = module.run(args)
+        result = command.run(args)
     except InputError as exc:
         print(f"guide-health: error: {exc}", file=sys.stderr)
         return 2
@@ -124,20 +102,20 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("guide-health: interrupted", file=sys.stderr)
         return 130
-    if result is None:
-        return 0
-    try:
-        if args.json:
-            json.dump(_jsonable(result), sys.stdout, allow_nan=True)
-            sys.stdout.write("\n")
-        else:
-            formatter = getattr(module, "format_text", None)
-            print(formatter(result) if formatter else _format_plain(_jsonable(result)))
-        sys.stdout.flush()
-    except BrokenPipeError:          # `guide-health ... | head`: the reader left; not an error of ours
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    if result is not None:
+        print_result(command, result, as_json=args.json)
     return 0
 
 
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+def print_result(command: Command, result: dict, as_json: bool) -> None:
+    """One JSON object, or the command's text (an indented key/value listing when it has none)."""
+    try:
+        if as_json:
+            json.dump(jsonable(result), sys.stdout, allow_nan=True)
+            sys.stdout.write("\n")
+        else:
+            text = command.format_text(result) if command.format_text else format_key_values(jsonable(result))
+            print(text)
+        sys.stdout.flush()
+    except BrokenPipeError:          # `guide-health ... | head`: the reader left; not an error of ours
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

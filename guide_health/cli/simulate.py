@@ -5,9 +5,10 @@ import sys
 import time
 from pathlib import Path
 
+from guide_health.cli.command import Command
 from guide_health.errors import InputError
 from guide_health.params import simulation_params, wear_monitor_params
-from guide_health.simulate import parse_effects, simulate_machine
+from guide_health.sim.machine import parse_effects, simulate_machine
 
 
 def add_arguments(parser) -> None:
@@ -28,10 +29,18 @@ def add_arguments(parser) -> None:
                              "stroke_distribution=w, thermal_drift=c_T [m/K], initial_offset=delta [m]")
 
 
+def new_bag_path(path: str) -> Path:
+    """The bag directory to create; InputError when it exists (a bag is never overwritten)."""
+    out = Path(path)
+    if out.exists():
+        raise InputError(f"output bag {out} already exists")
+    return out
+
+
 def run_slewing(args) -> dict:
     from guide_health.io.bag_writer import write_slewing_bag
     from guide_health.params import SLEWING_SIMULATION_DEFAULTS, load_node_params
-    from guide_health.simulate_slewing import simulate_slewing
+    from guide_health.sim.slewing import simulate_slewing
 
     if args.effect:
         raise InputError("--effect applies to machine bags only")
@@ -40,9 +49,7 @@ def run_slewing(args) -> dict:
         sim["duration_h"] = args.hours
     if args.rate is not None:
         sim["load_rate_hz"] = args.rate
-    out = Path(args.out)
-    if out.exists():
-        raise InputError(f"output bag {out} already exists")
+    out = new_bag_path(args.out)
     t0 = time.perf_counter()
     run = simulate_slewing(sim, seed=args.seed)
     write_slewing_bag(run, out, storage=args.storage, namespace=args.namespace)
@@ -72,9 +79,7 @@ def run(args) -> dict:
     if "thermal_drift" in effects and not sim["temperature_rate_hz"] > 0:
         print("guide-health simulate: thermal_drift needs a temperature record: guide/temperature at 0.1 Hz",
               file=sys.stderr)
-    out = Path(args.out)
-    if out.exists():
-        raise InputError(f"output bag {out} already exists")
+    out = new_bag_path(args.out)
     t0 = time.perf_counter()
     machine = simulate_machine(params, sim, seed=args.seed, effects=effects)
     write_machine_bag(machine, out, storage=args.storage, namespace=args.namespace)
@@ -92,3 +97,6 @@ def run(args) -> dict:
         "true_wear_coefficient": truth["wear_coefficient"],
         "true_straightness_final_um": truth["straightness_m"][-1] * 1e6,
     }
+
+
+SIMULATE = Command(add_arguments, run)

@@ -17,6 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
+from guide_health.analysis.life_test import LifeTestLoad, c_ratio_alternatives, equal_spacing_refit
+from guide_health.cli.command import Command, value_errors_as_input_errors
+from guide_health.cli.text import format_key_values
 from guide_health.errors import InputError
 from guide_health.models.rolling import rating_life as lm
 from guide_health.models.rolling import weibull
@@ -173,28 +176,22 @@ def _run_rating(args) -> dict:
             "c_50km_n": c50, "c_100km_n": c100}
 
 
+def _test_load(load_fraction: float, s: dict) -> LifeTestLoad:
+    return LifeTestLoad(load_fraction, s["rating_distance_km"], s["exponent"], s["life_factors"])
+
+
 def _run_test(args) -> dict:
     s = _rating_setup(args, from_params=False)
     frac = _positive(args.load_fraction, "--load-fraction")
     life = _positive(args.life_km, "--life-km")
-    ratio = lm.c_ratio_from_life(frac, life, s["rating_distance_km"], exponent=s["exponent"],
-                                 life_factors=s["life_factors"])
-    alternatives = []
-    for l_ref in (lm.CATALOGUE_RATING_DISTANCE_KM, lm.ISO_RATING_DISTANCE_KM):
-        for name, p in (("ball", 3.0), ("roller", 10.0 / 3.0)):
-            alternatives.append({"rating_distance_km": l_ref, "exponent": p, "exponent_of": name,
-                                 "c_ratio": lm.c_ratio_from_life(frac, life, l_ref, exponent=p,
-                                                                 life_factors=s["life_factors"])})
-    out = {"mode": "test", "c_ratio": ratio, "load_fraction": frac, "life_km": life,
+    test_load = _test_load(frac, s)
+    out = {"mode": "test", "c_ratio": test_load.c_ratio(life), "load_fraction": frac, "life_km": life,
            "element": s["element"], "exponent": s["exponent"], "rating_distance_km": s["rating_distance_km"],
-           "life_factors": s["life_factors"], "alternatives": alternatives}
+           "life_factors": s["life_factors"], "alternatives": c_ratio_alternatives(frac, life, s["life_factors"])}
     if args.weibull_shape is not None:
         beta = _positive(args.weibull_shape, "--weibull-shape")
         b10 = lm.median_to_b_life(life, beta)
-        out.update({"weibull_shape": beta, "b10_from_median_km": b10,
-                    "c_ratio_b10": lm.c_ratio_from_life(frac, b10, s["rating_distance_km"],
-                                                        exponent=s["exponent"],
-                                                        life_factors=s["life_factors"])})
+        out.update({"weibull_shape": beta, "b10_from_median_km": b10, "c_ratio_b10": test_load.c_ratio(b10)})
     return out
 
 
@@ -244,34 +241,12 @@ def _run_weibull(args) -> dict:
            "scale_ci_km": list(fit.scale_ci_km), "b10_km": fit.b_life_km, "b10_ci_km": list(fit.b_life_ci_km),
            "confidence": fit.confidence, "ci_method": fit.ci_method, "log_likelihood": fit.log_likelihood,
            "element": s["element"], "exponent": s["exponent"], "rating_distance_km": s["rating_distance_km"]}
-
-    def c_ratio(life_km):
-        if frac is None:
-            return None
-        return lm.c_ratio_from_life(frac, life_km, s["rating_distance_km"], exponent=s["exponent"],
-                                    life_factors=s["life_factors"])
-
-    if frac is not None:
+    test_load = None if frac is None else _test_load(frac, s)
+    if test_load is not None:
         out["load_fraction"] = frac
-        out["c_ratio"] = c_ratio(fit.b_life_km)
-        out["c_ratio_ci"] = [c_ratio(v) for v in fit.b_life_ci_km]
-
-    # seed 004 Sec. 3.2: failures spread evenly in their interval, then treated as exact lives
-    rep = np.repeat(np.arange(lo.size), counts.astype(int))
-    lives = weibull.equal_spacing_lives_km(lo[rep], up[rep])
-    failed = lives[np.isfinite(lives)]
-    eq = {"lives_km": sorted(failed.tolist()),
-          "mean_km": float(failed.mean()) if failed.size else float("nan")}
-    try:
-        susp = up[rep] == np.inf
-        efit = weibull.fit_weibull(np.where(susp, lo[rep], lives), np.where(susp, np.inf, lives),
-                              confidence=args.confidence, ci_method="wald")
-        eq.update({"shape": efit.shape, "scale_km": efit.scale_km, "b10_km": efit.b_life_km})
-        if frac is not None:
-            eq["c_ratio"] = c_ratio(efit.b_life_km)
-    except ValueError:
-        pass
-    out["equal_spacing"] = eq
+        out["c_ratio"] = test_load.c_ratio(fit.b_life_km)
+        out["c_ratio_ci"] = [test_load.c_ratio(v) for v in fit.b_life_ci_km]
+    out["equal_spacing"] = equal_spacing_refit(lo, up, counts, args.confidence, test_load)
     return out
 
 
@@ -300,33 +275,13 @@ def _run_miner(args) -> dict:
 
 def run(args) -> dict:
     handlers = {"rating": _run_rating, "test": _run_test, "weibull": _run_weibull, "miner": _run_miner}
-    try:
+    with value_errors_as_input_errors():
         return handlers[args.life_mode](args)
-    except ValueError as exc:
-        if isinstance(exc, InputError):
-            raise
-        raise InputError(str(exc).splitlines()[0]) from None
 
 
-def _fmt(value) -> str:
-    if isinstance(value, float):
-        return f"{value:.6g}"
-    if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_fmt(v) for v in value) + "]"
-    return str(value)
-
-
-def format_text(result: dict, indent: str = "") -> str:
+def format_text(result: dict) -> str:
     """Key: value lines, numbers (also inside lists) to 6 significant digits."""
-    lines = []
-    for key, value in result.items():
-        if isinstance(value, dict):
-            lines.append(f"{indent}{key}:")
-            lines.append(format_text(value, indent + "  "))
-        elif isinstance(value, list) and value and isinstance(value[0], dict):
-            lines.append(f"{indent}{key}:")
-            for item in value:
-                lines.append(f"{indent}  - " + ", ".join(f"{k}: {_fmt(v)}" for k, v in item.items()))
-        else:
-            lines.append(f"{indent}{key}: {_fmt(value)}")
-    return "\n".join(lines)
+    return format_key_values(result, compact_lists=True)
+
+
+LIFE = Command(add_arguments, run, format_text)

@@ -15,7 +15,7 @@ import numpy as np
 from guide_health.errors import InputError
 from guide_health.params import slewing_simulation_params
 from guide_health.runs import SlewingLoadRun
-from guide_health.simulate import START_TIME_NS
+from guide_health.sim.machine import START_TIME_NS
 
 
 def _smoothstep(u: np.ndarray) -> np.ndarray:

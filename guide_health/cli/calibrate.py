@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from guide_health.cli.command import Command
 from guide_health.errors import InputError
 from guide_health.models.wear.calibration import fit_pin_on_disc
 
@@ -61,3 +62,6 @@ def run(args) -> dict:
         from guide_health.analysis.discrepancy.selection import select_pin_on_disc_law
         result["wear_law"] = select_pin_on_disc_law(rows["speed_m_s"], rows["load_n"], rows["wear_rate_m3_s"])
     return result
+
+
+PIN_ON_DISC = Command(add_arguments, run)

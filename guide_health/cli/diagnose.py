@@ -6,6 +6,7 @@ import sys
 import time
 from pathlib import Path
 
+from guide_health.cli.command import Command
 from guide_health.errors import InputError
 from guide_health.params import wear_monitor_params
 
@@ -98,3 +99,6 @@ def format_text(result: dict) -> str:
     lines.append(f"  time:            read {result['read_s']:.1f} s, fit {result['fit_s']:.1f} s")
     lines.append(f"  files:           {', '.join(result['files'].values())}")
     return "\n".join(lines)
+
+
+DIAGNOSE = Command(add_arguments, run, format_text)

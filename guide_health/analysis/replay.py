@@ -1,0 +1,131 @@
+"""Offline replay of a bag with the live nodes' model objects, and the report files it leaves.
+
+A machine bag goes through the wear node's :class:`PrecisionMonitor` chunk by chunk (memory bounded by
+one chunk); a slewing bag through the slewing node's core (analysis/slewing_replay.py). The report
+directory holds report.json, the series as CSV and a PNG (analysis/report_plots.py).
+"""
+from __future__ import annotations
+
+import csv
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from guide_health.analysis.report_plots import plot_slewing_contact_series, plot_straightness_report
+from guide_health.models.wear.precision import PrecisionMonitor
+
+
+def monitor_report(monitor: PrecisionMonitor) -> dict:
+    """The monitor's report, with the rolling-guide fatigue report when the guide rolls."""
+    report = monitor.report()
+    if monitor.rolling is not None:
+        report["fatigue"] = monitor.fatigue_report()
+    return report
+
+
+def analyse(run, params: dict, progress=None) -> tuple[PrecisionMonitor, dict]:
+    """Run the precision model over a MachineRun; returns the monitor and its report."""
+    monitor = PrecisionMonitor(params)
+    monitor.process_run(run, progress=progress)
+    report = monitor_report(monitor)
+    report["messages"] = run.messages
+    report["duration_h"] = run.duration_s / 3600.0
+    return monitor, report
+
+
+def analyse_bag(bag, params: dict, namespace: str | None = None, progress=None,
+                chunk_messages: int = 200_000) -> tuple[PrecisionMonitor, dict, dict]:
+    """Stream a bag through the precision model chunk by chunk (memory bounded by one chunk, whatever
+    the bag's size); identical to analyse(read_machine_bag(bag)) to rounding. Returns the monitor, its
+    report and timings {read_s, model_s}."""
+    from guide_health.io.bag_reader import iter_machine_bag
+
+    monitor = PrecisionMonitor(params)
+    messages = 0
+    t_first = t_last = None
+    t_model = 0.0
+    t0 = time.perf_counter()
+    for chunk in iter_machine_bag(bag, joint=params["joint"], namespace=namespace, progress=progress,
+                                  chunk_messages=chunk_messages):
+        t1 = time.perf_counter()
+        monitor.process_run(chunk)
+        t_model += time.perf_counter() - t1
+        messages += chunk.messages
+        stamps = [a for a in (chunk.joint_t_ns, chunk.load_t_ns, chunk.straightness_t_ns) if a.size]
+        if stamps:
+            lo, hi = min(int(a[0]) for a in stamps), max(int(a[-1]) for a in stamps)
+            t_first = lo if t_first is None else min(t_first, lo)
+            t_last = hi if t_last is None else max(t_last, hi)
+    t1 = time.perf_counter()
+    report = monitor_report(monitor)
+    t_model += time.perf_counter() - t1
+    report["messages"] = messages
+    report["duration_h"] = (t_last - t_first) * 1e-9 / 3600.0 if t_first is not None else 0.0
+    return monitor, report, {"read_s": time.perf_counter() - t0 - t_model, "model_s": t_model}
+
+
+def model_straightness_at_measurements_m(monitor: PrecisionMonitor, wear_coefficient: float) -> np.ndarray:
+    """Model straightness [m] at each measurement: a0 + K g_j, g_j the loss per unit K at the measurement
+    (PrecisionMonitor.measurement_losses_per_k_m). The same a0 + K g as the report's straightness_um."""
+    return monitor.params["straightness_initial_m"] + wear_coefficient * monitor.measurement_losses_per_k_m()
+
+
+def model_curve(monitor: PrecisionMonitor) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(t [h] from the first joint sample, measured [um], model [um]) at the measurement times."""
+    est = monitor.estimator
+    t0 = monitor.integrator.first_t_ns or 0
+    t_h = (np.asarray(est.measurement_t_ns, dtype=np.int64) - t0) * 1e-9 / 3600.0
+    k = monitor.report()["wear_coefficient"]
+    model = model_straightness_at_measurements_m(monitor, k) * 1e6
+    return t_h, np.asarray(est.measurement_m) * 1e6, model
+
+
+def write_outputs(out: Path, monitor: PrecisionMonitor, report: dict, plot: bool) -> dict[str, str]:
+    """report.json, straightness.csv (measured, model, residual at the measurements) and, with ``plot``,
+    straightness.png in ``out``; returns the files written {json, csv[, png]}."""
+    out.mkdir(parents=True, exist_ok=True)
+    files = {"json": str(out / "report.json"), "csv": str(out / "straightness.csv")}
+    Path(files["json"]).write_text(json.dumps(report, indent=2, allow_nan=True) + "\n")
+    t_h, measured, model = model_curve(monitor)
+    with open(files["csv"], "w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["time_h", "straightness_measured_um", "straightness_model_um", "residual_um"])
+        for row in zip(t_h, measured, model, measured - model):
+            writer.writerow([f"{v:.6f}" for v in row])
+    if plot:
+        files["png"] = str(out / "straightness.png")
+        plot_straightness_report(Path(files["png"]), monitor, report, t_h, measured, model)
+    return files
+
+
+def analyse_slewing_bag(bag: Path, params: dict, namespace: str | None = None, progress=None):
+    """Every load of a slewing bag through the slewing monitor core. Returns the run, the report (the
+    worst roller of the run), the highest roller pressure of each sample [MPa] and timings {read_s, model_s}."""
+    from guide_health.analysis.slewing_replay import analyse_slewing_run
+    from guide_health.io.bag_reader import read_slewing_bag
+
+    t0 = time.perf_counter()
+    run = read_slewing_bag(bag, namespace=namespace)
+    t_read = time.perf_counter() - t0
+    _, report = analyse_slewing_run(run, params, progress=progress)
+    series = report.pop("series")
+    return run, report, series, {"read_s": t_read, "model_s": time.perf_counter() - t0 - t_read}
+
+
+def write_slewing_outputs(out: Path, run, params: dict, report: dict, series: np.ndarray,
+                          plot: bool) -> dict[str, str]:
+    """contact.csv (loads and highest roller pressure per sample), with ``plot`` contact.png, then
+    report.json (holding ``files``) in ``out``; returns the files {json, csv[, png]}."""
+    out.mkdir(parents=True, exist_ok=True)
+    files = {"json": str(out / "report.json"), "csv": str(out / "contact.csv")}
+    t_s = (np.asarray(run.t_ns) - (run.t_ns[0] if run.t_ns.size else 0)) * 1e-9
+    np.savetxt(files["csv"], np.c_[t_s, run.axial_n, run.radial_n, run.moment_nm, series], delimiter=",",
+               header="time_s,axial_n,radial_n,moment_nm,p_max_MPa", comments="", fmt="%.6g")
+    if plot:
+        files["png"] = str(out / "contact.png")
+        plot_slewing_contact_series(Path(files["png"]), t_s, series, params, report)
+    report["files"] = files
+    Path(files["json"]).write_text(json.dumps(report, indent=2, allow_nan=True, default=float) + "\n")
+    return files

@@ -1,0 +1,31 @@
+"""What a sub-command is (options, computation, text) and the error rule every command shares."""
+from __future__ import annotations
+
+import argparse
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any, Callable, Iterator
+
+from guide_health.errors import InputError
+
+
+@dataclass(frozen=True)
+class Command:
+    """One sub-command: ``add_arguments(parser)`` declares its options (the CLI adds ``--json``),
+    ``run(args)`` parses them, calls the models/analysis and returns the result dict (None: nothing to
+    print), ``format_text(result)`` renders it for a terminal (None: an indented key/value listing)."""
+
+    add_arguments: Callable[[argparse.ArgumentParser], None]
+    run: Callable[[argparse.Namespace], dict[str, Any] | None]
+    format_text: Callable[[dict[str, Any]], str] | None = None
+
+
+@contextmanager
+def value_errors_as_input_errors() -> Iterator[None]:
+    """A ValueError of a model (a value it cannot use) ends like bad input: InputError with its first line."""
+    try:
+        yield
+    except InputError:
+        raise
+    except ValueError as exc:
+        raise InputError(str(exc).splitlines()[0]) from exc

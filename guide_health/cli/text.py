@@ -1,0 +1,50 @@
+"""Results as text: plain Python values for json, and the indented key/value listing."""
+from __future__ import annotations
+
+from typing import Any
+
+
+def jsonable(value):
+    """numpy scalars/arrays to plain Python for json (NaN/inf stay floats: json writes NaN/Infinity)."""
+    try:
+        import numpy as np
+    except ImportError:  # pragma: no cover
+        np = None
+    if isinstance(value, dict):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [jsonable(v) for v in value]
+    if np is not None:
+        if isinstance(value, np.ndarray):
+            return jsonable(value.tolist())
+        if isinstance(value, np.generic):
+            return value.item()
+    return value
+
+
+def format_key_values(result: dict[str, Any], indent: str = "", compact_lists: bool = False) -> str:
+    """``key: value`` lines, a nested dict indented under its key, floats to 6 significant digits.
+    With ``compact_lists`` a list's numbers too, and a list of dicts one ``- k: v, ...`` line per item;
+    without, a list as Python prints it."""
+    lines = []
+    for key, value in result.items():
+        if isinstance(value, dict):
+            lines.append(f"{indent}{key}:")
+            lines.append(format_key_values(value, indent + "  ", compact_lists))
+        elif compact_lists and isinstance(value, list) and value and isinstance(value[0], dict):
+            lines.append(f"{indent}{key}:")
+            for item in value:
+                lines.append(f"{indent}  - " + ", ".join(f"{k}: {_compact(v)}" for k, v in item.items()))
+        else:
+            lines.append(f"{indent}{key}: {_compact(value) if compact_lists else _plain(value)}")
+    return "\n".join(lines)
+
+
+def _plain(value) -> str:
+    return f"{value:.6g}" if isinstance(value, float) else str(value)
+
+
+def _compact(value) -> str:
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_compact(v) for v in value) + "]"
+    return _plain(value)

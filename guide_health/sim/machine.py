@@ -1,0 +1,204 @@
+"""Synthetic machine runs (pure numpy): a sliding guide doing random feed strokes as on seed 000's bench.
+
+The motion is sim/motion.py's piecewise-linear feed / retract / dwell cycles; the bag samples it at the
+JointState rate, the load at the load rate, the guide temperature (sim/thermal.py) when recorded.
+The measured straightness is the truth (same model family as the monitor's, with the true K) plus
+Gaussian noise, every ``measurement_interval_h``.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from guide_health.errors import InputError
+from guide_health.models.wear.archard import WearGeometry, WearIntegrator, straightness_from_wear_volume_m
+from guide_health.models.wear.effects import (EFFECT_IDS, WearEffects, measured_straightness_m,
+                                              pass_weight_per_m, running_in_factor_mean,
+                                              straightness_wear_m, wear_rate_multiplier)
+from guide_health.runs import MachineRun
+from guide_health.sim.motion import MachineKnots, cycle_knots
+from guide_health.sim.thermal import temperature_records
+
+EFFECTS = EFFECT_IDS
+START_TIME_NS = 1_700_000_000 * 10**9
+
+
+def parse_effects(items: list[str] | None) -> dict[str, float]:
+    """``NAME=VALUE`` strings to a dict, names checked against :data:`EFFECTS`."""
+    effects: dict[str, float] = {}
+    for item in items or []:
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise InputError(f"--effect takes NAME=VALUE, got {item!r}")
+        if name not in EFFECTS:
+            raise InputError(f"unknown effect {name!r}; known: {', '.join(EFFECTS)}")
+        try:
+            effects[name] = float(value)
+        except ValueError:
+            raise InputError(f"--effect {name}: value {value!r} is not a number") from None
+        if not math.isfinite(effects[name]):
+            raise InputError(f"--effect {name}: value must be finite")
+    return effects
+
+
+def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
+                     effects: dict[str, float] | None = None) -> MachineRun:
+    """A :class:`MachineRun` of the scenario ``sim`` for a guide with wear parameters ``params``."""
+    effects = checked_effects(effects)
+    rng = np.random.default_rng(seed)
+    knots = cycle_knots(rng, sim)
+    geometry = WearGeometry.from_params(params)
+    if effects and geometry.straightness_model != "eq7":
+        raise InputError("--effect needs straightness_model: eq7 (the baseline the effects are defined against)")
+    wear_effects = WearEffects.from_values(effects, running_in_distance_m=sim["running_in_distance_m"],
+                                           load_reference_n=sim["load_reference_n"])
+    # the random draws come in this order: strokes (above), load noise, temperature, straightness noise
+    joint_t_s, position_m, velocity_m_s = joint_samples(knots, sim["joint_state_rate_hz"])
+    load_t_s, load_n = load_samples(knots, sim, rng)
+    measurement_t_s = np.arange(0.0, knots.t_s[-1] + 1e-9, sim["measurement_interval_h"] * 3600.0)
+    temperature_t_s, temperature_c, temperature_at_measurements_c = temperature_records(
+        knots, sim, "thermal_drift" in effects, measurement_t_s, rng)
+    truth_k = params["wear_coefficient"] * sim["wear_coefficient_factor"]
+    wear_m = true_straightness_wear_m(params, geometry, knots, wear_effects, truth_k, measurement_t_s)
+    d_temp = (None if temperature_at_measurements_c is None
+              else temperature_at_measurements_c - temperature_at_measurements_c[0])
+    truth_m = measured_straightness_m(wear_m, params["straightness_initial_m"], d_temp, wear_effects)
+    measured_m = truth_m + rng.normal(0.0, sim["straightness_noise_m"], measurement_t_s.size)
+    truth = true_run_values(knots, geometry, truth_k, truth_m, measurement_t_s)
+    return MachineRun(
+        joint_name=params["joint"],
+        joint_t_ns=stamps_ns(joint_t_s),
+        joint_position_m=position_m,
+        joint_velocity_m_s=velocity_m_s,
+        load_t_ns=stamps_ns(load_t_s),
+        load_n=load_n,
+        straightness_t_ns=stamps_ns(measurement_t_s),
+        straightness_m=measured_m,
+        temperature_t_ns=stamps_ns(temperature_t_s) if temperature_t_s is not None else np.zeros(0, np.int64),
+        temperature_c=temperature_c,
+        metadata={
+            "generator": "guide_health.simulate",    # the name bags record (kept when simulate.py became sim/)
+            "seed": seed,
+            "effects": effects,
+            "effect_parameters": {k: v for k, v in vars(wear_effects).items() if math.isfinite(v)},
+            "jobs": knots.jobs,
+            "simulation": dict(sim),
+            "truth": truth,
+        },
+    )
+
+
+def checked_effects(effects: dict[str, float] | None) -> dict[str, float]:
+    """A copy of ``effects``; InputError for a name not in :data:`EFFECTS`."""
+    effects = dict(effects or {})
+    unknown = sorted(set(effects) - set(EFFECTS))
+    if unknown:
+        raise InputError(f"unknown effects {unknown}; known: {', '.join(EFFECTS)}")
+    return effects
+
+
+def stamps_ns(t_s) -> np.ndarray:
+    """Header stamps [ns] of run times [s] (the run starts at :data:`START_TIME_NS`)."""
+    return START_TIME_NS + np.round(np.asarray(t_s) * 1e9).astype(np.int64)
+
+
+def joint_samples(knots: MachineKnots, rate_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """JointState samples of the exact motion: times [s] from 0 at ``rate_hz``, position [m] and
+    velocity [m/s] (the speed of the segment each sample is in)."""
+    ts = np.arange(0.0, knots.t_s[-1], 1.0 / rate_hz)
+    position = np.interp(ts, knots.t_s, knots.x_m)
+    seg = np.clip(np.searchsorted(knots.t_s, ts, side="right"), 1, knots.t_s.size - 1)
+    seg_speed = np.diff(knots.x_m) / np.diff(knots.t_s)
+    return ts, position, seg_speed[seg - 1]
+
+
+def load_samples(knots: MachineKnots, sim: dict[str, Any], rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Guide load samples at ``load_rate_hz``: times [s], offset by half a period from the joint samples
+    (no equal stamps across topics), and the load of the enclosing segment [N] plus Gaussian noise."""
+    rate = sim["load_rate_hz"]
+    lt = np.arange(0.5 / rate, knots.t_s[-1], 1.0 / rate)
+    lseg = np.clip(np.searchsorted(knots.t_s, lt, side="right"), 1, knots.t_s.size - 1)
+    load = knots.load_n[lseg].astype(float)
+    if sim["load_noise_n"] > 0:
+        load = load + rng.normal(0.0, sim["load_noise_n"], load.size)
+    return lt, load
+
+
+def true_straightness_wear_m(params: dict[str, Any], geometry: WearGeometry, knots: MachineKnots,
+                             effects: WearEffects, truth_k: float, at_s: np.ndarray) -> np.ndarray:
+    """True straightness loss by wear [m] at times ``at_s``: Eq. 7 with the effects' work, or (other
+    straightness models, no effects) the true K times the monitor's loss per unit K of the exact motion."""
+    if geometry.straightness_model == "eq7":
+        work, pass_work = effective_work_at(knots, at_s, effects, geometry.slider_length_m)
+        return straightness_wear_m(truth_k, geometry.hardness_pa, geometry.contact_width_m, work, pass_work,
+                                   float(knots.strokes_m.min() + knots.strokes_m.max()),
+                                   effects.stroke_distribution_weight)
+    return truth_k * true_straightness_loss_per_k_m(params, knots.t_s, knots.x_m, knots.load_n, at_s,
+                                                    knots.strokes_m)
+
+
+def true_run_values(knots: MachineKnots, geometry: WearGeometry, truth_k: float, truth_m: np.ndarray,
+                    measurement_t_s: np.ndarray) -> dict[str, Any]:
+    """The run's hidden truth for the bag metadata: K, noise-free straightness [m] at the measurement
+    times [s], sliding distance [m], Archard work [N m], stroke range [m] and duration [s]."""
+    strokes = knots.strokes_m
+    return {
+        "wear_coefficient": truth_k,
+        "straightness_m": truth_m.tolist(),
+        "straightness_t_s": measurement_t_s.tolist(),
+        "sliding_distance_m": float(np.sum(np.abs(np.diff(knots.x_m)))),
+        "archard_work_nm": float(np.sum(knots.load_n[1:] * np.abs(np.diff(knots.x_m)))),
+        "stroke_min_m": float(strokes.min()),
+        "stroke_max_m": float(strokes.max()),
+        "stroke_sum_m": strokes.min() + strokes.max() if geometry.straightness_model == "eq7" else math.nan,
+        "duration_s": float(knots.t_s[-1]),
+    }
+
+
+def true_straightness_loss_per_k_m(params: dict[str, Any], knot_t: np.ndarray, knot_x: np.ndarray,
+                                   knot_w: np.ndarray, at_s: np.ndarray, strokes: np.ndarray) -> np.ndarray:
+    """Straightness loss per unit K of the exact motion at times ``at_s`` (the monitor's model family:
+    Eq. 7 with the true stroke range, or the wear profile integrated over the exact knots)."""
+    geometry = WearGeometry.from_params(params)
+    # insert the evaluation times as knots (position interpolated, load of the enclosing segment)
+    seg = np.clip(np.searchsorted(knot_t, at_s, side="right"), 1, knot_t.size - 1)
+    all_t = np.concatenate((knot_t, at_s))
+    all_x = np.concatenate((knot_x, np.interp(at_s, knot_t, knot_x)))
+    all_w = np.concatenate((knot_w, knot_w[seg]))
+    order = np.argsort(all_t, kind="stable")
+    all_t, all_x, all_w = all_t[order], all_x[order], all_w[order]
+    integ = WearIntegrator(geometry)
+    out = np.empty(at_s.size)
+    start = 0
+    for j, t in enumerate(at_s):
+        stop = int(np.searchsorted(all_t, t, side="right"))
+        if stop > start:
+            integ.advance_many((all_t[start:stop] * 1e9).astype(np.int64), all_x[start:stop],
+                               all_w[start:stop])
+            start = stop
+        if geometry.straightness_model == "eq7":
+            out[j] = straightness_from_wear_volume_m(integ.wear_volume_per_k_m3(), geometry.contact_width_m,
+                                                     float(strokes.min()), float(strokes.max()))
+        else:
+            out[j] = integ.straightness_loss_per_k_m()
+    return out
+
+
+def effective_work_at(knots: MachineKnots, at_s: np.ndarray, effects: WearEffects,
+                      slider_length_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Effective Archard work G = sum W ds m [N m] and pass work P = sum W ds m / max(L, L_s) [N] of the
+    exact motion at times ``at_s`` (models/wear/effects.py; m = 1 without effects)."""
+    ds = np.abs(np.diff(knots.x_m))
+    dt = np.diff(knots.t_s)
+    s = np.concatenate(([0.0], np.cumsum(ds)))
+    load = knots.load_n[1:]
+    speed = np.divide(ds, dt, out=np.zeros_like(ds), where=dt > 0)
+    running_in = running_in_factor_mean(s[:-1], s[1:], effects.running_in_ratio, effects.running_in_distance_m)
+    m = wear_rate_multiplier(effects, speed, load, knots.retract[1:], running_in)
+    work = load * ds * m
+    pass_work = work * pass_weight_per_m(knots.pass_length_m[1:], slider_length_m)
+    g = np.concatenate(([0.0], np.cumsum(work)))
+    p = np.concatenate(([0.0], np.cumsum(pass_work)))
+    return np.interp(at_s, knots.t_s, g), np.interp(at_s, knots.t_s, p)
