@@ -126,7 +126,8 @@ def main() -> int:
               f"of one core; callback {r['callback_us']:.1f} us/msg, model {r['model_us']:.1f} us/msg "
               f"({100 * share:.0f} % of the callback)", flush=True)
     if {"events", "single_threaded"} <= set(rows):
-        print(f"CPU ratio events / single_threaded: {rows['events']['cpu_pct'] / rows['single_threaded']['cpu_pct']:.2f}")
+        ratio = rows['events']['cpu_pct'] / rows['single_threaded']['cpu_pct']
+        print(f"CPU ratio events / single_threaded: {ratio:.2f}")
     return 0
 
 

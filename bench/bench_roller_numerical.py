@@ -38,7 +38,7 @@ def main() -> None:
     print(f"{'grid':>10} {'solve_s':>8} {'iters':>6} {'p_max_MPa':>10} {'p0_c_MPa':>9} {'ratio':>7} {'dp_max':>8}")
     prev = None
     for nx, ny in [(32, 128), (64, 256), (64, 512), (128, 512), (128, 1024)]:
-        def solve():
+        def solve(nx=nx, ny=ny):
             return rn.solve_finite_roller_contact(params["roller_diameter_m"], params["roller_length_m"], SEED_Q,
                                                   e_star, "straight", end_radius_m=params["roller_end_radius_m"],
                                                   nx=nx, ny=ny)

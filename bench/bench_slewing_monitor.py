@@ -29,8 +29,7 @@ def per_message_us(fn, loads) -> float:
 
 
 def main() -> int:
-    from guide_health.models.slewing.monitor import (SlewingMonitor, _numerical_report,
-                                                     slewing_contact_report_from_loads)
+    from guide_health.models.slewing.monitor import SlewingMonitor, _numerical_report, slewing_contact_report_from_loads
     from guide_health.params import SLEWING_MONITOR_DEFAULTS
     from guide_health.sim.slewing import simulate_slewing
 

@@ -20,8 +20,14 @@ from guide_health.analysis.replay import analyse, write_outputs
 from guide_health.io.bag_reader import read_machine_bag
 from guide_health.io.bag_writer import write_machine_bag
 from guide_health.models.levels import LEVEL_NAMES
-from guide_health.nodes.session import (DiagnosticsCollector, clean_fastdds_shm, isolated_ros_env, play_bag,
-                                        start_node, stop_node)
+from guide_health.nodes.session import (
+    DiagnosticsCollector,
+    clean_fastdds_shm,
+    isolated_ros_env,
+    play_bag,
+    start_node,
+    stop_node,
+)
 from guide_health.params import simulation_params, wear_monitor_params
 from guide_health.sim.machine import simulate_machine
 
@@ -97,10 +103,11 @@ def main(argv: list[str] | None = None) -> int:
     print(f"wear coefficient  {f('wear_coefficient'):.4g}  (configured {params['wear_coefficient']:.4g}, "
           f"updated from {v.get('measurements')} straightness measurements)")
     print(f"live replay       {machine.messages} messages in {live_s:.1f} s")
-    print("offline replay    straightness {:.2f} um, remaining life {:.1f} h  (live - offline: {:+.3f} %, {:+.3f} %)".format(
-        offline["straightness_um"], offline["remaining_life_h"],
-        100 * (f("straightness_um") / offline["straightness_um"] - 1),
-        100 * (f("remaining_life_h") / offline["remaining_life_h"] - 1) if math.isfinite(offline["remaining_life_h"]) else math.nan))
+    life_gap_pct = (100 * (f("remaining_life_h") / offline["remaining_life_h"] - 1)
+                    if math.isfinite(offline["remaining_life_h"]) else math.nan)
+    print("offline replay    straightness {:.2f} um, remaining life {:.1f} h  (live - offline: {:+.3f} %, {:+.3f} %)"
+          .format(offline["straightness_um"], offline["remaining_life_h"],
+                  100 * (f("straightness_um") / offline["straightness_um"] - 1), life_gap_pct))
     print(f"plot              {files['png']}")
     print(f"report            {files['json']}, {files['csv']}")
     return 0

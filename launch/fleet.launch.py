@@ -9,10 +9,11 @@ Needs a ROS 2 installation with `launch_ros` (see machine.launch.py).
 import os
 
 from ament_index_python.packages import get_package_share_directory
-from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
+
+from launch import LaunchDescription
 
 
 def machine_nodes(context):

@@ -19,12 +19,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from guide_health.errors import InputError
 from guide_health.io import bag_reader, bag_writer, cdr
 from guide_health.io.bag_info import bag_info
 from guide_health.io.interfaces import FLOAT64, JOINT_STATE, TEMPERATURE, WRENCH_STAMPED
 from guide_health.io.progress import ProgressBar
 from guide_health.io.typestore import header, message, typestore
-from guide_health.errors import InputError
 from guide_health.nodes.bag_player import Pacer, bag_namespace, compute_schedule, output_topic
 from guide_health.runs import MachineRun, SlewingLoadRun
 
@@ -162,7 +162,7 @@ def _mixed_joint_state_bag(path: Path, fastdds_bytes: bool):
     from rosbags.rosbag2 import Writer
 
     if fastdds_bytes:
-        from rclpy.serialization import serialize_message      # garbage padding and trailing bytes
+        from rclpy.serialization import serialize_message  # garbage padding and trailing bytes
         from sensor_msgs.msg import JointState as RosJointState
     ts = typestore()
     rng = np.random.default_rng(7)

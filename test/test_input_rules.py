@@ -18,13 +18,24 @@ import pytest
 
 from guide_health.analysis.discrepancy.duty import DutyCellAccumulator
 from guide_health.models.wear.feed import StampAlignedFeed
-from guide_health.models.wear.input_rules import (JOINT_TIME_BACKWARDS, LOAD_TIME_BACKWARDS, NEGATIVE_LOAD,
-                                                  NEGATIVE_STRAIGHTNESS, NON_FINITE_JOINT, NON_FINITE_LOAD,
-                                                  NON_FINITE_STRAIGHTNESS, STRAIGHTNESS_TIME_BACKWARDS,
-                                                  RejectionCounter, accept_joint_samples, accept_load_samples,
-                                                  accept_straightness_samples, check_joint_sample,
-                                                  check_load_sample, check_straightness_sample,
-                                                  load_at_joint_samples)
+from guide_health.models.wear.input_rules import (
+    JOINT_TIME_BACKWARDS,
+    LOAD_TIME_BACKWARDS,
+    NEGATIVE_LOAD,
+    NEGATIVE_STRAIGHTNESS,
+    NON_FINITE_JOINT,
+    NON_FINITE_LOAD,
+    NON_FINITE_STRAIGHTNESS,
+    STRAIGHTNESS_TIME_BACKWARDS,
+    RejectionCounter,
+    accept_joint_samples,
+    accept_load_samples,
+    accept_straightness_samples,
+    check_joint_sample,
+    check_load_sample,
+    check_straightness_sample,
+    load_at_joint_samples,
+)
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.params import wear_monitor_params
 from guide_health.runs import MachineRun
@@ -243,8 +254,8 @@ def test_without_velocities_and_every_chunking():
 def test_scalar_and_vectorised_rules_agree():
     t = np.array([5, 3, 5, 6, 6, 9, 2, 10, 10], dtype=np.int64)
     v = np.array([1.0, 2.0, NAN, 3.0, -1.0, INF, 4.0, 5.0, 0.0])
-    for accept, check, strict in ((accept_load_samples, check_load_sample, True),
-                                  (accept_straightness_samples, check_straightness_sample, False)):
+    for accept, check in ((accept_load_samples, check_load_sample),
+                          (accept_straightness_samples, check_straightness_sample)):
         for last in (None, 4, 5):
             result = accept(t, v, last)
             counter, expected = RejectionCounter(), []

@@ -1,9 +1,9 @@
 """The mission's 'tests replay rosbags': bag_player -> topics -> wear_monitor -> /diagnostics agrees with
 the offline `guide-health replay` of the same bag; a SIGKILLed node resumes from its SQLite checkpoint."""
+import json
 import os
 import signal
 import sqlite3
-import json
 from pathlib import Path
 
 import pytest
@@ -13,8 +13,14 @@ pytest.importorskip("rclpy")
 from guide_health.analysis.replay import analyse  # noqa: E402
 from guide_health.io.bag_reader import read_machine_bag  # noqa: E402
 from guide_health.io.bag_writer import write_machine_bag  # noqa: E402
-from guide_health.nodes.session import (DiagnosticsCollector, clean_fastdds_shm, isolated_ros_env,  # noqa: E402
-                                        play_bag, start_node, stop_node)
+from guide_health.nodes.session import (  # noqa: E402
+    DiagnosticsCollector,
+    clean_fastdds_shm,
+    isolated_ros_env,
+    play_bag,
+    start_node,
+    stop_node,
+)
 from guide_health.params import simulation_params, wear_monitor_params  # noqa: E402
 from guide_health.sim.machine import simulate_machine  # noqa: E402
 
@@ -116,7 +122,8 @@ def test_sigkill_and_restart_continue_where_the_node_stopped(tmp_path, udp_ros_e
         resumed = collector.wait_for(STATUS, lambda s: abs(float(s["values"]["sliding_distance_m"]) - saved[
             "integrator"]["sliding_distance_m"]) < 1e-6, timeout=60.0)
         assert resumed is not None, (tmp_path / "node2.log").read_text()
-        played = play_bag(bag, ros_env, ["--wait-subscribers", "1", "--max-rate", "0", "--start-after-ns", str(checkpoint_t_ns)])
+        played = play_bag(bag, ros_env, ["--wait-subscribers", "1", "--max-rate", "0",
+                                         "--start-after-ns", str(checkpoint_t_ns)])
         assert played.returncode == 0, played.stderr
         live = collector.wait_settled(STATUS, "sliding_distance_m", settle_s=2.0, timeout=120.0)
         stop_node(node)

@@ -135,8 +135,14 @@ def test_life_thresholds():
 def test_rolling_bag_through_bag_player_and_node_matches_replay(tmp_path, monkeypatch):
     from guide_health.analysis.replay import analyse_bag
     from guide_health.io.bag_writer import write_machine_bag
-    from guide_health.nodes.session import (DiagnosticsCollector, clean_fastdds_shm, isolated_ros_env, play_bag,
-                                            start_node, stop_node)
+    from guide_health.nodes.session import (
+        DiagnosticsCollector,
+        clean_fastdds_shm,
+        isolated_ros_env,
+        play_bag,
+        start_node,
+        stop_node,
+    )
 
     env = isolated_ros_env()
     for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID"):

@@ -132,8 +132,14 @@ def test_node_keys_stale_and_bad_messages(ros_context):
 def test_slewing_bag_through_bag_player_and_node_matches_offline(tmp_path, monkeypatch):
     from guide_health.io.bag_reader import read_slewing_bag
     from guide_health.io.bag_writer import write_slewing_bag
-    from guide_health.nodes.session import (DiagnosticsCollector, clean_fastdds_shm, isolated_ros_env, play_bag,
-                                            start_node, stop_node)
+    from guide_health.nodes.session import (
+        DiagnosticsCollector,
+        clean_fastdds_shm,
+        isolated_ros_env,
+        play_bag,
+        start_node,
+        stop_node,
+    )
     from guide_health.params import load_node_params
 
     env = isolated_ros_env()

@@ -5,9 +5,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from guide_health.models.wear.archard import (WearGeometry, WearIntegrator, archard_wear_volume_m3,
-                                              precision_life_eq12_s, straightness_from_wear_volume_m,
-                                              straightness_loss_eq11_m)
+from guide_health.models.wear.archard import (
+    WearGeometry,
+    WearIntegrator,
+    archard_wear_volume_m3,
+    precision_life_eq12_s,
+    straightness_from_wear_volume_m,
+    straightness_loss_eq11_m,
+)
 from guide_health.models.wear.calibration import WearCoefficientEstimator, fit_pin_on_disc, remaining_life_s
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.models.wear.straightness import StrokeTracker, minimum_zone_straightness_m

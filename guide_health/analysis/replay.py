@@ -66,19 +66,13 @@ def analyse_bag(bag, params: dict, namespace: str | None = None, progress=None,
     return monitor, report, {"read_s": time.perf_counter() - t0 - t_model, "model_s": t_model}
 
 
-def model_straightness_at_measurements_m(monitor: PrecisionMonitor, wear_coefficient: float) -> np.ndarray:
-    """Model straightness [m] at each measurement: a0 + K g_j, g_j the loss per unit K at the measurement
-    (PrecisionMonitor.measurement_losses_per_k_m). The same a0 + K g as the report's straightness_um."""
-    return monitor.params["straightness_initial_m"] + wear_coefficient * monitor.measurement_losses_per_k_m()
-
-
 def model_curve(monitor: PrecisionMonitor) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(t [h] from the first joint sample, measured [um], model [um]) at the measurement times."""
     est = monitor.estimator
     t0 = monitor.integrator.first_t_ns or 0
     t_h = (np.asarray(est.measurement_t_ns, dtype=np.int64) - t0) * 1e-9 / 3600.0
     k = monitor.report()["wear_coefficient"]
-    model = model_straightness_at_measurements_m(monitor, k) * 1e6
+    model = monitor.straightness_m(k, monitor.measurement_losses_per_k_m()) * 1e6
     return t_h, np.asarray(est.measurement_m) * 1e6, model
 
 

@@ -22,7 +22,8 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 from guide_health.analysis.report_plots import plot_rolling_contact_vs_speed, plot_slewing_roller_stresses
 from guide_health.cli.command import Command, value_errors_as_input_errors

@@ -25,24 +25,12 @@ def add_arguments(parser) -> None:
     parser.add_argument("--progress", action="store_true", help="force the progress bar even without a TTY")
 
 
-def read_duty(bag, params: dict, namespace=None, progress=None):
-    """Stream a machine bag into duty cells (memory bounded by one chunk)."""
-    from guide_health.io.bag_reader import iter_machine_bag
-    from guide_health.analysis.discrepancy.duty import DutyCellAccumulator
-
-    acc = DutyCellAccumulator(params["slider_length_m"])
-    messages = 0
-    for chunk in iter_machine_bag(bag, joint=params["joint"], namespace=namespace, progress=progress):
-        acc.add(chunk)
-        messages += chunk.messages
-    return acc.finish(), messages
-
-
 def run(args) -> dict:
-    from guide_health.io.progress import ProgressBar
+    from guide_health.analysis.discrepancy.duty import read_duty_cells
     from guide_health.analysis.discrepancy.report import write_report
     from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD
     from guide_health.analysis.discrepancy.workflow import diagnose_cells
+    from guide_health.io.progress import ProgressBar
 
     if not 0.0 <= args.heldout_fraction < 0.9:
         raise InputError("--heldout-fraction must be in [0, 0.9)")
@@ -56,7 +44,7 @@ def run(args) -> dict:
     bag = Path(args.bag)
     t0 = time.perf_counter()
     bar = ProgressBar("reading", force=args.progress)
-    cells, messages = read_duty(bag, params, args.namespace, bar)
+    cells, messages = read_duty_cells(bag, params, args.namespace, bar)
     bar.close()
     t_read = time.perf_counter() - t0
     try:
@@ -83,7 +71,8 @@ def format_text(result: dict) -> str:
              f"measurements, {result['messages']} messages)"]
     lines.append(f"  named effects:   {', '.join(named) if named else 'none (the baseline explains the data)'}")
     for e in named:
-        params = ", ".join(f"{k} = {p['value']:.4g} ± {p['std_error']:.2g}" for k, p in result["effects"][e]["parameters"].items())
+        params = ", ".join(f"{k} = {p['value']:.4g} ± {p['std_error']:.2g}"
+                           for k, p in result["effects"][e]["parameters"].items())
         lines.append(f"    {e}: {params}")
     lines.append(f"  RMSE fit:        {b['rmse_um']:.3f} -> {f['rmse_um']:.3f} um")
     lines.append(f"  RMSE held out:   {b['heldout_rmse_um']:.3f} -> {f['heldout_rmse_um']:.3f} um")

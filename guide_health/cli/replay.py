@@ -5,8 +5,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from guide_health.analysis.replay import (analyse_bag, analyse_slewing_bag, write_outputs,
-                                          write_slewing_outputs)
+from guide_health.analysis.replay import analyse_bag, analyse_slewing_bag, write_outputs, write_slewing_outputs
 from guide_health.cli.command import Command
 from guide_health.models.levels import LEVEL_NAMES
 from guide_health.params import wear_monitor_params

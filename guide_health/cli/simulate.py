@@ -12,7 +12,8 @@ from guide_health.sim.machine import parse_effects, simulate_machine
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--params", required=True, help="ROS 2 parameters YAML (wear_monitor + guide_health_simulation)")
+    parser.add_argument("--params", required=True,
+                        help="ROS 2 parameters YAML (wear_monitor + guide_health_simulation)")
     parser.add_argument("--kind", choices=("machine", "slewing"), default="machine",
                         help="machine: axis motion, guide load, straightness; slewing: slewing/load of a crane "
                              "duty (the params file's guide_health_slewing_simulation section, if any)")

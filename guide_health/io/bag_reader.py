@@ -10,9 +10,10 @@ from __future__ import annotations
 import gc
 import operator
 import warnings
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING, Iterator, NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -20,8 +21,8 @@ from ..errors import InputError
 from ..runs import MachineRun, SlewingLoadRun
 from .bag_metadata import read_run_metadata
 from .cdr import WRENCH_NAMES, DecodedChunk, codec_for, decode_chunk
-from .storage import BagConnection, BagStorage, RawBatch, open_storage
 from .interfaces import FLOAT64, MACHINE_TOPICS, NS_PER_S, SLEWING_TOPICS, topic_name
+from .storage import BagConnection, BagStorage, RawBatch, open_storage
 
 if TYPE_CHECKING:
     from .progress import ProgressFn

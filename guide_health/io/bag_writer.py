@@ -7,9 +7,10 @@ The run metadata is stored as JSON in metadata.yaml custom_data[METADATA_KEY].
 from __future__ import annotations
 
 import shutil
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 

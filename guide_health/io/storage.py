@@ -15,10 +15,11 @@ becomes InputError with a one-line text.
 from __future__ import annotations
 
 import operator
+from collections.abc import Collection, Iterator
 from dataclasses import dataclass
 from itertools import islice, repeat
 from pathlib import Path
-from typing import Collection, Iterator, NamedTuple, Protocol
+from typing import NamedTuple, Protocol
 
 import numpy as np
 

@@ -15,7 +15,7 @@ class Level(IntEnum):
     STALE = 3
 
     @classmethod
-    def parse(cls, value) -> "Level":
+    def parse(cls, value) -> Level:
         """A level from an int, a DiagnosticStatus byte (b'\\x01') or a name ('WARN'); ValueError otherwise."""
         if isinstance(value, (bytes, bytearray)):
             if len(value) != 1:

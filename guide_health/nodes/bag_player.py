@@ -39,8 +39,8 @@ change with the old load.
 
 Topic names: as in the bag (absolute; ``--ros-args -r from:=to`` remaps them). ``--remap-ns /m1``
 replaces the bag's machine namespace (the prefix of its `.../joint_states` or `.../slewing/load` topic,
-'' if none) by /m1, so one bag can play as machine m1, m2, ... of a fleet. Exit 0 after the bag, 1 with one line on a bad bag, 2 on bad arguments; a summary
-(messages, seconds, msg/s) goes to stderr.
+'' if none) by /m1, so one bag can play as machine m1, m2, ... of a fleet. Exit 0 after the bag, 1 with one
+line on a bad bag, 2 on bad arguments; a summary (messages, seconds, msg/s) goes to stderr.
 """
 from __future__ import annotations
 

@@ -12,6 +12,8 @@ import threading
 import time
 from pathlib import Path
 
+from guide_health.models.levels import Level
+
 
 def isolated_ros_env(domain_id: int | None = None, transports: str | None = None) -> dict[str, str]:
     """Environment for ROS 2 processes that never cross-talk with other runs: localhost discovery only and
@@ -36,7 +38,8 @@ def isolated_ros_env(domain_id: int | None = None, transports: str | None = None
 def clean_fastdds_shm() -> int:
     """Remove Fast DDS shared-memory files whose owner process is gone (left by a SIGKILL)."""
     removed = 0
-    for lock in glob.glob("/dev/shm/fastrtps_*") + glob.glob("/dev/shm/fastdds_*") + glob.glob("/dev/shm/sem.fastrtps_*"):
+    patterns = ("/dev/shm/fastrtps_*", "/dev/shm/fastdds_*", "/dev/shm/sem.fastrtps_*")
+    for lock in [path for pattern in patterns for path in glob.glob(pattern)]:
         name = os.path.basename(lock)
         if "port" in name and name.endswith("_el"):
             continue
@@ -125,7 +128,7 @@ class DiagnosticsCollector:
         with self._lock:
             for status in msg.status:
                 self.latest[status.name] = entry = {
-                    "level": int.from_bytes(status.level, "little") if isinstance(status.level, bytes) else int(status.level),
+                    "level": int(Level.parse(status.level)),
                     "message": status.message,
                     "hardware_id": status.hardware_id,
                     "values": {kv.key: kv.value for kv in status.values},

@@ -28,8 +28,14 @@ from guide_health.io.cdr import MISSING, RawMessageDecoder
 from guide_health.io.interfaces import JOINT_STATE, WRENCH_STAMPED
 from guide_health.io.state_store import StateStore
 from guide_health.models.wear.feed import StampAlignedFeed
-from guide_health.models.wear.input_rules import (EMPTY_JOINT_STATES, JOINT_POSITION_MISSING, MALFORMED_JOINT_STATES,
-                                                  MALFORMED_LOAD, STRAIGHTNESS_WITHOUT_TIME_BASE, joint_missing)
+from guide_health.models.wear.input_rules import (
+    EMPTY_JOINT_STATES,
+    JOINT_POSITION_MISSING,
+    MALFORMED_JOINT_STATES,
+    MALFORMED_LOAD,
+    STRAIGHTNESS_WITHOUT_TIME_BASE,
+    joint_missing,
+)
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.nodes.common import run_node
 from guide_health.nodes.status import RejectionLog, StatusTask, StatusUpdater

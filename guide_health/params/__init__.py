@@ -42,7 +42,8 @@ def schema_for(section: str) -> NodeSchema:
 
 
 __all__ = [
-    "FLEET_MONITOR_SCHEMA", "NodeSchema", "Param", "SCHEMAS", "SIMULATION_SCHEMA", "SLEWING_MONITOR_DEFAULTS", "SLEWING_MONITOR_SCHEMA",
+    "FLEET_MONITOR_SCHEMA", "NodeSchema", "Param", "SCHEMAS", "SIMULATION_SCHEMA", "SLEWING_MONITOR_DEFAULTS",
+    "SLEWING_MONITOR_SCHEMA",
     "SLEWING_SIMULATION_DEFAULTS", "SLEWING_SIMULATION_SCHEMA", "WEAR_MONITOR_DEFAULTS", "WEAR_MONITOR_SCHEMA",
     "check_unknown_keys", "declare_parameters", "descriptor_for", "load_node_params",
     "markdown_table", "schema_for", "simulation_params", "slewing_simulation_params", "validate_slewing_params",

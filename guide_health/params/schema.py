@@ -17,8 +17,9 @@ from __future__ import annotations
 import difflib
 import math
 import numbers
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from typing import Any, Callable, Iterable
+from typing import Any
 
 from guide_health.errors import InputError
 

@@ -14,9 +14,15 @@ import numpy as np
 
 from guide_health.errors import InputError
 from guide_health.models.wear.archard import WearGeometry, WearIntegrator, straightness_from_wear_volume_m
-from guide_health.models.wear.effects import (EFFECT_IDS, WearEffects, measured_straightness_m,
-                                              pass_weight_per_m, running_in_factor_mean,
-                                              straightness_wear_m, wear_rate_multiplier)
+from guide_health.models.wear.effects import (
+    EFFECT_IDS,
+    WearEffects,
+    measured_straightness_m,
+    pass_weight_per_m,
+    running_in_factor_mean,
+    straightness_wear_m,
+    wear_rate_multiplier,
+)
 from guide_health.runs import MachineRun
 from guide_health.sim.motion import MachineKnots, cycle_knots
 from guide_health.sim.thermal import temperature_records

@@ -196,7 +196,8 @@ class DutyCellAccumulator:
         values = {
             "work_nm": work, "distance_m": seg["ds"],
             "pass_work_n": work * pass_weight_per_m(pass_len, self.slider_length_m),
-            "t_w": work * seg["t_s"], "s_w": work * seg["s"], "s2_w": work * seg["s"] ** 2, "ln_v_w": work * ln_v, "ln_load_w": work * ln_w,
+            "t_w": work * seg["t_s"], "s_w": work * seg["s"], "s2_w": work * seg["s"] ** 2,
+            "ln_v_w": work * ln_v, "ln_load_w": work * ln_w,
             "x_w": work * seg["x"], "pass_len_w": work * pass_len,
         }
         sums = {k: np.bincount(inverse, weights=v, minlength=uniq.shape[0]) for k, v in values.items()}
@@ -279,3 +280,15 @@ def duty_cells_from_runs(runs, slider_length_m: float, block_s: float = 30.0) ->
     for run in runs:
         acc.add(run)
     return acc.finish()
+
+
+def read_duty_cells(bag, params: dict, namespace: str | None = None, progress=None) -> tuple[DutyCells, int]:
+    """Stream a machine bag into duty cells (memory bounded by one chunk); (cells, messages read)."""
+    from guide_health.io.bag_reader import iter_machine_bag
+
+    acc = DutyCellAccumulator(params["slider_length_m"])
+    messages = 0
+    for chunk in iter_machine_bag(bag, joint=params["joint"], namespace=namespace, progress=progress):
+        acc.add(chunk)
+        messages += chunk.messages
+    return acc.finish(), messages

@@ -20,8 +20,14 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from guide_health.analysis.discrepancy.duty import DutyCells
-from guide_health.models.wear.effects import (EFFECT_IDS, WearEffects, measured_straightness_m,
-                                              running_in_factor_spread, straightness_wear_m, wear_rate_multiplier)
+from guide_health.models.wear.effects import (
+    EFFECT_IDS,
+    WearEffects,
+    measured_straightness_m,
+    running_in_factor_spread,
+    straightness_wear_m,
+    wear_rate_multiplier,
+)
 
 UM = 1e6
 MICRO_UNITS = ("m", "m/K")       # fitted in um and um/K
@@ -39,7 +45,7 @@ class ParamSpec:
     starts: tuple = ()
 
 
-def _effect_specs(problem: "WearProblem") -> dict[str, list[ParamSpec]]:
+def _effect_specs(problem: WearProblem) -> dict[str, list[ParamSpec]]:
     dist = max(problem.cells.total_distance_m, 1.0)
     v_feed = problem.feed_speed_m_s
     return {

@@ -88,7 +88,8 @@ def plot(result: dict[str, Any], path: Path) -> None:
     ax1.plot(t, y, "o", ms=3.5, color="k", label="measured")
     ax1.plot(t, b, "-", color="tab:red", label=f"baseline (K calibrated), held-out RMSE "
                                                 f"{result['baseline']['heldout_rmse_um']:.2f} um")
-    ax1.plot(t, f, "-", color="tab:blue", label=f"with {named}, held-out RMSE {result['final']['heldout_rmse_um']:.2f} um")
+    ax1.plot(t, f, "-", color="tab:blue",
+             label=f"with {named}, held-out RMSE {result['final']['heldout_rmse_um']:.2f} um")
     ax1.set_ylabel("straightness [um]")
     ax1.set_title(f"discrepancy workflow: {named}")
     ax1.legend(loc="upper left", fontsize=8)

@@ -15,8 +15,9 @@ held-out error is leave-one-out cross-validation (the rows have no time order).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares

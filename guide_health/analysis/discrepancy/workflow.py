@@ -90,7 +90,8 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
         "data": {
             "measurements": int(problem.y_m.size), "fit_measurements": int(problem.fit_mask.sum()),
             "heldout_measurements": int(problem.heldout_mask.sum()),
-            "heldout_from_h": float(problem.t_s[problem.heldout_mask][0] / 3600.0) if problem.heldout_mask.any() else math.nan,
+            "heldout_from_h": (float(problem.t_s[problem.heldout_mask][0] / 3600.0)
+                               if problem.heldout_mask.any() else math.nan),
             "duration_h": cells.duration_s / 3600.0, "sliding_distance_m": cells.total_distance_m,
             "segments": cells.segments, "rejected_segments": cells.rejected_segments, "cells": cells.cells,
             "rejected_samples": dict(cells.rejected_samples),

@@ -27,20 +27,31 @@ from __future__ import annotations
 
 import bisect
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable, NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from guide_health.models.contact.elastic import effective_modulus_pa
 from guide_health.models.contact.hertz_point import HertzPointContact, hertz_point_contact
-from guide_health.models.rolling.carriage import (CarriageLoadDistribution, ball_stiffness_n_per_m15,
-                                                  carriage_load_distribution)
+from guide_health.models.rolling.carriage import (
+    CarriageLoadDistribution,
+    ball_stiffness_n_per_m15,
+    carriage_load_distribution,
+)
+from guide_health.models.rolling.lubrication import (
+    LAMBDA_BOUNDARY,
+    LAMBDA_FULL_FILM,
+    MixedLubrication,
+    entrainment_speed,
+    greenwood_tripp_f52_table,
+    greenwood_tripp_pressure_coefficient,
+    hamrock_dowson_film,
+    jgp_greenwood_tripp,
+    lubrication_regime,
+)
 from guide_health.params import WEAR_MONITOR_DEFAULTS
-from guide_health.models.rolling.lubrication import (LAMBDA_BOUNDARY, LAMBDA_FULL_FILM, MixedLubrication,
-                                                     entrainment_speed, greenwood_tripp_f52_table,
-                                                     greenwood_tripp_pressure_coefficient, hamrock_dowson_film,
-                                                     jgp_greenwood_tripp, lubrication_regime)
 
 ROWS_SUPPORTED = 4
 _isfinite = math.isfinite
@@ -55,7 +66,8 @@ def groove_contact_radii(ball_radius_m: float, groove_conformity: float) -> tupl
     if not ball_radius_m > 0:
         raise ValueError(f"ball radius must be > 0, got {ball_radius_m!r}")
     if not groove_conformity > 0.5:
-        raise ValueError(f"groove conformity must be > 0.5 (groove radius larger than the ball), got {groove_conformity!r}")
+        raise ValueError("groove conformity must be > 0.5 (groove radius larger than the ball), "
+                         f"got {groove_conformity!r}")
     groove_radius_m = groove_conformity * 2.0 * ball_radius_m  # seed 001 Eq. 2: R2 = Gf D1 = 2 Gf R1
     return ball_radius_m, 1.0 / (1.0 / ball_radius_m - 1.0 / groove_radius_m)
 
@@ -90,7 +102,7 @@ class RollingGuideContact:
     ball_stiffness: float
 
     @classmethod
-    def from_params(cls, params: dict[str, Any]) -> "RollingGuideContact":
+    def from_params(cls, params: dict[str, Any]) -> RollingGuideContact:
         """Validate and convert wear_monitor parameters; raises ValueError with a one-line reason."""
         def number(name: str, default: Any = None) -> float:
             value = params.get(name, default)

@@ -104,8 +104,8 @@ Smooth-surface Hamrock-Dowson vs the seed's rough-surface numerical mixed-EHL
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 from scipy.integrate import quad

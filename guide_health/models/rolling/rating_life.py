@@ -15,8 +15,8 @@ Pure numpy, no ROS, no I/O. Units: N for loads, m for travel fed to the accumula
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
@@ -340,7 +340,7 @@ class FatigueAccumulator:
                 "recent_window_m": self.recent_window_m}
 
     @classmethod
-    def from_state(cls, state: dict, **overrides) -> "FatigueAccumulator":
+    def from_state(cls, state: dict, **overrides) -> FatigueAccumulator:
         """Rebuild from :meth:`state`. ``overrides`` (constructor keywords, e.g. a re-rated
         ``dynamic_load_rating_n``) replace stored parameters; the exponent must stay the same because the
         stored sums are sums of |F|^p."""

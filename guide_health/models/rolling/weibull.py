@@ -7,8 +7,8 @@ Pure numpy/scipy, no ROS, no I/O. Lives in km.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Iterable
 
 import numpy as np
 from scipy import optimize, stats

@@ -35,8 +35,13 @@ import numpy as np
 from scipy import integrate
 
 from guide_health.models.contact.elastic import effective_modulus_pa
-from guide_health.models.contact.hertz_line import (HertzLineContact, checked_load_n, contact_half_width_m,
-                                                   effective_radius_m, peak_contact_pressure_pa)
+from guide_health.models.contact.hertz_line import (
+    HertzLineContact,
+    checked_load_n,
+    contact_half_width_m,
+    effective_radius_m,
+    peak_contact_pressure_pa,
+)
 
 #: seed 003 Eq. 2 / Eq. 5 constants (Johnson, Contact Mechanics, 1985, Sec. 5.8)
 EQ2_CENTRE_CONSTANT: float = 1.886
@@ -72,7 +77,8 @@ def end_approach_excess_m(load_n: float, half_length_m: float, half_width_m: flo
 def palmgren_line_stiffness(effective_length_m: float) -> float:
     """k1 = (2.47e4 l_e^0.85)^(1/0.925) / l_e in N/mm per mm^(1/0.925) (seed units N, mm).  # seed 003 Eq. 7"""
     length_mm = effective_length_m * 1e3
-    return (PALMGREN_STIFFNESS_EQ7 * length_mm ** PALMGREN_LENGTH_EXPONENT) ** (1.0 / PALMGREN_LOAD_EXPONENT) / length_mm
+    stiffness = PALMGREN_STIFFNESS_EQ7 * length_mm ** PALMGREN_LENGTH_EXPONENT
+    return stiffness ** (1.0 / PALMGREN_LOAD_EXPONENT) / length_mm
 
 
 def line_load_from_approach_n_m(approach_m: np.ndarray | float, effective_length_m: float) -> np.ndarray | float:

@@ -15,8 +15,8 @@ outputs are kept, so the result equals the direct summation to round-off.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from functools import lru_cache
-from typing import Callable
 
 import numpy as np
 import scipy.fft as sfft
@@ -153,7 +153,7 @@ def solve_pressure_polonsky_keer(
     conjugate = False
     eps = np.inf
     it = 0
-    for it in range(1, max_iter + 1):
+    for it in range(1, max_iter + 1):  # noqa: B007 - `it` (iterations used) is reported after the loop
         g = h0f + displacement(p)
         in_contact = p > 0.0
         g_bar = g[in_contact].mean()

@@ -11,16 +11,18 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from guide_health.errors import InputError
 from guide_health.models.contact.elastic import effective_modulus_pa
 from guide_health.models.contact.hertz_line import checked_load_n, effective_radius_m, hertz_line_contact
 from guide_health.models.levels import ERROR, OK, WARN, Level
-from guide_health.models.slewing.finite_roller import (FiniteRollerScalars, finite_roller_contact,
-                                                       finite_roller_scalars, palmgren_line_stiffness)
+from guide_health.models.slewing.finite_roller import (
+    FiniteRollerScalars,
+    finite_roller_contact,
+    finite_roller_scalars,
+    palmgren_line_stiffness,
+)
 from guide_health.models.slewing.mcewen import McEwenMaxima, cached_mcewen_maxima, mcewen_maxima
+from guide_health.models.slewing.row_loads import AxialRowLoads, axial_row_roller_loads, radial_row_roller_load_max_n
 from guide_health.params import SLEWING_MONITOR_DEFAULTS, validate_slewing_params
-from guide_health.models.slewing.row_loads import (AxialRowLoads, axial_row_roller_loads,
-                                                   radial_row_roller_load_max_n)
 
 #: seed 003 Sec. 4 example: 131.32.2000.00Z, E = 210 GPa, nu = 0.3, d = 32 mm, l = 31.3 mm, f = 0.1
 SEED003_EXAMPLE_ROLLER_LOAD_N: float = 103_400.0
@@ -305,7 +307,8 @@ class SlewingMonitor:
                 message = ("tilting moment lifts the main row's rollers off on the far side "
                            "(4 M_T / D0 > F_a, the retaining row takes the moment); " + message)
             if self.loads_in_period == 0 and self.rejected:
-                level, message = max(level, WARN), f"only invalid loads this period ({self.last_problem}); last valid: {message}"
+                level = max(level, WARN)
+                message = f"only invalid loads this period ({self.last_problem}); last valid: {message}"
         if report is not None and self.worst is not None:
             self.last_report = self.worst
         self.worst = None

@@ -26,20 +26,23 @@ A sharp-edged straight roller (end radius 0) has a singular edge pressure in the
 end stresses are flagged unreliable for it.
 """
 from __future__ import annotations
-from __future__ import annotations
 
 import math
 import time
 import timeit
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, NamedTuple, Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from guide_health.models.contact.elastic import effective_modulus_pa
 from guide_health.models.contact.hertz_line import hertz_line_pressure_and_half_width
-from guide_health.models.slewing.half_space import (DcFftDisplacementOperator, cached_displacement_operator,
-                                                    solve_pressure_polonsky_keer)
+from guide_health.models.slewing.half_space import (
+    DcFftDisplacementOperator,
+    cached_displacement_operator,
+    solve_pressure_polonsky_keer,
+)
 
 PROFILES = ("straight", "crowned", "logarithmic")
 MIN_END_RADIUS_ELEMENTS = 8.0  # end radius / dy needed before a straight roller's end peak is trusted

@@ -91,7 +91,7 @@ class WearGeometry:
     duty_window_s: float = 3600.0
 
     @classmethod
-    def from_params(cls, params: dict) -> "WearGeometry":
+    def from_params(cls, params: dict) -> WearGeometry:
         return cls(**{k: params[k] for k in cls.__dataclass_fields__ if k in params})
 
     def bin_centres_m(self) -> np.ndarray:
@@ -312,7 +312,7 @@ class WearIntegrator:
         }
 
     @classmethod
-    def from_state(cls, geometry: WearGeometry, state: dict) -> "WearIntegrator":
+    def from_state(cls, geometry: WearGeometry, state: dict) -> WearIntegrator:
         profile = np.asarray(state["profile_work_n"], dtype=float)
         if profile.size != geometry.bin_centres_m().size:
             raise ValueError("saved wear profile does not match the rail bins of the parameters")

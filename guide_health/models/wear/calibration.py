@@ -5,11 +5,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-
 from statistics import NormalDist
 
 import numpy as np
-from scipy.special import stdtrit   # Student-t quantile; scipy.stats would cost ~0.5 s of imports
+from scipy.special import stdtrit  # Student-t quantile; scipy.stats would cost ~0.5 s of imports
 
 
 @dataclass
@@ -127,7 +126,7 @@ class WearCoefficientEstimator:
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
 
     @classmethod
-    def from_state(cls, state: dict) -> "WearCoefficientEstimator":
+    def from_state(cls, state: dict) -> WearCoefficientEstimator:
         return cls(**state)
 
 

@@ -85,7 +85,7 @@ class WearEffects:
     initial_offset_m: float = 0.0            # delta
 
     @classmethod
-    def from_values(cls, values: dict[str, float], **extra) -> "WearEffects":
+    def from_values(cls, values: dict[str, float], **extra) -> WearEffects:
         """From ``{effect id: value}`` (the ``--effect`` values) plus field overrides."""
         fields = {EFFECT_VALUE[name][0]: float(v) for name, v in values.items()}
         fields.update(extra)

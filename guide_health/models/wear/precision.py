@@ -9,15 +9,21 @@ and remaining precision life (seed 000 Eqs. 7, 10, 11, 12) with a 90 % interval.
 from __future__ import annotations
 
 import math
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
 from guide_health.models.levels import Level
 from guide_health.models.wear.archard import WearGeometry, WearIntegrator, straightness_from_wear_volume_m
 from guide_health.models.wear.calibration import WearCoefficientEstimator, remaining_life_s
-from guide_health.models.wear.input_rules import (RejectionCounter, accept_run, check_joint_sample,
-                                                  check_load_sample, check_straightness_sample)
+from guide_health.models.wear.input_rules import (
+    RejectionCounter,
+    accept_run,
+    check_joint_sample,
+    check_load_sample,
+    check_straightness_sample,
+)
 
 
 class PrecisionMonitor:
@@ -133,6 +139,11 @@ class PrecisionMonitor:
             return straightness_from_wear_volume_m(volume, self.geometry.contact_width_m, l_min, l_max)
         return np.asarray(est.measurement_loss_per_k_m, dtype=float)
 
+    def straightness_m(self, wear_coefficient: float, loss_per_k_m):
+        """Straightness [m] = A0 + K g (seed 000 Eq. 11 with the initial straightness A0), for a loss per
+        unit K ``g`` [m] (a number or an array, e.g. :meth:`measurement_losses_per_k_m`)."""
+        return self.params["straightness_initial_m"] + wear_coefficient * loss_per_k_m
+
     def report(self) -> dict[str, Any]:
         """The numbers of the `<joint> precision` status (INTERFACES.md keys) plus level and message."""
         p = self.params
@@ -142,7 +153,7 @@ class PrecisionMonitor:
         rate_per_k = self.integrator.straightness_rate_per_k_m_s()
         a0 = p["straightness_initial_m"]
         limit = p["straightness_limit_m"]
-        straightness = a0 + k * loss_per_k if math.isfinite(loss_per_k) else math.nan
+        straightness = self.straightness_m(k, loss_per_k) if math.isfinite(loss_per_k) else math.nan
         life = remaining_life_s(limit, a0, loss_per_k, rate_per_k, k)
         life_low = remaining_life_s(limit, a0, loss_per_k, rate_per_k, k_high)
         life_high = remaining_life_s(limit, a0, loss_per_k, rate_per_k, k_low) if k_low > 0 else math.inf

@@ -130,5 +130,5 @@ class StrokeTracker:
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
 
     @classmethod
-    def from_state(cls, state: dict) -> "StrokeTracker":
+    def from_state(cls, state: dict) -> StrokeTracker:
         return cls(**state)
