@@ -21,7 +21,6 @@ from guide_health.models.wear.feed import StampAlignedFeed
 from guide_health.models.wear.input_rules import (
     JOINT_TIME_BACKWARDS,
     LOAD_TIME_BACKWARDS,
-    NEGATIVE_LOAD,
     NEGATIVE_STRAIGHTNESS,
     NON_FINITE_JOINT,
     NON_FINITE_LOAD,
@@ -55,7 +54,8 @@ JOINTS = [  # t, position [m], velocity [m/s]
     (70, 0.105, -0.1), (80, 0.103, -0.1), (90, -INF, -0.1), (100, 0.101, -0.1), (110, 0.103, 0.1),
     (120, 0.106, 0.1)]
 LOADS = [  # t, force.z [N]
-    (15, 1000.0), (25, -50.0), (35, NAN), (45, 3000.0),
+    (15, 1000.0), (25, -50.0),                # a reverse (lift-off) load: accepted
+    (35, NAN), (45, 3000.0),
     (45, 3500.0),                             # duplicate stamp
     (40, 3200.0),                             # backwards
     (65, INF), (75, 2000.0),
@@ -66,7 +66,7 @@ STRAIGHTNESS = [  # t, straightness [m]
 
 EXPECTED_JOINT_MS = [0, 10, 20, 60, 70, 80, 100, 110, 120]
 EXPECTED_LOAD_AT_JOINT = [NAN, NAN, 1000.0, 3000.0, 3000.0, 2000.0, 0.0, 0.0, 4000.0]
-EXPECTED_REJECTED = {NON_FINITE_JOINT: 4, JOINT_TIME_BACKWARDS: 2, NON_FINITE_LOAD: 3, NEGATIVE_LOAD: 1,
+EXPECTED_REJECTED = {NON_FINITE_JOINT: 4, JOINT_TIME_BACKWARDS: 2, NON_FINITE_LOAD: 3,
                      LOAD_TIME_BACKWARDS: 2, NON_FINITE_STRAIGHTNESS: 1, NEGATIVE_STRAIGHTNESS: 1,
                      STRAIGHTNESS_TIME_BACKWARDS: 1}
 EXPECTED_DISTANCE_M = 0.016                  # 1 + 1 + 4 + 1 + 2 + 2 + 2 + 3 mm
@@ -238,7 +238,7 @@ def test_every_path_accepts_the_same_samples_with_the_same_load():
     assert monitor.integrator.sliding_distance_m == pytest.approx(EXPECTED_DISTANCE_M, rel=1e-12)
     assert monitor.integrator.archard_work_nm == pytest.approx(EXPECTED_WORK_NM, rel=1e-12)
     assert [(t - T0_NS) // MS for t in monitor.estimator.measurement_t_ns] == [50, 50, 90, 120]
-    assert monitor.load_samples == 5
+    assert monitor.load_samples == 6                 # the -50 N lift-off load counts
     cells, _ = duty([run])
     assert cells.segments == 7 and cells.rejected_segments == 1     # one segment before the first load
     assert cells.work_nm.sum() == pytest.approx(EXPECTED_WORK_NM, rel=1e-12)
@@ -279,10 +279,10 @@ def test_scalar_and_vectorised_rules_agree():
 
 def test_rejection_counter():
     counter = RejectionCounter()
-    assert counter.reject(NEGATIVE_LOAD) == NEGATIVE_LOAD
-    counter.count(NEGATIVE_LOAD, 2)
+    assert counter.reject(NON_FINITE_LOAD) == NON_FINITE_LOAD
+    counter.count(NON_FINITE_LOAD, 2)
     counter.count(NON_FINITE_LOAD, 0)
-    assert counter == {NEGATIVE_LOAD: 3} and counter.total == 3
+    assert counter == {NON_FINITE_LOAD: 3} and counter.total == 3
 
 
 # --- property-based: arbitrary floats and stamps ---------------------------------------------------

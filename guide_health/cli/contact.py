@@ -114,7 +114,11 @@ def format_slewing(result: dict[str, Any]) -> str:
 
 def add_rolling_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``contact rolling`` (the CLI adds ``--json``)."""
-    _add_params_and_load(parser, "wear_monitor", "F", "contact load of one ball [N] (default: preload_n)")
+    _add_params_and_load(parser, "wear_monitor", "F",
+                         "contact load of one ball [N] (default: the most loaded ball under --carriage-load-n)")
+    parser.add_argument("--carriage-load-n", type=float, default=0.0, metavar="F",
+                        help="external load on one carriage [N], > 0 downward, < 0 reverse/lift-off (default 0: "
+                             "preload only); sets the four-row ball loads and equivalent_fatigue_load_n")
     parser.add_argument("--speed", type=float, default=DEFAULT_SPEED_M_S, metavar="M_S",
                         help=f"carriage speed [m/s] (default {DEFAULT_SPEED_M_S}; entrainment speed = speed/2)")
     parser.add_argument("--plot", default=None, metavar="PNG",
@@ -133,9 +137,11 @@ def run_rolling(args: argparse.Namespace) -> dict[str, Any]:
     if params["guide_type"] != "rolling":
         print(f"guide-health: note: guide_type is {params['guide_type']!r}; using its rolling-guide parameters",
               file=sys.stderr)
+    if not math.isfinite(args.carriage_load_n):
+        raise InputError(f"--carriage-load-n must be a finite number, got {args.carriage_load_n!r}")
     with value_errors_as_input_errors():
-        report = bc.rolling_contact_report(params, args.load_n, args.speed)
-    report["load_source"] = "--load-n" if args.load_n is not None else "preload_n"
+        report = bc.rolling_contact_report(params, args.load_n, args.speed, args.carriage_load_n)
+    report["load_source"] = "--load-n" if args.load_n is not None else "max ball load (preload + carriage load)"
     return _named_report(report, params, ("machine_id", "joint"), args.plot, plot_rolling_contact_vs_speed)
 
 
@@ -152,6 +158,9 @@ def format_rolling(result: dict[str, Any]) -> str:
         f"(sigma {result['composite_roughness_nm']:.0f} nm)",
         f"  lambda                 {result['lambda']:.3g} -> {result['regime']}",
         f"  asperity load share    {result['asperity_load_share']:.3f} (contact-area ratio estimate)",
+        f"  carriage load          {result['carriage_load_n']:.0f} N: ball loads upper "
+        f"{result['upper_ball_load_n']:.0f} / lower {result['lower_ball_load_n']:.0f} N, equivalent fatigue load "
+        f"{result['equivalent_fatigue_load_n']:.0f} N (preload included)",
     ])
 
 

@@ -58,6 +58,10 @@ ROLLING_GUIDE_PARAMS = (
     Param("rows", 4, "-", "[1, 16]", "ball rows of the carriage (only 4-row carriages are modelled)"),
     Param("preload_n", 385.0, "N", "[0, 1e6]", "preload per ball contact"),
     Param("dynamic_load_rating_n", 0.0, "N", "[0, 1e8]", "C of one carriage at rating_distance_km; 0 = unknown"),
+    Param("reverse_load_rating_factor", 1.0, "-", "(0, 10]",
+          "C_reverse / C: rating of a reverse (lift-off, force.z < 0) load on the lower rows relative to the "
+          "downward C. 1.0 for the seed 001 LH-type carriage (four rows at 50 deg, lower rows identical to the "
+          "upper ones: equal ratings up and down); enter the catalogue's reverse-load factor for other designs"),
     Param("rolling_element", "ball", "", "", "ball or roller (life exponent 3 or 10/3)", choices=("ball", "roller")),
     Param("oil_viscosity_pa_s", 0.060, "Pa s", "[1e-5, 100]",
           "eta_0, dynamic oil viscosity at the operating temperature (VG68 at 40 degC inlet: 0.060)"),

@@ -26,7 +26,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from guide_health.models.wear.effects import pass_weight_per_m
-from guide_health.models.wear.input_rules import RejectionCounter, accept_run, accept_straightness_samples
+from guide_health.models.wear.input_rules import (
+    RejectionCounter,
+    accept_run,
+    accept_straightness_samples,
+    main_way_load_n,
+)
 from guide_health.runs import MachineRun
 
 # per-cell sums: work-weighted where the name says *_w
@@ -123,7 +128,8 @@ class DutyCellAccumulator:
         if accepted.load_t_ns.size:
             self._last_load_t, self._last_load = int(accepted.load_t_ns[-1]), float(accepted.load_n[-1])
         if accepted.joint_t_ns.size:
-            self._add_segments(accepted.joint_t_ns, accepted.joint_position_m, accepted.load_at_joint_n)
+            self._add_segments(accepted.joint_t_ns, accepted.joint_position_m,
+                               main_way_load_n(accepted.load_at_joint_n))
 
     def _add_segments(self, jt: np.ndarray, x: np.ndarray, load: np.ndarray) -> None:
         """Segments ending at the accepted joint samples ``jt`` (stamps increasing, positions finite)."""

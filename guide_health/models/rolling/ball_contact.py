@@ -39,6 +39,7 @@ from guide_health.models.rolling.carriage import (
     CarriageLoadDistribution,
     ball_stiffness_n_per_m15,
     carriage_load_distribution,
+    equivalent_fatigue_load_n,
 )
 from guide_health.models.rolling.lubrication import (
     LAMBDA_BOUNDARY,
@@ -191,14 +192,24 @@ class RollingGuideContact:
                                           self.balls_per_row, self.ball_stiffness)
 
 
-def rolling_contact_report(params: dict[str, Any], load_n: float | None, speed_m_s: float) -> dict[str, Any]:
+def rolling_contact_report(params: dict[str, Any], load_n: float | None, speed_m_s: float,
+                           carriage_load_n: float = 0.0) -> dict[str, Any]:
     """Contact, film, lambda and regime of one ball contact (INTERFACES.md ``contact rolling --json`` keys).
 
-    ``load_n``: contact load per ball [N] (default: ``preload_n``); ``speed_m_s``: carriage speed [m/s]
-    (its sign is irrelevant). Raises ValueError on bad numbers.
+    ``load_n``: contact load per ball [N] (default: the most loaded ball under ``carriage_load_n``, i.e.
+    ``preload_n`` at 0); ``speed_m_s``: carriage speed [m/s] (its sign is irrelevant); ``carriage_load_n``:
+    external load on one carriage [N], > 0 downward, < 0 reverse (lift-off). Also reports the four-row ball
+    loads and ``equivalent_fatigue_load_n``, the carriage load for the rating life with the preload in it.
+    Raises ValueError on bad numbers.
     """
     guide = RollingGuideContact.from_params(params)
-    load = guide.preload_per_ball_n if load_n is None else float(load_n)
+    carriage = float(carriage_load_n)
+    if not math.isfinite(carriage):
+        raise ValueError(f"carriage load must be finite, got {carriage!r}")
+    distribution = guide.load_distribution(carriage)
+    reverse_factor = float(params.get("reverse_load_rating_factor", 1.0))
+    fatigue_load = equivalent_fatigue_load_n(distribution, reverse_factor)
+    load = distribution.max_ball_load_n if load_n is None else float(load_n)
     if not (math.isfinite(load) and load > 0):
         raise ValueError(f"contact load per ball must be a finite number > 0, got {load!r}")
     speed = float(speed_m_s)
@@ -234,6 +245,11 @@ def rolling_contact_report(params: dict[str, Any], load_n: float | None, speed_m
         "radius_y_mm": guide.radius_y_m * 1e3,
         "lambda_boundary": guide.lambda_boundary,
         "lambda_full_film": guide.lambda_full_film,
+        "carriage_load_n": carriage,
+        "upper_ball_load_n": distribution.upper_ball_load_n,
+        "lower_ball_load_n": distribution.lower_ball_load_n,
+        "equivalent_fatigue_load_n": fatigue_load,
+        "reverse_load_rating_factor": reverse_factor,
         "message": (f"{regime} lubrication: lambda {lam:.3g}, central film {h_central * 1e9:.1f} nm, "
                     f"p_max {contact.p_max_pa * 1e-6:.0f} MPa at {load:.0f} N per ball"),
     }
@@ -286,7 +302,8 @@ class LubricationRegimeEstimator:
         self.guide = guide
         self._preload = guide.preload_per_ball_n
         self._sin_alpha = math.sin(math.radians(guide.contact_angle_deg))
-        self._load_scale = 1.0 / (guide.carriages * 2.0 * guide.balls_per_row * self._sin_alpha)
+        self._rows_pair = 2.0 * guide.balls_per_row * self._sin_alpha
+        self._load_scale = 1.0 / (guide.carriages * self._rows_pair)
         reference = guide.hertz(1.0)
         h_ref, _ = hamrock_dowson_film(1.0, 1.0, guide.radius_x_m, reference.ellipticity_k,
                                        guide.effective_modulus_pa, guide.viscosity_pa_s,
@@ -323,6 +340,12 @@ class LubricationRegimeEstimator:
         i = bisect.bisect_right(table, q) - 1
         f = (q - table[i]) / (table[i + 1] - table[i])
         return self._preload * (self._fu_table[i] + f * (self._fu_table[i + 1] - self._fu_table[i]))
+
+    def fatigue_load_n(self, guide_load_n: float) -> float:
+        """Carriage load for the rating life [N] from the internal ball loads under preload, before the
+        direction's rating factor: 2 n sin(alpha) x the highest ball load (the table form of
+        :func:`~guide_health.models.rolling.carriage.equivalent_fatigue_load_n`)."""
+        return self.ball_load(guide_load_n) * self._rows_pair
 
     def sample(self, carriage_speed_m_s: float, carriage_load_n: float) -> RegimeSample:
         """lambda, regime, asperity share and ball load for one (speed [m/s], load [N]) sample."""

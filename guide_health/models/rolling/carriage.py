@@ -119,3 +119,28 @@ def upper_ball_load_ratio(load_ratio: float) -> float:
         return q
     x = brentq(lambda x: (1.0 + x) ** 1.5 - (1.0 - x) ** 1.5 - q, 0.0, 1.0, xtol=1e-15)
     return (1.0 + x) ** 1.5
+
+
+def equivalent_fatigue_load_n(distribution: CarriageLoadDistribution,
+                              reverse_load_rating_factor: float = 1.0) -> float:
+    """Carriage load for the rating life of a preloaded 4-row carriage [N] (issue 11 item 2).
+
+    The catalogue rating (C/P)^p assumes the load is shared by the loaded rows without preload, i.e. the most
+    loaded ball carries P / (2 n sin alpha). Under preload the internal ball loads of the equilibrium above
+    are higher (385 N per ball, 2 kN on the carriage: the upper balls carry 452 N, not 131 N), so the load
+    that gives the most loaded ball its real load is
+
+        P_fatigue = 2 n sin(alpha) x max(F_u, F_L)  /  f_dir
+
+    f_dir = 1 for a downward load (force.z >= 0, upper rows), ``reverse_load_rating_factor`` = C_reverse / C
+    for a reverse (lift-off) load carried by the lower rows. Without preload P_fatigue = |F| / f_dir; from
+    F = 2^2.5 n sin(alpha) F_0 (16.7 kN for 385 N) on, the unloaded rows make it |F| / f_dir for every
+    preload. This is the catalogues' preloaded-carriage correction (THK's approximation
+    P_E = P_pr (1 + F / (2^1.5 P_pr))^1.5 with P_pr = 2 n sin(alpha) F_0 is the same at F = 0 and at the
+    relief point), computed with the exact equilibrium.
+    """
+    if not (math.isfinite(reverse_load_rating_factor) and reverse_load_rating_factor > 0):
+        raise ValueError(f"reverse_load_rating_factor must be > 0, got {reverse_load_rating_factor!r}")
+    rows_pair = 2.0 * distribution.balls_per_row * math.sin(distribution.contact_angle_rad)
+    p = rows_pair * distribution.max_ball_load_n
+    return p if distribution.external_load_n >= 0 else p / reverse_load_rating_factor

@@ -8,7 +8,10 @@ accepted, the load already aligned by stamp):
   lambda = h / composite RMS, JGP/Greenwood-Tripp asperity share); the share of recent travel run in
   boundary lubrication, with exponential forgetting over `boundary_window_m` of travel;
 - fatigue: FatigueAccumulator (equivalent load = cubic (p-th power) mean over travel, Miner's rule,
-  L = (fh ft fc C / (fw P))^p x rating_distance_km), per carriage.
+  L = (fh ft fc C / (fw P))^p x rating_distance_km), per carriage. The load of each travel increment is the
+  carriage load that gives the most loaded ball its real load under preload, 2 n sin(alpha) max(F_u, F_L)
+  (:func:`~guide_health.models.rolling.carriage.equivalent_fatigue_load_n`), divided by
+  ``reverse_load_rating_factor`` when the load is reversed (force.z < 0: lower rows, issue 11 items 1-2).
 """
 from __future__ import annotations
 
@@ -24,7 +27,7 @@ from guide_health.models.rolling.rating_life import FatigueAccumulator
 
 
 class RollingGuideMonitor:
-    STATE_VERSION = 1
+    STATE_VERSION = 2       # 2: fatigue sums with preload and reverse loads (issue 11); 1 had neither
 
     def __init__(self, params: dict[str, Any]):
         self.params = dict(params)
@@ -35,6 +38,9 @@ class RollingGuideMonitor:
             raise ValueError("guide_type rolling needs dynamic_load_rating_n (C) > 0")
         self.regime_model = LubricationRegimeEstimator(params)
         self.window_m = float(params.get("boundary_window_m", 100.0))
+        self.reverse_factor = float(params.get("reverse_load_rating_factor", 1.0))
+        if not (math.isfinite(self.reverse_factor) and self.reverse_factor > 0):
+            raise ValueError("reverse_load_rating_factor must be > 0")
         self.fatigue = FatigueAccumulator(params["dynamic_load_rating_n"], params["rolling_element"],
                                           params["rating_distance_km"], params["life_factors"],
                                           recent_window_m=self.window_m)
@@ -43,6 +49,7 @@ class RollingGuideMonitor:
         self.boundary_travel_m = 0.0          # exponentially forgotten travel in boundary lubrication
         self.window_travel_m = 0.0            # exponentially forgotten travel
         self.regime_travel_m = {r: 0.0 for r in REGIMES}     # whole-history travel per regime
+        self.reverse_travel_m = 0.0           # travel under a reverse (lift-off) load
         self.last_regime = "unknown"
         self.last_lambda = math.nan
         self.last_asperity_share = math.nan
@@ -80,9 +87,12 @@ class RollingGuideMonitor:
         self.last_position_m = float(x[-1])
 
     def _segment(self, ds: float, speed: float, load_n: float) -> None:
-        carriage_load = abs(load_n) / self.carriages
+        fatigue_load = self.regime_model.fatigue_load_n(load_n)   # per carriage, ball loads under preload
+        if load_n < 0.0:
+            fatigue_load /= self.reverse_factor
+            self.reverse_travel_m += ds
         sample = self.regime_model.sample(speed, abs(load_n))     # shares the guide load by carriages itself
-        self.fatigue.add(ds, carriage_load)
+        self.fatigue.add(ds, fatigue_load)
         forget = math.exp(-ds / self.window_m)
         boundary = ds if sample.regime == "boundary" else 0.0
         self.boundary_travel_m = self.boundary_travel_m * forget + boundary
@@ -123,6 +133,9 @@ class RollingGuideMonitor:
         values = self.fatigue.diagnostics()
         s = self.fatigue.summary()
         values["duty_load_n"] = s.duty_load_n
+        values["equivalent_fatigue_load_n"] = s.equivalent_load_n     # preload and direction included
+        values["preload_carriage_load_n"] = self.regime_model.fatigue_load_n(0.0) * self.carriages
+        values["reverse_travel_km"] = self.reverse_travel_m / 1000.0
         values["carriages"] = self.carriages
         used = values["life_used_fraction"]
         p = self.params
@@ -145,17 +158,20 @@ class RollingGuideMonitor:
         return {"version": self.STATE_VERSION, "fatigue": self.fatigue.state(), "last_t_ns": self.last_t_ns,
                 "last_position_m": self.last_position_m, "boundary_travel_m": self.boundary_travel_m,
                 "window_travel_m": self.window_travel_m, "regime_travel_m": dict(self.regime_travel_m),
+                "reverse_travel_m": self.reverse_travel_m,
                 "last_regime": self.last_regime, "last_lambda": self.last_lambda,
                 "last_asperity_share": self.last_asperity_share, "last_speed_m_s": self.last_speed_m_s}
 
     def restore(self, state: dict) -> None:
         if state.get("version") != self.STATE_VERSION:
-            raise ValueError(f"unsupported rolling-guide state version {state.get('version')}")
+            raise ValueError(f"unsupported rolling-guide state version {state.get('version')} (version 1 "
+                             "summed fatigue without preload and reverse loads: start a new state)")
         p = self.params
         self.fatigue = FatigueAccumulator.from_state(
             state["fatigue"], dynamic_load_rating_n=p["dynamic_load_rating_n"],
             rating_distance_km=p["rating_distance_km"], life_factors=p["life_factors"])
-        for key in ("last_t_ns", "last_position_m", "boundary_travel_m", "window_travel_m", "last_regime",
+        for key in ("last_t_ns", "last_position_m", "boundary_travel_m", "window_travel_m", "reverse_travel_m",
+                    "last_regime",
                     "last_lambda", "last_asperity_share", "last_speed_m_s"):
             setattr(self, key, state[key])
         self.regime_travel_m = {r: float(state["regime_travel_m"].get(r, 0.0)) for r in REGIMES}

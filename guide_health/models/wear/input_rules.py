@@ -14,8 +14,12 @@ joint sample
     position and velocity finite (an absent velocity counts as finite); stamp strictly greater than the
     last accepted joint stamp.
 load sample (guide load, force.z [N])
-    finite; >= 0 (a negative force.z is tension on the guide); stamp strictly greater than the last
-    accepted load stamp.
+    finite; stamp strictly greater than the last accepted load stamp. The sign is physics, not bad
+    input: force.z > 0 presses the carriage/slider onto the way, force.z < 0 is a reverse (lift-off) load.
+    A four-row rolling guide carries it on its lower rows, rated with ``reverse_load_rating_factor``
+    (:mod:`guide_health.models.rolling.rolling_guide`); a sliding guide carries it on its gibs/retainer
+    strips, not on the main way, so the main-way wear uses :func:`main_way_load_n` = 0 for it (never
+    the last positive load).
 straightness measurement [m]
     finite; >= 0; stamp not before the last accepted measurement.
 load at a joint sample
@@ -38,7 +42,6 @@ import numpy as np
 NON_FINITE_JOINT = "non-finite joint position/velocity"
 JOINT_TIME_BACKWARDS = "joint_states time going backwards"
 NON_FINITE_LOAD = "non-finite load"
-NEGATIVE_LOAD = "negative load (tension on the guide)"
 LOAD_TIME_BACKWARDS = "load time going backwards"
 NON_FINITE_STRAIGHTNESS = "non-finite straightness"
 NEGATIVE_STRAIGHTNESS = "negative straightness"
@@ -93,8 +96,6 @@ def check_load_sample(t_ns: int, load_n: float, last_t_ns: int | None) -> str | 
     """The rejection reason of a guide-load sample [N], None when it counts."""
     if not math.isfinite(load_n):
         return NON_FINITE_LOAD
-    if load_n < 0:
-        return NEGATIVE_LOAD
     if last_t_ns is not None and t_ns <= last_t_ns:
         return LOAD_TIME_BACKWARDS
     return None
@@ -163,11 +164,19 @@ def accept_load_samples(t_ns, load_n, last_t_ns: int | None) -> Acceptance:
     """:func:`check_load_sample` over arrays."""
     w = np.asarray(load_n, dtype=float)
     finite = np.isfinite(w)
-    negative = finite & (w < 0)
-    valid = finite & ~negative
-    in_time = after_last_accepted(t_ns, valid, last_t_ns, strict=True)
-    return Acceptance(in_time, _counts((NON_FINITE_LOAD, ~finite), (NEGATIVE_LOAD, negative),
-                                       (LOAD_TIME_BACKWARDS, valid & ~in_time)))
+    in_time = after_last_accepted(t_ns, finite, last_t_ns, strict=True)
+    return Acceptance(in_time, _counts((NON_FINITE_LOAD, ~finite), (LOAD_TIME_BACKWARDS, finite & ~in_time)))
+
+
+def main_way_load_n(load_n):
+    """The load the main way of a sliding guide bears [N]: force.z where >= 0, 0 under a reverse (lifting)
+    load, which bears on the gibs/retainer strips, not on the main way (seed 000 models the main way only).
+    NaN (no load known yet) stays NaN. Scalar in, float out; array in, array out."""
+    if np.ndim(load_n) == 0:
+        w = float(load_n)
+        return w if not w < 0.0 else 0.0
+    w = np.asarray(load_n, dtype=float)
+    return np.where(w < 0.0, 0.0, w)
 
 
 def accept_straightness_samples(t_ns, straightness_m, last_t_ns: int | None) -> Acceptance:

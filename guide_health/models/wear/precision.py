@@ -23,6 +23,7 @@ from guide_health.models.wear.input_rules import (
     check_joint_sample,
     check_load_sample,
     check_straightness_sample,
+    main_way_load_n,
 )
 
 
@@ -57,7 +58,7 @@ class PrecisionMonitor:
         reason = check_joint_sample(t_ns, position_m, velocity_m_s, self.integrator.last_t_ns)
         if reason is not None:
             return self.rejected.reject(reason)
-        self.integrator.advance(t_ns, position_m, self.load_n)
+        self.integrator.advance(t_ns, position_m, main_way_load_n(self.load_n))
         if self.rolling is not None:
             self.rolling.advance(t_ns, position_m, self.load_n)
         return None
@@ -121,7 +122,7 @@ class PrecisionMonitor:
             self.load_n = float(accepted.load_n[-1])
 
     def _advance_many(self, t_ns, position_m, load_n) -> None:
-        self.integrator.advance_many(t_ns, position_m, load_n)
+        self.integrator.advance_many(t_ns, position_m, main_way_load_n(load_n))
         if self.rolling is not None:
             self.rolling.advance_many(t_ns, position_m, load_n)
 
