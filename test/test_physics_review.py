@@ -150,3 +150,22 @@ def test_item2_preload_in_the_equivalent_fatigue_load(carriage_load_n, ball_n, r
     assert f["equivalent_fatigue_load_n"] == f["equivalent_load_n"]
     assert f["rating_life_km"] == pytest.approx(50.0 * (80000.0 / carriage_load_n) ** 3 / ratio, rel=0.01)
     assert f["preload_carriage_load_n"] == pytest.approx(2 * 10 * math.sin(math.radians(50)) * 385.0, rel=1e-9)
+
+
+# --- item 8: seed 003 von Mises, surface vs subsurface -------------------------------------------------------------
+def test_item8_von_mises_surface_and_subsurface_are_both_reported_and_named():
+    """Seed 003 example (Q = 103 400 N): Table 1's 1328 / 1095 / 1127 MPa (end / centre / ideal Hertz) are
+    SURFACE values (0.409 p0); the 1835 MPa of von_mises_max_MPa is the subsurface maximum (0.5656 p0, off
+    the axis with f = 0.1)."""
+    from guide_health.models.slewing.monitor import SlewingContactModel, slewing_contact_report
+    from guide_health.params import SLEWING_MONITOR_DEFAULTS
+
+    params = dict(SLEWING_MONITOR_DEFAULTS)
+    for report in (slewing_contact_report(params), SlewingContactModel(params).report_for_roller_load(103400.0)):
+        assert report["von_mises_surface_seed003_end_MPa"] == pytest.approx(1328.0, abs=1.0)
+        assert report["von_mises_surface_seed003_center_MPa"] == pytest.approx(1095.0, abs=1.0)
+        assert report["von_mises_surface_seed003_hertz_MPa"] == pytest.approx(1127.0, abs=1.0)
+        assert report["von_mises_subsurface_max_MPa"] == pytest.approx(1835.3, abs=1.0)
+        assert report["von_mises_max_MPa"] == report["von_mises_subsurface_max_MPa"]       # the old key, kept
+        assert report["von_mises_subsurface_max_MPa"] / report["von_mises_surface_seed003_end_MPa"] == \
+            pytest.approx(0.5656 / 0.40927, rel=0.002)     # off-axis maximum with f = 0.1

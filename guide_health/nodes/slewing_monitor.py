@@ -24,7 +24,8 @@ DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1, reliability=Relia
 # status keys (README "Diagnostics"): ROLLER_CONTACT_KEYS always, 'nan' until known; EXTRA_KEYS when known
 ROLLER_CONTACT_KEYS = ("roller_load_max_n", "p0_hertz_MPa", "p0_center_MPa", "p0_end_MPa", "end_stress_ratio",
                        "von_mises_max_MPa", "von_mises_depth_mm", "shear_max_MPa", "allowable_MPa")
-EXTRA_KEYS = ("p_max_MPa", "p_max_position_mm", "shear_depth_mm", "axial_main_row_max_n",
+EXTRA_KEYS = ("p_max_MPa", "p_max_position_mm", "shear_depth_mm", "von_mises_subsurface_max_MPa",
+              "von_mises_surface_MPa", "axial_main_row_max_n",
               "axial_opposite_row_max_n", "radial_row_max_n", "worst_row", "loads_in_period", "rejected_loads")
 LOG_THROTTLE_S = 5.0        # at most one rejected-load warning per period; it carries the running count
 

@@ -218,6 +218,15 @@ class McEwenMaxima:
     von_mises_on_axis: FieldMaximum
     max_shear_on_axis: FieldMaximum
     von_mises_surface_centre_over_p0: float
+    von_mises_surface_seed003_over_p0: float = float("nan")   # the reading of seed 003 Table 1 (0.409 p0)
+
+
+def seed003_table1_surface_von_mises_over_p0(friction: float, poisson: float) -> float:
+    """Seed 003 Table 1's von Mises / p0: the surface centre with half the friction shear,
+    sqrt((1 - 2 nu)^2 + 3 (f/2)^2) = 0.40927 for nu = 0.3, f = 0.1 (1328/3245, 1095/2675, 1127/2754 MPa).
+    A SURFACE value (the reading that reproduces the table; see the module docstring), to be compared with
+    Table 1 only, never with the subsurface maximum (0.559 p0)."""
+    return math.sqrt((1.0 - 2.0 * poisson) ** 2 + 3.0 * (0.5 * friction) ** 2)
 
 
 def mcewen_maxima(friction: float, poisson: float) -> McEwenMaxima:
@@ -229,6 +238,7 @@ def mcewen_maxima(friction: float, poisson: float) -> McEwenMaxima:
         von_mises_on_axis=field_maximum("von_mises", friction, poisson, on_axis=True),
         max_shear_on_axis=field_maximum("max_shear", friction, poisson, on_axis=True),
         von_mises_surface_centre_over_p0=surface,
+        von_mises_surface_seed003_over_p0=seed003_table1_surface_von_mises_over_p0(friction, poisson),
     )
 
 

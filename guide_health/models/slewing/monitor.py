@@ -58,6 +58,8 @@ def _assemble(scalars: FiniteRollerScalars | None, maxima: McEwenMaxima, half_le
         out = {k: 0.0 for k in ("p_max_MPa", "p_max_position_mm", "p0_hertz_MPa", "p0_center_MPa", "p0_end_MPa",
                                 "von_mises_max_MPa", "von_mises_depth_mm", "shear_max_MPa", "shear_depth_mm",
                                 "von_mises_x_mm", "shear_x_mm", "von_mises_surface_MPa", "half_width_hertz_mm",
+                                "von_mises_subsurface_max_MPa", "von_mises_surface_seed003_end_MPa",
+                                "von_mises_surface_seed003_center_MPa", "von_mises_surface_seed003_hertz_MPa",
                                 "half_width_center_mm", "half_width_end_mm", "approach_center_mm",
                                 "approach_end_mm", "line_load_center_n_per_mm", "line_load_end_n_per_mm")}
         out.update(roller_load_max_n=load_n, end_stress_ratio=float("nan"), allowable_MPa=allowable_mpa,
@@ -87,6 +89,14 @@ def _assemble(scalars: FiniteRollerScalars | None, maxima: McEwenMaxima, half_le
         "shear_max_axis_MPa": maxima.max_shear_on_axis.value_over_p0 * p_max_mpa,
         "shear_axis_depth_mm": maxima.max_shear_on_axis.z_over_a * a_end * 1e3,
         "von_mises_surface_MPa": maxima.von_mises_surface_centre_over_p0 * p_max_mpa,
+        # issue 11 item 8: the subsurface maximum (the design stress; von_mises_max_MPa is kept for the status
+        # keys) and the SURFACE values of seed 003 Table 1 (end / centre / ideal Hertz), never to be compared
+        # with each other
+        "von_mises_subsurface_max_MPa": vm.value_over_p0 * p_max_mpa,
+        "von_mises_surface_seed003_end_MPa": maxima.von_mises_surface_seed003_over_p0 * p_max_mpa,
+        "von_mises_surface_seed003_center_MPa": maxima.von_mises_surface_seed003_over_p0 * scalars.p0_centre_pa
+        * 1e-6,
+        "von_mises_surface_seed003_hertz_MPa": maxima.von_mises_surface_seed003_over_p0 * scalars.hertz.p0_pa * 1e-6,
         "half_width_hertz_mm": scalars.hertz.half_width_m * 1e3,
         "half_width_center_mm": scalars.centre_half_width_m * 1e3,
         "half_width_end_mm": a_end * 1e3,
@@ -124,6 +134,8 @@ def _numerical_report(params: dict[str, Any], load_n: float, pressures: dict | N
     report.update(
         roller_load_max_n=load_n,
         von_mises_max_MPa=maxima.von_mises.value_over_p0 * p_max_mpa,
+        von_mises_subsurface_max_MPa=maxima.von_mises.value_over_p0 * p_max_mpa,
+        von_mises_surface_MPa=maxima.von_mises_surface_centre_over_p0 * p_max_mpa,
         von_mises_depth_mm=maxima.von_mises.z_over_a * local_a_mm,
         shear_max_MPa=maxima.max_shear.value_over_p0 * p_max_mpa,
         shear_depth_mm=maxima.max_shear.z_over_a * local_a_mm,
@@ -141,8 +153,11 @@ def slewing_contact_report(params: dict[str, Any], roller_load_n: float | None =
 
     ``params``: slewing_monitor parameters (validated here); ``roller_load_n`` None = the seed 003
     example load, 103 400 N. The highest pressure (``p_max_MPa``) of the seed model is p0 at the roller
-    end (Eq. 5); ``von_mises_max_MPa``/``shear_max_MPa`` are the subsurface maxima of the McEwen field
-    (over x and z, friction included) under that pressure, depths in mm below the raceway surface.
+    end (Eq. 5); ``von_mises_max_MPa`` (= ``von_mises_subsurface_max_MPa``)/``shear_max_MPa`` are the
+    subsurface maxima of the McEwen field (over x and z, friction included) under that pressure, depths in mm
+    below the raceway surface. ``von_mises_surface_MPa`` is the field's surface value at the contact centre;
+    ``von_mises_surface_seed003_{end,center,hertz}_MPa`` the reading of seed 003 Table 1 (surface values,
+    1328/1095/1127 MPa for the example): compare Table 1 with those, never with the subsurface maximum.
     Level: OK, WARN above warn_fraction x allowable, ERROR above allowable. All field maxima are
     recomputed on every call (grid + scipy.optimize, milliseconds): use ``SlewingContactModel`` live.
     # seed 003 Eqs. 2-24
