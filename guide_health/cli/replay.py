@@ -36,9 +36,10 @@ def report_dir(args, bag: Path) -> Path:
 def run_slewing(args, bag: Path) -> dict:
     """A slewing bag: every load through the slewing_monitor core; the worst roller of the run."""
     from guide_health.io.progress import ProgressBar
-    from guide_health.params import SLEWING_MONITOR_DEFAULTS, load_node_params
+    from guide_health.params import SLEWING_MONITOR_DEFAULTS, load_node_params, validate_slewing_params
 
     params = load_node_params(args.params, "slewing_monitor", SLEWING_MONITOR_DEFAULTS)
+    validate_slewing_params(params)
     bar = ProgressBar("contact", force=args.progress)
     run, report, series, timing = analyse_slewing_bag(bag, params, namespace=args.namespace, progress=bar)
     bar.close()

@@ -45,7 +45,8 @@ def run_slewing(args) -> dict:
 
     if args.effect:
         raise InputError("--effect applies to machine bags only")
-    sim = load_node_params(args.params, "guide_health_slewing_simulation", SLEWING_SIMULATION_DEFAULTS)
+    sim = load_node_params(args.params, "guide_health_slewing_simulation", SLEWING_SIMULATION_DEFAULTS,
+                           required=False)     # the scenario section is optional: its defaults are a crane
     if args.hours is not None:
         sim["duration_h"] = args.hours
     if args.rate is not None:

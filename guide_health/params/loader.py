@@ -1,10 +1,22 @@
-"""ROS 2 parameters YAML files for the offline CLI (the only file I/O of guide_health.params).
+"""ROS 2 parameters YAML files, read strictly (the only file I/O of guide_health.params).
 
 One file (``<node>: ros__parameters: {...}``, ``/**`` wildcard allowed) drives both the node and
-``guide-health ... --params FILE``, so live and offline results come from the same numbers.
+``guide-health ... --params FILE``, so live and offline results come from the same numbers. The node checks
+its ``--params-file`` arguments with the same loader before rcl reads them (``ros_args.py``).
+
+Strict by default, so that a typo never goes unnoticed:
+
+* the node's own section may hold only the node's declared parameters (and ROS's own, e.g. ``use_sim_time``):
+  an unknown name is an error naming the closest declared one;
+* a ``/**`` section may hold only names some guide_health schema declares (it applies to every node);
+* a section for the node (or ``/**``) whose only key is not ``ros__parameters`` (``ros__parameter``) is an
+  error; other tools' sections in the same file are left alone;
+* a file with no section for the node is an error where the command needs that node's parameters
+  (``required``), naming a close section name if there is one (``wear_monitr``).
 """
 from __future__ import annotations
 
+import difflib
 from pathlib import Path
 from typing import Any
 
@@ -15,45 +27,85 @@ from guide_health.params.schema import check_unknown_keys, coerce_value
 from guide_health.params.simulation import SIMULATION_SCHEMA
 from guide_health.params.wear_monitor import WEAR_MONITOR_SCHEMA, validate_wear_params
 
+#: parameters every rclpy node has (or reads) besides its schema's: accepted in any section, not returned
+ROS_NODE_PARAMS = ("use_sim_time", "start_type_description_service", "qos_overrides")
+
 
 def _load_yaml(path: str | Path) -> dict:
     path = Path(path)
     if not path.is_file():
         raise InputError(f"parameters file not found: {path}")
     try:
-        data = yaml.safe_load(path.read_text())
+        data = yaml.safe_load(path.read_text(encoding="utf8"))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"parameters file {path} cannot be read: {exc}".splitlines()[0]) from None
     except yaml.YAMLError as exc:
-        raise InputError(f"parameters file {path} is not valid YAML: {exc}".splitlines()[0]) from exc
+        raise InputError(" ".join(f"parameters file {path} is not valid YAML: {exc}".split())) from None
     if not isinstance(data, dict):
         raise InputError(f"parameters file {path} holds no '<node>: ros__parameters:' mapping")
     return data
 
 
-def load_node_params(path: str | Path | None, node_name: str, defaults: dict[str, Any],
-                     strict: bool = False) -> dict[str, Any]:
-    """Parameters of ``node_name`` from a ROS 2 parameters YAML, merged over ``defaults``.
+def _section_params(path: Path, key: str, section: Any) -> dict:
+    """The ``ros__parameters`` mapping of one section for this node; InputError for a misspelt key."""
+    if not isinstance(section, dict):
+        raise InputError(f"{path}: section '{key}' has no 'ros__parameters' mapping")
+    extra = [str(k) for k in section if k != "ros__parameters"]
+    if extra:
+        close = difflib.get_close_matches(extra[0], ["ros__parameters"], n=1, cutoff=0.6)
+        hint = " (did you mean 'ros__parameters'?)" if close else ""
+        raise InputError(f"{path}: section '{key}' has an unknown key '{extra[0]}'{hint}")
+    params = section.get("ros__parameters", {})
+    if params is None:
+        params = {}
+    if not isinstance(params, dict):
+        raise InputError(f"{path}: section '{key}': 'ros__parameters' is not a mapping")
+    return params
 
-    ``/**`` entries apply first, then ``node_name`` (with or without a leading slash/namespace).
-    Unknown names are kept (a file may carry other tools' parameters) unless ``strict``, which rejects
-    them naming the closest known name.
-    """
-    params = dict(defaults)
-    if path is None:
-        return params
+
+def _all_known_names() -> set[str]:
+    from guide_health.params import SCHEMAS  # the package imports this module: import here
+
+    return {name for schema in SCHEMAS.values() for name in schema.by_name}
+
+
+def node_sections(path: str | Path, node_name: str, required: bool = True) -> list[tuple[str, dict]]:
+    """The (section key, ros__parameters) entries of ``path`` that apply to ``node_name``, ``/**`` first.
+
+    A key applies when it is ``/**`` or its last ``/``-part is the node name (``/m1/wear_monitor``,
+    ``/**/wear_monitor``). ``required``: InputError when none applies."""
+    path = Path(path)
     data = _load_yaml(path)
     sections = []
     for key, section in data.items():
         base = str(key).rstrip("/").split("/")[-1]
         if key == "/**" or base == node_name:
-            if not isinstance(section, dict) or not isinstance(section.get("ros__parameters", {}), dict):
-                raise InputError(f"{path}: section '{key}' has no 'ros__parameters' mapping")
-            sections.append((0 if key == "/**" else 1, section.get("ros__parameters", {})))
-    if not sections and strict:
-        raise InputError(f"{path}: no section for node '{node_name}'")
-    for _, section in sorted(sections, key=lambda s: s[0]):
+            sections.append((0 if key == "/**" else 1, str(key), _section_params(path, str(key), section)))
+    if not sections and required:
+        bases = [str(k).rstrip("/").split("/")[-1] for k in data]
+        close = difflib.get_close_matches(node_name, bases, n=1, cutoff=0.7)
+        hint = f" (did you mean '{close[0]}'? it is read as another tool's section)" if close else ""
+        raise InputError(f"{path}: no section for node '{node_name}'{hint}; "
+                         f"expected '{node_name}: ros__parameters: ...'")
+    return [(key, params) for _, key, params in sorted(sections, key=lambda s: s[0])]
+
+
+def load_node_params(path: str | Path | None, node_name: str, defaults: dict[str, Any],
+                     strict: bool = True, required: bool = True) -> dict[str, Any]:
+    """Parameters of ``node_name`` from a ROS 2 parameters YAML, merged over ``defaults`` (see the module
+    text for what ``strict`` and ``required`` refuse). ``strict=False`` keeps unknown names (old behaviour,
+    for a caller that reads only a few names of a section)."""
+    params = dict(defaults)
+    if path is None:
+        return params
+    for key, section in node_sections(path, node_name, required):
+        names = [name for name in section if name not in ROS_NODE_PARAMS]
         if strict:
-            check_unknown_keys(node_name, section, defaults, source=str(path))
-        for name, value in section.items():
+            known = list(defaults) if key != "/**" else sorted(_all_known_names() | set(defaults))
+            source = str(path) if key != "/**" else f"{path}: section '/**'"
+            check_unknown_keys(node_name, names, known, source=source)
+        for name in names:
+            value = section[name]
             params[name] = coerce_value(name, value, defaults[name]) if name in defaults else value
     return params
 
@@ -61,12 +113,22 @@ def load_node_params(path: str | Path | None, node_name: str, defaults: dict[str
 def wear_monitor_params(path: str | Path | None) -> dict[str, Any]:
     """wear_monitor parameters, validated (positive sizes, known model names, declared ranges)."""
     p = load_node_params(path, WEAR_MONITOR_SCHEMA.section, WEAR_MONITOR_SCHEMA.defaults())
-    validate_wear_params(p)
+    _validate_from(path, WEAR_MONITOR_SCHEMA.section, validate_wear_params, p)
     return p
 
 
 def simulation_params(path: str | Path | None) -> dict[str, Any]:
     """Scenario of ``guide-health simulate`` (section ``guide_health_simulation``), validated."""
     p = load_node_params(path, SIMULATION_SCHEMA.section, SIMULATION_SCHEMA.defaults())
-    SIMULATION_SCHEMA.validate(p)
+    _validate_from(path, SIMULATION_SCHEMA.section, SIMULATION_SCHEMA.validate, p)
     return p
+
+
+def _validate_from(path, section: str, validate, params: dict) -> None:
+    """``validate(params)``; its InputError names the file and section too."""
+    try:
+        validate(params)
+    except InputError as exc:
+        if path is None or str(exc).startswith(str(path)):
+            raise
+        raise InputError(f"{path}: section '{section}': {exc}") from None

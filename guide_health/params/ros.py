@@ -59,4 +59,25 @@ def declare_parameters(node, schema: NodeSchema) -> dict[str, Any]:
     schema.validate(values)
     for param in schema.params:
         node.set_descriptor(param.name, descriptor_for(param))
+    node.add_on_set_parameters_callback(lambda changed: _check_set(schema, values, changed))
     return values
+
+
+def _check_set(schema: NodeSchema, values: dict[str, Any], changed) -> Any:
+    """``ros2 param set`` of a dynamic parameter: the same ranges and cross-checks as at start (an inverted
+    threshold pair is refused with the schema's message); ``values`` follows the accepted changes."""
+    from rcl_interfaces.msg import SetParametersResult
+
+    from guide_health.errors import InputError
+
+    new = dict(values)
+    try:
+        for parameter in changed:
+            if parameter.name in schema.by_name:
+                default = schema.by_name[parameter.name].default
+                new[parameter.name] = coerce_value(parameter.name, _node_value(parameter.value, default), default)
+        schema.validate(new)
+    except InputError as exc:
+        return SetParametersResult(successful=False, reason=str(exc))
+    values.update(new)
+    return SetParametersResult(successful=True)

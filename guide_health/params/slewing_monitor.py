@@ -33,7 +33,7 @@ SLEWING_MONITOR_PARAMS = (
     Param("friction", 0.1, "-", "[0, 1)", "f_s, friction coefficient of the surface traction (seed 003 Sec. 4)"),
     Param("allowable_contact_stress_pa", ISO76_ROLLER_CONTACT_STRESS_PA, "Pa", "[1e6, 1e11]",
           "ERROR above this peak contact pressure (ISO 76 reference: 4000 MPa)", dynamic=True),
-    Param("warn_fraction", 0.8, "-", "(0, 1]", "WARN above this fraction of allowable_contact_stress_pa",
+    Param("warn_fraction", 0.8, "-", "(0, 1)", "WARN above this fraction of allowable_contact_stress_pa",
           dynamic=True),
     Param("stress_model", "seed003", "", "", "seed003 (finite roller, Eqs. 2-10) or numerical",
           choices=STRESS_MODELS),
@@ -43,13 +43,13 @@ SLEWING_MONITOR_PARAMS = (
     Param("crown_drop_m", 15.0e-6, "m", "[0, 1e-3]", "numerical model, crowned profile: drop at the roller ends"),
     Param("log_profile_coeff_m", 0.00035 * 0.032, "m", "[0, 1e-3]",
           "numerical model, logarithmic profile: ISO/TS 16281 0.00035 D; 0 = Lundberg 2P'/(pi E*)"),
-    Param("numerical_table_min_load_n", 2.0e3, "N", "(0, inf)",
+    Param("numerical_table_min_load_n", 2.0e3, "N", "(0, 1e9]",
           "numerical model live: lowest roller load of the log-spaced table"),
-    Param("numerical_table_max_load_n", 4.0e5, "N", "(0, inf)",
+    Param("numerical_table_max_load_n", 4.0e5, "N", "(0, 1e9]",
           "numerical model live: highest roller load of the table (> min)"),
-    Param("numerical_table_loads", 16, "-", "[4, 100000]", "numerical model live: loads in the table"),
-    Param("diagnostics_period_s", 1.0, "s", "(0, inf)", "period of the /diagnostics status"),
-    Param("input_timeout_s", 2.0, "s", "(0, inf)", "STALE when slewing/load is silent longer", dynamic=True),
+    Param("numerical_table_loads", 16, "-", "[4, 10000]", "numerical model live: loads in the table"),
+    Param("diagnostics_period_s", 1.0, "s", "[0.01, 3600]", "period of the /diagnostics status"),
+    Param("input_timeout_s", 2.0, "s", "(0, 86400]", "STALE when slewing/load is silent longer", dynamic=True),
 )
 
 
@@ -95,8 +95,8 @@ def _slewing_cross_checks(params: dict[str, Any]) -> None:
         raise InputError(f"parameter poisson must be in [0, 0.5), got {params['poisson']!r}")
     if not 0.0 <= params["friction"] < 1.0:
         raise InputError(f"parameter friction must be in [0, 1), got {params['friction']!r}")
-    if not 0.0 < params["warn_fraction"] <= 1.0:
-        raise InputError(f"parameter warn_fraction must be in (0, 1], got {params['warn_fraction']!r}")
+    if not 0.0 < params["warn_fraction"] < 1.0:
+        raise InputError(f"parameter warn_fraction must be in (0, 1), got {params['warn_fraction']!r}")
     if params["stress_model"] not in STRESS_MODELS:
         raise InputError(f"parameter stress_model must be one of {STRESS_MODELS}, got {params['stress_model']!r}")
     if params["roller_profile"] not in ROLLER_PROFILES:

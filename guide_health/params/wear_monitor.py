@@ -10,6 +10,11 @@ from typing import Any
 from guide_health.errors import InputError
 from guide_health.params.schema import NodeSchema, Param
 
+#: the wear profile's bins (rail_length_m / profile_bin_m) at most: 1e6 bins = 8 MB per profile array
+MAX_PROFILE_BINS = 1_000_000
+#: duty_window_s at least this many diagnostics periods (the duty is averaged over DUTY_BUCKETS buckets)
+DUTY_WINDOW_MIN_PERIODS = 3
+
 SLIDING_GUIDE_PARAMS = (
     Param("machine_id", "machine", "", "", "machine name: hardware_id of the diagnostics, key in the state file"),
     Param("joint", "x", "", "", "the axis to monitor: its name in sensor_msgs/JointState"),
@@ -28,26 +33,30 @@ SLIDING_GUIDE_PARAMS = (
     Param("slider_length_m", 0.100, "m", "(0, 10]", "profile model: length of the slider contact"),
     Param("rail_start_m", -0.100, "m", "[-100, 100]", "profile model: rail coordinate of the first bin"),
     Param("rail_length_m", 0.500, "m", "(0, 100]", "profile model: rail length covered by bins"),
-    Param("profile_bin_m", 0.001, "m", "(0, 1]", "profile model: bin width"),
-    Param("duty_window_s", 3600.0, "s", "(0, inf)", "window over which the current duty W v is averaged"),
+    Param("profile_bin_m", 0.001, "m", "[1e-6, 1]", "profile model: bin width"),
+    Param("duty_window_s", 3600.0, "s", "[1, 1e8]",
+          "window over which the current duty W v is averaged (>= 3 diagnostics periods)"),
     Param("straightness_noise_m", 0.5e-6, "m", "[0, 0.01]",
           "1-sigma noise of a straightness measurement (prior of the K update)"),
     Param("wear_coefficient_prior_rel_sd", 0.5, "-", "(0, 100]", "prior sd of K relative to the configured K"),
-    Param("life_warn_h", 500.0, "h", "[0, inf)", "WARN when the remaining precision life drops below this",
+    Param("life_warn_h", 500.0, "h", "(0, 1e7]", "WARN when the remaining precision life drops below this",
           dynamic=True),
-    Param("life_error_h", 100.0, "h", "[0, inf)", "ERROR when the remaining precision life drops below this",
+    Param("life_error_h", 100.0, "h", "[0, 1e7]",
+          "ERROR when the remaining precision life drops below this (< life_warn_h)",
           dynamic=True),
-    Param("straightness_warn_fraction", 0.8, "-", "(0, 1]",
+    Param("straightness_warn_fraction", 0.8, "-", "(0, 1)",
           "WARN above this fraction of straightness_limit_m, ERROR above the limit", dynamic=True),
-    Param("diagnostics_period_s", 1.0, "s", "(0, inf)", "period of the /diagnostics status"),
-    Param("input_timeout_s", 5.0, "s", "(0, inf)", "STALE when joint_states/load are silent longer (arrival time)",
+    Param("diagnostics_period_s", 1.0, "s", "[0.01, 3600]", "period of the /diagnostics status"),
+    Param("input_timeout_s", 5.0, "s", "(0, 86400]", "STALE when joint_states/load are silent longer (arrival time)",
           dynamic=True),
-    Param("checkpoint_period_s", 2.0, "s", "(0, inf)", "period of the SQLite state commit"),
-    Param("input_align_window_s", 0.5, "s", "[0, inf)",
+    Param("checkpoint_period_s", 2.0, "s", "[0.1, 86400]", "period of the SQLite state commit"),
+    Param("input_align_window_s", 0.5, "s", "[0, 60]",
           "joint samples wait up to this (wall time) for the load stamped before them; 0 = integrate on arrival"),
     Param("executor", "events", "", "", "events (rclpy EventsExecutor, raw CDR) or single_threaded",
           choices=("events", "single_threaded")),
-    Param("state_file", "", "", "", "SQLite state file; '' = no persistence"),
+    Param("state_file", "auto", "", "",
+          "SQLite state file; auto = $ROS_HOME/guide_health/<machine_id>/<node>.db (ROS_HOME: ~/.ros); "
+          "'' or none = no persistence"),
 )
 
 ROLLING_GUIDE_PARAMS = (
@@ -77,12 +86,13 @@ ROLLING_GUIDE_PARAMS = (
     Param("youngs_modulus_pa", 206.0e9, "Pa", "[1e8, 1e12]", "E of ball and raceway"),
     Param("poisson", 0.3, "-", "[0, 0.5)", "nu of ball and raceway"),
     Param("carriages", 1, "-", "[1, 1000]", "carriages sharing the guide load equally (fatigue per carriage)"),
-    Param("boundary_window_m", 100.0, "m", "(0, inf)", "travel over which the boundary-lubrication share is judged"),
+    Param("boundary_window_m", 100.0, "m", "(0, 1e7]", "travel over which the boundary-lubrication share is judged"),
     Param("boundary_share_warn", 0.5, "-", "[0, 1]", "WARN when the recent boundary share exceeds this",
           dynamic=True),
-    Param("life_used_warn", 0.8, "-", "[0, inf)", "WARN when the used fatigue life fraction reaches this",
+    Param("life_used_warn", 0.8, "-", "(0, 100]", "WARN when the used fatigue life fraction reaches this",
           dynamic=True),
-    Param("life_used_error", 1.0, "-", "[0, inf)", "ERROR when the used fatigue life fraction reaches this",
+    Param("life_used_error", 1.0, "-", "(0, 100]",
+          "ERROR when the used fatigue life fraction reaches this (> life_used_warn)",
           dynamic=True),
 )
 
@@ -107,7 +117,34 @@ def _wear_cross_checks(p: dict[str, Any]) -> None:
         raise InputError(f"straightness_model must be 'eq7' or 'profile', got {p['straightness_model']!r}")
 
 
-WEAR_MONITOR_SCHEMA = NodeSchema("wear_monitor", SLIDING_GUIDE_PARAMS + ROLLING_GUIDE_PARAMS, _wear_cross_checks)
+def _wear_threshold_checks(p: dict[str, Any]) -> None:
+    """Orders a range cannot express: thresholds, A0 below the limit, memory of the profile, the duty window."""
+    if not p["life_error_h"] < p["life_warn_h"]:
+        raise InputError(f"life_error_h ({p['life_error_h']!r} h) must be below life_warn_h ({p['life_warn_h']!r} h)")
+    if not p["life_used_warn"] < p["life_used_error"]:
+        raise InputError(f"life_used_warn ({p['life_used_warn']!r}) must be below life_used_error "
+                         f"({p['life_used_error']!r})")
+    if not p["straightness_initial_m"] < p["straightness_limit_m"]:
+        raise InputError(f"straightness_initial_m ({p['straightness_initial_m']!r} m, A0) must be below "
+                         f"straightness_limit_m ({p['straightness_limit_m']!r} m)")
+    if not p["lambda_boundary"] < p["lambda_full_film"]:
+        raise InputError("lambda_boundary must be below lambda_full_film")
+    bins = p["rail_length_m"] / p["profile_bin_m"]
+    if not bins <= MAX_PROFILE_BINS:
+        raise InputError(f"rail_length_m / profile_bin_m = {bins:.3g} bins: at most {MAX_PROFILE_BINS:.0e} "
+                         f"(a coarser profile_bin_m)")
+    if not p["duty_window_s"] >= DUTY_WINDOW_MIN_PERIODS * p["diagnostics_period_s"]:
+        raise InputError(f"duty_window_s ({p['duty_window_s']!r} s) must be at least {DUTY_WINDOW_MIN_PERIODS} "
+                         f"diagnostics periods ({p['diagnostics_period_s']!r} s)")
+
+
+def _wear_all_checks(p: dict[str, Any]) -> None:
+    _wear_cross_checks(p)
+    WEAR_MONITOR_SCHEMA.check_ranges(p)     # ranges first: the orders below compare in-range numbers
+    _wear_threshold_checks(p)
+
+
+WEAR_MONITOR_SCHEMA = NodeSchema("wear_monitor", SLIDING_GUIDE_PARAMS + ROLLING_GUIDE_PARAMS, _wear_all_checks)
 
 
 def validate_wear_params(p: dict[str, Any]) -> None:

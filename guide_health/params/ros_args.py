@@ -1,0 +1,80 @@
+"""The node's own check of its ``--ros-args`` parameters, before rcl reads them (pure Python, no ROS).
+
+rcl ignores a parameter a node does not declare, and a node section it does not find; its YAML errors end
+as an RCLError traceback. ``check_ros_args`` reads the same ``--params-file`` files (and ``-p name:=value``
+overrides) with the strict loader of the offline CLI, merges them in rcl's order (files, then ``-p``, later
+wins) and validates the result: any failure is one InputError line naming the file, the node and the key.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import yaml
+
+from guide_health.errors import InputError
+from guide_health.params.loader import ROS_NODE_PARAMS, load_node_params
+from guide_health.params.schema import NodeSchema, coerce_value
+
+
+def _ros_arg_groups(argv: list[str]) -> list[list[str]]:
+    """The argument lists between ``--ros-args`` and ``--`` (or the end)."""
+    groups, current = [], None
+    for arg in argv:
+        if arg == "--ros-args":
+            current = []
+            groups.append(current)
+        elif arg == "--" and current is not None:
+            current = None
+        elif current is not None:
+            current.append(arg)
+    return groups
+
+
+def parse_ros_args(argv: list[str], node_name: str) -> tuple[str, list[str], list[tuple[str, str]]]:
+    """(node name after ``__node:=`` remapping, params files, [(name, value text)] of ``-p``)."""
+    files: list[str] = []
+    overrides: list[tuple[str, str]] = []
+    name = node_name
+    for group in _ros_arg_groups(argv):
+        it = iter(group)
+        for arg in it:
+            if arg == "--params-file":
+                files.append(next(it, ""))
+            elif arg in ("-p", "--param"):
+                overrides.append(tuple(next(it, "").split(":=", 1)) + ("",))   # type: ignore[arg-type]
+            elif arg in ("-r", "--remap"):
+                rule = next(it, "")
+                if rule.split(":=")[0].split(":")[-1] == "__node" and ":=" in rule:
+                    name = rule.split(":=", 1)[1]
+    return name, files, [(o[0], o[1]) for o in overrides]
+
+
+def check_ros_args(schema: NodeSchema, argv: list[str]) -> dict[str, Any] | None:
+    """The node's parameters from its ``--params-file``/``-p`` arguments, strictly loaded and validated;
+    None when there are none. InputError (one line) on anything rcl would ignore or choke on."""
+    node_name, files, overrides = parse_ros_args(argv, schema.section)
+    if not files and not overrides:
+        return None
+    params = schema.defaults()
+    for path in files:
+        if not path:
+            raise InputError("--params-file needs a file name")
+        params = load_node_params(path, node_name, params)     # over the files before it, as rcl does
+    for item, text in overrides:
+        target, _, name = item.rpartition(":")
+        if target and target.rstrip("/").split("/")[-1] != node_name:
+            continue                                  # -p other_node:name:=value
+        if name in ROS_NODE_PARAMS:
+            continue
+        schema.check_unknown_keys([name], source=f"-p {item}:={text}")
+        try:
+            value = yaml.safe_load(text)
+        except yaml.YAMLError:
+            value = text
+        params[name] = coerce_value(name, value, schema.by_name[name].default)
+    try:
+        schema.validate(params)
+    except InputError as exc:
+        where = ", ".join(files) if files else "-p"
+        raise InputError(f"{where}: {exc}") from None
+    return params
