@@ -2,8 +2,14 @@
 
 Scenario: config/machine_jobs.yaml (jobs of ~3 h with their own feed speed, cutting load, table load and
 stroke distribution; rapid, light retract; temperature recorded; straightness every 10 min). Every run
-draws the effect strength and the measurement noise from the ranges below (documented in README); the
+draws the effect strength and the measurement noise from the ranges below (docs/discrepancy.md); the
 effect name is never passed to the workflow.
+
+The acceptance's truth is test/reference_wear.py, written separately from the candidate terms
+(models/wear/effects.py, analysis/discrepancy/): the bag's motion, load and temperature come from the
+simulator, the straightness from the reference integration over the bag's samples, plus the simulator's
+noise. The hidden s0 and W_ref are never handed to the fit. test_candidate_model_is_the_simulated_physics
+keeps the shared-function consistency check beside it.
 """
 from __future__ import annotations
 
@@ -17,6 +23,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from scipy import integrate
+from scipy.optimize import least_squares
 
 from guide_health.analysis.discrepancy.duty import DutyCellAccumulator, duty_cells_from_runs
 from guide_health.analysis.discrepancy.model import WearProblem
@@ -27,6 +34,9 @@ from guide_health.params import simulation_params, wear_monitor_params
 from guide_health.runs import MachineRun
 from guide_health.sim.machine import simulate_machine, true_straightness_loss_per_k_m
 from guide_health.sim.motion import cycle_knots
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import reference_wear as ref  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 JOBS = ROOT / "config" / "machine_jobs.yaml"
@@ -57,6 +67,23 @@ def draw_effect(name: str, rng: np.random.Generator, sim: dict) -> dict:
     raise ValueError(name)
 
 
+def reference_run(params: dict, sim: dict, seed: int, effects: dict) -> MachineRun:
+    """The simulator's bag with its straightness replaced by the independent reference truth
+    (test/reference_wear.py) plus the same noise draw."""
+    run = simulate_machine(params, sim, seed=seed, effects=effects)
+    truth = run.metadata["truth"]
+    noise = run.straightness_m - np.asarray(truth["straightness_m"])
+    hidden = ref.hidden_from_effects(effects, sim["running_in_distance_m"], sim["load_reference_n"])
+    y = ref.reference_straightness_m(
+        run, hidden, wear_coefficient=params["wear_coefficient"] * sim["wear_coefficient_factor"],
+        hardness_pa=params["hardness_pa"], contact_width_m=params["contact_width_m"],
+        slider_length_m=params["slider_length_m"], straightness_initial_m=params["straightness_initial_m"],
+        stroke_sum_m=truth["stroke_min_m"] + truth["stroke_max_m"])
+    run.straightness_m = y + noise
+    run.metadata = dict(run.metadata, truth=dict(truth, straightness_m=y.tolist()))
+    return run
+
+
 def hidden_effect_case(args):
     """One run: simulate with the hidden effect(s), run the selection, return what was named."""
     scenario, seed = args
@@ -68,12 +95,12 @@ def hidden_effect_case(args):
     effects = {}
     for name in [s for s in scenario.split("+") if s]:
         effects.update(draw_effect(name, rng, sim))
-    run = simulate_machine(params, sim, seed=seed, effects=effects)
+    run = reference_run(params, sim, seed, effects)
     problem = WearProblem(duty_cells_from_runs(run, params["slider_length_m"]), params)
     sel = forward_selection(problem.fit, problem.available_effects())
     return {"scenario": scenario, "seed": seed, "effects": effects, "named": sel.named,
             "baseline_heldout_um": sel.baseline.heldout_rmse_um, "final_heldout_um": sel.final.heldout_rmse_um,
-            "values": sel.final.values}
+            "values": sel.final.values, "running_in_distance_m": sim["running_in_distance_m"]}
 
 
 SINGLE = ["running_in", "retract_asymmetry", "speed_dependent_wear", "load_exponent", "stroke_distribution",
@@ -223,14 +250,26 @@ def test_two_hidden_effects_are_both_named(sweep):
 
 
 def test_fitted_effect_parameters_match_the_hidden_ones(sweep):
-    """Where the effect is named alone, its fitted parameter is the hidden value (physics, not a curve)."""
-    checks = {"retract_asymmetry": ("retract_wear_factor", 0.1), "load_exponent": ("load_exponent", 0.15),
-              "initial_offset": ("initial_offset_m", 0.5e-6), "thermal_drift": ("thermal_drift_m_per_k", 0.1e-6),
-              "stroke_distribution": ("stroke_distribution_weight", 0.15)}
-    for effect, (param, tol) in checks.items():
-        for r in sweep[effect]:
-            if r["named"] == [effect]:
-                assert r["values"][param] == pytest.approx(r["effects"][effect], abs=tol), (effect, r["seed"])
+    """In every run where the effect is named alone (at least 9 of 10), its fitted parameter is the hidden
+    value of the independent truth (physics, not a curve). Tolerances are about twice the largest error
+    seen over the 10 seeds (2026-11-23): a wrong exponent or factor in a candidate term shifts the fitted
+    value by more (e.g. 0.7 -> 0.5 in the film-speed exponent moves v_lift by > 50 %)."""
+    absolute = {"retract_asymmetry": ("retract_wear_factor", 0.15), "load_exponent": ("load_exponent", 0.1),
+                "initial_offset": ("initial_offset_m", 0.2e-6), "thermal_drift": ("thermal_drift_m_per_k", 0.08e-6),
+                "stroke_distribution": ("stroke_distribution_weight", 0.06), "running_in": ("running_in_ratio", 0.2)}
+    for effect, (param, tol) in absolute.items():
+        alone = [r for r in sweep[effect] if r["named"] == [effect]]
+        assert len(alone) >= 9, (effect, len(alone))
+        for r in alone:
+            assert r["values"][param] == pytest.approx(r["effects"][effect], abs=tol), (effect, r["seed"])
+    # relative: s0 of running-in (median within 5 %), v_lift of the speed-dependent wear (median within 10 %)
+    for effect, param, hidden_of, median_tol, worst_tol in (
+            ("running_in", "running_in_distance_m", lambda r: r["running_in_distance_m"], 0.05, 0.3),
+            ("speed_dependent_wear", "lift_speed_m_s", lambda r: r["effects"]["speed_dependent_wear"], 0.1, 0.4)):
+        alone = [r for r in sweep[effect] if r["named"] == [effect]]
+        assert len(alone) >= 9, (effect, len(alone))
+        rel = np.array([abs(r["values"][param] / hidden_of(r) - 1.0) for r in alone])
+        assert np.median(rel) < median_tol and rel.max() < worst_tol, (effect, rel.round(3).tolist())
 
 
 # --- seed 000 pin-on-disc through the same selection ------------------------------------------
@@ -241,8 +280,18 @@ def test_pin_on_disc_wear_law_needs_no_exponent():
     res = select_pin_on_disc_law(rows["speed_m_s"], rows["load_n"], rows["wear_rate_m3_s"])
     assert res["named_effects"] == []
     cand = {c["effect"]: c for c in res["candidates"]}
-    assert cand["load_exponent"]["parameters"]["load_exponent"]["value"] == pytest.approx(1.05, abs=0.02)
-    assert cand["speed_exponent"]["parameters"]["speed_exponent"]["value"] == pytest.approx(1.03, abs=0.02)
+    # independent truth: the relative-residual least-squares fit of gamma = k W^n v (and k W v^m) written
+    # here (1.0506, 1.0276; a log-log fit gives 1.053, 1.012, within a tenth of the standard errors)
+    for name, x, y in (("load_exponent", rows["load_n"], rows["speed_m_s"]),
+                       ("speed_exponent", rows["speed_m_s"], rows["load_n"])):
+        g = rows["wear_rate_m3_s"]
+        scale = g.mean() / (x.mean() * y.mean())
+        own = least_squares(lambda p, x=x, y=y, g=g, c=scale: p[0] * c * x ** p[1] * y / g - 1.0,
+                            [1.0, 1.0]).x[1]
+        got = cand[name]["parameters"][name]
+        assert got["value"] == pytest.approx(own, abs=0.005), name
+        loglog = np.polyfit(np.log(x), np.log(g / y), 1)[0]
+        assert abs(got["value"] - loglog) < 0.25 * got["std_error"], name
     assert cand["load_exponent"]["delta_bic"] > 0 and cand["speed_exponent"]["delta_bic"] > 0
     assert cand["load_exponent"]["loo_rms_rel_error"] > res["baseline"]["loo_rms_rel_error"]
     # the machinery can say yes: the same rows with the wear rate made proportional to W^1.6

@@ -192,7 +192,12 @@ def test_greenwood_tripp_integrals():
                                                                              rel=1e-8)
         assert lubrication.greenwood_tripp_integral(0.0, t) == pytest.approx(0.5 * math.erfc(t / math.sqrt(2)),
                                                                              rel=1e-8)
-    assert lubrication.greenwood_tripp_integral(2.5, 0.0) == pytest.approx(0.6166, rel=1e-3)
+    # at t = 0 the integral has the closed form F_n(0) = 2^((n-1)/2) Gamma((n+1)/2) / sqrt(2 pi);
+    # F_5/2(0) = 0.6166 is the Greenwood-Tripp value the contact load uses
+    for n in (0.0, 1.0, 1.5, 2.0, 2.5):
+        closed = 2 ** ((n - 1) / 2) * math.gamma((n + 1) / 2) / math.sqrt(2 * math.pi)
+        assert lubrication.greenwood_tripp_integral(n, 0.0) == pytest.approx(closed, rel=1e-8), n
+    assert 2 ** 0.75 * math.gamma(1.75) / math.sqrt(2 * math.pi) == pytest.approx(0.6166, abs=5e-5)
 
 
 def test_entrainment_speed_is_half_the_carriage_speed():
