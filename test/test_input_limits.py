@@ -284,3 +284,18 @@ def test_nan_velocity_and_nanosec_beyond_a_second_are_rejected_on_both_paths(ros
     finally:
         node.close()
         node.destroy_node()
+
+
+def test_a_missing_joint_is_named_in_the_status(bench_run):
+    """Offline, a bag without the monitored joint used to say only "waiting for motion"; live, the
+    JointState messages without it are rejected and named as the dominant reason."""
+    offline = PrecisionMonitor(PARAMS)
+    offline.process_run(MachineRun("x", load_t_ns=bench_run.load_t_ns, load_n=bench_run.load_n))
+    report = offline.report()
+    assert report["level"] == Level.WARN
+    assert report["message"] == "no wear estimate yet: no joint_states sample of joint 'x' accepted"
+    live_monitor = PrecisionMonitor(PARAMS)
+    for _ in range(10):
+        live_monitor.reject_input("joint_states", "joint 'x' not in joint_states")
+    assert live_monitor.report()["message"].startswith(
+        "100% of the last 10 joint_states samples rejected (joint 'x' not in joint_states); no wear estimate yet")

@@ -267,6 +267,9 @@ class PrecisionMonitor:
         limit = r["straightness_limit_um"]
         life = r["remaining_life_h"]
         if math.isnan(a):
+            if self.integrator.samples == 0:
+                return Level.WARN, (f"no wear estimate yet: no joint_states sample of joint "
+                                    f"'{p['joint']}' accepted")
             return Level.WARN, "no wear estimate yet (waiting for motion and load)"
         level = Level.OK
         if a >= limit:
