@@ -27,15 +27,19 @@ LH45 = ROOT / "config" / "nsk_lh45.yaml"
 T0 = 1_700_000_000_000_000_000
 
 
+#: the push-pull run travels 2 m: a rail long enough for it (the input rules reject travel beyond the rail)
+LONG_RAIL = {"rail_start_m": -0.1, "rail_length_m": 2.5}
+
+
 def rolling_params(**over):
     p = wear_monitor_params(LH45)
-    p.update(over)
+    p.update(LONG_RAIL, **over)
     return p
 
 
 def sliding_params(**over):
     p = wear_monitor_params(None)
-    p.update(over)
+    p.update(LONG_RAIL, **over)
     return p
 
 
@@ -123,8 +127,8 @@ def test_item1_lift_off_does_not_wear_the_main_way_of_a_sliding_guide():
 def test_item1_only_non_finite_loads_are_rejected():
     from guide_health.models.wear.input_rules import NON_FINITE_LOAD, accept_load_samples, check_load_sample
 
-    assert check_load_sample(T0, -1.0e4, None) is None
-    assert check_load_sample(T0, math.inf, None) == NON_FINITE_LOAD
+    assert check_load_sample(T0, -1.0e4, None)[0] is None
+    assert check_load_sample(T0, math.inf, None)[0] == NON_FINITE_LOAD
     acc = accept_load_samples(np.array([T0, T0 + 1, T0 + 2]), np.array([-5.0, math.nan, 3.0]), None)
     assert acc.accepted.tolist() == [True, False, True] and acc.rejected == {NON_FINITE_LOAD: 1}
 

@@ -237,14 +237,16 @@ class RawMessageDecoder:
     The layout of the first message of each size is parsed once; a later message of that size is
     checked against the layout's structural bytes (encapsulation, frame id, joint names, sequence
     lengths) and its numbers are read at fixed offsets, a few microseconds instead of the tens that
-    rclpy deserialisation takes. decode(raw) -> tuple of the numbers in `names` order (NaN for an
-    absent optional number such as velocity), MISSING when the message is valid but lacks the wanted
-    joint, or None when it is not a message of this type.
+    rclpy deserialisation takes. decode(raw) -> tuple of the numbers in `names` order (``absent``, NaN
+    by default, for an absent optional number such as velocity; a NaN in the message stays NaN),
+    MISSING when the message is valid but lacks the wanted joint, or None when it is not a message of
+    this type.
     """
 
-    def __init__(self, msgtype: str, names: tuple, joint: str = "x"):
+    def __init__(self, msgtype: str, names: tuple, joint: str = "x", absent: float = math.nan):
         self.layout_fn = codec_for(msgtype, joint).layout
         self.names = tuple(names)
+        self.absent = absent
         self._cache: dict[int, tuple] = {}
 
     def _compile(self, raw) -> tuple | None:
@@ -273,7 +275,7 @@ class RawMessageDecoder:
         readers = entry[1]
         if readers is None:
             return MISSING
-        return tuple(math.nan if r is None else r[0].unpack_from(raw, r[1])[0] for r in readers)
+        return tuple(self.absent if r is None else r[0].unpack_from(raw, r[1])[0] for r in readers)
 
 
 # ---------------------------------------------------------------------------------------------

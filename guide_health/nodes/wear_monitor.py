@@ -30,11 +30,14 @@ from guide_health.io.state_store import StateStore
 from guide_health.models.wear.feed import StampAlignedFeed
 from guide_health.models.wear.input_rules import (
     EMPTY_JOINT_STATES,
+    INVALID_STAMP,
     JOINT_POSITION_MISSING,
     MALFORMED_JOINT_STATES,
     MALFORMED_LOAD,
     STRAIGHTNESS_WITHOUT_TIME_BASE,
+    header_stamp_ns,
     joint_missing,
+    rejected_keys,
 )
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.nodes.common import run_node
@@ -50,7 +53,8 @@ PRECISION_KEYS = ("straightness_um", "straightness_measured_um", "straightness_l
                   "remaining_life_h_low", "remaining_life_h_high", "wear_volume_mm3", "sliding_distance_m",
                   "wear_coefficient", "lubrication_regime")
 EXTRA_PRECISION_KEYS = ("wear_coefficient_low", "wear_coefficient_high", "measurements", "duty_load_speed_w",
-                        "stroke_min_m", "stroke_max_m", "strokes", "rejected_samples", "samples")
+                        "stroke_min_m", "stroke_max_m", "strokes", "rejected_samples", "samples",
+                        "rejected_recent_share")
 TIMING_KEYS = ("load_samples", "callback_time_us", "model_time_us")
 ROLLING_PRECISION_KEYS = ("lambda", "asperity_load_share", "boundary_share_recent", "boundary_share_total")
 FATIGUE_KEYS = ("equivalent_load_n", "rating_life_km", "travel_km", "life_used_fraction", "remaining_life_km")
@@ -58,8 +62,9 @@ EXTRA_FATIGUE_KEYS = ("duty_load_n", "carriages")
 INPUTS = ("joint_states", "guide/load")     # silent for input_timeout_s: every status STALE
 
 
-def stamp_ns(header) -> int:
-    return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
+def stamp_ns(header) -> int | None:
+    """The header stamp [ns], None when invalid (input_rules.header_stamp_ns)."""
+    return header_stamp_ns(header.stamp.sec, header.stamp.nanosec)
 
 
 class WearMonitorNode(Node):
@@ -104,7 +109,7 @@ class WearMonitorNode(Node):
     def _subscribe_inputs(self) -> None:
         if self.raw:
             self._joint_decoder = RawMessageDecoder(JOINT_STATE, ("sec", "nsec", "position", "velocity"),
-                                                    self.joint)
+                                                    self.joint, absent=0.0)   # no velocity array: 0
             self._load_decoder = RawMessageDecoder(WRENCH_STAMPED, ("sec", "nsec", "fz"))
             self.create_subscription(JointState, "joint_states", self._on_joint_raw, DATA_QOS, raw=True)
             self.create_subscription(WrenchStamped, "guide/load", self._on_load_raw, DATA_QOS, raw=True)
@@ -118,7 +123,8 @@ class WearMonitorNode(Node):
         rolling = self.monitor.rolling is not None
         self.updater.add(StatusTask(
             self.precision_task, self._precision_report, PRECISION_KEYS,
-            EXTRA_PRECISION_KEYS + TIMING_KEYS + (ROLLING_PRECISION_KEYS if rolling else ()), stale_inputs=INPUTS))
+            EXTRA_PRECISION_KEYS + TIMING_KEYS + (ROLLING_PRECISION_KEYS if rolling else ())
+            + rejected_keys(self.joint), stale_inputs=INPUTS))
         if rolling:
             self.updater.add(StatusTask(f"{self.joint} fatigue", self._fatigue_report, FATIGUE_KEYS,
                                         EXTRA_FATIGUE_KEYS, stale_inputs=INPUTS, stale_prefix="no data on {inputs}; "))
@@ -139,15 +145,18 @@ class WearMonitorNode(Node):
                 msg = deserialize_message(raw, JointState)
             except Exception:  # noqa: BLE001 - anything undecodable is malformed input
                 self.updater.touch("joint_states")
-                self._rejected(self.monitor.rejected.reject(MALFORMED_JOINT_STATES))
+                self._rejected(self.monitor.reject_input("joint_states", MALFORMED_JOINT_STATES))
                 return
             self._on_joint(msg)
             return
         self.updater.touch("joint_states")
         sec, nsec, position, velocity = values
+        t_ns = header_stamp_ns(sec, nsec)
+        if t_ns is None:
+            self._rejected(self.monitor.reject_input("joint_states", INVALID_STAMP))
+            return
         t1 = time.perf_counter()
-        reasons = self.feed.joint(sec * 1_000_000_000 + nsec, position, 0.0 if velocity != velocity else velocity,
-                                  time.monotonic())
+        reasons = self.feed.joint(t_ns, position, velocity, time.monotonic())
         t2 = time.perf_counter()
         self._rejected_all(reasons)
         self._account(t0, t1, t2)
@@ -160,14 +169,18 @@ class WearMonitorNode(Node):
                 msg = deserialize_message(raw, WrenchStamped)
             except Exception:  # noqa: BLE001
                 self.updater.touch("guide/load")
-                self._rejected(self.monitor.rejected.reject(MALFORMED_LOAD))
+                self._rejected(self.monitor.reject_input("guide/load", MALFORMED_LOAD))
                 return
             self._on_load(msg)
             return
         self.updater.touch("guide/load")
         sec, nsec, force_z = values
+        t_ns = header_stamp_ns(sec, nsec)
+        if t_ns is None:
+            self._rejected(self.monitor.reject_input("guide/load", INVALID_STAMP))
+            return
         t1 = time.perf_counter()
-        reasons = self.feed.load(sec * 1_000_000_000 + nsec, force_z, time.monotonic())
+        reasons = self.feed.load(t_ns, force_z, time.monotonic())
         t2 = time.perf_counter()
         self._rejected_all(reasons)
         self._account(t0, t1, t2)
@@ -180,27 +193,35 @@ class WearMonitorNode(Node):
     def _on_joint(self, msg: JointState) -> None:
         self.updater.touch("joint_states")
         if not msg.name or len(msg.position) == 0:
-            self._rejected(self.monitor.rejected.reject(EMPTY_JOINT_STATES))
+            self._rejected(self.monitor.reject_input("joint_states", EMPTY_JOINT_STATES))
             return
         try:
             i = list(msg.name).index(self.joint)
         except ValueError:
-            self._rejected(self.monitor.rejected.reject(joint_missing(self.joint)))
+            self._rejected(self.monitor.reject_input("joint_states", joint_missing(self.joint)))
             return
         if i >= len(msg.position):
-            self._rejected(self.monitor.rejected.reject(JOINT_POSITION_MISSING))
+            self._rejected(self.monitor.reject_input("joint_states", JOINT_POSITION_MISSING))
             return
         velocity = msg.velocity[i] if i < len(msg.velocity) else 0.0
+        t_ns = stamp_ns(msg.header)
+        if t_ns is None:
+            self._rejected(self.monitor.reject_input("joint_states", INVALID_STAMP))
+            return
         t1 = time.perf_counter()
-        reasons = self.feed.joint(stamp_ns(msg.header), float(msg.position[i]), float(velocity), time.monotonic())
+        reasons = self.feed.joint(t_ns, float(msg.position[i]), float(velocity), time.monotonic())
         t2 = time.perf_counter()
         self._rejected_all(reasons)
         self._account(t1, t1, t2)   # deserialisation happened before the callback: not measurable here
 
     def _on_load(self, msg: WrenchStamped) -> None:
         self.updater.touch("guide/load")
+        t_ns = stamp_ns(msg.header)
+        if t_ns is None:
+            self._rejected(self.monitor.reject_input("guide/load", INVALID_STAMP))
+            return
         t1 = time.perf_counter()
-        reasons = self.feed.load(stamp_ns(msg.header), float(msg.wrench.force.z), time.monotonic())
+        reasons = self.feed.load(t_ns, float(msg.wrench.force.z), time.monotonic())
         t2 = time.perf_counter()
         self._rejected_all(reasons)
         self._account(t1, t1, t2)

@@ -27,7 +27,10 @@ import numpy as np
 
 from guide_health.models.wear.effects import pass_weight_per_m
 from guide_health.models.wear.input_rules import (
+    NO_LIMITS,
+    InputLimits,
     RejectionCounter,
+    StampBase,
     accept_run,
     accept_straightness_samples,
     main_way_load_n,
@@ -78,8 +81,12 @@ class DutyCells:
 class DutyCellAccumulator:
     """Builds :class:`DutyCells` from consecutive MachineRun chunks of one machine."""
 
-    def __init__(self, slider_length_m: float, block_s: float = 30.0, log_bin: float = 0.1):
+    def __init__(self, slider_length_m: float, block_s: float = 30.0, log_bin: float = 0.1,
+                 limits: InputLimits = NO_LIMITS):
         self.slider_length_m = float(slider_length_m)
+        self.limits = limits                   # the input rules' plausibility limits (InputLimits.from_params)
+        self._joint_base = StampBase()         # time bases of the joint and load streams
+        self._load_base = StampBase()
         self.block_s = float(block_s)
         self.log_bin = float(log_bin)
         self.t0_ns: int | None = None
@@ -116,8 +123,9 @@ class DutyCellAccumulator:
         for a in stamps:
             if len(a):
                 self._t_end_ns = max(self._t_end_ns or int(a[-1]), int(a[-1]))
-        accepted = accept_run(run, self._last_t_ns, self._last_load_t, self._last_load)
-        measurements = accept_straightness_samples(stamps[2], run.straightness_m, self._last_meas_t)
+        accepted = accept_run(run, self._joint_base, self._load_base, self._last_load, self.limits)
+        self._joint_base, self._load_base = accepted.joints.base, accepted.loads.base
+        measurements = accept_straightness_samples(stamps[2], run.straightness_m, self._last_meas_t, self.limits)
         self.rejected_samples.count_all({**accepted.rejected, **measurements.rejected})
         self._meas_t.append(stamps[2][measurements.accepted])
         self._meas_y.append(np.asarray(run.straightness_m, dtype=float)[measurements.accepted])
@@ -278,9 +286,10 @@ class DutyCellAccumulator:
         )
 
 
-def duty_cells_from_runs(runs, slider_length_m: float, block_s: float = 30.0) -> DutyCells:
+def duty_cells_from_runs(runs, slider_length_m: float, block_s: float = 30.0,
+                         limits: InputLimits = NO_LIMITS) -> DutyCells:
     """:class:`DutyCells` of an iterable of MachineRun chunks (or a single MachineRun)."""
-    acc = DutyCellAccumulator(slider_length_m, block_s=block_s)
+    acc = DutyCellAccumulator(slider_length_m, block_s=block_s, limits=limits)
     if isinstance(runs, MachineRun):
         runs = [runs]
     for run in runs:
@@ -292,7 +301,7 @@ def read_duty_cells(bag, params: dict, namespace: str | None = None, progress=No
     """Stream a machine bag into duty cells (memory bounded by one chunk); (cells, messages read)."""
     from guide_health.io.bag_reader import iter_machine_bag
 
-    acc = DutyCellAccumulator(params["slider_length_m"])
+    acc = DutyCellAccumulator(params["slider_length_m"], limits=InputLimits.from_params(params))
     messages = 0
     for chunk in iter_machine_bag(bag, joint=params["joint"], namespace=namespace, progress=progress):
         acc.add(chunk)

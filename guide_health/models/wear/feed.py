@@ -3,7 +3,6 @@ from __future__ import annotations
 
 from collections import deque
 
-from guide_health.models.wear.input_rules import check_joint_sample, check_load_sample
 from guide_health.models.wear.precision import PrecisionMonitor
 
 
@@ -27,20 +26,11 @@ class StampAlignedFeed:
         self.monitor = monitor
         self.window_s = float(window_s)
         self.pending = deque()              # (t_ns, position_m, velocity_m_s, arrival_s)
-        self._last_accepted_t_ns: int | None = None
-
-    def _validate_joint(self, t_ns: int, position_m: float, velocity_m_s: float) -> str | None:
-        last = self._last_accepted_t_ns
-        if last is None:
-            last = self.monitor.integrator.last_t_ns
-        reason = check_joint_sample(t_ns, position_m, velocity_m_s, last)
-        return None if reason is None else self.monitor.rejected.reject(reason)
 
     def joint(self, t_ns: int, position_m: float, velocity_m_s: float, now_s: float) -> list[str]:
-        reason = self._validate_joint(t_ns, position_m, velocity_m_s)
+        reason = self.monitor.validate_joint(t_ns, position_m, velocity_m_s)
         if reason is not None:
             return [reason]
-        self._last_accepted_t_ns = int(t_ns)
         load_t = self.monitor.load_t_ns
         if self.window_s == 0 or (not self.pending and load_t is not None and t_ns < load_t):
             # nothing can come that changes this sample's load (or alignment is off)
@@ -50,7 +40,7 @@ class StampAlignedFeed:
 
     def load(self, t_ns: int, load_n: float, now_s: float) -> list[str]:
         m = self.monitor
-        if check_load_sample(t_ns, load_n, m.load_t_ns) is not None:
+        if m.check_load(t_ns, load_n) is not None:
             return [m.on_load(t_ns, load_n)]          # rejected (and counted) by the monitor
         reasons = self._integrate(self._take(lambda t: t < t_ns))   # they used the previous load
         r = m.on_load(t_ns, load_n)
@@ -77,9 +67,6 @@ class StampAlignedFeed:
         return batch
 
     def _integrate(self, samples) -> list[str]:
-        reasons = []
-        for t_ns, x, v in samples:
-            r = self.monitor.on_joint(t_ns, x, v)
-            if r:
-                reasons.append(r)
-        return reasons
+        for t_ns, x, _ in samples:
+            self.monitor.integrate_joint(t_ns, x)   # validated on arrival
+        return []

@@ -8,28 +8,41 @@ discrepancy workflow see the same data:
 - :class:`~guide_health.models.wear.feed.StampAlignedFeed`, on the arrival of a live message;
 - :class:`~guide_health.analysis.discrepancy.duty.DutyCellAccumulator` (``guide-health diagnose``).
 
-The rules, applied in this order (so a rejected sample has exactly one reason):
+The rules, applied in this order (so a rejected sample has exactly one reason); the limits are
+:class:`InputLimits`, made from the wear_monitor parameters (docs/interfaces.md, "Input rules"):
 
 joint sample
-    position and velocity finite (an absent velocity counts as finite); stamp strictly greater than the
-    last accepted joint stamp.
+    position and velocity finite (an absent velocity counts as finite); position inside the rail travel
+    ``[rail_start_m - travel_margin_m, rail_start_m + rail_length_m + travel_margin_m]``; stamp in time
+    (below).
 load sample (guide load, force.z [N])
-    finite; stamp strictly greater than the last accepted load stamp. The sign is physics, not bad
+    finite; |force.z| <= the plausible maximum (``load_max_n``; rolling guides with a load rating C also
+    ``load_max_rating_multiple`` x carriages x C); stamp in time. The sign is physics, not bad
     input: force.z > 0 presses the carriage/slider onto the way, force.z < 0 is a reverse (lift-off) load.
     A four-row rolling guide carries it on its lower rows, rated with ``reverse_load_rating_factor``
     (:mod:`guide_health.models.rolling.rolling_guide`); a sliding guide carries it on its gibs/retainer
     strips, not on the main way, so the main-way wear uses :func:`main_way_load_n` = 0 for it (never
     the last positive load).
 straightness measurement [m]
-    finite; >= 0; stamp not before the last accepted measurement.
+    finite; >= 0; <= ``straightness_max_multiple`` x ``straightness_limit_m``; stamp not before the last
+    accepted measurement, and a measurement with the stamp of one already applied is not applied again
+    (a measurement is identified by its stamp: a resumed node or a replayed bag never counts it twice).
+stamp in time (joint and load, each stream its own time base)
+    strictly after the last accepted stamp of the stream and at most ``stamp_horizon_s`` after it. A
+    sample that jumps further is held back as a candidate for a new time base and rejected, unless it is
+    the ``stamp_rebase_samples``-th of consecutive candidates that agree (each after the previous one and
+    within the horizon of it): then it is accepted and the stream continues from it (a genuine restart
+    after a long pause). An accepted sample in time forgets the candidates, so one outlier, however far in
+    the future, never moves the time base; the first sample of a stream sets it.
 load at a joint sample
     the latest accepted load stamped at or before the joint sample; NaN (no load known: the distance
     counts, the wear does not) before the first.
 
-A rejected sample changes nothing, so the time rules compare with the last *accepted* stamp; the
-vectorised forms keep a sample whose stamp exceeds every earlier candidate's stamp, which is the same
-(a rejected stamp never exceeds the running maximum). The live node's message-level reasons (a joint
-missing from a JointState, undecodable messages, straightness without a time base) are named here too.
+A rejected sample changes nothing but the count of its reason and the candidates of its stream (not part
+of the saved state). The vectorised forms give the same result as the scalar ones sample by sample (a fast
+path when no stamp jumps beyond the horizon, the scalar rule otherwise). The live node's message-level
+reasons (a joint missing from a JointState, undecodable messages, straightness without a time base, an
+invalid header stamp) are named here too.
 """
 from __future__ import annotations
 
@@ -40,23 +53,57 @@ import numpy as np
 
 # --- reasons (the text the node logs and the reports count) ---------------------------------------
 NON_FINITE_JOINT = "non-finite joint position/velocity"
+POSITION_OUT_OF_TRAVEL = "joint position outside the rail travel"
 JOINT_TIME_BACKWARDS = "joint_states time going backwards"
+JOINT_STAMP_JUMP = "joint_states stamp jump beyond the horizon"
 NON_FINITE_LOAD = "non-finite load"
+LOAD_ABOVE_MAX = "load above the plausible maximum"
 LOAD_TIME_BACKWARDS = "load time going backwards"
+LOAD_STAMP_JUMP = "load stamp jump beyond the horizon"
 NON_FINITE_STRAIGHTNESS = "non-finite straightness"
 NEGATIVE_STRAIGHTNESS = "negative straightness"
+STRAIGHTNESS_ABOVE_MAX = "straightness above the plausible maximum"
 STRAIGHTNESS_TIME_BACKWARDS = "straightness time going backwards"
+MEASUREMENT_ALREADY_APPLIED = "measurement already applied"
 # message level (live node)
 MALFORMED_JOINT_STATES = "malformed joint_states message"
 MALFORMED_LOAD = "malformed guide/load message"
 EMPTY_JOINT_STATES = "empty joint_states arrays"
 JOINT_POSITION_MISSING = "joint_states position shorter than name"
 STRAIGHTNESS_WITHOUT_TIME_BASE = "straightness before any joint_states (no time base)"
+INVALID_STAMP = "invalid header stamp (nanosec >= 1e9)"
+
+# sample reasons by code (0 = accepted): the per-sample form of the vectorised rules
+REASON_CODES = (None, NON_FINITE_JOINT, POSITION_OUT_OF_TRAVEL, JOINT_TIME_BACKWARDS, JOINT_STAMP_JUMP,
+                NON_FINITE_LOAD, LOAD_ABOVE_MAX, LOAD_TIME_BACKWARDS, LOAD_STAMP_JUMP,
+                NON_FINITE_STRAIGHTNESS, NEGATIVE_STRAIGHTNESS, STRAIGHTNESS_ABOVE_MAX,
+                STRAIGHTNESS_TIME_BACKWARDS, MEASUREMENT_ALREADY_APPLIED)
+CODE_OF_REASON = {reason: code for code, reason in enumerate(REASON_CODES)}
+MESSAGE_REASONS = (MALFORMED_JOINT_STATES, MALFORMED_LOAD, EMPTY_JOINT_STATES, JOINT_POSITION_MISSING,
+                   STRAIGHTNESS_WITHOUT_TIME_BASE, INVALID_STAMP)
+NS_PER_S = 1_000_000_000
 
 
 def joint_missing(joint: str) -> str:
     """Reason for a JointState message that does not name the monitored joint."""
     return f"joint '{joint}' not in joint_states"
+
+
+def rejected_key(reason: str) -> str:
+    """The status key of the count of one rejection reason."""
+    return f"rejected: {reason}"
+
+
+def rejected_keys(joint: str) -> tuple[str, ...]:
+    """The status keys of every rejection reason a wear_monitor of ``joint`` can count."""
+    return tuple(rejected_key(r) for r in REASON_CODES[1:] + MESSAGE_REASONS + (joint_missing(joint),))
+
+
+def header_stamp_ns(sec: int, nanosec: int) -> int | None:
+    """A header stamp in ns, None when it is not a valid builtin_interfaces/Time (nanosec >= 1e9)."""
+    if not 0 <= nanosec < NS_PER_S:
+        return None
+    return int(sec) * NS_PER_S + int(nanosec)
 
 
 class RejectionCounter(dict):
@@ -81,50 +128,133 @@ class RejectionCounter(dict):
         return int(sum(self.values()))
 
 
+@dataclass(frozen=True)
+class InputLimits:
+    """The plausibility limits of the inputs (SI units); the defaults check nothing but finiteness,
+    sign and time order. ``stamp_horizon_ns`` None: no horizon."""
+
+    position_min_m: float = -math.inf
+    position_max_m: float = math.inf
+    load_max_n: float = math.inf
+    straightness_max_m: float = math.inf
+    stamp_horizon_ns: int | None = None
+    rebase_samples: int = 1
+
+    @classmethod
+    def from_params(cls, p: dict) -> InputLimits:
+        """The limits of a wear_monitor parameter set (guide_health.params.wear_monitor)."""
+        margin = p["travel_margin_m"]
+        load_max = p["load_max_n"]
+        rating = p.get("dynamic_load_rating_n", 0.0) * p.get("carriages", 1)
+        if p.get("guide_type") == "rolling" and rating > 0 and p["load_max_rating_multiple"] > 0:
+            load_max = min(load_max, p["load_max_rating_multiple"] * rating)
+        return cls(position_min_m=p["rail_start_m"] - margin,
+                   position_max_m=p["rail_start_m"] + p["rail_length_m"] + margin,
+                   load_max_n=load_max,
+                   straightness_max_m=p["straightness_max_multiple"] * p["straightness_limit_m"],
+                   stamp_horizon_ns=int(round(p["stamp_horizon_s"] * NS_PER_S)),
+                   rebase_samples=int(p["stamp_rebase_samples"]))
+
+
+NO_LIMITS = InputLimits()
+
+
+@dataclass(frozen=True)
+class StampBase:
+    """The time base of one input stream: the last accepted stamp (None before the first) and the stamps
+    of the consecutive candidates for a new time base seen since (module docstring)."""
+
+    last_t_ns: int | None = None
+    candidates: tuple = ()
+
+    @classmethod
+    def of(cls, base) -> StampBase:
+        """A StampBase from a StampBase or a last accepted stamp (int or None)."""
+        return base if isinstance(base, StampBase) else cls(None if base is None else int(base))
+
+
+# stamp verdicts
+_IN_TIME, _EARLIER, _EQUAL, _JUMP = range(4)
+
+
+def _stamp_verdict(t_ns: int, base: StampBase, limits: InputLimits) -> tuple[int, StampBase]:
+    """(verdict, the base after the sample) of a sample with valid values."""
+    last = base.last_t_ns
+    if last is None:
+        return _IN_TIME, StampBase(int(t_ns))
+    if t_ns < last:
+        return _EARLIER, base
+    if t_ns == last:
+        return _EQUAL, base
+    horizon = limits.stamp_horizon_ns
+    if horizon is None or t_ns - last <= horizon:
+        return _IN_TIME, StampBase(int(t_ns))
+    run = base.candidates
+    agrees = run and run[-1] < t_ns <= run[-1] + horizon
+    run = (run + (int(t_ns),)) if agrees else (int(t_ns),)
+    if len(run) >= limits.rebase_samples:
+        return _IN_TIME, StampBase(int(t_ns))
+    return _JUMP, StampBase(last, run)
+
+
 # --- one sample at a time (live) -------------------------------------------------------------------
-def check_joint_sample(t_ns: int, position_m: float, velocity_m_s: float,
-                       last_t_ns: int | None) -> str | None:
-    """The rejection reason of an axis sample, None when it counts (``last_t_ns``: last accepted stamp)."""
+def check_joint_sample(t_ns: int, position_m: float, velocity_m_s: float, last_t_ns,
+                       limits: InputLimits = NO_LIMITS) -> tuple[str | None, StampBase]:
+    """(rejection reason or None when it counts, the stream's time base after it) of an axis sample;
+    ``last_t_ns``: the stream's :class:`StampBase` or its last accepted stamp."""
+    base = StampBase.of(last_t_ns)
     if not (math.isfinite(position_m) and math.isfinite(velocity_m_s)):
-        return NON_FINITE_JOINT
-    if last_t_ns is not None and t_ns <= last_t_ns:
-        return JOINT_TIME_BACKWARDS
-    return None
+        return NON_FINITE_JOINT, base
+    if not limits.position_min_m <= position_m <= limits.position_max_m:
+        return POSITION_OUT_OF_TRAVEL, base
+    verdict, after = _stamp_verdict(t_ns, base, limits)
+    return (None, JOINT_TIME_BACKWARDS, JOINT_TIME_BACKWARDS, JOINT_STAMP_JUMP)[verdict], after
 
 
-def check_load_sample(t_ns: int, load_n: float, last_t_ns: int | None) -> str | None:
-    """The rejection reason of a guide-load sample [N], None when it counts."""
+def check_load_sample(t_ns: int, load_n: float, last_t_ns,
+                      limits: InputLimits = NO_LIMITS) -> tuple[str | None, StampBase]:
+    """(rejection reason or None, time base after it) of a guide-load sample [N]."""
+    base = StampBase.of(last_t_ns)
     if not math.isfinite(load_n):
-        return NON_FINITE_LOAD
-    if last_t_ns is not None and t_ns <= last_t_ns:
-        return LOAD_TIME_BACKWARDS
-    return None
+        return NON_FINITE_LOAD, base
+    if abs(load_n) > limits.load_max_n:
+        return LOAD_ABOVE_MAX, base
+    verdict, after = _stamp_verdict(t_ns, base, limits)
+    return (None, LOAD_TIME_BACKWARDS, LOAD_TIME_BACKWARDS, LOAD_STAMP_JUMP)[verdict], after
 
 
-def check_straightness_sample(t_ns: int, straightness_m: float, last_t_ns: int | None) -> str | None:
-    """The rejection reason of a straightness measurement [m], None when it counts (equal stamps count)."""
+def check_straightness_sample(t_ns: int, straightness_m: float, last_t_ns: int | None,
+                              limits: InputLimits = NO_LIMITS) -> str | None:
+    """The rejection reason of a straightness measurement [m], None when it counts (``last_t_ns``: the
+    stamp of the last applied measurement)."""
     if not math.isfinite(straightness_m):
         return NON_FINITE_STRAIGHTNESS
     if straightness_m < 0:
         return NEGATIVE_STRAIGHTNESS
+    if straightness_m > limits.straightness_max_m:
+        return STRAIGHTNESS_ABOVE_MAX
     if last_t_ns is not None and t_ns < last_t_ns:
         return STRAIGHTNESS_TIME_BACKWARDS
+    if last_t_ns is not None and t_ns == last_t_ns:
+        return MEASUREMENT_ALREADY_APPLIED
     return None
 
 
 # --- whole arrays (offline, chunk by chunk) ---------------------------------------------------------
 @dataclass(frozen=True)
 class Acceptance:
-    """Which samples of an array count, and how many were rejected for each reason."""
+    """Which samples of an array count, why the others do not, and the stream's time base after them."""
 
     accepted: np.ndarray          # bool, one per input sample
     rejected: dict                # {reason: count}, reasons with count > 0 in rule order
+    codes: np.ndarray             # int8 per sample: index into REASON_CODES (0 = accepted)
+    base: StampBase | None = None
 
 
 def after_last_accepted(t_ns: np.ndarray, candidate: np.ndarray, last_t_ns: int | None,
                         strict: bool = True) -> np.ndarray:
     """Mask of the candidates whose stamp is after (``strict``) or not before every earlier candidate's
-    stamp and ``last_t_ns``: the time rule of :func:`check_joint_sample` etc. over an array."""
+    stamp and ``last_t_ns``: the time rule without a horizon over an array."""
     t = np.asarray(t_ns, dtype=np.int64)
     keep = np.zeros(t.size, dtype=bool)
     index = np.flatnonzero(candidate)
@@ -145,27 +275,68 @@ def after_last_accepted(t_ns: np.ndarray, candidate: np.ndarray, last_t_ns: int 
     return keep
 
 
-def _counts(*pairs: tuple[str, np.ndarray]) -> dict[str, int]:
-    return {reason: int(mask.sum()) for reason, mask in pairs if mask.any()}
+def _stamps_in_time(t_ns: np.ndarray, valid: np.ndarray, base: StampBase,
+                    limits: InputLimits) -> tuple[np.ndarray, np.ndarray, StampBase]:
+    """(accepted, jumped) masks of the valid samples and the base after them: :func:`_stamp_verdict`
+    sample by sample, vectorised when no accepted stamp would jump beyond the horizon."""
+    t = np.asarray(t_ns, dtype=np.int64)
+    keep = after_last_accepted(t, valid, base.last_t_ns, strict=True)
+    kept = t[keep]
+    horizon = limits.stamp_horizon_ns
+    if horizon is None or kept.size == 0 or base.last_t_ns is None and kept.size == 1:
+        fast = True
+    else:
+        previous = kept[:-1] if base.last_t_ns is None else np.concatenate(([base.last_t_ns], kept[:-1]))
+        steps = (kept[1:] if base.last_t_ns is None else kept) - previous
+        fast = not np.any(steps > horizon)
+    if fast:
+        after = StampBase(int(kept[-1])) if kept.size else base
+        return keep, np.zeros(t.size, dtype=bool), after
+    keep = np.zeros(t.size, dtype=bool)
+    jumped = np.zeros(t.size, dtype=bool)
+    for i in np.flatnonzero(valid).tolist():
+        verdict, base = _stamp_verdict(int(t[i]), base, limits)
+        keep[i] = verdict == _IN_TIME
+        jumped[i] = verdict == _JUMP
+    return keep, jumped, base
 
 
-def accept_joint_samples(t_ns, position_m, velocity_m_s, last_t_ns: int | None) -> Acceptance:
+def _acceptance(size: int, accepted: np.ndarray, base: StampBase | None,
+                *pairs: tuple[str, np.ndarray]) -> Acceptance:
+    codes = np.zeros(size, dtype=np.int8)
+    counts = {}
+    for reason, mask in pairs:
+        if mask.any():
+            codes[mask] = CODE_OF_REASON[reason]
+            counts[reason] = int(mask.sum())
+    return Acceptance(accepted, counts, codes, base)
+
+
+def accept_joint_samples(t_ns, position_m, velocity_m_s, last_t_ns,
+                         limits: InputLimits = NO_LIMITS) -> Acceptance:
     """:func:`check_joint_sample` over arrays; an empty velocity array means no velocities."""
     x = np.asarray(position_m, dtype=float)
     v = np.asarray(velocity_m_s, dtype=float)
     finite = np.isfinite(x)
     if v.size == x.size:
         finite &= np.isfinite(v)
-    in_time = after_last_accepted(t_ns, finite, last_t_ns, strict=True)
-    return Acceptance(in_time, _counts((NON_FINITE_JOINT, ~finite), (JOINT_TIME_BACKWARDS, finite & ~in_time)))
+    outside = finite & ~((x >= limits.position_min_m) & (x <= limits.position_max_m))
+    valid = finite & ~outside
+    in_time, jumped, base = _stamps_in_time(t_ns, valid, StampBase.of(last_t_ns), limits)
+    return _acceptance(x.size, in_time, base, (NON_FINITE_JOINT, ~finite), (POSITION_OUT_OF_TRAVEL, outside),
+                       (JOINT_TIME_BACKWARDS, valid & ~in_time & ~jumped), (JOINT_STAMP_JUMP, jumped))
 
 
-def accept_load_samples(t_ns, load_n, last_t_ns: int | None) -> Acceptance:
+def accept_load_samples(t_ns, load_n, last_t_ns, limits: InputLimits = NO_LIMITS) -> Acceptance:
     """:func:`check_load_sample` over arrays."""
     w = np.asarray(load_n, dtype=float)
     finite = np.isfinite(w)
-    in_time = after_last_accepted(t_ns, finite, last_t_ns, strict=True)
-    return Acceptance(in_time, _counts((NON_FINITE_LOAD, ~finite), (LOAD_TIME_BACKWARDS, finite & ~in_time)))
+    above = finite & (np.abs(w) > limits.load_max_n)
+    valid = finite & ~above
+    in_time, jumped, base = _stamps_in_time(t_ns, valid, StampBase.of(last_t_ns), limits)
+    return _acceptance(w.size, in_time, base, (NON_FINITE_LOAD, ~finite),
+                       (LOAD_ABOVE_MAX, above), (LOAD_TIME_BACKWARDS, valid & ~in_time & ~jumped),
+                       (LOAD_STAMP_JUMP, jumped))
 
 
 def main_way_load_n(load_n):
@@ -179,15 +350,21 @@ def main_way_load_n(load_n):
     return np.where(w < 0.0, 0.0, w)
 
 
-def accept_straightness_samples(t_ns, straightness_m, last_t_ns: int | None) -> Acceptance:
+def accept_straightness_samples(t_ns, straightness_m, last_t_ns: int | None,
+                                limits: InputLimits = NO_LIMITS) -> Acceptance:
     """:func:`check_straightness_sample` over arrays."""
+    t = np.asarray(t_ns, dtype=np.int64)
     a = np.asarray(straightness_m, dtype=float)
     finite = np.isfinite(a)
     negative = finite & (a < 0)
-    valid = finite & ~negative
-    in_time = after_last_accepted(t_ns, valid, last_t_ns, strict=False)
-    return Acceptance(in_time, _counts((NON_FINITE_STRAIGHTNESS, ~finite), (NEGATIVE_STRAIGHTNESS, negative),
-                                       (STRAIGHTNESS_TIME_BACKWARDS, valid & ~in_time)))
+    above = finite & (a > limits.straightness_max_m)
+    valid = finite & ~negative & ~above
+    in_time = after_last_accepted(t, valid, last_t_ns, strict=True)
+    not_before = after_last_accepted(t, valid, last_t_ns, strict=False)
+    return _acceptance(a.size, in_time, None, (NON_FINITE_STRAIGHTNESS, ~finite),
+                       (NEGATIVE_STRAIGHTNESS, negative), (STRAIGHTNESS_ABOVE_MAX, above),
+                       (STRAIGHTNESS_TIME_BACKWARDS, valid & ~not_before),
+                       (MEASUREMENT_ALREADY_APPLIED, not_before & ~in_time))
 
 
 def load_at_joint_samples(joint_t_ns: np.ndarray, load_t_ns: np.ndarray, load_n: np.ndarray,
@@ -216,24 +393,30 @@ class AcceptedRun:
     load_t_ns: np.ndarray             # accepted loads of the chunk
     load_n: np.ndarray
     rejected: dict                    # {reason: count}: joint reasons, then load reasons
+    joints: Acceptance                # per-sample codes and the time bases after the chunk
+    loads: Acceptance
 
 
-def accept_run(run, last_joint_t_ns: int | None, last_load_t_ns: int | None,
-               last_load_n: float) -> AcceptedRun:
-    """Apply the joint and load rules to a chunk, given the last accepted joint stamp and load carried
-    from the samples before it, and align every accepted joint sample with its load."""
+def accept_run(run, last_joint_t_ns, last_load_t_ns, last_load_n: float,
+               limits: InputLimits = NO_LIMITS) -> AcceptedRun:
+    """Apply the joint and load rules to a chunk, given the time bases (:class:`StampBase` or last
+    accepted stamps) and the load carried from the samples before it, and align every accepted joint
+    sample with its load."""
     jt = np.asarray(run.joint_t_ns, dtype=np.int64)
-    joints = accept_joint_samples(jt, run.joint_position_m, run.joint_velocity_m_s, last_joint_t_ns)
+    joints = accept_joint_samples(jt, run.joint_position_m, run.joint_velocity_m_s, last_joint_t_ns, limits)
     lt = np.asarray(run.load_t_ns, dtype=np.int64)
-    loads = accept_load_samples(lt, run.load_n, last_load_t_ns)
+    loads = accept_load_samples(lt, run.load_n, last_load_t_ns, limits)
     jt = jt[joints.accepted]
     lt = lt[loads.accepted]
     lw = np.asarray(run.load_n, dtype=float)[loads.accepted]
+    prior_load_t = StampBase.of(last_load_t_ns).last_t_ns
     return AcceptedRun(
         joint_t_ns=jt,
         joint_position_m=np.asarray(run.joint_position_m, dtype=float)[joints.accepted],
-        load_at_joint_n=load_at_joint_samples(jt, lt, lw, last_load_t_ns, last_load_n),
+        load_at_joint_n=load_at_joint_samples(jt, lt, lw, prior_load_t, last_load_n),
         load_t_ns=lt,
         load_n=lw,
         rejected={**joints.rejected, **loads.rejected},
+        joints=joints,
+        loads=loads,
     )

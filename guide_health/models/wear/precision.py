@@ -9,6 +9,7 @@ and remaining precision life (seed 000 Eqs. 7, 10, 11, 12) with a 90 % interval.
 from __future__ import annotations
 
 import math
+from collections import Counter, deque
 from collections.abc import Callable
 from typing import Any
 
@@ -18,13 +19,19 @@ from guide_health.models.levels import Level
 from guide_health.models.wear.archard import WearGeometry, WearIntegrator, straightness_from_wear_volume_m
 from guide_health.models.wear.calibration import WearCoefficientEstimator, remaining_life_s
 from guide_health.models.wear.input_rules import (
+    REASON_CODES,
+    InputLimits,
     RejectionCounter,
+    StampBase,
     accept_run,
     check_joint_sample,
     check_load_sample,
     check_straightness_sample,
     main_way_load_n,
+    rejected_key,
 )
+
+STREAMS = ("joint_states", "guide/load")     # the inputs whose recent rejected share the status judges
 
 
 class PrecisionMonitor:
@@ -45,6 +52,12 @@ class PrecisionMonitor:
         self.load_n = math.nan           # latest accepted load
         self.load_t_ns: int | None = None
         self.rejected = RejectionCounter()   # by reason; the node counts its message-level reasons here too
+        self.limits = InputLimits.from_params(params)
+        self.joint_base = StampBase()         # time bases of the joint and load streams (input_rules)
+        self.load_base = StampBase()
+        # the last rejected_window_samples samples of each stream: None (accepted) or the rejection reason
+        window = int(params["rejected_window_samples"])
+        self.recent = {name: deque(maxlen=window) for name in STREAMS}
         self.load_samples = 0            # accepted load samples
         self.rolling = None
         if params.get("guide_type") == "rolling":
@@ -53,35 +66,61 @@ class PrecisionMonitor:
             self.rolling = RollingGuideMonitor(params)
 
     # --- input validation + live updates (O(1) per sample) ---------------------------------------
-    def on_joint(self, t_ns: int, position_m: float, velocity_m_s: float = 0.0) -> str | None:
-        """Axis sample; returns the rejection reason or None when accepted."""
-        reason = check_joint_sample(t_ns, position_m, velocity_m_s, self.integrator.last_t_ns)
-        if reason is not None:
-            return self.rejected.reject(reason)
+    def validate_joint(self, t_ns: int, position_m: float, velocity_m_s: float = 0.0) -> str | None:
+        """Apply the joint rules to an axis sample (counted, the time base moves on when accepted) without
+        integrating it; returns the rejection reason or None (the caller integrates it later)."""
+        reason, self.joint_base = check_joint_sample(t_ns, position_m, velocity_m_s, self.joint_base, self.limits)
+        return self._record("joint_states", reason)
+
+    def integrate_joint(self, t_ns: int, position_m: float) -> None:
+        """Integrate an axis sample accepted by :meth:`validate_joint` (main-way load: a lifting load is 0)."""
         self.integrator.advance(t_ns, position_m, main_way_load_n(self.load_n))
         if self.rolling is not None:
             self.rolling.advance(t_ns, position_m, self.load_n)
-        return None
+
+    def on_joint(self, t_ns: int, position_m: float, velocity_m_s: float = 0.0) -> str | None:
+        """Axis sample; returns the rejection reason or None when accepted."""
+        reason = self.validate_joint(t_ns, position_m, velocity_m_s)
+        if reason is None:
+            self.integrate_joint(t_ns, position_m)
+        return reason
+
+    def check_load(self, t_ns: int, load_n: float) -> str | None:
+        """The rejection reason :meth:`on_load` would give (nothing counted or changed)."""
+        return check_load_sample(t_ns, load_n, self.load_base, self.limits)[0]
 
     def on_load(self, t_ns: int, load_n: float) -> str | None:
         """Guide-load sample [N]; returns the rejection reason or None when accepted."""
-        reason = check_load_sample(t_ns, load_n, self.load_t_ns)
+        reason, self.load_base = check_load_sample(t_ns, load_n, self.load_base, self.limits)
         if reason is not None:
-            return self.rejected.reject(reason)
+            return self._record("guide/load", reason)
+        self._record("guide/load", None)
         self.load_n = float(load_n)
         self.load_t_ns = int(t_ns)
         self.load_samples += 1
         return None
 
     def on_straightness(self, t_ns: int, straightness_m: float) -> str | None:
-        """Straightness measurement [m]; returns the rejection reason or None when accepted."""
+        """Straightness measurement [m]; returns the rejection reason or None when accepted. A measurement
+        is identified by its stamp: one with the stamp of an applied measurement is not applied again."""
         times = self.estimator.measurement_t_ns
-        reason = check_straightness_sample(t_ns, straightness_m, times[-1] if times else None)
+        reason = check_straightness_sample(t_ns, straightness_m, times[-1] if times else None, self.limits)
         if reason is not None:
             return self.rejected.reject(reason)
         self.estimator.add(t_ns, straightness_m, self.integrator.straightness_loss_per_k_m(),
                            self.integrator.archard_work_nm)
         return None
+
+    def reject_input(self, stream: str, reason: str) -> str:
+        """Count a message-level rejection of an input stream (the live node: a JointState without the
+        joint, an undecodable message, ...); it counts in the stream's recent rejected share."""
+        return self._record(stream, reason)
+
+    def _record(self, stream: str, reason: str | None) -> str | None:
+        window = self.recent.get(stream)
+        if window is not None:
+            window.append(reason)
+        return None if reason is None else self.rejected.reject(reason)
 
     # --- offline, vectorised ----------------------------------------------------------------------
     def process_run(self, run, progress: Callable[[int, int], None] | None = None) -> None:
@@ -91,8 +130,12 @@ class PrecisionMonitor:
         found by binary search, and the integration is split at the measurement times so each
         measurement sees the wear state at its own time.
         """
-        accepted = accept_run(run, self.integrator.last_t_ns, self.load_t_ns, self.load_n)
+        accepted = accept_run(run, self.joint_base, self.load_base, self.load_n, self.limits)
         self.rejected.count_all(accepted.rejected)
+        self.joint_base, self.load_base = accepted.joints.base, accepted.loads.base
+        for stream, codes in (("joint_states", accepted.joints.codes), ("guide/load", accepted.loads.codes)):
+            window = self.recent[stream]
+            window.extend(REASON_CODES[c] for c in codes[-window.maxlen:].tolist())
         self.load_samples += int(accepted.load_t_ns.size)
         jt, jx, load_at_joint = accepted.joint_t_ns, accepted.joint_position_m, accepted.load_at_joint_n
 
@@ -182,6 +225,8 @@ class PrecisionMonitor:
             "samples": self.integrator.samples,
             "load_samples": self.load_samples,
             "rejected_samples": self.rejected.total,
+            "rejected_recent_share": self.recent_rejected_share()[0],
+            **{rejected_key(reason): n for reason, n in self.rejected.items()},
         }
         result["level"], result["message"] = self._judge(result)
         if self.rolling is not None:
@@ -193,12 +238,39 @@ class PrecisionMonitor:
                 result["message"] = f"{result['message']}; {text}"
         return result
 
+    def recent_rejected_share(self) -> tuple[float, str, str]:
+        """(share, stream, dominant reason) of the input stream with the largest share of rejected samples
+        among its last rejected_window_samples; (0, '', '') before any sample."""
+        best = (0.0, "", "")
+        for stream, window in self.recent.items():
+            reasons = Counter(r for r in window if r is not None)
+            if window and reasons:
+                share = sum(reasons.values()) / len(window)
+                if share > best[0]:
+                    best = (share, stream, reasons.most_common(1)[0][0])
+        return best
+
+    def _judge_inputs(self, level: Level, text: str) -> tuple[Level, str]:
+        """WARN when most recent input of a stream was rejected (rejected_share_warn), naming the reason."""
+        share, stream, reason = self.recent_rejected_share()
+        if share <= self.params["rejected_share_warn"]:
+            return level, text
+        window = len(self.recent[stream])
+        return max(level, Level.WARN), (f"{share:.0%} of the last {window} {stream} samples rejected "
+                                        f"({reason}); {text}")
+
     def _judge(self, r: dict) -> tuple[Level, str]:
+        return self._judge_inputs(*self._judge_precision(r))
+
+    def _judge_precision(self, r: dict) -> tuple[Level, str]:
         p = self.params
         a = r["straightness_um"]
         limit = r["straightness_limit_um"]
         life = r["remaining_life_h"]
         if math.isnan(a):
+            if self.integrator.samples == 0:
+                return Level.WARN, (f"no wear estimate yet: no joint_states sample of joint "
+                                    f"'{p['joint']}' accepted")
             return Level.WARN, "no wear estimate yet (waiting for motion and load)"
         level = Level.OK
         if a >= limit:
@@ -239,6 +311,8 @@ class PrecisionMonitor:
         self.load_n = state["load_n"]
         self.load_t_ns = state["load_t_ns"]
         self.load_samples = int(state.get("load_samples", 0))
+        self.joint_base = StampBase(self.integrator.last_t_ns)
+        self.load_base = StampBase(self.load_t_ns)
         if self.rolling is not None and state.get("rolling"):
             self.rolling.restore(state["rolling"])
 
