@@ -90,7 +90,9 @@ def main(argv: list[str] | None = None) -> int:
     from guide_health.sim.machine import simulate_machine
 
     rng = random.Random(args.seed)
-    env = isolated_ros_env(transports="UDPv4")      # a SIGKILLed node must not strand shared memory
+    # UDP only: a SIGKILLed node must not strand shared memory; a domain id above the tests' 1..100, so that
+    # test runs elsewhere on the host (same node and status names) do not answer this one
+    env = isolated_ros_env(domain_id=random.Random().randint(101, 232), transports="UDPv4")
     os.environ.update(env)
     params = wear_monitor_params(BENCH)
     with tempfile.TemporaryDirectory() as tmp:
@@ -170,11 +172,14 @@ def main(argv: list[str] | None = None) -> int:
                 played = play_bag(bag, env, ["--wait-subscribers", "1", "--max-rate", "0",
                                              "--start-after-ns", str(state["integrator"]["last_t_ns"])])
                 time.sleep(3 * CHECKPOINT_S)
+                last = collector.get(STATUS)
+                dup = last["values"].get("rejected: measurement already applied", "0") if last else "?"
                 os.kill(node.pid, signal.SIGKILL)
                 node.wait()
                 clean_fastdds_shm()
                 n_meas = len(read_checkpoint(state_db, params)["estimator"]["measurement_t_ns"])
-                print(f"end restart {again + 1}: {n_meas} measurements")
+                print(f"end restart {again + 1}: {n_meas} measurements, player rc {played.returncode}, "
+                      f"status 'rejected: measurement already applied' = {dup}")
         finally:
             collector.close()
             clean_fastdds_shm()
