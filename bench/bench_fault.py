@@ -10,7 +10,9 @@ node is SIGKILLed (no clean shutdown: only checkpoints survive) and the player s
 restarted, and the bag is played again from the checkpoint with `bag_player --start-after-ns <the
 checkpoint's last joint stamp>` (the documented resume procedure, docs/ros.md). After N kills the rest
 of the bag plays, the node stops cleanly and its last state is compared with the offline replay of the
-same bag. Printed:
+same bag. Then the node is restarted, resumed the same way and SIGKILLed --restarts-at-end (3) times more
+with the bag complete (the bag's last straightness message, logged after its last joint sample, plays
+again each time). Printed:
   - per kill: the checkpoint read back (parsed, restorable by PrecisionMonitor, measurement stamps
     strictly increasing, sliding distance and samples not below the previous checkpoint's);
   - measurements counted (live vs offline: a measurement counted twice makes live > offline);
@@ -41,7 +43,7 @@ RATE_HZ = 10.0
 
 
 def read_checkpoint(state_db: Path, params: dict) -> dict:
-    """The saved state, checked: parses, restores, measurement stamps strictly increasing."""
+    """The saved state, checked: parses, restores; says so when measurement stamps repeat."""
     from guide_health.models.wear.precision import PrecisionMonitor
 
     with sqlite3.connect(state_db) as db:
@@ -51,8 +53,9 @@ def read_checkpoint(state_db: Path, params: dict) -> dict:
     state = json.loads(rows[0][0])
     PrecisionMonitor(params).restore(state)
     stamps = state["estimator"]["measurement_t_ns"]
-    if any(b <= a for a, b in zip(stamps, stamps[1:])):
-        raise AssertionError(f"measurement stamps not strictly increasing: {stamps}")
+    twice = sum(b <= a for a, b in zip(stamps, stamps[1:]))
+    if twice:
+        print(f"  !! {twice} measurement(s) counted twice (stamps not strictly increasing)")
     return state
 
 
@@ -70,6 +73,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--kills", type=int, default=5)
     ap.add_argument("--hours", type=float, default=1.5)
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--restarts-at-end", type=int, default=3)
     args = ap.parse_args(argv)
 
     from guide_health.analysis.replay import analyse
@@ -87,7 +91,9 @@ def main(argv: list[str] | None = None) -> int:
     from guide_health.sim.machine import simulate_machine
 
     rng = random.Random(args.seed)
-    env = isolated_ros_env(transports="UDPv4")      # a SIGKILLed node must not strand shared memory
+    # UDP only: a SIGKILLed node must not strand shared memory; a domain id above the tests' 1..100, so that
+    # test runs elsewhere on the host (same node and status names) do not answer this one
+    env = isolated_ros_env(domain_id=random.Random().randint(101, 232), transports="UDPv4")
     os.environ.update(env)
     params = wear_monitor_params(BENCH)
     with tempfile.TemporaryDirectory() as tmp:
@@ -157,6 +163,24 @@ def main(argv: list[str] | None = None) -> int:
                 raise SystemExit(played.stderr)
             collector.wait_settled(STATUS, "sliding_distance_m", settle_s=2.0, timeout=120.0)
             stop_node(node)
+            # the bag is complete; restart and resume --restarts-at-end times more: the bag's last
+            # straightness message (logged after the last joint sample) plays again each time
+            for again in range(args.restarts_at_end):
+                state = read_checkpoint(state_db, params)
+                node = start_node("guide_health.nodes.wear_monitor", BENCH, overrides, env, tmp / f"end{again}.log")
+                if collector.wait_for(STATUS, resumed(state), timeout=60.0) is None:
+                    raise SystemExit(f"node did not come up: {(tmp / f'end{again}.log').read_text()}")
+                played = play_bag(bag, env, ["--wait-subscribers", "1", "--max-rate", "0",
+                                             "--start-after-ns", str(state["integrator"]["last_t_ns"])])
+                time.sleep(3 * CHECKPOINT_S)
+                last = collector.get(STATUS)
+                dup = last["values"].get("rejected: measurement already applied", "0") if last else "?"
+                os.kill(node.pid, signal.SIGKILL)
+                node.wait()
+                clean_fastdds_shm()
+                n_meas = len(read_checkpoint(state_db, params)["estimator"]["measurement_t_ns"])
+                print(f"end restart {again + 1}: {n_meas} measurements, player rc {played.returncode}, "
+                      f"status 'rejected: measurement already applied' = {dup}")
         finally:
             collector.close()
             clean_fastdds_shm()
