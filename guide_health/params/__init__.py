@@ -21,11 +21,13 @@ from guide_health.params.ros import declare_parameters, descriptor_for
 from guide_health.params.schema import NodeSchema, Param, check_unknown_keys, markdown_table
 from guide_health.params.simulation import SIMULATION_SCHEMA, SLEWING_SIMULATION_SCHEMA, slewing_simulation_params
 from guide_health.params.slewing_monitor import SLEWING_MONITOR_SCHEMA, validate_slewing_params
+from guide_health.params.vibration_monitor import LIFE_TEST_SIMULATION_SCHEMA, VIBRATION_MONITOR_SCHEMA
 from guide_health.params.wear_monitor import WEAR_MONITOR_SCHEMA, validate_wear_params
 
 #: every schema by its YAML section / node name
 SCHEMAS: dict[str, NodeSchema] = {s.section: s for s in (
-    WEAR_MONITOR_SCHEMA, SLEWING_MONITOR_SCHEMA, FLEET_MONITOR_SCHEMA, SIMULATION_SCHEMA, SLEWING_SIMULATION_SCHEMA)}
+    WEAR_MONITOR_SCHEMA, SLEWING_MONITOR_SCHEMA, FLEET_MONITOR_SCHEMA, SIMULATION_SCHEMA, SLEWING_SIMULATION_SCHEMA,
+    VIBRATION_MONITOR_SCHEMA, LIFE_TEST_SIMULATION_SCHEMA)}
 
 WEAR_MONITOR_DEFAULTS = WEAR_MONITOR_SCHEMA.defaults()
 SLEWING_MONITOR_DEFAULTS = SLEWING_MONITOR_SCHEMA.defaults()
