@@ -169,3 +169,19 @@ def test_item8_von_mises_surface_and_subsurface_are_both_reported_and_named():
         assert report["von_mises_max_MPa"] == report["von_mises_subsurface_max_MPa"]       # the old key, kept
         assert report["von_mises_subsurface_max_MPa"] / report["von_mises_surface_seed003_end_MPa"] == \
             pytest.approx(0.5656 / 0.40927, rel=0.002)     # off-axis maximum with f = 0.1
+
+
+# --- item 4: pin-on-disc estimator ---------------------------------------------------------------------------------
+def test_item4_ratio_estimator_reproduces_the_published_pin_on_disc_fit():
+    """Seed 000 Table 2 (copied into config/pin_on_disc_seed000.csv): the ratio estimator sum(gamma)/sum(W v)
+    gives the published c = 2.22e-14 (K = 4.422e-6 with H = 199e6); unweighted OLS gives +1.8 %."""
+    from guide_health.models.wear.calibration import fit_pin_on_disc
+
+    rows = np.genfromtxt(ROOT / "config" / "pin_on_disc_seed000.csv", delimiter=",", names=True)
+    args = (rows["speed_m_s"], rows["load_n"], rows["wear_rate_m3_s"], 199e6)
+    ratio = fit_pin_on_disc(*args, estimator="ratio")
+    ols = fit_pin_on_disc(*args)
+    assert ratio.wear_rate_per_load_speed == pytest.approx(2.22e-14, rel=0.002)
+    assert ratio.wear_coefficient == pytest.approx(4.422e-6, rel=0.001)
+    assert ols.wear_coefficient / ratio.wear_coefficient == pytest.approx(1.018, abs=0.002)
+    assert ratio.wear_coefficient_ci95[0] < 4.42e-6 < ratio.wear_coefficient_ci95[1]
