@@ -173,3 +173,33 @@ def test_item8_von_mises_surface_and_subsurface_are_both_reported_and_named():
         assert report["von_mises_max_MPa"] == report["von_mises_subsurface_max_MPa"]       # the old key, kept
         assert report["von_mises_subsurface_max_MPa"] / report["von_mises_surface_seed003_end_MPa"] == \
             pytest.approx(0.5656 / 0.40927, rel=0.002)     # off-axis maximum with f = 0.1
+
+
+# --- item 4: pin-on-disc estimator ---------------------------------------------------------------------------------
+def test_item4_ratio_estimator_reproduces_the_published_pin_on_disc_fit():
+    """Seed 000 Table 2 (copied into config/pin_on_disc_seed000.csv): the ratio estimator sum(gamma)/sum(W v)
+    gives the published c = 2.22e-14 (K = 4.422e-6 with H = 199e6); unweighted OLS gives +1.8 %."""
+    from guide_health.models.wear.calibration import fit_pin_on_disc
+
+    rows = np.genfromtxt(ROOT / "config" / "pin_on_disc_seed000.csv", delimiter=",", names=True)
+    args = (rows["speed_m_s"], rows["load_n"], rows["wear_rate_m3_s"], 199e6)
+    ratio = fit_pin_on_disc(*args, estimator="ratio")
+    ols = fit_pin_on_disc(*args)
+    assert ratio.wear_rate_per_load_speed == pytest.approx(2.22e-14, rel=0.002)
+    assert ratio.wear_coefficient == pytest.approx(4.422e-6, rel=0.001)
+    assert ols.wear_coefficient / ratio.wear_coefficient == pytest.approx(1.018, abs=0.002)
+    assert ratio.wear_coefficient_ci95[0] < 4.42e-6 < ratio.wear_coefficient_ci95[1]
+
+
+# --- item 3: hardness units ------------------------------------------------------------------------------------
+def test_item3_real_hardness_with_the_seed_k_warns():
+    """Seed 000's 199 N/mm^2 is HB 199 (about 1.95 GPa): K = 4.42e-6 belongs with H = 199e6."""
+    from guide_health.params.wear_monitor import WEAR_MONITOR_SCHEMA, hardness_units_warning
+
+    p = sliding_params()
+    assert hardness_units_warning(p) is None                                 # the seed's self-consistent pair
+    message = hardness_units_warning({**p, "hardness_pa": 1.95e9})
+    assert "9.8x too low" in message and "4.33e-05" in message
+    assert hardness_units_warning({**p, "hardness_pa": 1.95e9, "wear_coefficient": 4.33e-5}) is None
+    described = {q.name: q.description for q in WEAR_MONITOR_SCHEMA.params}
+    assert "Brinell" in described["hardness_pa"]

@@ -21,8 +21,12 @@ SLIDING_GUIDE_PARAMS = (
     Param("guide_type", "sliding", "", "", "sliding (seed 000 Archard wear) or rolling (seed 001 ball guide)",
           choices=("sliding", "rolling")),
     Param("contact_width_m", 0.040, "m", "(0, 10]", "b, width of the sliding contact"),
-    Param("hardness_pa", 199.0e6, "Pa", "[1e6, 1e11]", "H of the softer (worn) surface (seed 000: HT200)"),
-    Param("wear_coefficient", 4.42e-6, "-", "[1e-12, 1e-1]", "K, dimensionless Archard wear coefficient"),
+    Param("hardness_pa", 199.0e6, "Pa", "[1e6, 1e11]",
+          "H of the softer (worn) surface. NOTE: seed 000's '199 N/mm^2' for HT200 is a Brinell NUMBER (HB 199, a "
+          "real hardness of about 1.95e9 Pa); only K/H enters the model, so K = 4.42e-6 belongs with H = 199e6. "
+          "With a real hardness in Pa, scale K by the same factor (about 4.3e-5) or the wear is ~10x too low"),
+    Param("wear_coefficient", 4.42e-6, "-", "[1e-12, 1e-1]",
+          "K, dimensionless Archard wear coefficient; a pair with hardness_pa (seed 000: 4.42e-6 with H = 199e6)"),
     Param("stroke_min_m", 0.0, "m", "[0, 100]", "l_min, shortest stroke; 0 = estimate from the observed strokes"),
     Param("stroke_max_m", 0.0, "m", "[0, 100]", "l_max, longest stroke; 0 = estimate from the observed strokes"),
     Param("stroke_detect_min_m", 0.005, "m", "[0, 1]", "reversal hysteresis: reversals closer than this are jitter"),
@@ -163,6 +167,21 @@ def _wear_all_checks(p: dict[str, Any]) -> None:
     _wear_cross_checks(p)
     WEAR_MONITOR_SCHEMA.check_ranges(p)     # ranges first: the orders below compare in-range numbers
     _wear_threshold_checks(p)
+
+
+SEED000_WEAR_COEFFICIENT = 4.42e-6      # seed 000 pin-on-disc K, fitted with H = 199e6 (HB 199 read as N/mm^2)
+REAL_HARDNESS_PA = 1.0e9                 # above this, hardness_pa looks like a real hardness, not the HB number
+
+
+def hardness_units_warning(p: dict[str, Any]) -> str | None:
+    """A one-line start-up warning when hardness_pa looks like a real hardness (> 1e9 Pa) while K is the seed's
+    4.42e-6, which was fitted with H = 199e6 (the Brinell number): the pair gives about 10x too little wear."""
+    h, k = float(p["hardness_pa"]), float(p["wear_coefficient"])
+    if h > REAL_HARDNESS_PA and abs(k - SEED000_WEAR_COEFFICIENT) <= 0.01 * SEED000_WEAR_COEFFICIENT:
+        return (f"hardness_pa = {h:.3g} Pa looks like a real hardness, but wear_coefficient = {k:.3g} is seed 000's "
+                f"K fitted with H = 199e6 (HB 199 read as N/mm^2): wear is {h / 199e6:.1f}x too low; use "
+                f"wear_coefficient = {k * h / 199e6:.3g} with this H, or H = 199e6")
+    return None
 
 
 WEAR_MONITOR_SCHEMA = NodeSchema("wear_monitor", SLIDING_GUIDE_PARAMS + ROLLING_GUIDE_PARAMS, _wear_all_checks)
