@@ -31,7 +31,8 @@ ALL_PARAMS = [(s, p) for s in SCHEMAS.values() for p in s.params]
 
 def test_every_loaded_section_has_a_schema():
     assert set(SCHEMAS) == {"wear_monitor", "slewing_monitor", "fleet_monitor", "guide_health_simulation",
-                            "guide_health_slewing_simulation"}
+                            "guide_health_slewing_simulation", "vibration_monitor",
+                            "guide_health_life_test_simulation"}
 
 
 @pytest.mark.parametrize("schema,param", ALL_PARAMS, ids=[f"{s.section}.{p.name}" for s, p in ALL_PARAMS])
