@@ -134,3 +134,35 @@ def test_bad_blocks_leave_the_state_unchanged():
         with pytest.raises(ValueError):
             signs.update_block(*args)
     assert repr(signs.summary()) == repr(before) and len(signs.bands.shapes) == 5
+
+
+def test_chain_from_a_bag_reproduces_0_624(tmp_path):
+    from guide_health.analysis.life_signs import life_test_from_bag
+    from guide_health.errors import InputError
+    from guide_health.io.bag_writer import write_life_test_bag
+
+    p = bench_params(failure_km=450.0, load_fraction=0.3, block_every_m=5000.0)
+    write_life_test_bag(simulate_life_test(p, seed=0), tmp_path / "bag")
+    out = life_test_from_bag(tmp_path / "bag", SCHEMAS["vibration_monitor"].defaults() | {"load_fraction": 0.3})
+    assert out["failure_travel_km"] == pytest.approx(450.0, abs=5.0)
+    assert out["c_ratio"] == pytest.approx(0.624, abs=0.003)
+    assert out["defect"] == "raceway" and out["level"] == "ERROR"
+    with pytest.raises(InputError):
+        life_test_from_bag(tmp_path / "missing", p)
+
+
+def test_cli_simulate_life_test_and_life_test_bag(tmp_path, capsys):
+    import json
+
+    from guide_health.cli.app import main
+
+    cfg = tmp_path / "p.yaml"
+    cfg.write_text("vibration_monitor:\n  ros__parameters:\n    load_fraction: 0.3\n"
+                   "guide_health_life_test_simulation:\n  ros__parameters:\n    failure_km: 450.0\n"
+                   "    block_every_m: 5000.0\n")
+    bag = tmp_path / "bag"
+    assert main(["simulate", "--kind", "life-test", "--params", str(cfg), "--out", str(bag), "--json"]) in (0, None)
+    capsys.readouterr()
+    assert main(["life", "test", str(bag), "--params", str(cfg), "--json"]) in (0, None)
+    out = json.loads(capsys.readouterr().out)
+    assert out["c_ratio"] == pytest.approx(0.624, abs=0.003) and out["failure_interval_km"] == [445.0, 450.0]

@@ -65,3 +65,53 @@ def weibull_of_specimens(intervals_km: list[tuple[float, float]], p: dict, confi
             "c_ratio": lm.c_ratio_from_life(p["load_fraction"], fit.b_life_km, p["rating_distance_km"]),
             "c_ratio_ci": [lm.c_ratio_from_life(p["load_fraction"], b, p["rating_distance_km"])
                            for b in fit.b_life_ci_km]}
+
+
+def read_life_test_bag(path) -> dict:
+    """Blocks and sound levels of a life-test bag (``guide/acceleration`` sensor_msgs/LaserScan,
+    ``guide/sound_pressure`` sensor_msgs/FluidPressure); InputError on a missing bag or topic."""
+    from rosbags.rosbag2 import Reader
+
+    from guide_health.errors import InputError
+    from guide_health.io.bag_writer import SOUND_LEVEL_REFERENCE_PA
+    from guide_health.io.typestore import typestore
+
+    store = typestore()
+    out = {"block_t_ns": [], "blocks": [], "level_t_ns": [], "level_db": [], "sample_rate_hz": None}
+    try:
+        reader = Reader(path)
+        reader.open()
+    except Exception as exc:  # noqa: BLE001 - any unreadable bag is one line
+        raise InputError(f"cannot open life-test bag {path}: {str(exc).splitlines()[0] if str(exc) else exc}") from None
+    try:
+        for conn, _t, raw in reader.messages():
+            if conn.topic.endswith("guide/acceleration") and conn.msgtype == "sensor_msgs/msg/LaserScan":
+                m = store.deserialize_cdr(raw, conn.msgtype)
+                out["block_t_ns"].append(m.header.stamp.sec * 1_000_000_000 + m.header.stamp.nanosec)
+                out["blocks"].append(np.asarray(m.ranges, dtype=float))
+                out["sample_rate_hz"] = 1.0 / m.time_increment if m.time_increment > 0 else None
+            elif conn.topic.endswith("guide/sound_pressure") and conn.msgtype == "sensor_msgs/msg/FluidPressure":
+                m = store.deserialize_cdr(raw, conn.msgtype)
+                if m.fluid_pressure > 0:
+                    out["level_t_ns"].append(m.header.stamp.sec * 1_000_000_000 + m.header.stamp.nanosec)
+                    out["level_db"].append(20.0 * math.log10(m.fluid_pressure / SOUND_LEVEL_REFERENCE_PA))
+    finally:
+        reader.close()
+    if not out["blocks"]:
+        raise InputError(f"{path}: no guide/acceleration (sensor_msgs/msg/LaserScan) blocks")
+    return out
+
+
+def life_test_from_bag(path, p: dict) -> dict:
+    """The seed's chain from a bag: failure travel from the recorded signs -> C_test / C (seed 004 Eq. 5)."""
+    from guide_health.errors import InputError
+
+    d = read_life_test_bag(path)
+    if d["sample_rate_hz"] and abs(d["sample_rate_hz"] - p["sample_rate_hz"]) > 1e-6 * p["sample_rate_hz"]:
+        raise InputError(f"{path}: blocks at {d['sample_rate_hz']:g} Hz, sample_rate_hz is {p['sample_rate_hz']:g}")
+    try:
+        signs = detect_life_signs(p, np.array(d["block_t_ns"]), d["blocks"], np.array(d["level_t_ns"]),
+                                  np.array(d["level_db"]))
+    except ValueError as exc:
+        raise InputError(f"{path}: {exc}") from None
+    return signs.summary() | {"c_ratio": c_ratio_of(signs, p), "load_fraction": p["load_fraction"]}

@@ -64,10 +64,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                    help="wear_monitor parameters YAML (C, rolling_element, life_factors, rating_distance_km)")
     _add_rating_options(p, element_default=None)
 
-    p = mode("test", "C_test / C from one life-test result (seed 004 Eq. 5)")
-    p.add_argument("--load-fraction", type=float, required=True, metavar="F_OVER_C",
+    p = mode("test", "C_test / C from one life-test result (seed 004 Eq. 5), or from a life-test BAG")
+    p.add_argument("bag", nargs="?", default=None, metavar="BAG",
+                   help="life-test bag: the failure travel is detected from its sound level and vibration "
+                        "(docs/vibration.md); --params gives the vibration_monitor section")
+    p.add_argument("--params", default=None, metavar="FILE", help="parameters YAML (with BAG)")
+    p.add_argument("--load-fraction", type=float, default=None, metavar="F_OVER_C",
                    help="test load as a fraction of the catalogue C (e.g. 0.30)")
-    p.add_argument("--life-km", type=float, required=True, metavar="KM", help="test life [km]")
+    p.add_argument("--life-km", type=float, default=None, metavar="KM", help="test life [km] (without BAG)")
     p.add_argument("--weibull-shape", type=float, default=None, metavar="BETA",
                    help="also treat the single life as a median and convert it to B10 with this Weibull shape")
     _add_rating_options(p)
@@ -180,7 +184,22 @@ def _test_load(load_fraction: float, s: dict) -> LifeTestLoad:
     return LifeTestLoad(load_fraction, s["rating_distance_km"], s["exponent"], s["life_factors"])
 
 
+def _run_test_bag(args) -> dict:
+    from guide_health.analysis.life_signs import life_test_from_bag
+    from guide_health.params import SCHEMAS
+
+    section = SCHEMAS["vibration_monitor"]
+    p = load_node_params(args.params, section.section, section.defaults()) if args.params else section.defaults()
+    if args.load_fraction is not None:
+        p["load_fraction"] = _positive(args.load_fraction, "--load-fraction")
+    return {"mode": "test", "bag": args.bag} | life_test_from_bag(args.bag, p)
+
+
 def _run_test(args) -> dict:
+    if args.bag is not None:
+        return _run_test_bag(args)
+    if args.life_km is None or args.load_fraction is None:
+        raise InputError("life test needs --load-fraction and --life-km (or a life-test BAG)")
     s = _rating_setup(args, from_params=False)
     frac = _positive(args.load_fraction, "--load-fraction")
     life = _positive(args.life_km, "--life-km")

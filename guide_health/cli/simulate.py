@@ -14,9 +14,11 @@ from guide_health.sim.machine import parse_effects, simulate_machine
 def add_arguments(parser) -> None:
     parser.add_argument("--params", required=True,
                         help="ROS 2 parameters YAML (wear_monitor + guide_health_simulation)")
-    parser.add_argument("--kind", choices=("machine", "slewing"), default="machine",
+    parser.add_argument("--kind", choices=("machine", "slewing", "life-test"), default="machine",
                         help="machine: axis motion, guide load, straightness; slewing: slewing/load of a crane "
-                             "duty (the params file's guide_health_slewing_simulation section, if any)")
+                             "duty (the params file's guide_health_slewing_simulation section, if any); life-test: "
+                             "a seed-004 accelerated life test (sound level and accelerometer blocks; sections "
+                             "vibration_monitor and guide_health_life_test_simulation)")
     parser.add_argument("--out", required=True, help="bag directory to create (must not exist)")
     parser.add_argument("--storage", choices=("sqlite3", "mcap"), default="sqlite3")
     parser.add_argument("--hours", type=float, help="duration [h] (default: duration_h of the params file)")
@@ -61,11 +63,28 @@ def run_slewing(args) -> dict:
             "duration_h": float(sim["duration_h"]), "load_rate_hz": float(sim["load_rate_hz"])}
 
 
+def run_life_test(args) -> dict:
+    from guide_health.io.bag_writer import write_life_test_bag
+    from guide_health.params import SCHEMAS, load_node_params
+    from guide_health.sim.life_test import simulate_life_test
+
+    p = {}
+    for section in ("vibration_monitor", "guide_health_life_test_simulation"):
+        p.update(load_node_params(args.params, section, SCHEMAS[section].defaults()))
+    out = new_bag_path(args.out)
+    record = simulate_life_test(p, seed=args.seed)
+    write_life_test_bag(record, out, storage=args.storage, namespace=args.namespace)
+    return {"bag": str(out), "kind": "life-test", "blocks": int(record.t_ns.size),
+            "sound_levels": int(record.level_t_ns.size), **record.metadata["truth"]}
+
+
 def run(args) -> dict:
     from guide_health.io.bag_writer import write_machine_bag
 
     if args.kind == "slewing":
         return run_slewing(args)
+    if args.kind == "life-test":
+        return run_life_test(args)
 
     params = wear_monitor_params(args.params)
     sim = simulation_params(args.params)

@@ -167,3 +167,37 @@ def write_slewing_bag(run: SlewingLoadRun, path, storage: str = "sqlite3", names
 
 
 # ---------------------------------------------------------------------------------------------
+
+
+SOUND_LEVEL_REFERENCE_PA = 20e-6      # 0 dB SPL
+
+
+def write_life_test_bag(record, path, storage: str = "sqlite3", namespace: str = "") -> Path:
+    """A simulated life test (sim/life_test.py LifeTestRecord) as a bag: ``guide/sound_pressure``
+    sensor_msgs/FluidPressure (rms sound pressure [Pa] = 20 uPa 10^(L/20), header-stamped) and
+    ``guide/acceleration`` sensor_msgs/LaserScan blocks (ranges = acceleration [m/s^2], header stamp = first
+    sample, time_increment = 1/fs: the block carries its sample rate)."""
+    from .typestore import header, message
+
+    fs = float(record.sample_rate_hz)
+    n = record.blocks.shape[1] if record.blocks.ndim == 2 else 0
+    store = typestore()
+
+    def pressure(idx):
+        return [store.serialize_cdr(message(
+            "sensor_msgs/msg/FluidPressure", header=header(int(record.level_t_ns[i])),
+            fluid_pressure=SOUND_LEVEL_REFERENCE_PA * 10 ** (float(record.level_db[i]) / 20.0), variance=0.0),
+            "sensor_msgs/msg/FluidPressure").tobytes() for i in idx]
+
+    def blocks(idx):
+        return [store.serialize_cdr(message(
+            "sensor_msgs/msg/LaserScan", header=header(int(record.t_ns[i])), angle_min=0.0, angle_max=0.0,
+            angle_increment=0.0, time_increment=1.0 / fs, scan_time=n / fs, range_min=-1e6, range_max=1e6,
+            ranges=np.asarray(record.blocks[i], dtype=np.float32), intensities=np.zeros(0, np.float32)),
+            "sensor_msgs/msg/LaserScan").tobytes() for i in idx]
+
+    series = [_TopicSeries(topic_name(namespace, "guide/sound_pressure"), "sensor_msgs/msg/FluidPressure",
+                           np.asarray(record.level_t_ns, np.int64), pressure),
+              _TopicSeries(topic_name(namespace, "guide/acceleration"), "sensor_msgs/msg/LaserScan",
+                           np.asarray(record.t_ns, np.int64), blocks)]
+    return _write_bag(series, path, storage, record.metadata)
