@@ -30,6 +30,9 @@ SLIDING_GUIDE_PARAMS = (
     Param("stroke_min_m", 0.0, "m", "[0, 100]", "l_min, shortest stroke; 0 = estimate from the observed strokes"),
     Param("stroke_max_m", 0.0, "m", "[0, 100]", "l_max, longest stroke; 0 = estimate from the observed strokes"),
     Param("stroke_detect_min_m", 0.005, "m", "[0, 1]", "reversal hysteresis: reversals closer than this are jitter"),
+    Param("sliding_deadband_m", 10.0e-6, "m", "[0, 0.01]",
+          "sliding deadband: a reversal of motion shorter than this is encoder noise, not sliding "
+          "(about 10 x the position noise sd; 0 = every change of position slides)"),
     Param("straightness_initial_m", 15.0e-6, "m", "[0, 0.01]", "A0, straightness of the new guide"),
     Param("straightness_limit_m", 100.0e-6, "m", "(0, 0.01]", "A_max, absolute straightness limit"),
     Param("straightness_model", "eq7", "", "", "eq7 (seed 000 Eq. 7) or profile (wear depth along the rail)",

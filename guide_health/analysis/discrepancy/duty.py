@@ -2,7 +2,9 @@
 
 Samples count by the input rules of the precision monitor (:mod:`guide_health.models.wear.input_rules`,
 the same functions), so ``diagnose`` sees the data ``replay`` sees. Every pair of consecutive accepted
-axis samples is a sliding segment: distance ds = |dx|, speed ds/dt, load W = the latest accepted load
+axis samples is a sliding segment: distance ds = |dx| of the positions after the sliding deadband
+(:func:`guide_health.models.wear.archard.sliding_positions_m`, as in the live monitor), speed ds/dt,
+load W = the latest accepted load
 stamped at or before the segment's end sample, direction, and the length L of the pass (monotone run of
 the axis) it belongs to; before the first accepted load the distance counts and the wear does not.
 Segments are summed into cells of (time block, direction, speed bin, load bin): bins 10 % wide in log
@@ -25,6 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from guide_health.models.wear.archard import sliding_positions_m
 from guide_health.models.wear.effects import pass_weight_per_m
 from guide_health.models.wear.input_rules import (
     NO_LIMITS,
@@ -35,6 +38,7 @@ from guide_health.models.wear.input_rules import (
     accept_straightness_samples,
     main_way_load_n,
 )
+from guide_health.params import WEAR_MONITOR_DEFAULTS
 from guide_health.runs import MachineRun
 
 # per-cell sums: work-weighted where the name says *_w
@@ -82,11 +86,14 @@ class DutyCellAccumulator:
     """Builds :class:`DutyCells` from consecutive MachineRun chunks of one machine."""
 
     def __init__(self, slider_length_m: float, block_s: float = 30.0, log_bin: float = 0.1,
-                 limits: InputLimits = NO_LIMITS):
+                 limits: InputLimits = NO_LIMITS,
+                 sliding_deadband_m: float = WEAR_MONITOR_DEFAULTS["sliding_deadband_m"]):
         self.slider_length_m = float(slider_length_m)
         self.limits = limits                   # the input rules' plausibility limits (InputLimits.from_params)
         self._joint_base = StampBase()         # time bases of the joint and load streams
         self._load_base = StampBase()
+        self.sliding_deadband_m = float(sliding_deadband_m)
+        self._direction = 0                    # of motion after the last sample (sliding_positions_m)
         self.block_s = float(block_s)
         self.log_bin = float(log_bin)
         self.t0_ns: int | None = None
@@ -142,9 +149,12 @@ class DutyCellAccumulator:
     def _add_segments(self, jt: np.ndarray, x: np.ndarray, load: np.ndarray) -> None:
         """Segments ending at the accepted joint samples ``jt`` (stamps increasing, positions finite)."""
         if self._last_t_ns is not None:
+            x, self._direction = sliding_positions_m(x, self._last_x, self._direction, self.sliding_deadband_m)
             t_all = np.concatenate(([self._last_t_ns], jt))
             x_all = np.concatenate(([self._last_x], x))
         else:
+            rest, self._direction = sliding_positions_m(x[1:], float(x[0]), 0, self.sliding_deadband_m)
+            x = np.concatenate((x[:1], rest))
             t_all, x_all = jt, x
         self._last_t_ns, self._last_x = int(jt[-1]), float(x[-1])
         if t_all.size < 2:
@@ -287,9 +297,10 @@ class DutyCellAccumulator:
 
 
 def duty_cells_from_runs(runs, slider_length_m: float, block_s: float = 30.0,
-                         limits: InputLimits = NO_LIMITS) -> DutyCells:
+                         limits: InputLimits = NO_LIMITS,
+                         sliding_deadband_m: float = WEAR_MONITOR_DEFAULTS["sliding_deadband_m"]) -> DutyCells:
     """:class:`DutyCells` of an iterable of MachineRun chunks (or a single MachineRun)."""
-    acc = DutyCellAccumulator(slider_length_m, block_s=block_s, limits=limits)
+    acc = DutyCellAccumulator(slider_length_m, block_s=block_s, limits=limits, sliding_deadband_m=sliding_deadband_m)
     if isinstance(runs, MachineRun):
         runs = [runs]
     for run in runs:
@@ -301,7 +312,8 @@ def read_duty_cells(bag, params: dict, namespace: str | None = None, progress=No
     """Stream a machine bag into duty cells (memory bounded by one chunk); (cells, messages read)."""
     from guide_health.io.bag_reader import iter_machine_bag
 
-    acc = DutyCellAccumulator(params["slider_length_m"], limits=InputLimits.from_params(params))
+    acc = DutyCellAccumulator(params["slider_length_m"], limits=InputLimits.from_params(params),
+                              sliding_deadband_m=params["sliding_deadband_m"])
     messages = 0
     for chunk in iter_machine_bag(bag, joint=params["joint"], namespace=namespace, progress=progress):
         acc.add(chunk)

@@ -70,6 +70,64 @@ def precision_life_eq12_s(straightness_allowed_m: float, stroke_min_m: float, st
 
 
 # ---------------------------------------------------------------------------------------------
+# Sliding deadband: standstill encoder noise is not sliding
+# ---------------------------------------------------------------------------------------------
+
+
+def _play_operator_m(position_m: np.ndarray, previous_m: float, half_width_m: float) -> np.ndarray:
+    """Play (backlash) operator y_k = clamp(y_{k-1}, x_k - d, x_k + d), y_{-1} = ``previous_m``.
+
+    Vectorised: a composition of clamps is a clamp, so the prefix compositions come from a Hillis-Steele
+    scan of (lo, hi) pairs; an element leaves the scan once its composition is a constant (a step
+    |dx| > 2 d: every sample of steady motion) or covers the whole prefix, so the scan only runs long over
+    standstills.
+    """
+    lo = position_m - half_width_m
+    hi = position_m + half_width_m
+    open_ = np.arange(1, position_m.size)
+    shift = 1
+    while open_.size:
+        j = open_ - shift
+        lo_i, hi_i = lo[open_], hi[open_]
+        new_lo = np.clip(lo[j], lo_i, hi_i)
+        new_hi = np.clip(hi[j], lo_i, hi_i)
+        lo[open_], hi[open_] = new_lo, new_hi
+        shift *= 2
+        open_ = open_[(open_ >= shift) & (new_lo < new_hi)]
+    return np.clip(previous_m, lo, hi)
+
+
+def sliding_positions_m(position_m: np.ndarray, previous_m: float, previous_direction: int,
+                        deadband_m: float) -> tuple[np.ndarray, int]:
+    """Positions that count as sliding, and the direction of motion at the last one.
+
+    A reversal of the direction of motion counts only once the axis has gone back by more than
+    ``deadband_m`` (h) from its extreme; then the whole way back counts. Jitter of less than h at a
+    standstill or in a reversal is not sliding (encoder noise and resolution). Clean motion is unchanged:
+    y = x whenever the axis moves on in its direction or has turned by more than h.
+
+    It is the play operator of half-width h/2 (P) shifted by h/2 in its direction of motion:
+    y_k = P_k + (h/2) dir_k, dir_k the sign of the last change of P. ``previous_m`` and
+    ``previous_direction`` (+1, -1, 0 = none yet) are the state after the previous sample (y and dir).
+    Every path that turns axis samples into sliding (the live integrator, replay, the duty cells of
+    ``diagnose``) calls this function.
+    """
+    x = np.asarray(position_m, dtype=float)
+    if deadband_m <= 0.0 or x.size == 0:
+        return x, previous_direction
+    half = 0.5 * deadband_m
+    play = _play_operator_m(x, previous_m - half * previous_direction, half)
+    step = np.sign(np.diff(np.concatenate(([previous_m - half * previous_direction], play))))
+    moved = np.flatnonzero(step)
+    last = np.full(x.size, -1)
+    last[moved] = moved
+    last = np.maximum.accumulate(last)
+    direction = np.where(last >= 0, step[np.maximum(last, 0)], previous_direction)
+    y = np.where(direction != 0, play + half * direction, previous_m)
+    return y, int(direction[-1])
+
+
+# ---------------------------------------------------------------------------------------------
 # Wear integrator
 # ---------------------------------------------------------------------------------------------
 
@@ -89,6 +147,7 @@ class WearGeometry:
     straightness_model: str = "eq7"   # eq7 | profile
     stroke_detect_min_m: float = 0.005
     duty_window_s: float = 3600.0
+    sliding_deadband_m: float = 0.0   # reversals shorter than this are not sliding (sliding_positions_m)
 
     @classmethod
     def from_params(cls, params: dict) -> WearGeometry:
@@ -123,7 +182,8 @@ class WearIntegrator:
 
     geometry: WearGeometry
     last_t_ns: int | None = None
-    last_position_m: float = math.nan
+    last_position_m: float = math.nan        # the last sliding position (sliding_positions_m)
+    sliding_direction: int = 0               # +1 / -1 / 0 (none yet) after the last sample
     first_t_ns: int | None = None
     sliding_distance_m: float = 0.0
     archard_work_nm: float = 0.0             # sum W |dx|
@@ -165,6 +225,9 @@ class WearIntegrator:
         if self.last_t_ns is None:
             self.first_t_ns = int(t_ns)
         else:
+            y, self.sliding_direction = sliding_positions_m(np.array([x]), self.last_position_m,
+                                                            self.sliding_direction, self.geometry.sliding_deadband_m)
+            x = float(y[0])
             self._segment(t_ns, self.last_position_m, x, load_n)
         self.strokes.update(x)
         self.last_t_ns = int(t_ns)
@@ -198,12 +261,16 @@ class WearIntegrator:
         w = np.asarray(load_n, dtype=float)
         if x.size == 0:
             return
+        deadband = self.geometry.sliding_deadband_m
         if self.last_t_ns is None:
             self.first_t_ns = int(t_ns[0])
-            xs = x
+            y, self.sliding_direction = sliding_positions_m(x[1:], float(x[0]), 0, deadband)
+            x = xs = np.concatenate((x[:1], y))
             seg_t = t_ns[1:]
             seg_w = w[1:]
         else:
+            x, self.sliding_direction = sliding_positions_m(x, self.last_position_m, self.sliding_direction,
+                                                            deadband)
             xs = np.concatenate(([self.last_position_m], x))
             seg_t = t_ns
             seg_w = w
@@ -301,6 +368,7 @@ class WearIntegrator:
         return {
             "last_t_ns": self.last_t_ns,
             "last_position_m": self.last_position_m,
+            "sliding_direction": self.sliding_direction,
             "first_t_ns": self.first_t_ns,
             "sliding_distance_m": self.sliding_distance_m,
             "archard_work_nm": self.archard_work_nm,
@@ -320,6 +388,7 @@ class WearIntegrator:
             geometry=geometry,
             last_t_ns=state["last_t_ns"],
             last_position_m=state["last_position_m"],
+            sliding_direction=int(state.get("sliding_direction", 0)),
             first_t_ns=state["first_t_ns"],
             sliding_distance_m=state["sliding_distance_m"],
             archard_work_nm=state["archard_work_nm"],
