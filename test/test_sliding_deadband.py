@@ -122,3 +122,19 @@ def test_clean_motion_is_unchanged():
     assert np.abs(np.diff(np.concatenate((x[:1], y)))).sum() == pytest.approx(8e-3, rel=1e-12)
     same, _ = sliding_positions_m(x[1:], x[0], 0, 0.0)
     assert same.tolist() == x[1:].tolist()
+
+
+def test_one_sample_rule_is_the_array_rule():
+    """The live integrator's scalar form equals the vectorised form sample by sample (random walks with
+    standstill noise, steps and reversals, several deadbands)."""
+    from guide_health.models.wear.archard import sliding_position_m, sliding_positions_m
+
+    rng = np.random.default_rng(7)
+    for deadband in (0.0, 1e-6, 1e-5, 1e-3):
+        steps = rng.choice([0.0, 1e-6, -1e-6, 3e-5, -3e-5, 2e-3, -2e-3], size=4000) + rng.normal(0, 1e-6, 4000)
+        x = np.cumsum(steps)
+        expected, _ = sliding_positions_m(x[1:], float(x[0]), 0, deadband)
+        y, direction = float(x[0]), 0
+        for k, xk in enumerate(x[1:].tolist()):
+            y, direction = sliding_position_m(xk, y, direction, deadband)
+            assert y == pytest.approx(expected[k], abs=1e-15), (deadband, k)

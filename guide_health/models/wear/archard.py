@@ -127,6 +127,18 @@ def sliding_positions_m(position_m: np.ndarray, previous_m: float, previous_dire
     return y, int(direction[-1])
 
 
+def sliding_position_m(position_m: float, previous_m: float, previous_direction: int,
+                       deadband_m: float) -> tuple[float, int]:
+    """:func:`sliding_positions_m` for one sample (the live path: no array per sample, same rule)."""
+    if deadband_m <= 0.0:
+        return position_m, previous_direction
+    half = 0.5 * deadband_m
+    play_before = previous_m - half * previous_direction
+    play = min(max(play_before, position_m - half), position_m + half)
+    direction = previous_direction if play == play_before else (1 if play > play_before else -1)
+    return (play + half * direction if direction != 0 else previous_m), direction
+
+
 # ---------------------------------------------------------------------------------------------
 # Wear integrator
 # ---------------------------------------------------------------------------------------------
@@ -225,9 +237,8 @@ class WearIntegrator:
         if self.last_t_ns is None:
             self.first_t_ns = int(t_ns)
         else:
-            y, self.sliding_direction = sliding_positions_m(np.array([x]), self.last_position_m,
-                                                            self.sliding_direction, self.geometry.sliding_deadband_m)
-            x = float(y[0])
+            x, self.sliding_direction = sliding_position_m(x, self.last_position_m, self.sliding_direction,
+                                                           self.geometry.sliding_deadband_m)
             self._segment(t_ns, self.last_position_m, x, load_n)
         self.strokes.update(x)
         self.last_t_ns = int(t_ns)
