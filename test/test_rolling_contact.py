@@ -178,10 +178,14 @@ def test_fig4_working_load_rises_with_load_and_preload():
                     for f in loads] for p in preloads])
     assert np.all(np.diff(fu, axis=1) > 0)                     # F_u rises with F
     assert np.all(np.diff(fu, axis=0) >= -1e-9)                # never falls with preload
+    # lower rows lift off (F_L = 0) at y sin a = Delta_0, where F_u = K_b (2 Delta_0)^1.5 = 2^1.5 F_0 and
+    # F = 2 n sin a 2^1.5 F_0 = 16.68 kN at 385 N; found here from the model itself by bisection on F_L
     first_lift_off = 2 ** 2.5 * BALLS_PER_ROW * math.sin(math.radians(CONTACT_ANGLE_DEG)) * preloads[0]
+    model_lift_off = brentq(lambda f: carriage.carriage_load_distribution(
+        f, preloads[0], CONTACT_ANGLE_DEG, BALLS_PER_ROW, k_b).lower_ball_load_n - 1e-6 * preloads[0], 1.0, 40e3)
+    assert model_lift_off == pytest.approx(first_lift_off, rel=1e-3)
     below = loads < first_lift_off
     assert np.all(np.diff(fu[:, below], axis=0) > 0)           # strictly, while all rows are loaded
-    assert first_lift_off == pytest.approx(16.68e3, rel=1e-3)
 
 
 # ------------------------------------------------------------------------------------- film and lambda
@@ -213,6 +217,49 @@ def test_film_speed_exponents():
     r2 = bc.rolling_contact_report(p, None, 1.0)
     assert r2["film_central_nm"] / r1["film_central_nm"] == pytest.approx(10 ** 0.67, rel=1e-9)
     assert r2["film_min_nm"] / r1["film_min_nm"] == pytest.approx(10 ** 0.68, rel=1e-9)
+
+
+def independent_hamrock_dowson_nm(load_n: float, carriage_speed_m_s: float) -> tuple[float, float]:
+    """Hamrock & Dowson (1977) central and minimum film [nm] of the seed's ball/groove contact, from the raw
+    geometry: R_x = ball radius (straight groove along the rolling direction), 1/R_y = 1/R_ball - 1/R_groove
+    (R_groove = Gf D), k from Hamrock-Brewe k = 1.0339 (R_y/R_x)^0.636, E' = E/(1 - nu^2) (equal materials),
+    u = v/2; VG68 at 40 degC (0.060 Pa s, 2.0e-8 1/Pa, docs/physics.md)."""
+    r_x = BALL_RADIUS_M
+    r_y = 1.0 / (1.0 / BALL_RADIUS_M - 1.0 / (CONFORMITY * 2 * BALL_RADIUS_M))
+    k = 1.0339 * (r_y / r_x) ** 0.636
+    u_dim = 0.060 * (carriage_speed_m_s / 2) / (E_PRIME * r_x)
+    g_dim = 2.0e-8 * E_PRIME
+    w_dim = load_n / (E_PRIME * r_x ** 2)
+    h_c = 2.69 * u_dim ** 0.67 * g_dim ** 0.53 * w_dim ** -0.067 * (1 - 0.61 * math.exp(-0.73 * k)) * r_x
+    h_min = 3.63 * u_dim ** 0.68 * g_dim ** 0.49 * w_dim ** -0.073 * (1 - math.exp(-0.68 * k)) * r_x
+    return h_c * 1e9, h_min * 1e9
+
+
+@pytest.mark.parametrize("speed", [0.005, 0.1, 0.5, 1.0])
+@pytest.mark.parametrize("load_n", [385.0, 1450.0])
+def test_absolute_film_and_lambda_against_an_independent_hamrock_dowson(speed, load_n):
+    """Absolute film and lambda (central film / 0.2 um) vs the formula written here. Catches a factor of 2
+    in E' or u (-> 37 % / 59 %), an exponent off by 0.01 (U ~ 1e-11: -> 25 %), a wrong R_x/R_y."""
+    r = bc.rolling_contact_report(seed_params(), load_n, speed)
+    h_c, h_min = independent_hamrock_dowson_nm(r["contact_load_n"], speed)
+    assert r["contact_load_n"] == pytest.approx(load_n, rel=1e-9)        # no external load given: the preload
+    assert r["film_central_nm"] == pytest.approx(h_c, rel=0.005)     # Hamrock-Brewe k: (1 - e^(-0.7 k)) ~ 0.997
+    assert r["film_min_nm"] == pytest.approx(h_min, rel=0.005)
+    assert r["lambda"] == pytest.approx(h_c * 1e-9 / SIGMA_M, rel=0.005)
+
+
+def test_table1_film_needs_a_faster_smooth_film():
+    """Seed 001 Table 1's mean film (294.3 nm at 385 N, rough-surface numerical model, speed not printed)
+    is reached by the smooth central film only at v = 2.4 m/s (docs/physics.md: the seed's films sit at
+    about 2.4x the speed the smooth formula needs, i.e. 1 m/s in the seed's slider speed); the seed's
+    fall with preload (294.3 -> 157.2 nm, -47 %) is far stronger than the EHL W^-0.067 (-8.5 %)."""
+    v = crossing_speed(lambda s: independent_hamrock_dowson_nm(385.0, s)[0], TABLE1[0][1])
+    model_v = crossing_speed(lambda s: bc.rolling_contact_report(seed_params(), 385.0, s)["film_central_nm"],
+                             TABLE1[0][1])
+    assert model_v == pytest.approx(v, rel=0.01)
+    assert v == pytest.approx(2.4, rel=0.02)
+    assert TABLE1[-1][1] / TABLE1[0][1] == pytest.approx(0.534, abs=1e-3)
+    assert (1450 / 385) ** -0.067 == pytest.approx(0.915, abs=1e-3)
 
 
 @pytest.mark.parametrize("speed", [0.01, 0.5, 2.0])
