@@ -8,6 +8,7 @@ from __future__ import annotations
 from typing import Any
 
 from guide_health.errors import InputError
+from guide_health.params.machine import AXES_PARAM
 from guide_health.params.schema import NodeSchema, Param
 
 #: the wear profile's bins (rail_length_m / profile_bin_m) at most: 1e6 bins = 8 MB per profile array
@@ -17,7 +18,8 @@ DUTY_WINDOW_MIN_PERIODS = 3
 
 SLIDING_GUIDE_PARAMS = (
     Param("machine_id", "machine", "", "", "machine name: hardware_id of the diagnostics, key in the state file"),
-    Param("joint", "x", "", "", "the axis to monitor: its name in sensor_msgs/JointState"),
+    Param("joint", "x", "", "", "the axis to monitor: its name in sensor_msgs/JointState (without 'axes')"),
+    AXES_PARAM,
     Param("guide_type", "sliding", "", "", "sliding (seed 000 Archard wear) or rolling (seed 001 ball guide)",
           choices=("sliding", "rolling")),
     Param("contact_width_m", 0.040, "m", "(0, 10]", "b, width of the sliding contact"),
