@@ -17,7 +17,7 @@ from std_msgs.msg import Float64
 
 from guide_health.io.cdr import RawMessageDecoder
 from guide_health.io.interfaces import JOINT_STATE, WRENCH_STAMPED
-from guide_health.models.wear.axis import AxisMonitor
+from guide_health.models.wear.axis import PRECISION_KEYS, AxisMonitor
 from guide_health.models.wear.feed import StampAlignedFeed
 from guide_health.models.wear.input_rules import (
     EMPTY_JOINT_STATES,
@@ -32,9 +32,6 @@ from guide_health.models.wear.input_rules import (
 from guide_health.nodes.status import RejectionLog, StatusTask
 
 # status keys (README "Diagnostics"): the first tuple of each task always, 'nan' until known; the rest when known
-PRECISION_KEYS = ("straightness_um", "straightness_measured_um", "straightness_limit_um", "remaining_life_h",
-                  "remaining_life_h_low", "remaining_life_h_high", "wear_volume_mm3", "sliding_distance_m",
-                  "wear_coefficient", "lubrication_regime")
 EXTRA_PRECISION_KEYS = ("wear_coefficient_low", "wear_coefficient_high", "measurements", "duty_load_speed_w",
                         "stroke_min_m", "stroke_max_m", "strokes", "rejected_samples", "samples",
                         "rejected_recent_share", "guide", "maintenance_events")

@@ -208,3 +208,38 @@ def effective_work_at(knots: MachineKnots, at_s: np.ndarray, effects: WearEffect
     g = np.concatenate(([0.0], np.cumsum(work)))
     p = np.concatenate(([0.0], np.cumsum(pass_work)))
     return np.interp(at_s, knots.t_s, g), np.interp(at_s, knots.t_s, p)
+
+
+def simulate_axes(axes: dict[str, dict[str, Any]], sims: dict[str, dict[str, Any]],
+                  seed: int = 0) -> dict[str, MachineRun]:
+    """One :class:`MachineRun` per axis of a machine (``axes``: guide_health.params.machine.axes_params,
+    ``sims``: simulation_axes), each with its own duty and random strokes (seed ``seed`` + 1000 x the axis
+    index), cut to the common duration so that one JointState per stamp carries every joint."""
+    runs = {}
+    for index, (axis, params) in enumerate(axes.items()):
+        # the measured straightness is the most loaded guide's (the one the axis reports): its wear is the
+        # Archard wear of share x W, i.e. that of the full load with K x share (no effects: linear in W)
+        share = max(params.get("guide_load_shares", [1.0]))
+        scenario = dict(sims[axis], wear_coefficient_factor=sims[axis]["wear_coefficient_factor"] * share)
+        run = simulate_machine(params, scenario, seed=seed + 1000 * index)
+        run.metadata["truth"]["wear_coefficient"] /= share
+        run.metadata["truth"]["guide_load_share"] = share
+        runs[axis] = run
+    end_ns = min(int(run.joint_t_ns[-1]) for run in runs.values()) + 1
+    return {axis: _cut_run(run, end_ns) for axis, run in runs.items()}
+
+
+def _cut_run(run: MachineRun, end_ns: int) -> MachineRun:
+    """``run`` without the samples stamped at or after ``end_ns``."""
+    def keep(t):
+        return int(np.searchsorted(t, end_ns, side="left"))
+
+    j, ld, s, tp = (keep(run.joint_t_ns), keep(run.load_t_ns), keep(run.straightness_t_ns),
+                    keep(run.temperature_t_ns))
+    velocity = run.joint_velocity_m_s[:j] if run.joint_velocity_m_s.size else run.joint_velocity_m_s
+    return MachineRun(joint_name=run.joint_name, joint_t_ns=run.joint_t_ns[:j],
+                      joint_position_m=run.joint_position_m[:j], joint_velocity_m_s=velocity,
+                      load_t_ns=run.load_t_ns[:ld], load_n=run.load_n[:ld],
+                      straightness_t_ns=run.straightness_t_ns[:s], straightness_m=run.straightness_m[:s],
+                      temperature_t_ns=run.temperature_t_ns[:tp], temperature_c=run.temperature_c[:tp],
+                      metadata=run.metadata)

@@ -17,6 +17,11 @@ from typing import Any
 
 from guide_health.models.wear.precision import PrecisionMonitor
 
+#: the keys every `<axis> precision` status carries ('nan' until known; README "Diagnostics")
+PRECISION_KEYS = ("straightness_um", "straightness_measured_um", "straightness_limit_um", "remaining_life_h",
+                  "remaining_life_h_low", "remaining_life_h_high", "wear_volume_mm3", "sliding_distance_m",
+                  "wear_coefficient", "lubrication_regime")
+
 
 class AxisMonitor:
     """The guides of one axis (parameters: one axis of guide_health.params.machine.axes_params)."""
