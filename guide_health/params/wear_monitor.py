@@ -17,6 +17,8 @@ DUTY_WINDOW_MIN_PERIODS = 3
 
 SLIDING_GUIDE_PARAMS = (
     Param("machine_id", "machine", "", "", "machine name: hardware_id of the diagnostics, key in the state file"),
+    Param("machine_type", "", "", "",
+          "machine type (model/series): machines of one type share a fleet prior (guide-health fleet prior)"),
     Param("joint", "x", "", "", "the axis to monitor: its name in sensor_msgs/JointState"),
     Param("guide_type", "sliding", "", "", "sliding (seed 000 Archard wear) or rolling (seed 001 ball guide)",
           choices=("sliding", "rolling")),
