@@ -129,3 +129,29 @@ FLEET_REPLAY = Command(lambda p: _add_fleet_arguments(p, "replay"), lambda a: ru
                        format_fleet_text)
 FLEET_DIAGNOSE = Command(lambda p: _add_fleet_arguments(p, "diagnose"), lambda a: run_fleet_command(a, "diagnose"),
                          format_fleet_text)
+
+
+def add_trend_arguments(parser) -> None:
+    parser.add_argument("history", metavar="HISTORY.db", help="fleet_monitor history_file (SQLite)")
+    parser.add_argument("--machine", default=None, help="only this machine (hardware_id)")
+    parser.add_argument("--out", default=None, help="output directory (default: <history>.trend beside it)")
+
+
+def run_trend(args) -> dict:
+    from guide_health.analysis.fleet_trend import write_trend_report
+
+    db = Path(args.history)
+    out = Path(args.out) if args.out else db.with_name(db.name + ".trend")
+    return write_trend_report(db, out, args.machine)
+
+
+def format_trend_text(result: dict) -> str:
+    lines = [f"fleet trend: {result['machines']} machines, {result['rows']} status rows from {result['history']}"]
+    for r in result["ranking"]:
+        lines.append(f"  {r['machine']:<16} {r['level']:<5} remaining life {r['remaining_life_h']:10.1f} h  "
+                     f"straightness {r['straightness_um']:7.2f} um  {r['level_changes']} level changes")
+    lines.append(f"  page: {result['files']['html']}")
+    return "\n".join(lines)
+
+
+FLEET_TREND = Command(add_trend_arguments, run_trend, format_trend_text)
