@@ -29,6 +29,7 @@ COMMANDS: list[tuple[tuple[str, ...], str, str]] = [
     (("life",), "life:LIFE", "rating life, Miner consumption and C from life tests"),
     (("fleet", "replay"), "fleet:FLEET_REPLAY", "replay many bags on Dask: one report each, a fleet table"),
     (("fleet", "diagnose"), "fleet:FLEET_DIAGNOSE", "diagnose many bags on Dask: one report each, a fleet table"),
+    (("fleet", "prior"), "fleet:FLEET_PRIOR", "K prior of a machine type from its replayed/diagnosed machines"),
     (("fleet", "trend"), "fleet:FLEET_TREND", "per-machine trends and an HTML page from the fleet_monitor history"),
 ]
 

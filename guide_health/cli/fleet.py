@@ -9,6 +9,7 @@
 """
 from __future__ import annotations
 
+import json
 import os
 import sys
 from pathlib import Path
@@ -95,7 +96,8 @@ def run_fleet_command(args, command: str) -> dict:
     failed = [e for e in entries if not e["ok"]]
     summary = {"command": command, "bags": len(entries), "ok": len(entries) - len(failed), "failed": len(failed),
                "engine": args.scheduler or ("serial" if workers == 0 else f"LocalCluster({workers} processes)"),
-               "wall_s": wall_s, "machine_type": params["machine_type"]}
+               "wall_s": wall_s, "machine_type": params["machine_type"],
+               "prior": {k: params[k] for k in ("wear_coefficient", "wear_coefficient_prior_rel_sd")}}
     rows = table_rows(command, entries, params["machine_type"])
     files = write_tables(out, rows, entries, summary)
     files["png"] = str(out / "fleet_ranking.png")
@@ -155,3 +157,46 @@ def format_trend_text(result: dict) -> str:
 
 
 FLEET_TREND = Command(add_trend_arguments, run_trend, format_trend_text)
+
+
+def add_prior_arguments(parser) -> None:
+    parser.add_argument("results", nargs="+", metavar="FLEET_JSON",
+                        help="fleet.json of `fleet replay|diagnose` (or its output directory)")
+    parser.add_argument("--machine-type", default=None,
+                        help="the machine type (params machine_type; default: the only one in the results)")
+    parser.add_argument("--params", default=None, help="base params file to copy into the output (optional)")
+    parser.add_argument("--out", default="fleet_prior.yaml", help="params file to write (default fleet_prior.yaml)")
+    parser.add_argument("--min-machines", type=int, default=3, help="fewest machines for a prior (default 3)")
+
+
+def run_prior(args) -> dict:
+    from guide_health.analysis.fleet_prior import fleet_prior, load_fleet_results, write_prior_params
+    from guide_health.params import wear_monitor_params
+
+    if args.min_machines < 2:
+        raise InputError("--min-machines must be >= 2")
+    if args.params:
+        wear_monitor_params(args.params)
+    prior = fleet_prior(load_fleet_results(args.results), args.machine_type, args.min_machines)
+    out = Path(args.out)
+    write_prior_params(out, prior, args.params)
+    wear_monitor_params(out)                        # the file a wear_monitor will read: checked now
+    out.with_suffix(".json").write_text(json.dumps(prior, indent=1, allow_nan=True) + "\n")
+    return {**prior, "files": {"params": str(out), "json": str(out.with_suffix(".json"))}}
+
+
+def format_prior_text(r: dict) -> str:
+    lk = r["log_k"]
+    return "\n".join([
+        f"fleet prior of machine type '{r['machine_type']}': {r['machines']} machines ({r['bags']} bags)",
+        f"  log K population:  mu {lk['mean']:.4f} (median K {r['wear_coefficient_median']:.4g}), "
+        f"tau {lk['tau']:.3f}, se(mu) {lk['mean_std_error']:.3f}",
+        f"  new machine prior: wear_coefficient {r['wear_coefficient']:.4g}, "
+        f"wear_coefficient_prior_rel_sd {r['wear_coefficient_prior_rel_sd']:.3f}",
+        *[f"  effect {k}: mean {v['mean']:.4g}, tau {v['tau']:.3g} ({v['machines']} machines)"
+          for k, v in r["effects"].items()],
+        f"  files: {', '.join(r['files'].values())}",
+    ])
+
+
+FLEET_PRIOR = Command(add_prior_arguments, run_prior, format_prior_text)
