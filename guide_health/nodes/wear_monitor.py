@@ -43,6 +43,7 @@ from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.nodes.common import run_node
 from guide_health.nodes.status import RejectionLog, StatusTask, StatusUpdater
 from guide_health.params import WEAR_MONITOR_SCHEMA, declare_parameters
+from guide_health.params.wear_monitor import hardness_units_warning
 
 # Reliable + keep_all: when the callbacks lag, the reader's history fills and a reliable writer waits
 # (back-pressure) instead of the reader overwriting unprocessed samples as keep_last would; a sensor
@@ -72,6 +73,9 @@ class WearMonitorNode(Node):
         super().__init__("wear_monitor", **kwargs)
         params = declare_parameters(self, WEAR_MONITOR_SCHEMA)   # validated
         self.params = params
+        self.startup_warnings = [w for w in (hardness_units_warning(params),) if w is not None]
+        for warning in self.startup_warnings:     # issue 11 item 3: a real hardness in Pa with seed 000's K
+            self.get_logger().warning(warning)
         self.joint = params["joint"]
         self.monitor = PrecisionMonitor(params)
         self.state_key = f"{params['machine_id']}/{self.joint}/precision"

@@ -28,7 +28,9 @@ SLIDING_GUIDE_PARAMS = (
           "real hardness of about 1.95e9 Pa); only K/H enters the model, so K = 4.42e-6 belongs with H = 199e6. "
           "With a real hardness in Pa, scale K by the same factor (about 4.3e-5) or the wear is ~10x too low"),
     Param("wear_coefficient", 4.42e-6, "-", "[1e-12, 1e-1]",
-          "K, dimensionless Archard wear coefficient; a pair with hardness_pa (seed 000: 4.42e-6 with H = 199e6)"),
+          "K, dimensionless Archard wear coefficient, ALWAYS a pair with hardness_pa: only K/H enters the wear "
+          "(V = K W s / H, seed 000 Eq. 10). Seed 000: K = 4.42e-6 with H = 199e6 (K/H = 2.22e-14 1/Pa, its "
+          "pin-on-disc fit). A start-up warning names a real hardness in Pa (> 1e9) used with the seed's K"),
     Param("stroke_min_m", 0.0, "m", "[0, 100]", "l_min, shortest stroke; 0 = estimate from the observed strokes"),
     Param("stroke_max_m", 0.0, "m", "[0, 100]", "l_max, longest stroke; 0 = estimate from the observed strokes"),
     Param("stroke_detect_min_m", 0.005, "m", "[0, 1]", "reversal hysteresis: reversals closer than this are jitter"),
