@@ -206,3 +206,56 @@ def test_node_process_on_a_garbage_state_exits_2_with_one_line(tmp_path):
                           env=dict(os.environ, PYTHONPATH=str(ROOT)))
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
     assert str(garbage) in proc.stderr and "Traceback" not in proc.stderr
+
+
+def _node_process(*ros_params, env=None):
+    args = [sys.executable, "-m", "guide_health.nodes.wear_monitor", "--ros-args"]
+    for p in ros_params:
+        args += ["-p", p]
+    return subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=dict(os.environ, PYTHONPATH=str(ROOT), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+                                     ROS_DOMAIN_ID="77", **(env or {})))
+
+
+def _wait_for_lock(lock: Path, proc, timeout_s=60.0):
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if lock.exists() and lock.read_text().strip() == str(proc.pid):
+            return
+        assert proc.poll() is None, proc.communicate()
+        time.sleep(0.1)
+    raise AssertionError("the first node never took the lock")
+
+
+def test_two_node_processes_on_the_default_state_file_second_refused_then_mismatch_refused(tmp_path):
+    """issue 16: state_file auto (the default) -> $ROS_HOME/guide_health/<machine>/wear_monitor.db; a second
+    node on it exits 2 with one line; after the first stops, a node with another rail_length_m is refused."""
+    env = {"ROS_HOME": str(tmp_path)}
+    state = tmp_path / "guide_health" / "m7" / "wear_monitor.db"
+    first = _node_process("machine_id:=m7", env=env)
+    try:
+        _wait_for_lock(Path(f"{state}.lock"), first)
+        second = _node_process("machine_id:=m7", env=env)
+        _, err = second.communicate(timeout=60)
+        assert second.returncode == 2 and len(err.strip().splitlines()) == 1, err
+        assert str(state) in err and f"in use by another process (pid {first.pid}" in err, err
+    finally:
+        first.send_signal(2)                            # SIGINT: final checkpoint, lock released
+        first.communicate(timeout=60)
+    assert first.returncode == 0 and state.stat().st_mode & 0o777 == 0o600
+    other = _node_process("machine_id:=m7", "rail_length_m:=0.9", env=env)
+    _, err = other.communicate(timeout=60)
+    assert other.returncode == 2 and len(err.strip().splitlines()) == 1, err
+    assert "saved for another guide: rail_length_m 0.5 (now 0.9)" in err and "Traceback" not in err, err
+
+
+def test_every_shipped_wear_monitor_config_persists_by_default():
+    import yaml
+
+    for path in sorted((ROOT / "config").glob("*.yaml")):
+        section = (yaml.safe_load(path.read_text()) or {}).get("wear_monitor")
+        if section is not None:
+            assert section["ros__parameters"].get("state_file", "auto") == "auto", path
+    for path in sorted((ROOT / "launch").glob("*.py")):
+        text = path.read_text()
+        assert '"state_file": ""' not in text and "state_file:=''" not in text, path
