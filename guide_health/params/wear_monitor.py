@@ -53,6 +53,22 @@ SLIDING_GUIDE_PARAMS = (
     Param("straightness_noise_m", 0.5e-6, "m", "[0, 0.01]",
           "1-sigma noise of a straightness measurement (prior of the K update)", dynamic=True),
     Param("wear_coefficient_prior_rel_sd", 0.5, "-", "(0, 100]", "prior sd of K relative to the configured K"),
+    # wear effects learnt by `guide-health diagnose` (its DIR/model.yaml; models/wear/effects.py); the defaults
+    # are the plain Archard model
+    Param("effects", "", "", "", "effects the live model integrates, comma-separated ids of models/wear/effects.py "
+          "(written by diagnose --out DIR as DIR/model.yaml; '' = plain Archard wear)"),
+    Param("running_in_ratio", 0.0, "-", "[0, 100]", "running_in r: K(s) = K (1 + r exp(-s / s0))"),
+    Param("running_in_distance_m", 100.0, "m", "(0, 1e9]", "running_in s0, sliding distance of the decay"),
+    Param("retract_wear_factor", 1.0, "-", "[0, 10]", "retract_asymmetry rho: retract wear per unit work / feed's"),
+    Param("retract_direction", "-x", "", "", "direction of the retract stroke (retract_asymmetry)",
+          choices=("-x", "+x")),
+    Param("lift_speed_m_s", 0.0, "m/s", "[0, 100]",
+          "speed_dependent_wear v_lift: asperity share 1 / (1 + (v / v_lift)^1.4); 0 = no effect"),
+    Param("load_exponent", 1.0, "-", "[0, 4]", "load_exponent n: wear rate proportional to (W / W_ref)^n W_ref"),
+    Param("load_reference_n", 1000.0, "N", "(0, 1e9]", "load_exponent W_ref (diagnose: the geometric mean load)"),
+    Param("effect_covariance", [0.0] * 36, "SI", "",
+          "covariance (row-major 6 x 6) of the fitted wear_coefficient, running_in_ratio, running_in_distance_m, "
+          "retract_wear_factor, lift_speed_m_s, load_exponent (SI); widens the remaining-life interval"),
     Param("life_warn_h", 500.0, "h", "(0, 1e7]", "WARN when the remaining precision life drops below this",
           dynamic=True),
     Param("life_error_h", 100.0, "h", "[0, 1e7]",
@@ -133,6 +149,26 @@ ROLLING_GUIDE_PARAMS = (
 )
 
 
+#: effect ids the live model integrates (models/wear/effect_wear.py); initial_offset is folded into A0
+LIVE_EFFECT_IDS = ("running_in", "retract_asymmetry", "speed_dependent_wear", "load_exponent")
+
+
+def effect_ids(p: dict[str, Any]) -> list[str]:
+    """The ``effects`` parameter as a list of ids ('' = none)."""
+    return [e.strip() for e in str(p.get("effects", "")).split(",") if e.strip()]
+
+
+def _effect_checks(p: dict[str, Any]) -> None:
+    for e in effect_ids(p):
+        if e not in LIVE_EFFECT_IDS:
+            raise InputError(f"parameter effects: unknown or not live effect {e!r} "
+                             f"(live: {', '.join(LIVE_EFFECT_IDS)})")
+    if effect_ids(p) and p["straightness_model"] != "eq7":
+        raise InputError("parameter effects: the live wear effects need straightness_model eq7")
+    if "speed_dependent_wear" in effect_ids(p) and not p["lift_speed_m_s"] > 0:
+        raise InputError("parameter effects: speed_dependent_wear needs lift_speed_m_s > 0")
+
+
 def _wear_cross_checks(p: dict[str, Any]) -> None:
     for name in ("contact_width_m", "hardness_pa", "wear_coefficient", "slider_length_m",
                  "profile_bin_m", "rail_length_m", "duty_window_s", "diagnostics_period_s",
@@ -176,6 +212,7 @@ def _wear_threshold_checks(p: dict[str, Any]) -> None:
 
 def _wear_all_checks(p: dict[str, Any]) -> None:
     _wear_cross_checks(p)
+    _effect_checks(p)
     WEAR_MONITOR_SCHEMA.check_ranges(p)     # ranges first: the orders below compare in-range numbers
     _wear_threshold_checks(p)
 
