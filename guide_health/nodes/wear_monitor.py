@@ -26,9 +26,11 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
+from guide_health.errors import InputError
 from guide_health.io.cdr import MISSING
-from guide_health.io.state_store import StateStore
+from guide_health.io.state_store import StateStore, resolve_state_path
 from guide_health.models.wear.input_rules import MALFORMED_JOINT_STATES
+from guide_health.models.wear.state_schema import check_precision_state, state_fingerprint
 from guide_health.nodes.axis_channel import (  # noqa: F401 - the status keys are part of this module's API
     EXTRA_FATIGUE_KEYS,
     EXTRA_PRECISION_KEYS,
@@ -40,9 +42,11 @@ from guide_health.nodes.axis_channel import (  # noqa: F401 - the status keys ar
     stamp_ns,
 )
 from guide_health.nodes.common import run_node
+from guide_health.nodes.live_params import PeriodicTimers, apply_wear_changes
 from guide_health.nodes.status import StatusUpdater
 from guide_health.params import WEAR_MONITOR_SCHEMA, declare_parameters
 from guide_health.params.machine import declare_axis_parameters
+from guide_health.params.wear_monitor import hardness_units_warning
 
 # Reliable + keep_all: when the callbacks lag, the reader's history fills and a reliable writer waits
 # (back-pressure) instead of the reader overwriting unprocessed samples as keep_last would; a sensor
@@ -54,10 +58,14 @@ INPUTS = ("joint_states", "guide/load")     # single joint: silent for input_tim
 class WearMonitorNode(Node):
     def __init__(self, **kwargs):
         super().__init__("wear_monitor", **kwargs)
-        params = declare_parameters(self, WEAR_MONITOR_SCHEMA)   # validated
+        params = declare_parameters(self, WEAR_MONITOR_SCHEMA, on_applied=self._apply_params)   # validated
+        self.periodic = PeriodicTimers(self)
         self.params = params
         self.axes = declare_axis_parameters(self, params)         # {axis: params}, validated
         self.single = not params["axes"]
+        self.startup_warnings = [w for w in {hardness_units_warning(p) for p in self.axes.values()} if w]
+        for warning in self.startup_warnings:     # issue 11 item 3: a real hardness in Pa with seed 000's K
+            self.get_logger().warning(warning)
         self.raw = params.get("executor", "events") == "events"
         # cost accounting since start: callback wall time per message and the model's part of it
         self._callback_s = 0.0
@@ -70,9 +78,15 @@ class WearMonitorNode(Node):
         # the single-joint names of old (tests, tools): the first axis's model, feed and log
         self.joint, self.monitor, self.feed = first.joint, first.model.primary, first.feed
         self.rejections, self.precision_task = first.rejections, first.precision_task
-        self.store = StateStore(params["state_file"]) if params["state_file"] else None
+        self.state_key = next(iter(first.model.state_keys(params["machine_id"]).values()))
+        self.state_path = resolve_state_path(params["state_file"], params["machine_id"], self.get_name())
+        self.store = StateStore(self.state_path) if self.state_path is not None else None
         if self.store is not None:
-            self._resume()
+            try:
+                self._resume()
+            except BaseException:
+                self.store.close()      # the lock goes at once (a test process builds the next node)
+                raise
         for channel in self.channels:
             for task in channel.status_tasks(self._timing_values):
                 self.updater.add(task)
@@ -80,16 +94,35 @@ class WearMonitorNode(Node):
             self.create_subscription(JointState, "joint_states", self._on_joint_raw, DATA_QOS, raw=True)
         else:
             self.create_subscription(JointState, "joint_states", self._on_joint, DATA_QOS)
-        self.create_timer(params["diagnostics_period_s"], self.publish_diagnostics)
+        self.periodic.create("diagnostics_period_s", params["diagnostics_period_s"], self.publish_diagnostics)
         if self.store is not None:
-            self.create_timer(params["checkpoint_period_s"], self.checkpoint)
+            self.periodic.create("checkpoint_period_s", params["checkpoint_period_s"], self.checkpoint)
+
+    def _apply_params(self, changed: dict) -> None:
+        """An accepted ``ros2 param set`` (guide_health.nodes.live_params): every guide of every axis. (Declaring
+        the per-axis parameters calls this too, before the axes exist, with nothing changed.)"""
+        if not changed or not hasattr(self, "channels"):
+            return
+        monitors = [guide for channel in self.channels for guide in channel.model.guides.values()]
+        apply_wear_changes(changed, monitors, [channel.feed for channel in self.channels], self.updater,
+                           self.periodic)
 
     def _resume(self) -> None:
         for channel in self.channels:
-            for key, guide in channel.resume(self.store, self.params["machine_id"]):
+            fingerprint = state_fingerprint(channel.params)
+            for name, key in channel.model.state_keys(self.params["machine_id"]).items():
+                guide = channel.model.guides[name]
+                template = guide.state()
+                saved = self.store.load(key, fingerprint, lambda s, t=template: check_precision_state(s, t))
+                if saved is None:
+                    continue
+                try:    # validated whole above: a failure here is a bug, still one line
+                    guide.restore(saved)
+                except (LookupError, TypeError, ValueError, ArithmeticError) as exc:
+                    raise InputError(f"state file {self.state_path}: {exc}; move it away to start afresh") from None
                 self.get_logger().info(
-                    f"resumed {key} from {self.params['state_file']}: {guide.integrator.sliding_distance_m:.1f} "
-                    f"m slid, {guide.estimator.count} measurements")
+                    f"resumed {key} from {self.state_path}: {guide.integrator.sliding_distance_m:.1f} m slid, "
+                    f"{guide.estimator.count} measurements")
 
     # --- inputs ----------------------------------------------------------------------------------
     def _on_joint_raw(self, raw: bytes) -> None:
@@ -147,11 +180,13 @@ class WearMonitorNode(Node):
             channel.publish_outputs(reports[channel.precision_task].values)
 
     def checkpoint(self) -> None:
-        if self.store is not None:
-            states = {}
-            for channel in self.channels:
-                states.update(channel.states(self.params["machine_id"]))
-            self.store.save(states)
+        if self.store is None:
+            return
+        for channel in self.channels:    # one transaction per axis (each axis has its own fingerprint)
+            try:
+                self.store.save(channel.states(self.params["machine_id"]), state_fingerprint(channel.params))
+            except InputError as exc:       # disk full, permissions: logged, retried at the next checkpoint
+                self.get_logger().error(str(exc), throttle_duration_sec=60.0)
 
     def close(self) -> None:
         for channel in self.channels:

@@ -18,8 +18,8 @@ from guide_health.errors import InputError
 from guide_health.params.schema import NodeSchema, Param, check_unknown_keys, coerce_value
 
 #: wear_monitor parameters that hold for the whole node (not overridable per axis)
-MACHINE_WIDE = ("machine_id", "axes", "joint", "diagnostics_period_s", "input_timeout_s", "checkpoint_period_s",
-                "input_align_window_s", "executor", "state_file")
+MACHINE_WIDE = ("machine_id", "machine_type", "axes", "joint", "diagnostics_period_s", "input_timeout_s",
+                "checkpoint_period_s", "input_align_window_s", "executor", "state_file")
 #: guide_health_simulation parameters shared by all axes (one JointState carries every joint)
 SIMULATION_WIDE = ("duration_h", "joint_state_rate_hz", "measurement_interval_h")
 
