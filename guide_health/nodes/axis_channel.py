@@ -14,6 +14,7 @@ from geometry_msgs.msg import WrenchStamped
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
+from std_srvs.srv import Trigger
 
 from guide_health.io.cdr import RawMessageDecoder
 from guide_health.io.interfaces import JOINT_STATE, WRENCH_STAMPED
@@ -29,12 +30,14 @@ from guide_health.models.wear.input_rules import (
     joint_missing,
     rejected_keys,
 )
+from guide_health.models.wear.maintenance import KINDS, MaintenanceEvent
 from guide_health.nodes.status import RejectionLog, StatusTask
 
 # status keys (README "Diagnostics"): the first tuple of each task always, 'nan' until known; the rest when known
 EXTRA_PRECISION_KEYS = ("wear_coefficient_low", "wear_coefficient_high", "measurements", "duty_load_speed_w",
                         "stroke_min_m", "stroke_max_m", "strokes", "rejected_samples", "samples",
-                        "rejected_recent_share", "guide", "maintenance_events")
+                        "rejected_recent_share", "guide", "maintenance_event_count",
+                        "last_maintenance")
 TIMING_KEYS = ("load_samples", "callback_time_us", "model_time_us")
 ROLLING_PRECISION_KEYS = ("lambda", "asperity_load_share", "boundary_share_recent", "boundary_share_total")
 FATIGUE_KEYS = ("equivalent_load_n", "rating_life_km", "travel_km", "life_used_fraction", "remaining_life_km")
@@ -73,6 +76,9 @@ class AxisChannel:
         out = params["output_prefix"]
         self.pred_pub = node.create_publisher(Float64, f"{out}/straightness_predicted", 10)
         self.life_pub = node.create_publisher(Float64, f"{out}/remaining_life", 10)
+        for kind in KINDS:      # std_srvs/Trigger maintenance/<axis>/<kind> (values: maintenance_* parameters)
+            node.create_service(Trigger, f"maintenance/{self.name}/{kind}",
+                                lambda request, response, kind=kind: self.on_maintenance_call(kind, response))
 
     def status_tasks(self, report_extras) -> list[StatusTask]:
         """`<axis> precision` (and `<axis> fatigue` for rolling guides); ``report_extras(values)`` adds the
@@ -174,6 +180,41 @@ class AxisChannel:
         if math.isfinite(msg.temperature):
             self.temperature_c = float(msg.temperature)
 
+    # --- maintenance ---------------------------------------------------------------------------------
+    def maintenance_event(self, kind: str, values: dict) -> MaintenanceEvent | str:
+        """The event a service call records (values: the node's maintenance_* parameters), or why none."""
+        self.rejections.log_all(self.feed.flush_all())     # the present = every joint sample received
+        now = self.model.last_t_ns
+        if now is None:
+            return "no joint_states sample of this axis yet: the event would have no time"
+        t_ns = now
+        if kind == "measure" and values["maintenance_time_s"] > 0:
+            t_ns = int(round(values["maintenance_time_s"] * 1e9))
+        a = values["maintenance_straightness_m"]
+        return MaintenanceEvent(t_ns, kind, self.name, values["maintenance_guide"], a if a > 0 else math.nan,
+                                "service")
+
+    def on_maintenance_call(self, kind: str, response):
+        event = self.maintenance_event(kind, self.node.maintenance_values())
+        if isinstance(event, str):
+            response.success, response.message = False, event
+            return response
+        reason = self.model.schedule(event)
+        if reason is not None:
+            response.success, response.message = False, reason
+            return response
+        self.node.publish_event(event)
+        report = self.model.report()
+        response.success = True
+        response.message = (f"{kind} of {self.name}{' ' + event.guide if event.guide else ''} at {event.t_ns} ns: "
+                            f"straightness {report['straightness_um']:.2f} um, K {report['wear_coefficient']:.4g}")
+        self.node.get_logger().info(f"maintenance: {response.message}")
+        return response
+
+    def on_event(self, event: MaintenanceEvent) -> None:
+        """An event from the maintenance/events topic (a bag, an HMI, this node's own)."""
+        self.rejections.log(self.model.schedule(event))
+
     # --- outputs ---------------------------------------------------------------------------------
     def publish_outputs(self, values: dict) -> None:
         if math.isfinite(values["straightness_um"]):
@@ -182,9 +223,14 @@ class AxisChannel:
             self.life_pub.publish(Float64(data=values["remaining_life_h"] * 3600.0))
 
     def states(self, machine_id: str) -> dict[str, dict]:
-        """{state key: state} of every guide of the axis."""
+        """{state key: state} of every guide of the axis, and the axis's maintenance log."""
         keys = self.model.state_keys(machine_id)
-        return {keys[name]: guide.state() for name, guide in self.model.guides.items()}
+        states = {keys[name]: guide.state() for name, guide in self.model.guides.items()}
+        states[self.maintenance_key(machine_id)] = self.model.maintenance_state()
+        return states
+
+    def maintenance_key(self, machine_id: str) -> str:
+        return f"{machine_id}/{self.name}/maintenance"
 
     def resume(self, store, machine_id: str) -> list[tuple]:
         """Restore every guide saved in ``store``; the (key, guide model) pairs resumed."""

@@ -21,13 +21,16 @@ import math
 import sys
 import time
 
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
 from guide_health.errors import InputError
 from guide_health.io.cdr import MISSING
+from guide_health.io.maintenance_msgs import MAINTENANCE_TOPIC, event_from_status, event_values
 from guide_health.io.state_store import StateStore, resolve_state_path
 from guide_health.models.wear.input_rules import MALFORMED_JOINT_STATES
 from guide_health.models.wear.state_schema import check_precision_state, state_fingerprint
@@ -52,6 +55,11 @@ from guide_health.params.wear_monitor import hardness_units_warning
 # (back-pressure) instead of the reader overwriting unprocessed samples as keep_last would; a sensor
 # publishing best-effort or keep_last still connects (the reader's QoS is the weaker side of neither).
 DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1, reliability=ReliabilityPolicy.RELIABLE)
+# maintenance events are few and must not be lost: reliable; published transient local so that a recorder
+# started later still gets the last ones, read volatile so that any publisher (a bag player) connects
+EVENT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
+                       durability=DurabilityPolicy.TRANSIENT_LOCAL)
+EVENT_READ_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1, reliability=ReliabilityPolicy.RELIABLE)
 INPUTS = ("joint_states", "guide/load")     # single joint: silent for input_timeout_s: every status STALE
 
 
@@ -74,6 +82,7 @@ class WearMonitorNode(Node):
         self.updater = StatusUpdater(self, params["machine_id"], params["input_timeout_s"])
         self.diag_pub = self.updater.publisher
         self.channels = [AxisChannel(self, p, DATA_QOS, self.single) for p in self.axes.values()]
+        self.by_axis = {channel.name: channel for channel in self.channels}
         first = self.channels[0]
         # the single-joint names of old (tests, tools): the first axis's model, feed and log
         self.joint, self.monitor, self.feed = first.joint, first.model.primary, first.feed
@@ -94,6 +103,9 @@ class WearMonitorNode(Node):
             self.create_subscription(JointState, "joint_states", self._on_joint_raw, DATA_QOS, raw=True)
         else:
             self.create_subscription(JointState, "joint_states", self._on_joint, DATA_QOS)
+        # maintenance events (docs/machine.md): published by the services, taken from any publisher or bag
+        self.event_pub = self.create_publisher(DiagnosticArray, MAINTENANCE_TOPIC, EVENT_QOS)
+        self.create_subscription(DiagnosticArray, MAINTENANCE_TOPIC, self._on_events, EVENT_READ_QOS)
         self.periodic.create("diagnostics_period_s", params["diagnostics_period_s"], self.publish_diagnostics)
         if self.store is not None:
             self.periodic.create("checkpoint_period_s", params["checkpoint_period_s"], self.checkpoint)
@@ -123,6 +135,9 @@ class WearMonitorNode(Node):
                 self.get_logger().info(
                     f"resumed {key} from {self.state_path}: {guide.integrator.sliding_distance_m:.1f} m slid, "
                     f"{guide.estimator.count} measurements")
+            saved = self.store.load(channel.maintenance_key(self.params["machine_id"]), fingerprint)
+            if saved is not None:
+                channel.model.restore_maintenance(saved)
 
     # --- inputs ----------------------------------------------------------------------------------
     def _on_joint_raw(self, raw: bytes) -> None:
@@ -159,6 +174,37 @@ class WearMonitorNode(Node):
 
     def _on_straightness(self, msg) -> None:
         self.channels[0].on_straightness(msg)
+
+    def _on_events(self, msg: DiagnosticArray) -> None:
+        t_ns = stamp_ns(msg.header)
+        for status in msg.status:
+            values = {kv.key: kv.value for kv in status.values}
+            channel = self.by_axis.get(values.get("axis", ""))
+            if channel is None or t_ns is None:
+                continue          # another node's axis, or no time: not ours
+            try:
+                event = event_from_status(t_ns, values, status.message)
+            except InputError as exc:
+                channel.rejections.log(str(exc))
+                continue
+            channel.on_event(event)
+
+    def maintenance_values(self) -> dict:
+        """The maintenance_* parameters for a service call, then cleared (each call states its own values)."""
+        names = ("maintenance_guide", "maintenance_straightness_m", "maintenance_time_s")
+        values = {name: self.get_parameter(name).value for name in names}
+        self.set_parameters([Parameter(name, value=WEAR_MONITOR_SCHEMA[name].default) for name in names])
+        return values
+
+    def publish_event(self, event) -> None:
+        msg = DiagnosticArray()
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(int(event.t_ns), 1_000_000_000)
+        status = DiagnosticStatus(level=DiagnosticStatus.OK, name=f"maintenance: {event.axis}", message=event.kind,
+                                  hardware_id=self.params["machine_id"])
+        status.values = [KeyValue(key=k, value=v) for k, v in event_values(event)]
+        msg.status = [status]
+        self.event_pub.publish(msg)
+        self.checkpoint()           # the event is in the state database at once
 
     def account(self, t0: float, t1: float, t2: float) -> None:
         self._callback_s += time.perf_counter() - t0

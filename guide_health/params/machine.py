@@ -19,13 +19,27 @@ from guide_health.params.schema import NodeSchema, Param, check_unknown_keys, co
 
 #: wear_monitor parameters that hold for the whole node (not overridable per axis)
 MACHINE_WIDE = ("machine_id", "machine_type", "axes", "joint", "diagnostics_period_s", "input_timeout_s",
-                "checkpoint_period_s", "input_align_window_s", "executor", "state_file")
+                "checkpoint_period_s", "input_align_window_s", "executor", "state_file", "maintenance_guide",
+                "maintenance_straightness_m", "maintenance_time_s")
 #: guide_health_simulation parameters shared by all axes (one JointState carries every joint)
 SIMULATION_WIDE = ("duration_h", "joint_state_rate_hz", "measurement_interval_h")
 
 AXES_PARAM = Param("axes", [], "", "", "joints monitored by this node (e.g. [x, y, z]); empty = the single "
                    "'joint' with the root topics. Each axis may override any non machine-wide parameter in a "
                    "nested mapping named after it (docs/machine.md)")
+
+#: the values a maintenance service call takes (set them, then call maintenance/<axis>/<kind>; they are
+#: cleared after each call): docs/machine.md
+MAINTENANCE_PARAMS = (
+    Param("maintenance_guide", "", "", "", "guide of the next maintenance call ('' = every guide of the axis)",
+          dynamic=True),
+    Param("maintenance_straightness_m", 0.0, "m", "[0, 0.01]",
+          "straightness measured after the next regrind/rail replacement, or the next manual measurement "
+          "(0 = not measured: A0)", dynamic=True),
+    Param("maintenance_time_s", 0.0, "s", "[0, 1e10]",
+          "time of the next manual measurement [s since the epoch, machine time base]; 0 = the axis's latest "
+          "joint_states stamp", dynamic=True),
+)
 
 AXIS_PARAMS = (
     Param("joint", "", "", "", "the axis's name in sensor_msgs/JointState; '' = the axis name"),

@@ -8,7 +8,7 @@ from __future__ import annotations
 from typing import Any
 
 from guide_health.errors import InputError
-from guide_health.params.machine import AXES_PARAM
+from guide_health.params.machine import AXES_PARAM, MAINTENANCE_PARAMS
 from guide_health.params.schema import NodeSchema, Param
 
 #: the wear profile's bins (rail_length_m / profile_bin_m) at most: 1e6 bins = 8 MB per profile array
@@ -234,7 +234,8 @@ def hardness_units_warning(p: dict[str, Any]) -> str | None:
     return None
 
 
-WEAR_MONITOR_SCHEMA = NodeSchema("wear_monitor", SLIDING_GUIDE_PARAMS + ROLLING_GUIDE_PARAMS, _wear_all_checks)
+WEAR_MONITOR_SCHEMA = NodeSchema("wear_monitor", SLIDING_GUIDE_PARAMS + ROLLING_GUIDE_PARAMS + MAINTENANCE_PARAMS,
+                                 _wear_all_checks)
 
 
 def validate_wear_params(p: dict[str, Any]) -> None:

@@ -15,6 +15,9 @@ import dataclasses
 import math
 from typing import Any
 
+import numpy as np
+
+from guide_health.models.wear.maintenance import MaintenanceEvent, apply_baseline, apply_event, baseline, check_event
 from guide_health.models.wear.precision import PrecisionMonitor
 
 #: the keys every `<axis> precision` status carries ('nan' until known; README "Diagnostics")
@@ -34,6 +37,56 @@ class AxisMonitor:
         self.shares = dict(zip(names, shares))
         self.guides = {name: PrecisionMonitor(params) for name in names}
         self.primary = self.guides[names[0]]
+        self.events: list[MaintenanceEvent] = []       # applied, in order (models/wear/maintenance.py)
+        self.pending: list[MaintenanceEvent] = []      # stamped after the present: applied when time gets there
+        self.baselines: dict[str, dict] = {}           # guide -> what a wear reset changed
+
+    # --- maintenance events ------------------------------------------------------------------------
+    def schedule(self, event: MaintenanceEvent) -> str | None:
+        """Take a maintenance event: applied now when stamped at or before the present (the last joint
+        sample), else when the first joint sample stamped after it arrives (live and offline alike).
+        Returns a rejection reason (the event is not applied), or None (applied, pending or a repeat)."""
+        reason = check_event(event, list(self.guides), self.params["straightness_limit_m"])
+        if reason is not None:
+            return self.reject(f"maintenance event: {reason}")
+        if any(e.key == event.key for e in self.events + self.pending):
+            return None                      # seen before (the node's own event back from the topic)
+        if self.last_t_ns is not None and event.t_ns <= self.last_t_ns:
+            return self._apply(event)
+        self.pending.append(event)
+        self.pending.sort(key=lambda e: e.t_ns)
+        return None
+
+    def _apply(self, event: MaintenanceEvent) -> str | None:
+        reasons = []
+        for name, guide in self.guides.items():
+            if event.guide in ("", name):
+                reasons.append(apply_event(guide, event))
+                if event.kind in ("regrind", "replace_rail"):
+                    self.baselines[name] = baseline(guide)
+        self.events.append(event)
+        return next((r for r in reasons if r), None)
+
+    def apply_due(self, t_ns: int | None = None) -> list[str]:
+        """Apply the pending events stamped before ``t_ns`` (None: all of them); rejection reasons."""
+        reasons = []
+        while self.pending and (t_ns is None or self.pending[0].t_ns < t_ns):
+            reason = self._apply(self.pending.pop(0))
+            if reason:
+                reasons.append(reason)
+        return reasons
+
+    def maintenance_state(self) -> dict:
+        return {"events": [e.as_dict() for e in self.events], "pending": [e.as_dict() for e in self.pending],
+                "baselines": self.baselines}
+
+    def restore_maintenance(self, state: dict) -> None:
+        """After the guides were restored: their baselines again, the event log and the pending events."""
+        self.events = [MaintenanceEvent.from_dict(d) for d in state.get("events", [])]
+        self.pending = [MaintenanceEvent.from_dict(d) for d in state.get("pending", [])]
+        self.baselines = {name: dict(b) for name, b in state.get("baselines", {}).items() if name in self.guides}
+        for name, values in self.baselines.items():
+            apply_baseline(self.guides[name], values)
 
     # --- the interface StampAlignedFeed and the node use -------------------------------------------
     @property
@@ -58,6 +111,8 @@ class AxisMonitor:
         return reasons[0]
 
     def integrate_joint(self, t_ns: int, position_m: float) -> None:
+        if self.pending and self.pending[0].t_ns < t_ns:
+            self.apply_due(t_ns)
         for guide in self.guides.values():
             guide.integrate_joint(t_ns, position_m)
 
@@ -99,7 +154,15 @@ class AxisMonitor:
 
     # --- offline ----------------------------------------------------------------------------------
     def process_run(self, run, progress=None) -> None:
-        """Every guide through PrecisionMonitor.process_run with its share of the run's load."""
+        """Every guide through PrecisionMonitor.process_run with its share of the run's load; the run is
+        split at the pending maintenance events, each applied after the samples stamped at or before it."""
+        while self.pending and run.joint_t_ns.size and self.pending[0].t_ns < int(run.joint_t_ns[-1]):
+            head, run = split_run(run, self.pending[0].t_ns)
+            self._process(head, progress)
+            self._apply(self.pending.pop(0))
+        self._process(run, progress)
+
+    def _process(self, run, progress=None) -> None:
         for name, guide in self.guides.items():
             share = self.shares[name]
             guide_run = run if share == 1.0 else dataclasses.replace(run, load_n=run.load_n * share)
@@ -118,6 +181,10 @@ class AxisMonitor:
         if len(reports) > 1:
             report["guide"] = name
             report["message"] = f"{name}: {report['message']}"
+        report["maintenance_event_count"] = len(self.events)
+        if self.events:
+            last = self.events[-1]
+            report["last_maintenance"] = f"{last.kind}{'/' + last.guide if last.guide else ''}@{last.t_ns}"
         return report
 
     def fatigue_report(self) -> dict[str, Any] | None:
@@ -147,3 +214,23 @@ def _life_key(life_h: float) -> float:
 
 def _used_key(fraction: float) -> float:
     return -math.inf if math.isnan(fraction) else fraction
+
+
+def split_run(run, t_ns: int):
+    """(samples stamped at or before ``t_ns``, the rest) of a MachineRun."""
+    def cut(t):
+        return int(np.searchsorted(t, t_ns, side="right"))
+
+    j, ld, st, tp = cut(run.joint_t_ns), cut(run.load_t_ns), cut(run.straightness_t_ns), cut(run.temperature_t_ns)
+    vel = run.joint_velocity_m_s
+    head = dataclasses.replace(
+        run, joint_t_ns=run.joint_t_ns[:j], joint_position_m=run.joint_position_m[:j],
+        joint_velocity_m_s=vel[:j] if vel.size else vel, load_t_ns=run.load_t_ns[:ld], load_n=run.load_n[:ld],
+        straightness_t_ns=run.straightness_t_ns[:st], straightness_m=run.straightness_m[:st],
+        temperature_t_ns=run.temperature_t_ns[:tp], temperature_c=run.temperature_c[:tp])
+    tail = dataclasses.replace(
+        run, joint_t_ns=run.joint_t_ns[j:], joint_position_m=run.joint_position_m[j:],
+        joint_velocity_m_s=vel[j:] if vel.size else vel, load_t_ns=run.load_t_ns[ld:], load_n=run.load_n[ld:],
+        straightness_t_ns=run.straightness_t_ns[st:], straightness_m=run.straightness_m[st:],
+        temperature_t_ns=run.temperature_t_ns[tp:], temperature_c=run.temperature_c[tp:])
+    return head, tail
