@@ -34,27 +34,30 @@ def axis_report(model: AxisMonitor) -> dict:
 
 
 def analyse_machine_bag(bag, axes: dict[str, dict], namespace: str | None = None, progress=None,
-                        chunk_messages: int = 200_000, events=None) -> tuple[dict[str, AxisMonitor], dict]:
-    """Every axis of ``axes`` (params/machine.py axes_params) over the bag, one pass per axis.
-    ``events``: a callable (axis, model, chunk) -> None applying maintenance events between chunks
-    (analysis of events: analysis/maintenance_replay.py). Returns the models and the machine report."""
+                        chunk_messages: int = 200_000) -> tuple[dict[str, AxisMonitor], dict]:
+    """Every axis of ``axes`` (params/machine.py axes_params) over the bag, one pass per axis, with the bag's
+    maintenance events (maintenance/events) applied at their stamps. Returns the models and the report."""
+    from guide_health.analysis.replay import maintenance_list
     from guide_health.io.bag_reader import iter_machine_bag
+    from guide_health.io.maintenance_msgs import read_events
 
     models = {}
     t0 = time.perf_counter()
+    bag_events = read_events(bag, namespace)
     stamps = []
     messages = 0
     for axis, params in axes.items():
         model = models[axis] = AxisMonitor(params)
+        for event in bag_events:
+            if event.axis == axis:
+                model.schedule(event)
         for chunk in iter_machine_bag(bag, joint=params["joint"], namespace=namespace, progress=progress,
                                       chunk_messages=chunk_messages, topics=axis_topics(params)):
-            if events is not None:
-                events(axis, model, chunk)
-            else:
-                model.process_run(chunk)
+            model.process_run(chunk)
             messages += chunk.messages if axis == next(iter(axes)) else chunk.messages - chunk.joint_t_ns.size
             stamps.extend(int(a[i]) for a in (chunk.joint_t_ns, chunk.load_t_ns) if a.size for i in (0, -1))
-    reports = {axis: axis_report(model) for axis, model in models.items()}
+    reports = {axis: dict(axis_report(model), maintenance_events=maintenance_list(model))
+               for axis, model in models.items()}
     worst = min(reports, key=lambda a: (-int(reports[a]["level"]), _life(reports[a]["remaining_life_h"])))
     report = {
         "axes": reports,

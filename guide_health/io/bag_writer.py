@@ -107,7 +107,7 @@ def _write_bag(series: list[_TopicSeries], path, storage: str, metadata: dict,
 
 
 def write_machine_bag(run: MachineRun, path, storage: str = "sqlite3", namespace: str = "",
-                      progress: ProgressFn | None = None) -> Path:
+                      progress: ProgressFn | None = None, extra: list | None = None) -> Path:
     """Write `run` as a rosbag2 bag (version 9, Jazzy types) at `path` (a new directory).
 
     Topics `<ns>/joint_states`, `<ns>/guide/load`, `<ns>/guide/straightness` and, when there are
@@ -148,7 +148,14 @@ def write_machine_bag(run: MachineRun, path, storage: str = "sqlite3", namespace
     ]
     # joint_states, load and straightness are always declared (empty topics too), temperature if any
     keep = [s for s in series if s.t_ns.size or s.msgtype != TEMPERATURE]
+    keep += _extra_series(extra, namespace)
     return _write_bag(keep, path, storage, run.metadata, progress)
+
+
+def _extra_series(extra: list | None, namespace: str) -> list[_TopicSeries]:
+    """(topic, msgtype, t_ns, encode) tuples (e.g. maintenance events) as series of the bag."""
+    return [_TopicSeries(topic_name(namespace, topic), msgtype, np.asarray(t_ns, np.int64), encode)
+            for topic, msgtype, t_ns, encode in extra or []]
 
 
 def write_slewing_bag(run: SlewingLoadRun, path, storage: str = "sqlite3", namespace: str = "",
@@ -232,8 +239,7 @@ def write_machine_axes_bag(runs: dict[str, MachineRun], topics: dict[str, dict],
                            lambda i: encode_joint_states_multi(jt[i], pos[i], vel[i], names))]
     for axis in axes:
         series.extend(_axis_series(runs[axis], topics[axis], namespace))
-    for topic, msgtype, t_ns, encode in extra or []:
-        series.append(_TopicSeries(topic_name(namespace, topic), msgtype, np.asarray(t_ns, np.int64), encode))
+    series += _extra_series(extra, namespace)
     return _write_bag(series, path, storage, metadata or {}, progress)
 
 
