@@ -133,7 +133,7 @@ class WearMonitorNode(Node):
                 except (LookupError, TypeError, ValueError, ArithmeticError) as exc:
                     raise InputError(f"state file {self.state_path}: {exc}; move it away to start afresh") from None
                 self.get_logger().info(
-                    f"resumed {key} from {self.state_path}: {guide.integrator.sliding_distance_m:.1f} m slid, "
+                    f"resumed from {self.state_path} ({key}): {guide.integrator.sliding_distance_m:.1f} m slid, "
                     f"{guide.estimator.count} measurements")
             saved = self.store.load(channel.maintenance_key(self.params["machine_id"]), fingerprint)
             if saved is not None:
