@@ -83,9 +83,11 @@ def test_live_node_matches_offline_replay(tmp_path, ros_env, storage):
         collector.close()
     values = {k: float(v) for k, v in live["values"].items() if k != "lubrication_regime"}
     assert values["samples"] == offline["samples"], "messages were lost on the way"
-    assert values["straightness_um"] == pytest.approx(offline["straightness_um"], rel=0.005)
-    assert values["remaining_life_h"] == pytest.approx(offline["remaining_life_h"], rel=0.005)
-    assert values["sliding_distance_m"] == pytest.approx(offline["sliding_distance_m"], rel=0.005)
+    assert values["load_samples"] == offline["load_samples"]
+    # the README's "live equals offline to 0.000 %": same samples and model, equal to 1e-5 (seen: 4e-6)
+    # (rel=0.005 let a lost stroke pass)
+    for key in ("straightness_um", "remaining_life_h", "sliding_distance_m", "wear_coefficient"):
+        assert values[key] == pytest.approx(offline[key], rel=1e-5), key
     assert values["measurements"] == offline["measurements"]
 
 
@@ -131,5 +133,12 @@ def test_sigkill_and_restart_continue_where_the_node_stopped(tmp_path, udp_ros_e
         collector.close()
     assert "resumed from" in (tmp_path / "node2.log").read_text()
     values = {k: float(v) for k, v in live["values"].items() if k != "lubrication_regime"}
-    assert values["straightness_um"] == pytest.approx(offline["straightness_um"], rel=0.01)
-    assert values["sliding_distance_m"] == pytest.approx(offline["sliding_distance_m"], rel=0.01)
+    # interfaces.md: replaying from the checkpoint stamp "restores it completely without counting a
+    # measurement twice": counts exactly, numbers to 1e-5 (a lost or doubled chunk of the bag
+    # shifts them by ~1e-3 and more; rel=0.01 let a 1 % loss pass)
+    assert values["samples"] == offline["samples"]
+    assert values["load_samples"] == offline["load_samples"]
+    assert values["measurements"] == offline["measurements"]
+    assert values["strokes"] == offline["strokes"]
+    for key in ("straightness_um", "sliding_distance_m", "remaining_life_h", "wear_coefficient"):
+        assert values[key] == pytest.approx(offline[key], rel=1e-5), key

@@ -187,12 +187,21 @@ def test_state_survives_restart(ros_context, tmp_path):
     node._on_straightness(Float64(data=16e-6))
     node.checkpoint()
     distance = node.monitor.integrator.sliding_distance_m
-    work = node.monitor.integrator.archard_work_nm
+    saved_state = snapshot(node)
+    saved_report = node.monitor.report()
     node.destroy_node()                                # no clean close: only the checkpoint survives
     node2 = make_node(ros_context, tmp_path)
     try:
-        assert node2.monitor.integrator.sliding_distance_m == distance
-        assert node2.monitor.integrator.archard_work_nm == work
+        # complete restoration (interfaces.md): the whole state, counters included, exactly; and the status
+        # numbers computed from it. Catches a field left out of state()/restore() (samples, strokes, duty
+        # buckets, K measurements, rejection counts) or a float round trip through JSON that is not exact.
+        assert snapshot(node2) == saved_state
+        restored = node2.monitor.report()
+        for key in ("samples", "load_samples", "measurements", "strokes", "rejected_samples"):
+            assert restored[key] == saved_report[key], key
+        for key in ("straightness_um", "remaining_life_h", "sliding_distance_m", "wear_coefficient",
+                    "duty_load_speed_w", "stroke_min_m", "stroke_max_m"):
+            assert restored[key] == saved_report[key], key
         assert node2.monitor.estimator.count == 1
         node2._on_joint(joint(t - 1.0, [0.0]))         # already processed stamps are rejected
         assert node2.monitor.integrator.sliding_distance_m == distance
