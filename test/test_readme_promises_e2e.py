@@ -243,7 +243,7 @@ def test_a_killed_node_loses_at_most_one_checkpoint_period(ros_context, tmp_path
     t, x, n = T0 + 1.0, 0.0, 0
     saves = []
     original_save = node.store.save
-    node.store.save = lambda states: (saves.append(time.monotonic()), original_save(states))[1]
+    node.store.save = lambda *a, **kw: (saves.append(time.monotonic()), original_save(*a, **kw))[1]
     start = time.monotonic()
     while time.monotonic() - start < 1.5:
         for _ in range(20):
@@ -255,7 +255,8 @@ def test_a_killed_node_loses_at_most_one_checkpoint_period(ros_context, tmp_path
         executor.spin_once(timeout_sec=0.002)
     kill_at = time.monotonic()
     executor.remove_node(node)
-    node.destroy_node()                # no close(): the shutdown checkpoint never happens
+    node.store.close()                 # a dead process: its lock goes, no shutdown checkpoint (no node.close())
+    node.destroy_node()
     executor.shutdown()
     node2 = make_node(ros_context, tmp_path, checkpoint_period_s=period)
     try:

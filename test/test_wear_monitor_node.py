@@ -189,6 +189,7 @@ def test_state_survives_restart(ros_context, tmp_path):
     distance = node.monitor.integrator.sliding_distance_m
     saved_state = snapshot(node)
     saved_report = node.monitor.report()
+    node.store.close()              # a crashed process: its lock goes with it, no final checkpoint
     node.destroy_node()                                # no clean close: only the checkpoint survives
     node2 = make_node(ros_context, tmp_path)
     try:
