@@ -27,6 +27,7 @@ from guide_health.models.wear.calibration import Z90, WearCoefficientEstimator, 
 from guide_health.models.wear.effect_wear import EffectWear, LiveEffects, life_interval_s
 from guide_health.models.wear.input_rules import (
     REASON_CODES,
+    STRAIGHTNESS_WITHOUT_TIME_BASE,
     InputLimits,
     RejectionCounter,
     StampBase,
@@ -114,6 +115,8 @@ class PrecisionMonitor:
     def on_straightness(self, t_ns: int, straightness_m: float) -> str | None:
         """Straightness measurement [m]; returns the rejection reason or None when accepted. A measurement
         is identified by its stamp: one with the stamp of an applied measurement is not applied again."""
+        if self.integrator.last_t_ns is None:   # before any accepted joint sample (discrepancy/duty.py alike)
+            return self.rejected.reject(STRAIGHTNESS_WITHOUT_TIME_BASE)
         times = self.estimator.measurement_t_ns
         reason = check_straightness_sample(t_ns, straightness_m, times[-1] if times else None, self.limits)
         if reason is not None:
