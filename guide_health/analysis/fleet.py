@@ -26,6 +26,10 @@ from guide_health.errors import InputError
 
 #: the single-bag command behind each fleet command (guide_health.cli module:Command)
 SINGLE_BAG_COMMANDS = {"replay": "replay:REPLAY", "diagnose": "diagnose:DIAGNOSE"}
+#: modules the single-bag commands import when they run: imported before forking local workers
+PRELOAD = {"replay": ("guide_health.io.bag_reader", "guide_health.io.progress"),
+           "diagnose": ("guide_health.analysis.discrepancy.workflow", "guide_health.analysis.discrepancy.duty",
+                        "guide_health.analysis.discrepancy.report", "guide_health.io.progress")}
 #: keys of a per-bag result that are timings or paths (differ between runs of the same bag)
 VOLATILE_KEYS = ("read_s", "model_s", "fit_s", "report_s", "total_s", "files")
 
@@ -125,6 +129,7 @@ def dask_client(workers: int, scheduler: str | None):
     single-threaded worker processes (closed on exit)."""
     import logging
 
+    import dask
     from distributed import Client, LocalCluster
 
     if scheduler:
@@ -135,9 +140,25 @@ def dask_client(workers: int, scheduler: str | None):
         with client:
             yield client
         return
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                      silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+    with dask.config.set({"distributed.worker.multiprocessing-method": local_start_method()}), \
+            LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                         silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
         yield client
+
+
+def local_start_method() -> str:
+    """How local worker processes start: ``fork`` on Linux (measured: LocalCluster(2) starts in 0.85 s
+    instead of 4.9 s with spawn, closes in 0.5 s instead of 2.5 s, and the workers inherit the imported
+    analysis modules), unless DASK_DISTRIBUTED__WORKER__MULTIPROCESSING_METHOD chooses; else Dask's
+    default (spawn)."""
+    import os
+    import sys
+
+    import dask
+
+    if "DASK_DISTRIBUTED__WORKER__MULTIPROCESSING_METHOD" in os.environ or not sys.platform.startswith("linux"):
+        return dask.config.get("distributed.worker.multiprocessing-method")
+    return "fork"
 
 
 def run_fleet(command: str, bags: list[Path], params: str, out: Path, options: tuple[str, ...] = (),
@@ -156,8 +177,15 @@ def run_fleet(command: str, bags: list[Path], params: str, out: Path, options: t
             if progress:
                 progress(i + 1, len(jobs))
         return entries
+    import importlib
+
     from distributed import as_completed
 
+    from guide_health.cli.app import load_command
+
+    load_command(SINGLE_BAG_COMMANDS[command])     # imported here: forked local workers inherit the modules
+    for module in PRELOAD[command]:
+        importlib.import_module(module)
     with dask_client(workers, scheduler) as client:
         futures = {client.submit(run_bag, command, bag, params, bag_out, options, pure=False): i
                    for i, (bag, bag_out) in enumerate(jobs)}
