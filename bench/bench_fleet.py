@@ -8,8 +8,9 @@ of them (analysis/fleet.py run_fleet, per-bag PNG off unless --plot):
   serial      workers=0: one bag after another in this process (no Dask), after one warm-up bag;
   local 1/2   a LocalCluster of 1 / 2 worker processes, started and stopped inside the run (what a user
               of `guide-health fleet replay --workers N` waits for);
-  startup     LocalCluster(2) + Client start and close alone;
-  address     the same bags on an already running LocalCluster(2) reached by its scheduler address
+  startup     LocalCluster(2) + Client start and close alone (as fleet replay starts them: fork on Linux);
+  address     the same bags on an already running LocalCluster(2) (Dask's default spawn start, like
+              `dask worker` processes) reached by its scheduler address
               (`--scheduler tcp://...`; client connection included, cluster start not).
 It prints each wall time, the speed-ups over serial (target: 2 workers >= 1.7x), the Dask overhead per bag
 ((local 1 - startup - serial) / bags) and address mode against local mode. The machine's load average is
@@ -73,9 +74,9 @@ def main() -> None:
     parser.add_argument("--workdir", default=str(Path(tempfile.gettempdir()) / "guide_health_bench_fleet"))
     parser.add_argument("--plot", action="store_true", help="per-bag PNG too (default: --no-plot)")
     args = parser.parse_args()
-    from distributed import Client, LocalCluster
+    from distributed import LocalCluster
 
-    from guide_health.analysis.fleet import run_bag
+    from guide_health.analysis.fleet import dask_client, local_start_method, run_bag
 
     workdir = Path(args.workdir)
     workdir.mkdir(parents=True, exist_ok=True)
@@ -94,11 +95,11 @@ def main() -> None:
         print(f"local {workers}     {local[workers]:6.2f} s  speed-up over serial {serial / local[workers]:.2f}x",
               flush=True)
     t0 = time.perf_counter()
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                      silence_logs=logging.ERROR) as cluster, Client(cluster):
+    with dask_client(2, None):
         pass
     startup = time.perf_counter() - t0
-    print(f"startup     {startup:6.2f} s  (LocalCluster(2) + Client, start and close)", flush=True)
+    print(f"startup     {startup:6.2f} s  (LocalCluster(2) + Client as fleet replay starts them "
+          f"({local_start_method()}), start and close)", flush=True)
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
                       silence_logs=logging.ERROR) as cluster:
         address, _ = timed_fleet(bags, out / "address", options, scheduler=cluster.scheduler_address)
