@@ -105,22 +105,21 @@ def test_fleet_prior_command_from_a_fleet_replay(tmp_path, capsys):
     from guide_health.sim.machine import simulate_machine
 
     cfg = Path(__file__).resolve().parents[1] / "config" / "bench_000.yaml"
-    data = yaml.safe_load(cfg.read_text())
-    data["wear_monitor"]["ros__parameters"]["machine_type"] = "bench45"
-    params_file = tmp_path / "type.yaml"
-    params_file.write_text(yaml.safe_dump(data))
-    params = wear_monitor_params(params_file)
+    type_file = tmp_path / "type.yaml"              # a second params file: only the machine type
+    type_file.write_text(yaml.safe_dump({"wear_monitor": {"ros__parameters": {"machine_type": "bench45"}}}))
+    params = wear_monitor_params([cfg, type_file])
     factors = (1.4, 1.6, 1.5, 1.7)
     for i, factor in enumerate(factors):
         sim = dict(simulation_params(cfg), duration_h=2.0, joint_state_rate_hz=5.0, measurement_interval_h=0.25,
                    wear_coefficient_factor=factor)
         write_machine_bag(simulate_machine(params, sim, seed=10 + i), tmp_path / "bags" / f"b{i}",
                           namespace=f"/m{i}")
-    assert main(["fleet", "replay", str(tmp_path / "bags"), "--params", str(params_file), "--workers", "0",
+    assert main(["fleet", "replay", str(tmp_path / "bags"), "--params", str(cfg), "--params", str(type_file),
+                 "--workers", "0",
                  "--no-plot", "--out", str(tmp_path / "fleet")]) == 0
     capsys.readouterr()
     out = tmp_path / "prior.yaml"
-    assert main(["fleet", "prior", str(tmp_path / "fleet"), "--params", str(params_file), "--out", str(out),
+    assert main(["fleet", "prior", str(tmp_path / "fleet"), "--params", str(cfg), "--out", str(out),
                  "--json"]) == 0
     prior = json.loads(capsys.readouterr().out)
     assert prior["machine_type"] == "bench45" and prior["machines"] == 4

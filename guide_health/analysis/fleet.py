@@ -98,11 +98,12 @@ def error_line(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {one_line(exc)}"
 
 
-def run_bag(command: str, bag: str, params: str, out: str, options: tuple[str, ...] = ()) -> dict[str, Any]:
+def run_bag(command: str, bag: str, params, out: str, options: tuple[str, ...] = ()) -> dict[str, Any]:
     """One bag through the single-bag command (the worker task): {bag, machine, ok, error, seconds, result}.
 
-    The command's arguments are parsed by its own parser (same defaults as on the command line); its
-    stderr chatter is dropped. Never raises: a failure is ``ok: False`` with the one-line error."""
+    ``params``: a params file or a list (merged in order). The command's arguments are parsed by its own
+    parser (same defaults as on the command line); its stderr chatter is dropped.
+    Never raises: a failure is ``ok: False`` with the one-line error."""
     from guide_health.cli.app import load_command
     from guide_health.cli.text import jsonable
 
@@ -112,7 +113,8 @@ def run_bag(command: str, bag: str, params: str, out: str, options: tuple[str, .
     cmd = load_command(SINGLE_BAG_COMMANDS[command])
     parser = argparse.ArgumentParser(prog=f"guide-health {command}")
     cmd.add_arguments(parser)
-    args = parser.parse_args([bag, "--params", params, "--out", out, *options])
+    files = [params] if isinstance(params, str) else list(params)     # several merge in order, as for one bag
+    args = parser.parse_args([bag, *[a for f in files for a in ("--params", f)], "--out", out, *options])
     try:
         with contextlib.redirect_stderr(io.StringIO()):
             entry["result"] = jsonable(cmd.run(args))
@@ -161,11 +163,11 @@ def local_start_method() -> str:
     return "fork"
 
 
-def run_fleet(command: str, bags: list[Path], params: str, out: Path, options: tuple[str, ...] = (),
+def run_fleet(command: str, bags: list[Path], params, out: Path, options: tuple[str, ...] = (),
               workers: int = 2, scheduler: str | None = None, progress=None) -> list[dict[str, Any]]:
     """Every bag through ``command`` (replay|diagnose), report directories ``out/bags/<name>``; the
     entries of :func:`run_bag` in the order of ``bags``. ``progress(done, total)`` after each bag."""
-    params = str(Path(params).resolve())
+    params = tuple(str(Path(p).resolve()) for p in ([params] if isinstance(params, (str, Path)) else params))
     jobs = [(str(bag.resolve()), str((out / "bags" / name).resolve()))
             for bag, name in zip(bags, report_names(bags))]
     entries: list[dict[str, Any] | None] = [None] * len(jobs)

@@ -24,7 +24,8 @@ PARTIAL_EXIT_STATUS = 3
 def _add_fleet_arguments(parser, command: str) -> None:
     parser.add_argument("bags", nargs="+", metavar="BAG_OR_DIR",
                         help="bag directories, or directories whose sub-directories are bags")
-    parser.add_argument("--params", required=True, help="ROS 2 parameters YAML (wear_monitor section), every bag")
+    parser.add_argument("--params", required=True, action="append",
+                        help="ROS 2 parameters YAML (wear_monitor section) of every bag; several merge in order")
     parser.add_argument("--workers", type=int, default=None,
                         help="local Dask worker processes (default: the CPU count); 0 = one bag after another "
                              "in this process, without Dask")
