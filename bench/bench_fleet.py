@@ -67,6 +67,12 @@ def timed_fleet(bags, out: Path, options, **engine) -> tuple[float, list[dict]]:
     return wall, entries
 
 
+def in_task(entries) -> str:
+    """The time spent inside the bag tasks (run_bag), against which the wall time shows the overhead."""
+    total = sum(e["seconds"] for e in entries)
+    return f"[inside the bag tasks {total:.2f} s, {total / len(entries):.2f} s per bag]"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--bags", type=int, default=16)
@@ -88,12 +94,12 @@ def main() -> None:
     serial, entries = timed_fleet(bags, out / "serial", options, workers=0)
     messages = sum(e["result"]["messages"] for e in entries)
     print(f"serial      {serial:6.2f} s  ({messages:,} messages, {messages / serial:,.0f} msg/s, "
-          f"{serial / len(bags):.2f} s per bag)", flush=True)
+          f"{serial / len(bags):.2f} s per bag) {in_task(entries)}", flush=True)
     local = {}
     for workers in (1, 2):
-        local[workers], _ = timed_fleet(bags, out / f"local{workers}", options, workers=workers)
-        print(f"local {workers}     {local[workers]:6.2f} s  speed-up over serial {serial / local[workers]:.2f}x",
-              flush=True)
+        local[workers], entries = timed_fleet(bags, out / f"local{workers}", options, workers=workers)
+        print(f"local {workers}     {local[workers]:6.2f} s  speed-up over serial {serial / local[workers]:.2f}x "
+              f"{in_task(entries)}", flush=True)
     t0 = time.perf_counter()
     with dask_client(2, None):
         pass
@@ -102,9 +108,9 @@ def main() -> None:
           f"({local_start_method()}), start and close)", flush=True)
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
                       silence_logs=logging.ERROR) as cluster:
-        address, _ = timed_fleet(bags, out / "address", options, scheduler=cluster.scheduler_address)
+        address, entries = timed_fleet(bags, out / "address", options, scheduler=cluster.scheduler_address)
     print(f"address     {address:6.2f} s  speed-up over serial {serial / address:.2f}x "
-          f"(running 2-worker cluster at {cluster.scheduler_address})", flush=True)
+          f"(running 2-worker cluster at {cluster.scheduler_address}) {in_task(entries)}", flush=True)
     print(f"overhead    {(local[1] - startup - serial) / len(bags) * 1e3:6.0f} ms per bag "
           "((local 1 - startup - serial) / bags)")
     print(f"address vs local 2: {address:.2f} s vs {local[2]:.2f} s (local 2 without its startup: "
