@@ -135,3 +135,14 @@ def test_fleet_prior_command_from_a_fleet_replay(tmp_path, capsys):
     assert main(["fleet", "prior", str(tmp_path / "fleet"), "--machine-type", "other", "--out",
                  str(tmp_path / "x.yaml")]) == 2
     assert "0 machines with a K estimate" in capsys.readouterr().err
+
+
+def test_fleet_prior_bad_input_is_one_line(tmp_path, capsys):
+    from guide_health.cli.app import main
+
+    old = tmp_path / "fleet.json"
+    old.write_text(json.dumps({"summary": {"command": "replay"}, "bags": []}))
+    assert main(["fleet", "prior", str(old), "--out", str(tmp_path / "p.yaml")]) == 2
+    assert "summary without machine_type, prior" in capsys.readouterr().err
+    assert main(["fleet", "prior", str(tmp_path / "none.json"), "--out", str(tmp_path / "p.yaml")]) == 2
+    assert "fleet results not found" in capsys.readouterr().err

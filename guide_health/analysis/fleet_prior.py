@@ -19,6 +19,7 @@ from typing import Any
 from scipy.special import stdtrit
 
 from guide_health.errors import InputError
+from guide_health.io.bag_metadata import one_line
 from guide_health.models.fleet import (
     combine_estimates,
     likelihood_from_posterior,
@@ -37,10 +38,14 @@ def load_fleet_results(paths: list[str]) -> list[dict[str, Any]]:
         try:
             data = json.loads(path.read_text())
             summary, bags = data["summary"], data["bags"]
+            missing = [k for k in ("command", "machine_type", "prior") if k not in summary]
+            if missing or not isinstance(bags, list):
+                raise KeyError(f"summary without {', '.join(missing)}" if missing else "bags")
         except FileNotFoundError:
             raise InputError(f"fleet results not found: {path}") from None
         except (ValueError, KeyError, TypeError) as exc:
-            raise InputError(f"{path}: not a fleet.json of `guide-health fleet replay|diagnose`: {exc}") from None
+            raise InputError(f"{path}: not a fleet.json of `guide-health fleet replay|diagnose` "
+                             f"({one_line(exc)}); run it again") from None
         entries += [dict(e, summary=summary) for e in bags if e.get("ok")]
     return entries
 
