@@ -137,15 +137,18 @@ FLEET_DIAGNOSE = Command(lambda p: _add_fleet_arguments(p, "diagnose"), lambda a
 def add_trend_arguments(parser) -> None:
     parser.add_argument("history", metavar="HISTORY.db", help="fleet_monitor history_file (SQLite)")
     parser.add_argument("--machine", default=None, help="only this machine (hardware_id)")
+    parser.add_argument("--days", type=float, default=None, help="only the last DAYS before the newest row")
     parser.add_argument("--out", default=None, help="output directory (default: <history>.trend beside it)")
 
 
 def run_trend(args) -> dict:
     from guide_health.analysis.fleet_trend import write_trend_report
 
+    if args.days is not None and not args.days > 0:
+        raise InputError("--days must be > 0")
     db = Path(args.history)
     out = Path(args.out) if args.out else db.with_name(db.name + ".trend")
-    return write_trend_report(db, out, args.machine)
+    return write_trend_report(db, out, args.machine, args.days)
 
 
 def format_trend_text(result: dict) -> str:
