@@ -12,8 +12,10 @@ of them (analysis/fleet.py run_fleet, per-bag PNG off unless --plot):
   address     the same bags on an already running LocalCluster(2) (Dask's default spawn start, like
               `dask worker` processes) reached by its scheduler address
               (`--scheduler tcp://...`; client connection included, cluster start not).
-It prints each wall time, the speed-ups over serial (target: 2 workers >= 1.7x), the Dask overhead per bag
-((local 1 - startup - serial) / bags) and address mode against local mode. The machine's load average is
+It prints each wall time and the time spent inside the bag tasks, the speed-ups over serial (target:
+2 workers >= 1.7x), the Dask overhead per bag ((local 1 - startup - serial) / bags, and local 1's wall time
+outside its bag tasks per bag, which other load on the cores disturbs less) and address mode against local
+mode. The machine's load average is
 printed before and after: other processes on the cores change every number.
 """
 from __future__ import annotations
@@ -95,9 +97,10 @@ def main() -> None:
     messages = sum(e["result"]["messages"] for e in entries)
     print(f"serial      {serial:6.2f} s  ({messages:,} messages, {messages / serial:,.0f} msg/s, "
           f"{serial / len(bags):.2f} s per bag) {in_task(entries)}", flush=True)
-    local = {}
+    local, inside = {}, {}
     for workers in (1, 2):
         local[workers], entries = timed_fleet(bags, out / f"local{workers}", options, workers=workers)
+        inside[workers] = sum(e["seconds"] for e in entries)
         print(f"local {workers}     {local[workers]:6.2f} s  speed-up over serial {serial / local[workers]:.2f}x "
               f"{in_task(entries)}", flush=True)
     t0 = time.perf_counter()
@@ -112,7 +115,8 @@ def main() -> None:
     print(f"address     {address:6.2f} s  speed-up over serial {serial / address:.2f}x "
           f"(running 2-worker cluster at {cluster.scheduler_address}) {in_task(entries)}", flush=True)
     print(f"overhead    {(local[1] - startup - serial) / len(bags) * 1e3:6.0f} ms per bag "
-          "((local 1 - startup - serial) / bags)")
+          "((local 1 - startup - serial) / bags); outside the bag tasks with 1 worker: "
+          f"{(local[1] - inside[1]) / len(bags) * 1e3:.0f} ms per bag (startup included)")
     print(f"address vs local 2: {address:.2f} s vs {local[2]:.2f} s (local 2 without its startup: "
           f"{local[2] - startup:.2f} s)")
     print(f"load average after: {os.getloadavg()}")
