@@ -121,3 +121,10 @@ def test_fleet_bad_input_is_one_line(tmp_path, capsys):
     assert main(["fleet", "replay", str(tmp_path), "--params", str(CONFIG)]) == 2     # no bags in it
     assert "neither a bag nor a directory of bags" in capsys.readouterr().err
     assert main(["fleet", "replay", str(tmp_path), "--params", str(CONFIG), "--workers", "-1"]) == 2
+    bag = tmp_path / "b"
+    bag.mkdir()
+    (bag / "metadata.yaml").write_text("")
+    assert main(["fleet", "replay", str(bag), "--params", str(CONFIG), "--scheduler", "nonsense://x",
+                 "--out", str(tmp_path / "o")]) == 2
+    assert "cannot reach the Dask scheduler at nonsense://x: ValueError: unknown address scheme" \
+        in capsys.readouterr().err

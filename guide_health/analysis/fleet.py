@@ -137,7 +137,7 @@ def dask_client(workers: int, scheduler: str | None):
     if scheduler:
         try:
             client = Client(scheduler, timeout="10s")
-        except (OSError, TimeoutError) as exc:
+        except (OSError, TimeoutError, ValueError) as exc:     # refused/timed out, or not an address
             raise InputError(f"cannot reach the Dask scheduler at {scheduler}: {error_line(exc)}") from None
         with client:
             yield client
