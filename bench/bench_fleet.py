@@ -8,6 +8,8 @@ of them (analysis/fleet.py run_fleet, per-bag PNG off unless --plot):
   serial      workers=0: one bag after another in this process (no Dask), after one warm-up bag;
   local 1/2   a LocalCluster of 1 / 2 worker processes, started and stopped inside the run (what a user
               of `guide-health fleet replay --workers N` waits for);
+  pool 2      2 plain forked processes (concurrent.futures, no Dask): the parallel ceiling of the cores as
+              loaded at the time, against which local 2 shows what Dask costs;
   startup     LocalCluster(2) + Client start and close alone (as fleet replay starts them: fork on Linux);
   address     the same bags on an already running LocalCluster(2) (Dask's default spawn start, like
               `dask worker` processes) reached by its scheduler address
@@ -69,6 +71,20 @@ def timed_fleet(bags, out: Path, options, **engine) -> tuple[float, list[dict]]:
     return wall, entries
 
 
+def timed_pool(bags, out: Path, options) -> tuple[float, list[dict]]:
+    """The same bags on 2 plain forked processes (concurrent.futures, no Dask): what `xargs -P 2` gives."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    from guide_health.analysis.fleet import report_names, run_bag
+
+    t0 = time.perf_counter()
+    with ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("fork")) as pool:
+        entries = list(pool.map(run_bag, ["replay"] * len(bags), [str(b) for b in bags], [str(PARAMS)] * len(bags),
+                                [str(out / n) for n in report_names(bags)], [options] * len(bags)))
+    return time.perf_counter() - t0, entries
+
+
 def in_task(entries) -> str:
     """The time spent inside the bag tasks (run_bag), against which the wall time shows the overhead."""
     total = sum(e["seconds"] for e in entries)
@@ -103,6 +119,10 @@ def main() -> None:
         inside[workers] = sum(e["seconds"] for e in entries)
         print(f"local {workers}     {local[workers]:6.2f} s  speed-up over serial {serial / local[workers]:.2f}x "
               f"{in_task(entries)}", flush=True)
+    pool, entries = timed_pool(bags, out / "pool", options)
+    print(f"pool 2      {pool:6.2f} s  speed-up over serial {serial / pool:.2f}x (2 forked processes, no Dask: "
+          f"the ceiling on these cores now) {in_task(entries)}; local 2 / pool 2 = {local[2] / pool:.2f}",
+          flush=True)
     t0 = time.perf_counter()
     with dask_client(2, None):
         pass
