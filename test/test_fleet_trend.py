@@ -132,6 +132,7 @@ def test_trend_page_renders_in_headless_chromium(history, tmp_path, capsys):
 rclpy = pytest.importorskip("rclpy")
 
 
+@pytest.mark.ros
 def test_trend_of_a_history_written_by_a_live_fleet_monitor(ros_context, tmp_path, capsys):
     """A live fleet_monitor records two machines whose life falls; the trend reads it back."""
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
