@@ -114,7 +114,9 @@ def format_fleet_text(result: dict) -> str:
     for row in result["rows"]:
         if row["status"] != "ok":
             continue
-        if result["command"] == "replay":
+        if result["command"] == "replay" and not isinstance(row["remaining_life_h"], float):
+            lines.append(f"  {row['machine']:<16} {row['level_name']:<5} (a slewing bag: see its report)")
+        elif result["command"] == "replay":
             lines.append(f"  {row['machine']:<16} {row['level_name']:<5} remaining life "
                          f"{row['remaining_life_h']:10.1f} h  (90 %: {row['remaining_life_h_low']:.1f} .. "
                          f"{row['remaining_life_h_high']:.1f} h)"
