@@ -146,3 +146,30 @@ def test_fleet_prior_bad_input_is_one_line(tmp_path, capsys):
     assert "summary without machine_type, prior" in capsys.readouterr().err
     assert main(["fleet", "prior", str(tmp_path / "none.json"), "--out", str(tmp_path / "p.yaml")]) == 2
     assert "fleet results not found" in capsys.readouterr().err
+
+
+def test_named_effects_of_most_machines_go_into_the_prior_file(tmp_path):
+    """Effect populations (diagnose) -> the live model's effect parameters and covariance diagonal."""
+    from guide_health.analysis.fleet_prior import write_prior_params
+    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES, LiveEffects
+    from guide_health.params import wear_monitor_params
+
+    cfg = Path(__file__).resolve().parents[1] / "config" / "bench_000.yaml"
+    pop = {"running_in.running_in_ratio": {"mean": 0.8, "tau": 0.1, "predictive_sd": 0.2, "machines": 3, "of_bags": 4},
+           "running_in.running_in_distance_m": {"mean": 250.0, "tau": 20.0, "predictive_sd": 30.0, "machines": 3,
+                                                "of_bags": 4},
+           "load_exponent.load_exponent": {"mean": 1.3, "tau": 0.1, "predictive_sd": 0.1, "machines": 1,
+                                           "of_bags": 4}}                  # named by 1 of 4: left out
+    prior = {"machine_type": "t", "machines": 4, "bags": 4, "wear_coefficient": 5e-6,
+             "wear_coefficient_prior_rel_sd": 0.2, "wear_coefficient_median": 4.9e-6,
+             "log_k": {"mean": -12.2, "tau": 0.2, "mean_std_error": 0.1, "predictive_sd": 0.22}, "effects": pop}
+    out = tmp_path / "prior.yaml"
+    write_prior_params(out, prior, str(cfg))
+    p = wear_monitor_params(out)
+    live = LiveEffects.from_params(p)
+    assert live.effects == ("running_in",)
+    assert (live.running_in_ratio, live.running_in_distance_m, live.load_exponent) == (0.8, 250.0, 1.0)
+    cov = live.covariance_matrix()
+    i, j = COVARIANCE_NAMES.index("running_in_ratio"), COVARIANCE_NAMES.index("running_in_distance_m")
+    assert (cov[i, i], cov[j, j], cov[0, 0]) == (pytest.approx(0.04), pytest.approx(900.0), 0.0)
+    assert "effect running_in.running_in_ratio: mean 0.8" in out.read_text()
