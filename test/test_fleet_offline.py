@@ -128,3 +128,17 @@ def test_fleet_bad_input_is_one_line(tmp_path, capsys):
                  "--out", str(tmp_path / "o")]) == 2
     assert "cannot reach the Dask scheduler at nonsense://x: ValueError: unknown address scheme" \
         in capsys.readouterr().err
+
+
+def test_dask_malloc_trim_is_undone_only_in_dask_workers():
+    """Dask's nanny sets MALLOC_TRIM_THRESHOLD_ (slow numpy allocation); run_bag resets the thresholds there."""
+    import os
+    import subprocess
+    import sys
+
+    code = "from guide_health.analysis.fleet import undo_dask_malloc_trim as u; print(u())"
+    env = {k: v for k, v in os.environ.items() if k != "MALLOC_TRIM_THRESHOLD_"}
+    plain = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    worker = subprocess.run([sys.executable, "-c", code], env={**env, "MALLOC_TRIM_THRESHOLD_": "65536"},
+                            capture_output=True, text=True, check=True)
+    assert (plain.stdout.strip(), worker.stdout.strip()) == ("False", "True" if sys.platform == "linux" else "False")
