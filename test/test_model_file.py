@@ -259,8 +259,9 @@ def test_live_node_with_several_params_files_matches_replay(tmp_path, monkeypatc
         "effect_covariance": cov}}}))
     offline = analyse(read_machine_bag(bag, joint="x"), wear_monitor_params([BENCH, model]))[1]
     collector = DiagnosticsCollector("test_collector_model")
-    node = start_node("guide_health.nodes.wear_monitor", [BENCH, model],
-                      {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25}, env, log_path=tmp_path / "node.log")
+    overrides = {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25}
+    node = start_node("guide_health.nodes.wear_monitor", [BENCH, model], overrides, env,
+                      log_path=tmp_path / "node.log")
     try:
         assert collector.wait_for("wear_monitor: x precision", timeout=30.0) is not None, \
             (tmp_path / "node.log").read_text()
