@@ -132,3 +132,31 @@ def disagreement(problem: WearProblem, predicted_m: np.ndarray, alpha: float = 0
     out["conditions"] = rows
     out["systematic_conditions"] = [r["condition"] for r in rows if r["systematic"]]
     return out
+
+
+def unexplained_structure(after: dict[str, Any], named: list[str]) -> dict[str, Any]:
+    """The verdict on the residuals after the final fit: ``present`` when they are still systematic in time
+    (runs test or lag-1 autocorrelation, p < 0.01) or follow an operating condition (Bonferroni); then
+    ``where`` (time windows of one sign) and ``conditions`` (which, with rho) say where and under which
+    condition, and ``message`` says it first: physics outside the effect library, the named effects (if
+    any) are not an explanation."""
+    present = bool(after["systematic_in_time"] or after["systematic_conditions"])
+    out: dict[str, Any] = {"present": present, "where": [], "conditions": [], "message": ""}
+    if not present:
+        return out
+    out["where"] = [{k: w[k] for k in ("start_h", "end_h", "mean_residual_um", "t_statistic")}
+                    for w in after["windows"]]
+    out["conditions"] = [{"condition": c["condition"], "rho": c["rho"], "p_value": c["p_value"]}
+                         for c in after["conditions"] if c["systematic"]]
+    rt, ac = after["runs_test"], after["lag1_autocorrelation"]
+    parts = [f"runs test p = {rt['p_value']:.2g}, lag-1 autocorrelation {ac['r']:+.2f} (p = {ac['p_value']:.2g})"]
+    if out["where"]:
+        parts.append("in " + ", ".join(f"{w['start_h']:.1f}..{w['end_h']:.1f} h ({w['mean_residual_um']:+.2f} um)"
+                                       for w in out["where"][:4]))
+    if out["conditions"]:
+        parts.append("following " + ", ".join(f"{c['condition']} (rho {c['rho']:+.2f})" for c in out["conditions"]))
+    verdict = (f"the named effects ({', '.join(named)}) reduce the gap but do not explain it" if named
+               else "no library effect explains it")
+    out["message"] = ("UNEXPLAINED STRUCTURE: the residuals after the fit are not noise (" + "; ".join(parts)
+                      + f"): physics outside the effect library; {verdict}")
+    return out

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from guide_health.analysis.discrepancy.analysis import disagreement
+from guide_health.analysis.discrepancy.analysis import disagreement, unexplained_structure
 from guide_health.analysis.discrepancy.duty import DutyCells
 from guide_health.analysis.discrepancy.model import FitResult, WearProblem, rel_errors
 from guide_health.analysis.discrepancy.model_file import model_parameters
@@ -27,6 +27,17 @@ EFFECT_MEANING = {
     "stroke_distribution": "stroke distribution: the observed strokes, not Eq. 5's j = 1/2, set the wear depth",
     "thermal_drift": "thermal drift: the straightness measurement follows the guide temperature",
     "initial_offset": "initial offset: the initial straightness is not the A0 of the parameters",
+}
+
+# the duty variation that makes an effect's signature distinct from the others' (for near-ties)
+SEPARATING_DUTY = {
+    "running_in": "a longer record (running-in decays with sliding distance and is over after 3 s0)",
+    "retract_asymmetry": "retract strokes at another speed or load than the feed (or feed-only passes)",
+    "speed_dependent_wear": "jobs at two or more feed speeds under the same load",
+    "load_exponent": "jobs at two or more loads at the same feed speed",
+    "stroke_distribution": "separate jobs of short and of long strokes",
+    "thermal_drift": "straightness measured at rest across a temperature change (a warm-up without motion)",
+    "initial_offset": "a straightness measurement before the first motion",
 }
 
 STEADY_STAGE_DISTANCES = 3.0     # the running-in transient is over after 3 s0 (exp(-3) = 5 %)
@@ -44,6 +55,13 @@ def sliding_distance_at_measurements(problem: WearProblem) -> np.ndarray:
     n = problem.y_m.size
     per_interval = np.bincount(np.clip(c.interval, 0, n), weights=c.distance_m, minlength=n + 1)[:n]
     return np.cumsum(per_interval)
+
+
+def _tie(tie: dict) -> dict[str, Any]:
+    """A near-tie of the forward search, with what would separate the effects."""
+    effects = [tie["selected"], *tie["tied"]]
+    return {**tie, "message": (f"the data cannot tell {' from '.join(effects)} (BIC within {tie['bic_margin']:g}); "
+                               "to separate them run " + "; or ".join(SEPARATING_DUTY[e] for e in effects))}
 
 
 def _steady_stage(problem: WearProblem, base: FitResult, final: FitResult) -> dict[str, Any]:
@@ -70,6 +88,8 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
     base, final = selection.baseline, selection.final
     where = disagreement(problem, base.predicted_m)
     after = disagreement(problem, final.predicted_m)
+    named = list(selection.named)
+    structure = unexplained_structure(after, named)
     candidates = []
     for round_index, rows in enumerate(selection.rounds):
         for r in rows:
@@ -83,13 +103,16 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
                 "selected": r["selected"],
                 "parameters": f.parameter_table(),
             })
-    named = list(selection.named)
     final_gap = _gap(final)
     effects = {e: {"meaning": EFFECT_MEANING[e],
                    "parameters": {s.name: final_gap["parameters"][s.name] for s in problem.specs[e]}}
                for e in named}
     result: dict[str, Any] = {
+        "unexplained_structure": structure,
+        "explained": bool(named) and not structure["present"],
         "named_effects": named,
+        "near_ties": [_tie(t) for t in selection.ties],
+        "dropped_by_backward_pass": selection.dropped,
         "effects": effects,
         "baseline": _gap(base),
         "final": final_gap,
@@ -101,7 +124,7 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
         "candidates": candidates,
         "where_baseline_disagrees": where,
         "residuals_after": {k: after[k] for k in ("residual_rms_um", "runs_test", "lag1_autocorrelation",
-                                                  "systematic_in_time", "systematic_conditions")},
+                                                  "systematic_in_time", "systematic_conditions", "windows")},
         "data": {
             "measurements": int(problem.y_m.size), "fit_measurements": int(problem.fit_mask.sum()),
             "heldout_measurements": int(problem.heldout_mask.sum()),
