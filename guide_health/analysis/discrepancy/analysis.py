@@ -98,10 +98,13 @@ def interval_conditions(problem: WearProblem) -> dict[str, np.ndarray]:
     return cond
 
 
-def disagreement(problem: WearProblem, predicted_m: np.ndarray, alpha: float = 0.01) -> dict[str, Any]:
-    """Residual structure of a model (usually the baseline) over the whole record."""
-    res_um = (problem.y_m - predicted_m) * 1e6
-    t_h = problem.t_s / 3600.0
+def disagreement(problem: WearProblem, predicted_m: np.ndarray, alpha: float = 0.01,
+                 mask: np.ndarray | None = None) -> dict[str, Any]:
+    """Residual structure of a model (usually the baseline) over the whole record, or over the measurements
+    in ``mask`` (the fit span: a held-out forecast error grows by nature and is not structure of the fit)."""
+    mask = np.ones(problem.y_m.size, dtype=bool) if mask is None else np.asarray(mask, dtype=bool)
+    res_um = ((problem.y_m - predicted_m) * 1e6)[mask]
+    t_h = problem.t_s[mask] / 3600.0
     sigma = noise_sd_von_neumann(res_um)
     out: dict[str, Any] = {
         "residual_rms_um": float(np.sqrt(np.mean(res_um ** 2))),
@@ -113,7 +116,7 @@ def disagreement(problem: WearProblem, predicted_m: np.ndarray, alpha: float = 0
     out["systematic_in_time"] = bool(out["runs_test"]["p_value"] < alpha
                                      or out["lag1_autocorrelation"]["p_value"] < alpha)
     increment = np.concatenate(([np.nan], np.diff(res_um)))
-    cond = interval_conditions(problem)
+    cond = {k: v[mask] for k, v in interval_conditions(problem).items()}
     rows = []
     n_tests = len([k for k in cond if k != "archard_work_nm"])
     for name, values in cond.items():

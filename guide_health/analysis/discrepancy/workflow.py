@@ -27,6 +27,10 @@ EFFECT_MEANING = {
     "stroke_distribution": "stroke distribution: the observed strokes, not Eq. 5's j = 1/2, set the wear depth",
     "thermal_drift": "thermal drift: the straightness measurement follows the guide temperature",
     "initial_offset": "initial offset: the initial straightness is not the A0 of the parameters",
+    "wear_rate_change": "wear-rate change: the wear coefficient changed by a factor at a time (contamination, "
+                        "a damaged wiper, another lubricant)",
+    "lubrication_interval": "lubrication interval: wear grows with the time since the last relubrication",
+    "load_along_rail": "load along the rail: the load varies along the travel (misalignment, foundation)",
 }
 
 # the duty variation that makes an effect's signature distinct from the others' (for near-ties)
@@ -38,6 +42,9 @@ SEPARATING_DUTY = {
     "stroke_distribution": "separate jobs of short and of long strokes",
     "thermal_drift": "straightness measured at rest across a temperature change (a warm-up without motion)",
     "initial_offset": "a straightness measurement before the first motion",
+    "wear_rate_change": "the same duty before and after a suspected event, with the event logged",
+    "lubrication_interval": "relubrication at recorded times (maintenance events) at another interval",
+    "load_along_rail": "jobs confined to different sections of the rail",
 }
 
 STEADY_STAGE_DISTANCES = 3.0     # the running-in transient is over after 3 s0 (exp(-3) = 5 %)
@@ -55,6 +62,12 @@ def sliding_distance_at_measurements(problem: WearProblem) -> np.ndarray:
     n = problem.y_m.size
     per_interval = np.bincount(np.clip(c.interval, 0, n), weights=c.distance_m, minlength=n + 1)[:n]
     return np.cumsum(per_interval)
+
+
+def _names(problem: WearProblem, effect: str) -> list[str]:
+    """The reported parameters of an effect (thermal_drift: also its reference temperature)."""
+    extra = ["thermal_reference_offset_k"] if effect == "thermal_drift" else []
+    return [s.name for s in problem.specs[effect]] + extra
 
 
 def _tie(tie: dict) -> dict[str, Any]:
@@ -87,7 +100,7 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
     selection = forward_selection(problem.fit, problem.available_effects(), bic_threshold=bic_threshold)
     base, final = selection.baseline, selection.final
     where = disagreement(problem, base.predicted_m)
-    after = disagreement(problem, final.predicted_m)
+    after = disagreement(problem, final.predicted_m, mask=problem.fit_mask)     # the fit's own residuals
     named = list(selection.named)
     structure = unexplained_structure(after, named)
     candidates = []
@@ -105,7 +118,8 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
             })
     final_gap = _gap(final)
     effects = {e: {"meaning": EFFECT_MEANING[e],
-                   "parameters": {s.name: final_gap["parameters"][s.name] for s in problem.specs[e]}}
+                   "parameters": {name: final_gap["parameters"][name] for name in _names(problem, e)
+                                  if name in final_gap["parameters"]}}
                for e in named}
     result: dict[str, Any] = {
         "unexplained_structure": structure,
