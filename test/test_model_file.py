@@ -280,3 +280,35 @@ def test_live_node_with_several_params_files_matches_replay(tmp_path, monkeypatc
         assert values[key] == pytest.approx(offline[key], rel=0.005), key
     plain = analyse(read_machine_bag(bag, joint="x"), base)[1]
     assert abs(plain["wear_coefficient"] / offline["wear_coefficient"] - 1.0) > 0.05    # the file matters
+
+
+# --- the forecast plot ------------------------------------------------------------------------------------
+
+def test_forecast_reaches_the_limit_at_the_remaining_life_and_diagnose_agrees(tmp_path):
+    """Seed 1 of the running-in bench: the replay forecast (with the model file) reaches the limit at the
+    remaining life, its band edges at the interval's ends, the date is the bag's stamp + life; diagnose's own
+    forecast (fitted model, last quarter's rate) agrees with the replay's life to 3 % and with the truth to
+    10 %; both PNGs are written."""
+    from guide_health.analysis.discrepancy.report import write_report
+    from guide_health.analysis.replay import analyse, write_outputs
+    from guide_health.analysis.report_plots import when_text
+
+    params, run = bench_running_in(1)
+    truth = true_remaining_life_h(run, params["straightness_limit_m"])
+    result = diagnose_cells(duty_cells_from_runs(run, params["slider_length_m"]), params)
+    monitor, report = analyse(run, {**params, **result["model_file"]})
+    fc = monitor.forecast()
+    life = report["remaining_life_h"]
+    assert np.interp(params["straightness_limit_m"] * 1e6 - 1e-9, fc["mid_um"], fc["horizon_h"]) == \
+        pytest.approx(life, abs=fc["horizon_h"][1])      # to one grid step
+    assert fc["fast_um"][np.searchsorted(fc["horizon_h"], report["remaining_life_h_low"]) - 1] < 100.0
+    assert fc["slow_um"][-1] == pytest.approx(100.0)
+    assert fc["now_h"] == pytest.approx(20.0, abs=0.01)
+    assert when_text(fc["now_ns"], life).endswith("UTC")
+    assert result["forecast"]["life_h"] == pytest.approx(life, rel=0.03)
+    assert result["forecast"]["life_h"] == pytest.approx(truth, rel=0.10)
+    assert result["forecast"]["life_low_h"] < result["forecast"]["life_h"] < result["forecast"]["life_high_h"]
+    files = write_outputs(tmp_path / "replay", monitor, report, plot=True)
+    assert Path(files["png"]).stat().st_size > 10_000
+    files = write_report(result, tmp_path / "diag", bag="bench", with_plot=True)
+    assert Path(files["png"]).stat().st_size > 10_000

@@ -103,6 +103,12 @@ def plot(result: dict[str, Any], path: Path) -> None:
     ax1.plot(t, f, "-", color="tab:blue",
              label=f"with {named}, held-out RMSE {result['final']['heldout_rmse_um']:.2f} um")
     ax1.set_ylabel("straightness [um]")
+    if result.get("forecast"):
+        from guide_health.analysis.report_plots import plot_forecast
+
+        fc = {k: np.asarray(v) if isinstance(v, list) else v for k, v in result["forecast"].items()}
+        plot_forecast(ax1, fc, " + ".join(result["named_effects"]))
+        ax1.axhline(fc["limit_um"], color="r", ls=":", lw=0.8)
     structure = result.get("unexplained_structure", {})
     if structure.get("present"):
         import textwrap

@@ -64,6 +64,38 @@ def sliding_distance_at_measurements(problem: WearProblem) -> np.ndarray:
     return np.cumsum(per_interval)
 
 
+def fit_forecast(problem: WearProblem, fit: FitResult, limit_m: float, points: int = 60) -> dict[str, Any]:
+    """The fitted model's forecast from the last measurement to the limit at the duty of the last quarter of
+    the record (its mean straightness rate): life = (A_max - A_now) / rate, the 90 % band by the delta method
+    over the fit's parameter covariance (A_now and the rate both move). {} without wear growth."""
+    t, n = problem.t_s, problem.t_s.size
+    j = max(0, int(0.75 * n) - 1)
+
+    def now_and_rate(values):
+        p = problem.predict_m(values)
+        return p[-1], (p[-1] - p[j]) / max(t[-1] - t[j], 1e-9)
+
+    a_now, rate = now_and_rate(fit.values)
+    if not (rate > 0 and a_now < limit_m):
+        return {}
+    life_s = (limit_m - a_now) / rate
+    cov = fit.extra.get("covariance")
+    grad = np.zeros(len(cov["names"])) if cov else np.zeros(0)
+    for i, name in enumerate(cov["names"] if cov else []):
+        h = 1e-3 * math.sqrt(max(cov["matrix"][i, i], 0.0)) or 1e-9 * max(abs(fit.values[name]), 1e-12)
+        a, r = now_and_rate({**fit.values, name: fit.values[name] + h})
+        grad[i] = (math.log((limit_m - a) / r) - math.log(life_s)) / h if r > 0 and a < limit_m else 0.0
+    sd = math.sqrt(max(float(grad @ cov["matrix"] @ grad), 0.0)) if cov else 0.0
+    life_h = life_s / 3600.0
+    low, high = life_h * math.exp(-1.645 * sd), life_h * math.exp(1.645 * sd)
+    h = np.linspace(0.0, high, points)
+    a_um, limit_um = a_now * 1e6, limit_m * 1e6
+    return {"now_h": float(t[-1] / 3600.0), "now_ns": int(problem.cells.t0_ns + t[-1] * 1e9), "life_h": life_h,
+            "life_low_h": low, "life_high_h": high, "limit_um": limit_um, "horizon_h": h.tolist(),
+            **{k: np.minimum(a_um + (limit_um - a_um) * h / x, limit_um).tolist()
+               for k, x in (("mid_um", life_h), ("fast_um", low), ("slow_um", high))}}
+
+
 def _names(problem: WearProblem, effect: str) -> list[str]:
     """The reported parameters of an effect (thermal_drift: also its reference temperature)."""
     extra = ["thermal_reference_offset_k"] if effect == "thermal_drift" else []
@@ -161,7 +193,9 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
         result.update(_steady_stage(problem, base, final))
     # the model file: the named effects refitted on every measurement (the held-out span scored the choice)
     whole = WearProblem(cells, params, heldout_fraction=0.0)
-    result["model_file"] = model_parameters(whole, whole.fit(tuple(named), warm=final), named)
+    whole_fit = whole.fit(tuple(named), warm=final)
+    result["model_file"] = model_parameters(whole, whole_fit, named)
+    result["forecast"] = fit_forecast(whole, whole_fit, float(params["straightness_limit_m"]))
     result["fit_s"] = time.perf_counter() - t0
     result["series"] = {
         "t_h": problem.t_s / 3600.0, "measured_um": problem.y_m * 1e6,
