@@ -27,7 +27,7 @@ from guide_health.sim.machine import simulate_machine
 
 JOBS = Path(__file__).resolve().parents[1] / "config" / "machine_jobs.yaml"
 RATE_HZ = 10.0
-HOURS = 20.0
+HOURS = 30.0            # the experiments: 30 h at 10 Hz
 NOISE_M = 0.3e-6
 
 
