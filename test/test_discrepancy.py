@@ -333,7 +333,7 @@ def test_bench_bag_with_running_in_gets_below_the_seeds_22_percent(tmp_path):
         assert out["final"][key] < out["baseline"][key]
     assert {c["effect"] for c in out["candidates"] if c["round"] == 1} == {
         "running_in", "retract_asymmetry", "speed_dependent_wear", "load_exponent", "stroke_distribution",
-        "initial_offset"}                          # no temperature in this bag: no thermal candidate
+        "initial_offset", "wear_rate_change", "lubrication_interval", "load_along_rail"}   # no temperature: no thermal
     rep = tmp_path / "rep"
     assert (rep / "diagnose.png").stat().st_size > 10_000
     assert "running_in" in (rep / "report.md").read_text()
