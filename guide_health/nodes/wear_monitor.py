@@ -43,8 +43,10 @@ from guide_health.models.wear.input_rules import (
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.models.wear.state_schema import check_precision_state, state_fingerprint
 from guide_health.nodes.common import run_node
+from guide_health.nodes.live_params import PeriodicTimers, apply_wear_changes
 from guide_health.nodes.status import RejectionLog, StatusTask, StatusUpdater
 from guide_health.params import WEAR_MONITOR_SCHEMA, declare_parameters
+from guide_health.params.wear_monitor import hardness_units_warning
 
 # Reliable + keep_all: when the callbacks lag, the reader's history fills and a reliable writer waits
 # (back-pressure) instead of the reader overwriting unprocessed samples as keep_last would; a sensor
@@ -72,8 +74,12 @@ def stamp_ns(header) -> int | None:
 class WearMonitorNode(Node):
     def __init__(self, **kwargs):
         super().__init__("wear_monitor", **kwargs)
-        params = declare_parameters(self, WEAR_MONITOR_SCHEMA)   # validated
+        params = declare_parameters(self, WEAR_MONITOR_SCHEMA, on_applied=self._apply_params)   # validated
+        self.periodic = PeriodicTimers(self)
         self.params = params
+        self.startup_warnings = [w for w in (hardness_units_warning(params),) if w is not None]
+        for warning in self.startup_warnings:     # issue 11 item 3: a real hardness in Pa with seed 000's K
+            self.get_logger().warning(warning)
         self.joint = params["joint"]
         self.monitor = PrecisionMonitor(params)
         self.state_key = f"{params['machine_id']}/{self.joint}/precision"
@@ -102,9 +108,13 @@ class WearMonitorNode(Node):
         self._subscribe_inputs()
         self.pred_pub = self.create_publisher(Float64, "guide/straightness_predicted", 10)
         self.life_pub = self.create_publisher(Float64, "guide/remaining_life", 10)
-        self.create_timer(params["diagnostics_period_s"], self.publish_diagnostics)
+        self.periodic.create("diagnostics_period_s", params["diagnostics_period_s"], self.publish_diagnostics)
         if self.store is not None:
-            self.create_timer(params["checkpoint_period_s"], self.checkpoint)
+            self.periodic.create("checkpoint_period_s", params["checkpoint_period_s"], self.checkpoint)
+
+    def _apply_params(self, changed: dict) -> None:
+        """An accepted ``ros2 param set`` (guide_health.nodes.live_params)."""
+        apply_wear_changes(changed, [self.monitor], [self.feed], self.updater, self.periodic)
 
     def _resume(self) -> None:
         template = self.monitor.state()
