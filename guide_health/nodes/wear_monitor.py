@@ -27,7 +27,7 @@ from std_msgs.msg import Float64
 from guide_health.errors import InputError
 from guide_health.io.cdr import MISSING, RawMessageDecoder
 from guide_health.io.interfaces import JOINT_STATE, WRENCH_STAMPED
-from guide_health.io.state_store import StateStore, resolve_state_path
+from guide_health.io.state_store import StateStore, resolve_state_path, resume_monitor
 from guide_health.models.wear.feed import StampAlignedFeed
 from guide_health.models.wear.input_rules import (
     EMPTY_JOINT_STATES,
@@ -41,7 +41,7 @@ from guide_health.models.wear.input_rules import (
     rejected_keys,
 )
 from guide_health.models.wear.precision import PrecisionMonitor
-from guide_health.models.wear.state_schema import check_precision_state, state_fingerprint
+from guide_health.models.wear.state_schema import state_fingerprint
 from guide_health.nodes.common import run_node
 from guide_health.nodes.live_params import PeriodicTimers, apply_wear_changes
 from guide_health.nodes.status import RejectionLog, StatusTask, StatusUpdater
@@ -117,13 +117,7 @@ class WearMonitorNode(Node):
         apply_wear_changes(changed, [self.monitor], [self.feed], self.updater, self.periodic)
 
     def _resume(self) -> None:
-        template = self.monitor.state()
-        saved = self.store.load(self.state_key, self.fingerprint, lambda s: check_precision_state(s, template))
-        if saved is not None:
-            try:    # validated whole above: a failure here is a bug, still one line
-                self.monitor.restore(saved)
-            except (LookupError, TypeError, ValueError, ArithmeticError) as exc:
-                raise InputError(f"state file {self.state_path}: {exc}; move it away to start afresh") from None
+        if resume_monitor(self.store, self.state_key, self.fingerprint, self.monitor):   # validated whole
             self.get_logger().info(
                 f"resumed from {self.state_path}: {self.monitor.integrator.sliding_distance_m:.1f} m "
                 f"slid, {self.monitor.estimator.count} measurements")
