@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import json
 import math
+import tempfile
+from pathlib import Path
 
 import pytest
 
@@ -18,6 +20,8 @@ from guide_health.params import WEAR_MONITOR_DEFAULTS
 
 hypothesis = pytest.importorskip("hypothesis")
 st = hypothesis.strategies
+from test_input_rules import PARAMS as RULE_PARAMS  # noqa: E402 - arbitrary runs near the input limits
+from test_input_rules import bad_runs  # noqa: E402
 
 PARAMS = dict(WEAR_MONITOR_DEFAULTS, machine_id="m1", joint="x")
 KEY = "m1/x/precision"
@@ -144,3 +148,23 @@ def _decode_like_store(value):
     from guide_health.io.state_store import _decode
 
     return _decode(value)
+
+
+@hypothesis.settings(max_examples=150, deadline=None,
+                     suppress_health_check=[hypothesis.HealthCheck.too_slow, hypothesis.HealthCheck.data_too_large])
+@hypothesis.given(bad_runs())
+def test_every_state_a_monitor_reaches_is_accepted_and_round_trips(run):
+    """The other side: whatever inputs a monitor saw (test_input_rules' arbitrary runs: any floats, stamps
+    back and forth, jumps, straightness before any stroke), the state it saves is accepted by the schema and
+    restores to the same state (a legal state refused would stop a restarted node)."""
+    monitor = PrecisionMonitor(RULE_PARAMS)
+    monitor.process_run(run)
+    with tempfile.TemporaryDirectory() as tmp:
+        store = StateStore(Path(tmp) / "s.db")
+        try:
+            store.save({KEY: monitor.state()}, state_fingerprint(RULE_PARAMS))
+            again = PrecisionMonitor(RULE_PARAMS)
+            assert resume_monitor(store, KEY, state_fingerprint(RULE_PARAMS), again)
+            assert _comparable(again.state()) == _comparable(monitor.state())
+        finally:
+            store.close()
