@@ -23,6 +23,11 @@ st = hypothesis.strategies
 from test_input_rules import PARAMS as RULE_PARAMS  # noqa: E402 - arbitrary runs near the input limits
 from test_input_rules import bad_runs  # noqa: E402
 
+from guide_health.params import wear_monitor_params  # noqa: E402
+
+ROLLING_PARAMS = dict(wear_monitor_params(Path(__file__).resolve().parents[1] / "config" / "nsk_lh45.yaml"),
+                      joint="x")
+
 PARAMS = dict(WEAR_MONITOR_DEFAULTS, machine_id="m1", joint="x")
 KEY = "m1/x/precision"
 #: restore() takes these from the parameters, not from the state (a user may re-tune them)
@@ -152,19 +157,20 @@ def _decode_like_store(value):
 
 @hypothesis.settings(max_examples=150, deadline=None,
                      suppress_health_check=[hypothesis.HealthCheck.too_slow, hypothesis.HealthCheck.data_too_large])
-@hypothesis.given(bad_runs())
-def test_every_state_a_monitor_reaches_is_accepted_and_round_trips(run):
+@pytest.mark.parametrize("params", [RULE_PARAMS, ROLLING_PARAMS], ids=["sliding", "rolling"])
+@hypothesis.given(run=bad_runs())
+def test_every_state_a_monitor_reaches_is_accepted_and_round_trips(params, run):
     """The other side: whatever inputs a monitor saw (test_input_rules' arbitrary runs: any floats, stamps
     back and forth, jumps, straightness before any stroke), the state it saves is accepted by the schema and
     restores to the same state (a legal state refused would stop a restarted node)."""
-    monitor = PrecisionMonitor(RULE_PARAMS)
+    monitor = PrecisionMonitor(params)
     monitor.process_run(run)
     with tempfile.TemporaryDirectory() as tmp:
         store = StateStore(Path(tmp) / "s.db")
         try:
-            store.save({KEY: monitor.state()}, state_fingerprint(RULE_PARAMS))
-            again = PrecisionMonitor(RULE_PARAMS)
-            assert resume_monitor(store, KEY, state_fingerprint(RULE_PARAMS), again)
+            store.save({KEY: monitor.state()}, state_fingerprint(params))
+            again = PrecisionMonitor(params)
+            assert resume_monitor(store, KEY, state_fingerprint(params), again)
             assert _comparable(again.state()) == _comparable(monitor.state())
         finally:
             store.close()
