@@ -59,9 +59,9 @@ def read_checkpoint(state_db: Path, params: dict) -> dict:
     from guide_health.models.wear.state_schema import check_precision_state
 
     with sqlite3.connect(state_db) as db:
-        rows = db.execute("SELECT state_json FROM monitor_state").fetchall()
+        rows = db.execute("SELECT state_json FROM monitor_state WHERE key LIKE '%/precision'").fetchall()
     if len(rows) != 1:
-        raise AssertionError(f"{len(rows)} states in the state file")
+        raise AssertionError(f"{len(rows)} precision states in the state file")
     CHECKS["read"] += 1
     state = _decode(json.loads(rows[0][0]))
     monitor = PrecisionMonitor(params)

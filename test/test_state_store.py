@@ -272,3 +272,24 @@ def test_every_shipped_wear_monitor_config_persists_by_default():
     for path in sorted((ROOT / "launch").glob("*.py")):
         text = path.read_text()
         assert '"state_file": ""' not in text and "state_file:=''" not in text, path
+
+
+def test_a_malformed_maintenance_log_is_one_line(tmp_path):
+    """The axis maintenance log has no schema of its own: whatever its restore raises is one line."""
+    from guide_health.io.state_store import resume_with
+
+    store = StateStore(tmp_path / "s.db")
+    store.save({"m1/x/maintenance": {"events": [{"kind": 3}]}, "m1/x/other": {"a": 1}})
+    store._db.execute("UPDATE monitor_state SET state_json = '[1, 2]' WHERE key = 'm1/x/other'")
+
+    def restore(saved):
+        return [dict(e)["time_ns"] for e in saved["events"]]          # KeyError on the malformed event
+
+    with pytest.raises(InputError) as err:
+        resume_with(store, "m1/x/maintenance", None, restore)
+    _one_line(err, str(tmp_path / "s.db"), "m1/x/maintenance", "cannot be restored", "move the file away")
+    with pytest.raises(InputError) as err:
+        resume_with(store, "m1/x/other", None, restore)
+    _one_line(err, "must be a mapping")
+    assert resume_with(store, "m1/x/none", None, restore) is False
+    store.close()

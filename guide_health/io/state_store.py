@@ -265,3 +265,23 @@ def resume_monitor(store: StateStore, key: str, fingerprint: dict | None, monito
         raise store._fail(f"the saved state of '{key}' cannot be restored ({_reason(exc)})",
                           "move the file away to start afresh") from None
     return True
+
+
+def _mapping(state) -> None:
+    if not isinstance(state, dict):
+        raise InputError(f"state must be a mapping, got {type(state).__name__}")
+
+
+def resume_with(store: StateStore, key: str, fingerprint: dict | None, restore) -> bool:
+    """``restore(saved)`` with the saved mapping of ``key`` (a state without a schema of its own, e.g. an
+    axis's maintenance log); False when there is none; whatever ``restore`` raises on a malformed state
+    becomes one InputError line naming the file."""
+    saved = store.load(key, fingerprint, _mapping)
+    if saved is None:
+        return False
+    try:
+        restore(saved)
+    except _RESTORE_ERRORS as exc:
+        raise store._fail(f"the saved state of '{key}' cannot be restored ({_reason(exc)})",
+                          "move the file away to start afresh") from None
+    return True

@@ -31,7 +31,7 @@ from sensor_msgs.msg import JointState
 from guide_health.errors import InputError
 from guide_health.io.cdr import MISSING
 from guide_health.io.maintenance_msgs import MAINTENANCE_TOPIC, event_from_status, event_values
-from guide_health.io.state_store import StateStore, resolve_state_path, resume_monitor
+from guide_health.io.state_store import StateStore, resolve_state_path, resume_monitor, resume_with
 from guide_health.models.wear.input_rules import MALFORMED_JOINT_STATES
 from guide_health.models.wear.state_schema import state_fingerprint
 from guide_health.nodes.axis_channel import (  # noqa: F401 - the status keys are part of this module's API
@@ -129,9 +129,8 @@ class WearMonitorNode(Node):
                 self.get_logger().info(
                     f"resumed from {self.state_path} ({key}): {guide.integrator.sliding_distance_m:.1f} m slid, "
                     f"{guide.estimator.count} measurements")
-            saved = self.store.load(channel.maintenance_key(self.params["machine_id"]), fingerprint)
-            if saved is not None:
-                channel.model.restore_maintenance(saved)
+            resume_with(self.store, channel.maintenance_key(self.params["machine_id"]), fingerprint,
+                        channel.model.restore_maintenance)
 
     # --- inputs ----------------------------------------------------------------------------------
     def _on_joint_raw(self, raw: bytes) -> None:
