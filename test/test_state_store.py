@@ -293,3 +293,24 @@ def test_a_malformed_maintenance_log_is_one_line(tmp_path):
     _one_line(err, "must be a mapping")
     assert resume_with(store, "m1/x/none", None, restore) is False
     store.close()
+
+
+def test_a_failed_checkpoint_write_is_one_line_and_the_node_keeps_running(ros_context, tmp_path):
+    """A write that fails (disk full, the file gone read-only: here sqlite refusing a query-only connection)
+    is one InputError line from the store, and only a logged error in the node (retried next period)."""
+    store = StateStore(tmp_path / "s.db")
+    store._db.execute("PRAGMA query_only = ON")
+    with pytest.raises(InputError) as err:
+        store.save({"k": {"a": 1.0}})
+    _one_line(err, str(tmp_path / "s.db"), "cannot be written", "retries at the next checkpoint")
+    store.close()
+    node = _node(ros_context, tmp_path / "n.db")
+    try:
+        node.store._db.execute("PRAGMA query_only = ON")
+        node.checkpoint()                                # logged, no exception
+        node.store._db.execute("PRAGMA query_only = OFF")
+        node.checkpoint()
+        assert node.store.load("m1/x/precision") is not None
+    finally:
+        node.close()
+        node.destroy_node()
