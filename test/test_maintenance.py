@@ -277,7 +277,6 @@ def test_regrind_service_called_through_ros(ros_context, tmp_path):
     from rclpy.executors import MultiThreadedExecutor
     from rclpy.parameter import Parameter
     from std_srvs.srv import Trigger
-
     from test_wear_monitor_node import T0, feed_cycle, make_node
 
     node = make_node(ros_context, tmp_path)
