@@ -241,6 +241,9 @@ class WearMonitorNode(Node):
     def _on_temperature(self, msg: Temperature) -> None:
         if math.isfinite(msg.temperature):
             self.temperature_c = float(msg.temperature)
+            t = stamp_ns(msg.header)
+            if t is not None:        # the rolling guide's Walther oil viscosity, by stamp as offline
+                self.monitor.on_temperature(t, self.temperature_c)
 
     # --- outputs ---------------------------------------------------------------------------------
     def _precision_report(self) -> tuple[int, str, dict]:
