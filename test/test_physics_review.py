@@ -358,3 +358,65 @@ def test_item6_temperature_topic_feeds_the_viscosity_live_equal_to_offline(ros_c
     assert offline.rolling.last_speed_m_s == last_speed
     assert ref["lambda"] / constant.report()["lambda"] == pytest.approx(
         (oil.dynamic_viscosity_pa_s(45.0) / oil.dynamic_viscosity_pa_s(21.0)) ** 0.67, rel=1e-4)
+
+
+# --- item 7: seed 004 readings side by side, and C from geometry -------------------------------------------------
+def life_test_json(*args):
+    import json
+    import subprocess
+    import sys
+
+    run = subprocess.run([sys.executable, "-m", "guide_health.cli", "life", "test", "--json", *args],
+                         capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert run.returncode == 0, run.stderr
+    return json.loads(run.stdout)
+
+
+def reading(out, l_ref, exponent_of, median):
+    rows = [r for r in out["readings"] if r["rating_distance_km"] == l_ref and r["exponent_of"] == exponent_of
+            and r["life_reading"].startswith("median") == median]
+    assert len(rows) == 1
+    return rows[0]
+
+
+def test_item7_life_test_reports_the_readings_that_change_the_conclusion():
+    """Seed 004 Eq. 5. Roller, 62 km at 1.0 C: (62/50)^0.3 = 1.067 with the paper's own 50 km (C confirmed,
+    reversing its conclusion); 0.852 = (62/100)^(1/3) needs 100 km AND p = 3. Ball, 450 km at 0.3 C: 0.624 as
+    L10; as a median with Weibull shape 1.5, B10 = 450 (ln(1/0.9)/ln 2)^(1/1.5) = 128.2 km -> 0.41."""
+    roller = life_test_json("--load-fraction", "1.0", "--life-km", "62", "--element", "roller")
+    assert len(roller["readings"]) == 8
+    own = reading(roller, 50.0, "roller", False)
+    assert own["c_ratio"] == pytest.approx((62 / 50) ** 0.3, rel=1e-9) and round(own["c_ratio"], 2) == 1.07
+    assert own["verdict"] == "catalogue C confirmed"
+    paper = reading(roller, 100.0, "ball", False)
+    assert paper["c_ratio"] == pytest.approx(0.852, abs=0.001) and paper["verdict"] == "catalogue C optimistic"
+    assert reading(roller, 100.0, "roller", False)["c_ratio"] == pytest.approx(0.866, abs=0.001)
+    assert roller["conclusion_depends_on_reading"] is True
+    ball = life_test_json("--load-fraction", "0.3", "--life-km", "450")
+    assert reading(ball, 50.0, "ball", False)["c_ratio"] == pytest.approx(0.624, abs=0.001)
+    b10 = 450 * (math.log(1 / 0.9) / math.log(2)) ** (1 / 1.5)
+    median = reading(ball, 50.0, "ball", True)
+    assert median["life_km"] == pytest.approx(b10, rel=1e-9) and b10 == pytest.approx(128.17, abs=0.01)
+    assert median["c_ratio"] == pytest.approx(0.41, abs=0.005)
+    assert ball["conclusion_depends_on_reading"] is False       # every reading: the ball guide's C is optimistic
+
+
+def test_item7_c_from_geometry_checks_the_catalogue_c():
+    """Lundberg-Palmgren for a straight raceway with ISO 281's A = 98.1 and seed 004's ISO 14728-1 b_m = 1.3,
+    lambda = 0.9, written out here for the seed 001 LH45 (D 7.937 mm, f 0.52, Z_t 10, l_t = 10 D, 50 deg, 50 km):
+    Q_c = 98.1 * 0.9 * (1.04/0.04)^0.41 * D^2.1 * (1e6 pi^0.9 l_t^0.1 / (Z_t 5e7))^(1/3);
+    C = 1.3 * 2 * 10 * Q_c * 2^-0.3 * sin 50 deg = 86.5 kN (config C 80 kN: 0.925 of it)."""
+    from guide_health.models.rolling.iso_rating import ball_guide_dynamic_rating_n
+
+    d = 7.937
+    q_c = 98.1 * 0.9 * (1.04 / 0.04) ** 0.41 * d ** 2.1 * (1e6 * math.pi ** 0.9 * (10 * d) ** 0.1 / (10 * 5e7)) ** (
+        1 / 3)
+    hand = 1.3 * 2 * 10 * q_c * 2 ** -0.3 * math.sin(math.radians(50))
+    assert hand == pytest.approx(86_500, abs=100)
+    assert ball_guide_dynamic_rating_n(7.937e-3, 0.52, 50.0, 10, 50.0) == pytest.approx(hand, rel=1e-9)
+    # the rating distance converts as L^(-1/3) (ball exponent), the lambda band 0.7-0.9 moves C by 22 %
+    assert ball_guide_dynamic_rating_n(7.937e-3, 0.52, 50.0, 10, 100.0) / hand == pytest.approx(2 ** (-1 / 3))
+    assert ball_guide_dynamic_rating_n(7.937e-3, 0.52, 50.0, 10, 50.0, lam=0.7) / hand == pytest.approx(0.7 / 0.9)
+    out = life_test_json("--load-fraction", "0.3", "--life-km", "450", "--params", str(LH45))
+    assert out["c_geometry_n"] == pytest.approx(hand, rel=1e-6)
+    assert out["c_catalogue_over_geometry"] == pytest.approx(80_000 / hand, rel=1e-6)
