@@ -111,10 +111,16 @@ def load_node_params(path: str | Path | None, node_name: str, defaults: dict[str
     return params
 
 
-def wear_monitor_params(path: str | Path | None) -> dict[str, Any]:
-    """wear_monitor parameters, validated (positive sizes, known model names, declared ranges)."""
-    p = load_node_params(path, WEAR_MONITOR_SCHEMA.section, WEAR_MONITOR_SCHEMA.defaults())
-    _validate_from(path, WEAR_MONITOR_SCHEMA.section, validate_wear_params, p)
+def wear_monitor_params(path: str | Path | list | tuple | None) -> dict[str, Any]:
+    """wear_monitor parameters, validated (positive sizes, known model names, declared ranges). Several files
+    (``--params BASE --params DIR/model.yaml``) merge in order, the later overriding, as rcl merges several
+    ``--params-file``; the merged result is validated once."""
+    paths = [path] if path is None or isinstance(path, (str, Path)) else list(path)
+    p = WEAR_MONITOR_SCHEMA.defaults()
+    for one in paths:
+        p = load_node_params(one, WEAR_MONITOR_SCHEMA.section, p)
+    named = None if paths == [None] else ", ".join(str(one) for one in paths)
+    _validate_from(named, WEAR_MONITOR_SCHEMA.section, validate_wear_params, p)
     warning = hardness_units_warning(p)
     if warning is not None:     # one stderr line in the CLI (logging's last-resort handler), the node logs its own
         logging.getLogger("guide_health.params").warning("guide-health: warning: %s", warning)
