@@ -142,3 +142,41 @@ def test_bad_blocks_and_levels_are_counted_and_change_nothing(ros_context, tmp_p
         assert kept(after) == before and after["blocks"] == 5
     finally:
         node.destroy_node()
+
+
+def test_life_test_several_bags_weibull_and_png(tmp_path):
+    """Four specimens (spall onset 300 / 450 / 550 km, one clean to 600 km; blocks every 5 km) through
+    `life test BAG... --out DIR`: each failure interval is the 5 km block interval ending at the onset, the clean
+    run is suspended at its last block, the fit equals weibull_of_specimens of those intervals written here, and
+    one PNG per bag is written."""
+    import json
+    import subprocess
+    import sys
+
+    from guide_health.analysis.life_signs import weibull_of_specimens
+
+    sim = SCHEMAS["guide_health_life_test_simulation"].defaults() | vib_params()
+    bags = []
+    for k, (onset, spall) in enumerate(((300.0, True), (450.0, True), (550.0, True), (0.0, False))):
+        rec = simulate_life_test(sim | {"block_every_m": 5000.0, "failure_km": onset or 1.0}, seed=k, spall=spall)
+        bags.append(str(write_life_test_bag(rec, tmp_path / f"specimen{k}")))
+    cfg = tmp_path / "p.yaml"
+    cfg.write_text("vibration_monitor:\n  ros__parameters:\n    load_fraction: 0.3\n")
+    run = subprocess.run([sys.executable, "-m", "guide_health.cli", "life", "test", *bags, "--params", str(cfg),
+                          "--out", str(tmp_path / "png"), "--json"], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    out = json.loads(run.stdout)
+    truth = [(295.0, 300.0), (445.0, 450.0), (545.0, 550.0), (600.0, math.inf)]
+    assert out["intervals_km"] == [list(t) for t in truth]
+    want = weibull_of_specimens(truth, vib_params())
+    assert out["weibull"]["failures"] == 3 and out["weibull"]["n"] == 4
+    assert out["c_ratio"] == pytest.approx(want["c_ratio"], rel=1e-6)
+    assert out["weibull"]["shape"] == pytest.approx(want["shape"], rel=1e-6)
+    for s in out["specimens"]:
+        png = tmp_path / "png" / (s["bag"].rsplit("/", 1)[-1] + "_life_test.png")
+        assert s["png"] == str(png) and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 30_000
+    one = subprocess.run([sys.executable, "-m", "guide_health.cli", "life", "test", bags[1], "--params", str(cfg),
+                          "--json"], capture_output=True, text=True, timeout=300)
+    single = json.loads(one.stdout)
+    assert single["c_ratio"] == pytest.approx(0.3 * (450 / 50) ** (1 / 3), rel=1e-9)      # 0.624, Eq. 5
+    assert len(single["readings"]) == 8

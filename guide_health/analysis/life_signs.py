@@ -126,9 +126,13 @@ def read_life_test_bag(path) -> dict:
 
 def life_test_from_bag(path, p: dict) -> dict:
     """The seed's chain from a bag: failure travel from the recorded signs -> C_test / C (seed 004 Eq. 5)."""
+    return life_test_from_data(path, read_life_test_bag(path), p)
+
+
+def life_test_from_data(path, d: dict, p: dict) -> dict:
+    """:func:`life_test_from_bag` on data already read by :func:`read_life_test_bag` (``path`` names it)."""
     from guide_health.errors import InputError
 
-    d = read_life_test_bag(path)
     if d["sample_rate_hz"] and abs(d["sample_rate_hz"] - p["sample_rate_hz"]) > 1e-6 * p["sample_rate_hz"]:
         raise InputError(f"{path}: blocks at {d['sample_rate_hz']:g} Hz, sample_rate_hz is {p['sample_rate_hz']:g}")
     try:
@@ -137,3 +141,12 @@ def life_test_from_bag(path, p: dict) -> dict:
     except ValueError as exc:
         raise InputError(f"{path}: {exc}") from None
     return signs.summary() | {"c_ratio": c_ratio_of(signs, p), "load_fraction": p["load_fraction"]}
+
+
+def specimen_interval_km(summary: dict) -> tuple[float, float]:
+    """A specimen's interval-censored life [km]: (previous block, failure block] when it failed, (last travel,
+    inf) when it survived the recorded test (seed 004 Sec. 3.2)."""
+    if summary.get("failure_interval_km"):
+        lower, upper = summary["failure_interval_km"]
+        return float(lower), float(upper)
+    return float(summary["last_travel_km"]), math.inf

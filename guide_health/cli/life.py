@@ -71,9 +71,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     _add_rating_options(p, element_default=None)
 
     p = mode("test", "C_test / C from one life-test result (seed 004 Eq. 5), or from a life-test BAG")
-    p.add_argument("bag", nargs="?", default=None, metavar="BAG",
-                   help="life-test bag: the failure travel is detected from its sound level and vibration "
-                        "(docs/vibration.md); --params gives the vibration_monitor section")
+    p.add_argument("bag", nargs="*", default=[], metavar="BAG",
+                   help="life-test bag(s): the failure travel is detected from the sound level and vibration "
+                        "(docs/vibration.md; --params gives the vibration_monitor section); several bags = "
+                        "several specimens -> interval-censored Weibull fit, B10 and C_test / C")
+    p.add_argument("--out", default=None, metavar="DIR",
+                   help="with BAG: write <bag>_life_test.png (noise vs travel, spectrogram with the defect "
+                        "frequency marked) into DIR")
     p.add_argument("--params", default=None, metavar="FILE",
                    help="parameters YAML: vibration_monitor section (with BAG); a wear_monitor section adds the "
                         "geometry check of its C (ISO 14728-1 / Lundberg-Palmgren, b_m = 1.3)")
@@ -194,18 +198,43 @@ def _test_load(load_fraction: float, s: dict) -> LifeTestLoad:
 
 
 def _run_test_bag(args) -> dict:
-    from guide_health.analysis.life_signs import life_test_from_bag
+    from guide_health.analysis.life_signs import (
+        life_test_from_data,
+        read_life_test_bag,
+        specimen_interval_km,
+        weibull_of_specimens,
+    )
     from guide_health.params import SCHEMAS
 
     section = SCHEMAS["vibration_monitor"]
     p = load_node_params(args.params, section.section, section.defaults()) if args.params else section.defaults()
     if args.load_fraction is not None:
         p["load_fraction"] = _positive(args.load_fraction, "--load-fraction")
-    out = {"mode": "test", "bag": args.bag} | life_test_from_bag(args.bag, p)
-    if out.get("failure_travel_m") is not None:
-        out |= life_test_readings(p["load_fraction"], out["failure_travel_m"] / 1e3, [1.0] * 4,
-                                  _shape(args))
-    return out | _geometry_check(args)
+    out_dir = None if args.out is None else Path(args.out)
+    if out_dir is not None:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    specimens = []
+    for bag in args.bag:
+        data = read_life_test_bag(bag)
+        one = {"bag": bag} | life_test_from_data(bag, data, p)
+        if out_dir is not None:
+            from guide_health.analysis.life_plots import plot_life_test
+
+            png = out_dir / f"{Path(bag).name}_life_test.png"
+            one["png"] = str(plot_life_test(png, data, one, p, title=f"{Path(bag).name}: life test (seed 004)"))
+        specimens.append(one)
+    if len(specimens) == 1:
+        out = {"mode": "test"} | specimens[0]
+        if out.get("failure_travel_km") is not None:
+            out |= life_test_readings(p["load_fraction"], out["failure_travel_km"], [1.0] * 4, _shape(args))
+        return out | _geometry_check(args)
+    intervals = [specimen_interval_km(s) for s in specimens]
+    if not any(math.isfinite(u) for _, u in intervals):
+        raise InputError(f"no failure detected in any of the {len(intervals)} bags: no Weibull fit")
+    fit = weibull_of_specimens(intervals, p)
+    return {"mode": "test", "specimens": specimens, "intervals_km": [list(i) for i in intervals],
+            "weibull": fit, "c_ratio": fit["c_ratio"], "c_ratio_ci": fit["c_ratio_ci"],
+            "load_fraction": p["load_fraction"]} | _geometry_check(args)
 
 
 def _shape(args) -> float:
@@ -235,8 +264,10 @@ def _geometry_check(args) -> dict:
 
 
 def _run_test(args) -> dict:
-    if args.bag is not None:
+    if args.bag:
         return _run_test_bag(args)
+    if args.out is not None:
+        raise InputError("--out needs a life-test BAG")
     if args.life_km is None or args.load_fraction is None:
         raise InputError("life test needs --load-fraction and --life-km (or a life-test BAG)")
     s = _rating_setup(args, from_params=False)
