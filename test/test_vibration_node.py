@@ -76,7 +76,7 @@ def test_live_node_equals_offline_chain_over_dds(tmp_path, monkeypatch):
         assert collector.wait_for(name, timeout=90.0) is not None, (tmp_path / "node.log").read_text()
         played = play_bag(bag, env, ["--wait-subscribers", "1", "--max-rate", "0"])
         assert played.returncode == 0, played.stderr
-        live = collector.wait_for(name, lambda s: s["values"]["blocks"] == str(rec.travel_m.size), timeout=120.0)
+        live = collector.wait_for(name, lambda s: s["values"]["blocks"] == str(rec.travel_m.size), timeout=240.0)
         live = collector.wait_settled(name, "noise_level_db", settle_s=1.5, timeout=60.0)
     finally:
         stop_node(node)
