@@ -150,8 +150,13 @@ def test_rolling_bag_through_bag_player_and_node_matches_replay(tmp_path, monkey
     env = isolated_ros_env()
     for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID"):
         monkeypatch.setenv(key, env[key])
+    import dataclasses
+
     run = duty_run([(60.0, 0.0003, 2500.0), (60.0, 0.08, 7000.0), (60.0, 0.4, 4000.0), (60.0, 0.02, 9000.0)],
                    rate_hz=100.0, seed=3)
+    # the guide warms 20 -> 44 degC (guide/temperature at 1 Hz): the 68# oil's viscosity follows (issue 11 item 6)
+    tt = T0_NS + np.arange(241) * 1_000_000_000
+    run = dataclasses.replace(run, temperature_t_ns=tt, temperature_c=20.0 + 0.1 * np.arange(241))
     bag = tmp_path / "rolling"
     write_machine_bag(run, bag)
     _, offline, _ = analyse_bag(bag, params())
@@ -159,7 +164,7 @@ def test_rolling_bag_through_bag_player_and_node_matches_replay(tmp_path, monkey
     node = start_node("guide_health.nodes.wear_monitor", LH45, {"diagnostics_period_s": 0.25}, env,
                       tmp_path / "node.log")
     try:
-        assert collector.wait_for("wear_monitor: x fatigue", timeout=30.0) is not None
+        assert collector.wait_for("wear_monitor: x fatigue", timeout=90.0) is not None
         played = play_bag(bag, env, ["--wait-subscribers", "1", "--max-rate", "0"])
         assert played.returncode == 0, played.stderr
         fatigue = collector.wait_settled("wear_monitor: x fatigue", "travel_km", settle_s=2.0, timeout=60.0)
@@ -174,4 +179,7 @@ def test_rolling_bag_through_bag_player_and_node_matches_replay(tmp_path, monkey
     assert float(precision["values"]["boundary_share_total"]) == pytest.approx(offline["boundary_share_total"],
                                                                                 rel=0.005)
     assert precision["values"]["lubrication_regime"] == offline["lubrication_regime"]
+    assert float(precision["values"]["oil_temperature_c"]) == offline["oil_temperature_c"] == pytest.approx(44.0)
+    assert float(precision["values"]["oil_viscosity_pa_s"]) == pytest.approx(offline["oil_viscosity_pa_s"], rel=1e-12)
+    assert float(precision["values"]["lambda"]) == pytest.approx(offline["lambda"], rel=1e-9)
     assert 0.0 < offline["boundary_share_total"] < 1.0          # the duty crosses regimes

@@ -60,7 +60,8 @@ EXTRA_PRECISION_KEYS = ("wear_coefficient_low", "wear_coefficient_high", "measur
                         "stroke_min_m", "stroke_max_m", "strokes", "rejected_samples", "samples",
                         "rejected_recent_share")
 TIMING_KEYS = ("load_samples", "callback_time_us", "model_time_us")
-ROLLING_PRECISION_KEYS = ("lambda", "asperity_load_share", "boundary_share_recent", "boundary_share_total")
+ROLLING_PRECISION_KEYS = ("lambda", "asperity_load_share", "boundary_share_recent", "boundary_share_total",
+                          "oil_viscosity_pa_s", "oil_temperature_c")
 FATIGUE_KEYS = ("equivalent_load_n", "rating_life_km", "travel_km", "life_used_fraction", "remaining_life_km")
 EXTRA_FATIGUE_KEYS = ("duty_load_n", "carriages")
 INPUTS = ("joint_states", "guide/load")     # silent for input_timeout_s: every status STALE
