@@ -41,8 +41,15 @@ def analyse_bag(bag, params: dict, namespace: str | None = None, progress=None,
     the bag's size); identical to analyse(read_machine_bag(bag)) to rounding. Returns the monitor, its
     report and timings {read_s, model_s}."""
     from guide_health.io.bag_reader import iter_machine_bag
+    from guide_health.io.maintenance_msgs import read_events
+    from guide_health.models.wear.axis import AxisMonitor
 
-    monitor = PrecisionMonitor(params)
+    model = AxisMonitor(params)      # one guide: the PrecisionMonitor, plus the bag's maintenance events
+    events = read_events(bag, namespace)
+    for event in events:
+        if event.axis == model.axis:
+            model.schedule(event)
+    monitor = model.primary
     messages = 0
     t_first = t_last = None
     t_model = 0.0
@@ -50,7 +57,7 @@ def analyse_bag(bag, params: dict, namespace: str | None = None, progress=None,
     for chunk in iter_machine_bag(bag, joint=params["joint"], namespace=namespace, progress=progress,
                                   chunk_messages=chunk_messages):
         t1 = time.perf_counter()
-        monitor.process_run(chunk)
+        model.process_run(chunk)
         t_model += time.perf_counter() - t1
         messages += chunk.messages
         stamps = [a for a in (chunk.joint_t_ns, chunk.load_t_ns, chunk.straightness_t_ns) if a.size]
@@ -60,10 +67,19 @@ def analyse_bag(bag, params: dict, namespace: str | None = None, progress=None,
             t_last = hi if t_last is None else max(t_last, hi)
     t1 = time.perf_counter()
     report = monitor_report(monitor)
+    if events:
+        report["maintenance_events"] = maintenance_list(model)
     t_model += time.perf_counter() - t1
     report["messages"] = messages
     report["duration_h"] = (t_last - t_first) * 1e-9 / 3600.0 if t_first is not None else 0.0
     return monitor, report, {"read_s": time.perf_counter() - t0 - t_model, "model_s": t_model}
+
+
+def maintenance_list(model) -> list[dict]:
+    """The maintenance events of an AxisMonitor for the report: applied ones, then pending ones (stamped after
+    the last joint sample), each with ``applied``."""
+    return ([dict(e.as_dict(), applied=True) for e in model.events]
+            + [dict(e.as_dict(), applied=False) for e in model.pending])
 
 
 def model_curve(monitor: PrecisionMonitor) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -232,7 +232,7 @@ def _read_topics(path, wanted: dict, namespace: str | None, suffix_for_ns: str, 
 
 def read_machine_bag(path, joint: str = "x", namespace: str | None = None,
                      progress: ProgressFn | None = None, chunk_messages: int = 200_000,
-                     *, fast: bool = True, stats: dict | None = None) -> MachineRun:
+                     *, fast: bool = True, stats: dict | None = None, topics: dict | None = None) -> MachineRun:
     """Read a machine bag into a MachineRun (header stamps; log time for straightness).
 
     namespace None: the namespace of the bag's unique `.../joint_states` topic.
@@ -242,30 +242,36 @@ def read_machine_bag(path, joint: str = "x", namespace: str | None = None,
     fast=False decodes every message with rosbags deserialize_cdr (the reference path).
     stats, when given, receives per-topic counts: kept, missing, malformed, fast, fallback.
     Raises InputError for a missing, corrupt or unsuitable bag. See iter_machine_bag for bounded memory.
+    topics: {role: relative topic} for an axis of a machine, e.g. {"guide/load": "x/guide/load"}.
     """
     path = Path(path)
-    read = _read_topics(path, MACHINE_TOPICS, namespace, "joint_states", joint, progress, chunk_messages,
-                        fast)
-    run, counts = _machine_run(read, joint, read_run_metadata(path))
+    topics = dict(topics or {})
+    wanted = {topics.get(rel, rel): msgtype for rel, msgtype in MACHINE_TOPICS.items()}
+    read = _read_topics(path, wanted, namespace, "joint_states", joint, progress, chunk_messages, fast)
+    run, counts = _machine_run(read, joint, read_run_metadata(path), topics)
     _report_counts(path, joint, read.namespace, counts, stats)
     return run
 
 
 def iter_machine_bag(path, joint: str = "x", namespace: str | None = None,
                      progress: ProgressFn | None = None, chunk_messages: int = 200_000,
-                     *, fast: bool = True, stats: dict | None = None) -> Iterator[MachineRun]:
+                     *, fast: bool = True, stats: dict | None = None,
+                     topics: dict | None = None) -> Iterator[MachineRun]:
     """A machine bag as consecutive MachineRun chunks of about `chunk_messages` messages each, in
     log-time order (every chunk carries the run metadata); memory stays bounded by one chunk.
     Feeding them one after another to PrecisionMonitor.process_run gives the result of the whole run.
-    Same arguments and errors as read_machine_bag; stats are filled once the iteration ends."""
+    Same arguments and errors as read_machine_bag; stats are filled once the iteration ends.
+    topics: {role: relative topic} for an axis of a machine, e.g. {"guide/load": "x/guide/load"}."""
     path = Path(path)
     metadata = read_run_metadata(path)
     total: dict = {}
     namespace_seen = namespace
-    for read in _iter_topic_batches(path, MACHINE_TOPICS, namespace, "joint_states", joint,
+    topics = dict(topics or {})
+    wanted = {topics.get(rel, rel): msgtype for rel, msgtype in MACHINE_TOPICS.items()}
+    for read in _iter_topic_batches(path, wanted, namespace, "joint_states", joint,
                                     progress, chunk_messages, fast, stream=True):
         namespace_seen = read.namespace
-        run, counts = _machine_run(read, joint, metadata)
+        run, counts = _machine_run(read, joint, metadata, topics)
         for topic, c in counts.items():
             acc = total.setdefault(topic, dict.fromkeys(c, 0))
             for key, value in c.items():
@@ -282,8 +288,10 @@ _MACHINE_EMPTY = {
 }
 
 
-def _machine_run(read: TopicBatch, joint: str, metadata: dict) -> tuple[MachineRun, dict]:
-    got = {rel: read.topics.get(topic_name(read.namespace, rel),
+def _machine_run(read: TopicBatch, joint: str, metadata: dict,
+                 topics: dict | None = None) -> tuple[MachineRun, dict]:
+    topics = topics or {}
+    got = {rel: read.topics.get(topic_name(read.namespace, topics.get(rel, rel)),
                                 _empty_topic(names, log=(rel == "guide/straightness")))
            for rel, names in _MACHINE_EMPTY.items()}
     js = got["joint_states"]

@@ -9,6 +9,7 @@ from typing import Any
 
 from guide_health.errors import InputError
 from guide_health.models.rolling.lubrication import LAMBDA_BOUNDARY, LAMBDA_FULL_FILM  # the one source
+from guide_health.params.machine import AXES_PARAM, MAINTENANCE_PARAMS
 from guide_health.params.schema import NodeSchema, Param
 
 #: the wear profile's bins (rail_length_m / profile_bin_m) at most: 1e6 bins = 8 MB per profile array
@@ -20,7 +21,8 @@ SLIDING_GUIDE_PARAMS = (
     Param("machine_id", "machine", "", "", "machine name: hardware_id of the diagnostics, key in the state file"),
     Param("machine_type", "", "", "",
           "machine type (model/series): machines of one type share a fleet prior (guide-health fleet prior)"),
-    Param("joint", "x", "", "", "the axis to monitor: its name in sensor_msgs/JointState"),
+    Param("joint", "x", "", "", "the axis to monitor: its name in sensor_msgs/JointState (without 'axes')"),
+    AXES_PARAM,
     Param("guide_type", "sliding", "", "", "sliding (seed 000 Archard wear) or rolling (seed 001 ball guide)",
           choices=("sliding", "rolling")),
     Param("contact_width_m", 0.040, "m", "(0, 10]", "b, width of the sliding contact"),
@@ -251,7 +253,8 @@ def hardness_units_warning(p: dict[str, Any]) -> str | None:
     return None
 
 
-WEAR_MONITOR_SCHEMA = NodeSchema("wear_monitor", SLIDING_GUIDE_PARAMS + ROLLING_GUIDE_PARAMS, _wear_all_checks)
+WEAR_MONITOR_SCHEMA = NodeSchema("wear_monitor", SLIDING_GUIDE_PARAMS + ROLLING_GUIDE_PARAMS + MAINTENANCE_PARAMS,
+                                 _wear_all_checks)
 
 
 def validate_wear_params(p: dict[str, Any]) -> None:
