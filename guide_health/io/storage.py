@@ -266,6 +266,14 @@ class SqliteDirectStorage:
             raise InputError(f"corrupt bag {self.path}: {one_line(exc)}") from None
         return _batches(rows, chunk_messages, self.path)
 
+    def iter_packed(self, connections: Collection[BagConnection], chunk_messages: int):
+        """Packed batches in log-time order read in rowid order (io.packed), or None when the rows are
+        not stored in log-time order (then iter_batches, ORDER BY timestamp)."""
+        from .packed import iter_sqlite_packed
+
+        ids = tuple(c.id for c in connections)
+        return iter_sqlite_packed(self._db, self.path, ids, chunk_messages) if ids else None
+
     def close(self) -> None:
         self._db.close()
 
