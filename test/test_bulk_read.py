@@ -6,9 +6,12 @@ from __future__ import annotations
 
 import json
 import sqlite3
+import struct
+import zlib
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from guide_health.io import bag_reader, bag_writer, cdr, storage
 from guide_health.io.interfaces import JOINT_STATE, WRENCH_STAMPED
@@ -184,3 +187,139 @@ def test_decode_packed_equals_decode_chunk():
     c = cdr.decode_packed(np.frombuffer(b"".join(wrench), np.uint8), np.arange(50) * len(wrench[0]),
                           np.full(50, len(wrench[0])), cdr.codec_for(WRENCH_STAMPED))
     assert c.fast == 50 and c.values["nsec"].tolist() == ((T0 + np.arange(50)) % 1_000_000_000).tolist()
+
+
+# ---------------------------------------------------------------------------------------------
+# mcap: a minimal writer (mcap specification records) for chunks of each compression
+# ---------------------------------------------------------------------------------------------
+
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+
+
+def _record(op: int, body: bytes) -> bytes:
+    return bytes([op]) + struct.pack("<Q", len(body)) + body
+
+
+def _string(text: str) -> bytes:
+    return struct.pack("<I", len(text.encode())) + text.encode()
+
+
+def _compress(data: bytes, compression: str) -> bytes:
+    if compression == "zstd":
+        import zstandard
+        return zstandard.ZstdCompressor().compress(data)
+    if compression == "lz4":
+        import lz4.frame
+        return lz4.frame.compress(data)
+    return data
+
+
+def _schema_channel_records(mcap_file: Path) -> bytes:
+    """The Schema (0x03) and Channel (0x04) records of an mcap file's summary, as raw bytes."""
+    raw = mcap_file.read_bytes()
+    pos = struct.unpack_from("<Q", raw, len(raw) - 37 + 9)[0]
+    out = b""
+    while raw[pos] != 0x02:
+        length = struct.unpack_from("<Q", raw, pos + 1)[0]
+        if raw[pos] in (0x03, 0x04):
+            out += raw[pos:pos + 9 + length]
+        pos += 9 + length
+    return out
+
+
+def write_mcap(path: Path, header_records: bytes, messages: list, compression: str, per_chunk: int,
+               message_index: bool = True, summary: bool = True) -> Path:
+    """An mcap file of `messages` [(channel id, log time, data)] in chunks of `per_chunk` (file order)."""
+    out = bytearray(MCAP_MAGIC) + _record(0x01, _string("ros2") + _string("guide_health test"))
+    out += header_records
+    indexes = []
+    for start in range(0, len(messages), per_chunk):
+        group = messages[start:start + per_chunk]
+        records, entries = bytearray(), {}
+        for cid, t, data in group:
+            entries.setdefault(cid, []).append((t, len(records)))
+            records += _record(0x05, struct.pack("<HIQQ", cid, 0, t, t) + data)
+        comp = _compress(bytes(records), compression)
+        t_lo, t_hi = min(m[1] for m in group), max(m[1] for m in group)
+        chunk_start = len(out)
+        out += _record(0x06, struct.pack("<QQQI", t_lo, t_hi, len(records), zlib.crc32(records))
+                       + _string(compression) + struct.pack("<Q", len(comp)) + comp)
+        chunk_end = len(out)
+        offsets = {}
+        for cid, pairs in entries.items() if message_index else ():
+            offsets[cid] = len(out)
+            out += _record(0x07, struct.pack("<HI", cid, 16 * len(pairs))
+                           + b"".join(struct.pack("<QQ", *p) for p in pairs))
+        indexes.append(struct.pack("<QQQQ", t_lo, t_hi, chunk_start, chunk_end - chunk_start)
+                       + struct.pack("<I", 10 * len(offsets))
+                       + b"".join(struct.pack("<HQ", *o) for o in offsets.items())
+                       + struct.pack("<Q", len(out) - chunk_end) + _string(compression)
+                       + struct.pack("<QQ", len(comp), len(records)))
+    out += _record(0x0F, struct.pack("<I", 0))                 # DataEnd
+    summary_start = len(out) if summary else 0
+    if summary:
+        out += header_records + b"".join(_record(0x08, ci) for ci in indexes)
+    out += _record(0x02, struct.pack("<QQI", summary_start, 0, 0)) + MCAP_MAGIC
+    path.write_bytes(bytes(out))
+    return path
+
+
+@pytest.fixture(scope="module")
+def mcap_source(tmp_path_factory):
+    """A run, its mcap bag (bag_writer) and that file's channel records and messages (rosbags read)."""
+    from rosbags.rosbag2 import Reader
+
+    run = make_run(2000, seed=9)
+    bag = bag_writer.write_machine_bag(run, tmp_path_factory.mktemp("mcap") / "bag", "mcap")
+    mcap_file = next(bag.glob("*.mcap"))
+    with Reader(mcap_file) as reader:                 # a bare file: connection id = channel id
+        messages = [(c.id, t, bytes(raw)) for c, t, raw in reader.messages()]
+    return run, bag, _schema_channel_records(mcap_file), messages
+
+
+def _rosbags_mcap_read(path: Path, monkeypatch) -> MachineRun:
+    with monkeypatch.context() as m:
+        m.setattr(storage.RosbagsStorage, "iter_packed", lambda *a: None)
+        return bag_reader.read_machine_bag(path)
+
+
+def _mcap_packed(path: Path) -> bool:
+    with storage.open_storage(path) as st:
+        got = st.iter_packed(st.connections, 500)
+        return got is not None
+
+
+@pytest.mark.parametrize("compression", ["", "zstd", "lz4"])
+def test_mcap_chunks_equal_rosbags(tmp_path, mcap_source, monkeypatch, compression):
+    """Chunks of each compression read by the chunk reader: equal to rosbags' reader and to the run."""
+    run, _, records, messages = mcap_source
+    path = write_mcap(tmp_path / "c.mcap", records, messages, compression, per_chunk=333)
+    assert _mcap_packed(path)
+    got = bag_reader.read_machine_bag(path, chunk_messages=700)
+    assert_runs_equal(got, run)
+    assert_runs_equal(got, _rosbags_mcap_read(path, monkeypatch))
+
+
+def test_mcap_bag_writer_bag_uses_chunk_reader(mcap_source, monkeypatch):
+    run, bag, _, _ = mcap_source
+    assert _mcap_packed(bag)
+    assert_runs_equal(bag_reader.read_machine_bag(bag, chunk_messages=450), run)
+    chunks = list(bag_reader.iter_machine_bag(bag, chunk_messages=450))
+    assert [c.messages for c in chunks[:-1]] == [450] * (len(chunks) - 1)
+    assert_runs_equal(bag_reader.read_machine_bag(bag), _rosbags_mcap_read(bag, monkeypatch))
+
+
+def test_mcap_without_index_or_with_overlapping_chunks(tmp_path, mcap_source, monkeypatch):
+    """No summary: rosbags' linear scan (chunk reader declines). Chunks without message indexes: the chunk
+    reader scans their records. Chunks overlapping in time (one per topic): rosbags' merge. All = the run."""
+    run, _, records, messages = mcap_source
+    plain = write_mcap(tmp_path / "n.mcap", records, messages, "zstd", 400, summary=False)
+    assert not _mcap_packed(plain)
+    assert_runs_equal(bag_reader.read_machine_bag(plain), run)
+    scanned = write_mcap(tmp_path / "s.mcap", records, messages, "lz4", 400, message_index=False)
+    assert _mcap_packed(scanned)
+    assert_runs_equal(bag_reader.read_machine_bag(scanned, chunk_messages=300), run)
+    by_topic = sorted(messages, key=lambda m: m[0])                  # stable: each topic in time order
+    overlapping = write_mcap(tmp_path / "o.mcap", records, by_topic, "", 600)
+    assert not _mcap_packed(overlapping)
+    assert_runs_equal(bag_reader.read_machine_bag(overlapping), run)

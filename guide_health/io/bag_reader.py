@@ -218,10 +218,11 @@ def _iter_topic_batches(path, wanted: dict, namespace: str | None, suffix_for_ns
         if progress is not None:
             progress(0, total)
         done = 0
-        for batch in packed or ():                  # bulk path: no Python object per message
-            _split_packed(batch, acc_of)
-            done += int(batch.lengths.size)
-            del batch
+        for group in packed or ():                  # bulk path: no Python object per message
+            for batch in group:
+                _split_packed(batch, acc_of)
+                done += int(batch.lengths.size)
+            del group, batch
             if progress is not None:
                 progress(done, max(total, done))
             if stream:

@@ -104,10 +104,11 @@ def _read_range(db, start: int, stop: int, where: str, args: list) -> PackedBatc
     return pack_rows(*zip(*rows)) if rows else pack_rows((), (), ())
 
 
-def iter_sqlite_packed(db, path, topic_ids: tuple, chunk_messages: int) -> Iterator[PackedBatch] | None:
-    """Packed batches of the rows of `topic_ids` in log-time order, `chunk_messages` rowids at a time;
-    None if the rows are not stored in log-time order or the database is not UTF-8 (the caller then
-    reads with ORDER BY timestamp). Read errors raise InputError."""
+def iter_sqlite_packed(db, path, topic_ids: tuple, chunk_messages: int) -> Iterator[list[PackedBatch]] | None:
+    """Packed batches (each alone in a list, as the mcap reader gives groups of them) of the rows of
+    `topic_ids` in log-time order, `chunk_messages` rowids at a time; None if the rows are not stored in
+    log-time order or the database is not UTF-8 (the caller then reads with ORDER BY timestamp). Read
+    errors raise InputError."""
     step = max(1, int(chunk_messages))
     try:
         if db.execute("PRAGMA encoding").fetchone()[0] != "UTF-8":
@@ -121,11 +122,11 @@ def iter_sqlite_packed(db, path, topic_ids: tuple, chunk_messages: int) -> Itera
     return _iter_ranges(db, path, ranges, where, list(topic_ids))
 
 
-def _iter_ranges(db, path, ranges, where: str, args: list) -> Iterator[PackedBatch]:
+def _iter_ranges(db, path, ranges, where: str, args: list) -> Iterator[list[PackedBatch]]:
     for start, stop in ranges:
         try:
             batch = _read_range(db, start, stop, where, args)
         except Exception as exc:  # noqa: BLE001 - a damaged database: one-line error
             raise InputError(f"corrupt bag {path}: {one_line(exc)}") from None
         if batch.lengths.size:
-            yield time_sorted(batch)
+            yield [time_sorted(batch)]

@@ -169,6 +169,23 @@ class RosbagsStorage:
         rows = self._reader.messages(connections=wanted, start=start_ns)
         return _batches(rows, chunk_messages, self.path, operator.attrgetter("id"))
 
+    def iter_packed(self, connections: Collection[BagConnection], chunk_messages: int):
+        """Packed batches of a single uncompressed-container mcap file read chunk by chunk
+        (io.mcap_chunks), or None (then iter_batches through rosbags)."""
+        from .mcap_chunks import iter_mcap_packed
+
+        file = self.path
+        if self.path.is_dir():
+            info = bag_yaml(self.path)
+            files = info.get("relative_file_paths") or []
+            if (info.get("storage_identifier") != "mcap" or len(files) != 1 or info.get("compression_format")
+                    or info.get("compression_mode") not in (None, "", "none", "NONE")):
+                return None
+            file = self.path / files[0]
+        if file.suffix != ".mcap" or not connections:
+            return None
+        return iter_mcap_packed(file, list(connections), chunk_messages)
+
     def close(self) -> None:
         try:
             self._reader.close()
