@@ -123,10 +123,21 @@ def iter_sqlite_packed(db, path, topic_ids: tuple, chunk_messages: int) -> Itera
 
 
 def _iter_ranges(db, path, ranges, where: str, args: list) -> Iterator[list[PackedBatch]]:
-    for start, stop in ranges:
+    """Read the ranges one ahead in a worker thread (apsw releases the GIL while sqlite works, so the
+    query of the next range runs while the caller decodes this one); at most two ranges in memory."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    def read(bounds):
         try:
-            batch = _read_range(db, start, stop, where, args)
+            return _read_range(db, bounds[0], bounds[1], where, args)
         except Exception as exc:  # noqa: BLE001 - a damaged database: one-line error
             raise InputError(f"corrupt bag {path}: {one_line(exc)}") from None
-        if batch.lengths.size:
-            yield [time_sorted(batch)]
+
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="bag-read") as pool:
+        ahead = pool.submit(read, ranges[0]) if ranges else None
+        for k in range(len(ranges)):
+            batch = ahead.result()
+            ahead = pool.submit(read, ranges[k + 1]) if k + 1 < len(ranges) else None
+            if batch.lengths.size:
+                yield [time_sorted(batch)]
+            del batch
