@@ -18,6 +18,7 @@ from rclpy.node import Node
 from guide_health.io.fleet_history import FleetHistory
 from guide_health.models.fleet import SUMMARY_KEYS, FleetBoard
 from guide_health.nodes.common import run_node
+from guide_health.nodes.live_params import PeriodicTimers, apply_fleet_changes
 from guide_health.nodes.status import StatusTask, StatusUpdater
 from guide_health.params import FLEET_MONITOR_SCHEMA, declare_parameters
 
@@ -25,7 +26,9 @@ from guide_health.params import FLEET_MONITOR_SCHEMA, declare_parameters
 class FleetMonitorNode(Node):
     def __init__(self, **kwargs):
         super().__init__("fleet_monitor", **kwargs)
-        self.params = declare_parameters(self, FLEET_MONITOR_SCHEMA)   # validated: periods > 0
+        self.params = declare_parameters(self, FLEET_MONITOR_SCHEMA,   # validated: periods > 0
+                                         on_applied=self._apply_params)
+        self.periodic = PeriodicTimers(self)
         self.board = FleetBoard(self.params["stale_after_s"], ignore_prefix=f"{self.get_name()}: ")
         self.history = (FleetHistory(self.params["history_file"], self.params["history_period_s"])
                         if self.params["history_file"] else None)
@@ -33,7 +36,11 @@ class FleetMonitorNode(Node):
         # the board ages silent machines to STALE itself: the task has no stale inputs
         self.updater = StatusUpdater(self, self.params["machine_id"])
         self.updater.add(StatusTask("fleet", self._fleet_report, SUMMARY_KEYS))
-        self.create_timer(self.params["diagnostics_period_s"], self.publish_diagnostics)
+        self.periodic.create("diagnostics_period_s", self.params["diagnostics_period_s"], self.publish_diagnostics)
+
+    def _apply_params(self, changed: dict) -> None:
+        """An accepted ``ros2 param set`` (guide_health.nodes.live_params)."""
+        apply_fleet_changes(changed, self.board, self.history, self.periodic)
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
         now = time.monotonic()

@@ -16,6 +16,7 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from guide_health.models.slewing.monitor import SlewingMonitor
 from guide_health.nodes.common import run_node
+from guide_health.nodes.live_params import PeriodicTimers, apply_slewing_changes
 from guide_health.nodes.status import StatusTask, StatusUpdater
 from guide_health.params import SLEWING_MONITOR_SCHEMA, declare_parameters
 
@@ -39,7 +40,8 @@ def wrench_to_loads(msg: WrenchStamped) -> tuple[float, float, float]:
 class SlewingMonitorNode(Node):
     def __init__(self, **kwargs):
         super().__init__("slewing_monitor", **kwargs)
-        params = declare_parameters(self, SLEWING_MONITOR_SCHEMA)
+        params = declare_parameters(self, SLEWING_MONITOR_SCHEMA, on_applied=self._apply_params)
+        self.periodic = PeriodicTimers(self)
         self.core = SlewingMonitor(params)
         self.params = params
         self.updater = StatusUpdater(self, params["machine_id"], params["input_timeout_s"])
@@ -47,7 +49,11 @@ class SlewingMonitorNode(Node):
                                     ROLLER_CONTACT_KEYS, EXTRA_KEYS, stale_inputs=("slewing/load",)))
         self.diag_pub = self.updater.publisher
         self.create_subscription(WrenchStamped, "slewing/load", self._on_load, DATA_QOS)
-        self.create_timer(params["diagnostics_period_s"], self.publish_diagnostics)
+        self.periodic.create("diagnostics_period_s", params["diagnostics_period_s"], self.publish_diagnostics)
+
+    def _apply_params(self, changed: dict) -> None:
+        """An accepted ``ros2 param set`` (guide_health.nodes.live_params)."""
+        apply_slewing_changes(changed, self.core, self.updater, self.periodic)
 
     def _on_load(self, msg: WrenchStamped) -> None:
         self.updater.touch("slewing/load")

@@ -8,7 +8,7 @@ from guide_health.params.schema import NodeSchema, Param
 
 FLEET_MONITOR_PARAMS = (
     Param("machine_id", "fleet", "", "", "hardware_id of the fleet status"),
-    Param("diagnostics_period_s", 1.0, "s", "[0.01, 3600]", "period of the fleet status on /diagnostics"),
+    Param("diagnostics_period_s", 1.0, "s", "[0.01, 3600]", "period of the fleet status on /diagnostics", dynamic=True),
     Param("stale_after_s", 10.0, "s", "(0, 1e6]", "a machine status older than this counts as STALE",
           dynamic=True),
     Param("forget_after_s", 86400.0, "s", "(0, 1e8]",

@@ -42,12 +42,17 @@ def _node_value(value: Any, default: Any) -> Any:
     return value
 
 
-def declare_parameters(node, schema: NodeSchema) -> dict[str, Any]:
+def declare_parameters(node, schema: NodeSchema, on_applied=None) -> dict[str, Any]:
     """Declare ``schema`` on an rclpy node and return the values coerced and validated like the offline
     loader does (same numbers live and offline; InputError with the offline message on a bad value).
 
     Declared first with ``dynamic_typing`` only (so ``6000`` may set a float parameter and a bad value gets
     the schema's message, not rclpy's), then given the full descriptor (range, read_only) once validated.
+
+    Run-time changes (``ros2 param set``, the ``set_parameters`` service): rclpy refuses a read-only
+    parameter itself; the on-set callback refuses a value the loader would refuse (type, range,
+    cross-checks) with the loader's one-line reason; an accepted one updates the returned dict, and
+    ``on_applied({name: coerced value})`` (a post-set callback) applies it to the running model.
     """
     from rcl_interfaces.msg import ParameterDescriptor
 
@@ -60,6 +65,9 @@ def declare_parameters(node, schema: NodeSchema) -> dict[str, Any]:
     for param in schema.params:
         node.set_descriptor(param.name, descriptor_for(param))
     node.add_on_set_parameters_callback(lambda changed: _check_set(schema, values, changed))
+    if on_applied is not None:
+        node.add_post_set_parameters_callback(
+            lambda changed: on_applied({p.name: values[p.name] for p in changed if p.name in schema.by_name}))
     return values
 
 

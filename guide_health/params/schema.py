@@ -4,7 +4,8 @@ A :class:`Param` carries the name, the default (its Python type is the parameter
 allowed range in interval notation (``"(0, inf)"``, ``"[0, 0.5)"``, ``"[1e6, 1e11]"``) or a tuple of
 allowed choices, a one-line description and ``dynamic``: True when the value may be changed while the node
 runs (thresholds and timeouts), False for read-only parameters (geometry, materials, file paths, guide
-type, ...). No node applies a changed value live yet; read-only parameters refuse ``ros2 param set``.
+type, ...); read-only parameters refuse ``ros2 param set``, the nodes apply an accepted dynamic one to the
+running model (``guide_health.nodes.live_params``).
 
 A :class:`NodeSchema` is one node's (or YAML section's) parameter list plus the cross-checks that a range
 cannot express (``stroke_min_m <= stroke_max_m``, rollers fitting on the raceway, ...). ``validate`` runs

@@ -48,7 +48,7 @@ SLEWING_MONITOR_PARAMS = (
     Param("numerical_table_max_load_n", 4.0e5, "N", "(0, 1e9]",
           "numerical model live: highest roller load of the table (> min)"),
     Param("numerical_table_loads", 16, "-", "[4, 10000]", "numerical model live: loads in the table"),
-    Param("diagnostics_period_s", 1.0, "s", "[0.01, 3600]", "period of the /diagnostics status"),
+    Param("diagnostics_period_s", 1.0, "s", "[0.01, 3600]", "period of the /diagnostics status", dynamic=True),
     Param("input_timeout_s", 2.0, "s", "(0, 86400]", "STALE when slewing/load is silent longer", dynamic=True),
 )
 

@@ -17,6 +17,8 @@ DUTY_WINDOW_MIN_PERIODS = 3
 
 SLIDING_GUIDE_PARAMS = (
     Param("machine_id", "machine", "", "", "machine name: hardware_id of the diagnostics, key in the state file"),
+    Param("machine_type", "", "", "",
+          "machine type (model/series): machines of one type share a fleet prior (guide-health fleet prior)"),
     Param("joint", "x", "", "", "the axis to monitor: its name in sensor_msgs/JointState"),
     Param("guide_type", "sliding", "", "", "sliding (seed 000 Archard wear) or rolling (seed 001 ball guide)",
           choices=("sliding", "rolling")),
@@ -26,7 +28,9 @@ SLIDING_GUIDE_PARAMS = (
           "real hardness of about 1.95e9 Pa); only K/H enters the model, so K = 4.42e-6 belongs with H = 199e6. "
           "With a real hardness in Pa, scale K by the same factor (about 4.3e-5) or the wear is ~10x too low"),
     Param("wear_coefficient", 4.42e-6, "-", "[1e-12, 1e-1]",
-          "K, dimensionless Archard wear coefficient; a pair with hardness_pa (seed 000: 4.42e-6 with H = 199e6)"),
+          "K, dimensionless Archard wear coefficient, ALWAYS a pair with hardness_pa: only K/H enters the wear "
+          "(V = K W s / H, seed 000 Eq. 10). Seed 000: K = 4.42e-6 with H = 199e6 (K/H = 2.22e-14 1/Pa, its "
+          "pin-on-disc fit). A start-up warning names a real hardness in Pa (> 1e9) used with the seed's K"),
     Param("stroke_min_m", 0.0, "m", "[0, 100]", "l_min, shortest stroke; 0 = estimate from the observed strokes"),
     Param("stroke_max_m", 0.0, "m", "[0, 100]", "l_max, longest stroke; 0 = estimate from the observed strokes"),
     Param("stroke_detect_min_m", 0.005, "m", "[0, 1]", "reversal hysteresis: reversals closer than this are jitter"),
@@ -47,8 +51,24 @@ SLIDING_GUIDE_PARAMS = (
     Param("duty_window_s", 3600.0, "s", "[1, 1e8]",
           "window over which the current duty W v is averaged (>= 3 diagnostics periods)"),
     Param("straightness_noise_m", 0.5e-6, "m", "[0, 0.01]",
-          "1-sigma noise of a straightness measurement (prior of the K update)"),
+          "1-sigma noise of a straightness measurement (prior of the K update)", dynamic=True),
     Param("wear_coefficient_prior_rel_sd", 0.5, "-", "(0, 100]", "prior sd of K relative to the configured K"),
+    # wear effects learnt by `guide-health diagnose` (its DIR/model.yaml; models/wear/effects.py); the defaults
+    # are the plain Archard model
+    Param("effects", "", "", "", "effects the live model integrates, comma-separated ids of models/wear/effects.py "
+          "(written by diagnose --out DIR as DIR/model.yaml; '' = plain Archard wear)"),
+    Param("running_in_ratio", 0.0, "-", "[0, 100]", "running_in r: K(s) = K (1 + r exp(-s / s0))"),
+    Param("running_in_distance_m", 100.0, "m", "(0, 1e9]", "running_in s0, sliding distance of the decay"),
+    Param("retract_wear_factor", 1.0, "-", "[0, 10]", "retract_asymmetry rho: retract wear per unit work / feed's"),
+    Param("retract_direction", "-x", "", "", "direction of the retract stroke (retract_asymmetry)",
+          choices=("-x", "+x")),
+    Param("lift_speed_m_s", 0.0, "m/s", "[0, 100]",
+          "speed_dependent_wear v_lift: asperity share 1 / (1 + (v / v_lift)^1.4); 0 = no effect"),
+    Param("load_exponent", 1.0, "-", "[0, 4]", "load_exponent n: wear rate proportional to (W / W_ref)^n W_ref"),
+    Param("load_reference_n", 1000.0, "N", "(0, 1e9]", "load_exponent W_ref (diagnose: the geometric mean load)"),
+    Param("effect_covariance", [0.0] * 36, "SI", "",
+          "covariance (row-major 6 x 6) of the fitted wear_coefficient, running_in_ratio, running_in_distance_m, "
+          "retract_wear_factor, lift_speed_m_s, load_exponent (SI); widens the remaining-life interval"),
     Param("life_warn_h", 500.0, "h", "(0, 1e7]", "WARN when the remaining precision life drops below this",
           dynamic=True),
     Param("life_error_h", 100.0, "h", "[0, 1e7]",
@@ -56,27 +76,31 @@ SLIDING_GUIDE_PARAMS = (
           dynamic=True),
     Param("straightness_warn_fraction", 0.8, "-", "(0, 1)",
           "WARN above this fraction of straightness_limit_m, ERROR above the limit", dynamic=True),
-    Param("diagnostics_period_s", 1.0, "s", "[0.01, 3600]", "period of the /diagnostics status"),
+    Param("diagnostics_period_s", 1.0, "s", "[0.01, 3600]", "period of the /diagnostics status", dynamic=True),
     Param("input_timeout_s", 5.0, "s", "(0, 86400]", "STALE when joint_states/load are silent longer (arrival time)",
           dynamic=True),
-    Param("checkpoint_period_s", 2.0, "s", "[0.1, 86400]", "period of the SQLite state commit"),
+    Param("checkpoint_period_s", 2.0, "s", "[0.1, 86400]", "period of the SQLite state commit", dynamic=True),
     Param("input_align_window_s", 0.5, "s", "[0, 60]",
-          "joint samples wait up to this (wall time) for the load stamped before them; 0 = integrate on arrival"),
+          "joint samples wait up to this (wall time) for the load stamped before them; 0 = integrate on arrival",
+          dynamic=True),
     # input rules (guide_health/models/wear/input_rules.py): plausibility limits, time base, judgement
     Param("travel_margin_m", 0.100, "m", "[0, 100]",
-          "joint positions further than this outside the rail (rail_start_m .. + rail_length_m) are rejected"),
-    Param("load_max_n", 1.0e6, "N", "(0, 1e9]", "guide loads above this are rejected as implausible"),
+          "joint positions further than this outside the rail (rail_start_m .. + rail_length_m) are rejected",
+          dynamic=True),
+    Param("load_max_n", 1.0e6, "N", "(0, 1e9]", "guide loads above this are rejected as implausible",
+          dynamic=True),
     Param("load_max_rating_multiple", 3.0, "-", "[0, 1000]",
           "rolling guides with dynamic_load_rating_n > 0: loads above this multiple of carriages x C are "
-          "rejected too; 0 = load_max_n only"),
+          "rejected too; 0 = load_max_n only", dynamic=True),
     Param("straightness_max_multiple", 10.0, "-", "[1, 1e4]",
-          "straightness measurements above this multiple of straightness_limit_m are rejected as implausible"),
+          "straightness measurements above this multiple of straightness_limit_m are rejected as implausible",
+          dynamic=True),
     Param("stamp_horizon_s", 3600.0, "s", "(0, inf)",
           "a joint/load stamp further than this after the last accepted one is a candidate for a new time base"),
     Param("stamp_rebase_samples", 3, "-", "[1, 1000]",
           "consecutive agreeing candidates that make a new time base (fewer: rejected as a stamp jump)"),
     Param("rejected_window_samples", 1000, "-", "[1, 1000000]",
-          "recent samples per input stream over which the rejected share is judged"),
+          "recent samples per input stream over which the rejected share is judged", dynamic=True),
     Param("rejected_share_warn", 0.5, "-", "[0, 1]",
           "WARN when more than this share of a stream's recent samples was rejected (names the reason)",
           dynamic=True),
@@ -125,6 +149,26 @@ ROLLING_GUIDE_PARAMS = (
 )
 
 
+#: effect ids the live model integrates (models/wear/effect_wear.py); initial_offset is folded into A0
+LIVE_EFFECT_IDS = ("running_in", "retract_asymmetry", "speed_dependent_wear", "load_exponent")
+
+
+def effect_ids(p: dict[str, Any]) -> list[str]:
+    """The ``effects`` parameter as a list of ids ('' = none)."""
+    return [e.strip() for e in str(p.get("effects", "")).split(",") if e.strip()]
+
+
+def _effect_checks(p: dict[str, Any]) -> None:
+    for e in effect_ids(p):
+        if e not in LIVE_EFFECT_IDS:
+            raise InputError(f"parameter effects: unknown or not live effect {e!r} "
+                             f"(live: {', '.join(LIVE_EFFECT_IDS)})")
+    if effect_ids(p) and p["straightness_model"] != "eq7":
+        raise InputError("parameter effects: the live wear effects need straightness_model eq7")
+    if "speed_dependent_wear" in effect_ids(p) and not p["lift_speed_m_s"] > 0:
+        raise InputError("parameter effects: speed_dependent_wear needs lift_speed_m_s > 0")
+
+
 def _wear_cross_checks(p: dict[str, Any]) -> None:
     for name in ("contact_width_m", "hardness_pa", "wear_coefficient", "slider_length_m",
                  "profile_bin_m", "rail_length_m", "duty_window_s", "diagnostics_period_s",
@@ -168,6 +212,7 @@ def _wear_threshold_checks(p: dict[str, Any]) -> None:
 
 def _wear_all_checks(p: dict[str, Any]) -> None:
     _wear_cross_checks(p)
+    _effect_checks(p)
     WEAR_MONITOR_SCHEMA.check_ranges(p)     # ranges first: the orders below compare in-range numbers
     _wear_threshold_checks(p)
 
