@@ -63,6 +63,7 @@ TIMING_KEYS = ("load_samples", "callback_time_us", "model_time_us")
 ROLLING_PRECISION_KEYS = ("lambda", "asperity_load_share", "boundary_share_recent", "boundary_share_total")
 FATIGUE_KEYS = ("equivalent_load_n", "rating_life_km", "travel_km", "life_used_fraction", "remaining_life_km")
 EXTRA_FATIGUE_KEYS = ("duty_load_n", "carriages")
+FEED_BATCH_EVENTS = 64                       # samples copied per batch handled by StampAlignedFeed
 INPUTS = ("joint_states", "guide/load")     # silent for input_timeout_s: every status STALE
 
 
@@ -92,7 +93,9 @@ class WearMonitorNode(Node):
             except BaseException:
                 self.store.close()      # the lock goes at once (a test process builds the next node)
                 raise
-        self.feed = StampAlignedFeed(self.monitor, params["input_align_window_s"])
+        # the callbacks only copy samples; every FEED_BATCH_EVENTS (and before a status, a measurement or
+        # shutdown) the feed validates and integrates them with the model's batch path (issue 14)
+        self.feed = StampAlignedFeed(self.monitor, params["input_align_window_s"], batch_events=FEED_BATCH_EVENTS)
         self.rejections = RejectionLog(self.get_logger())
         self.temperature_c = math.nan
         # cost accounting since start: callback wall time per message and the model's part of it
@@ -281,6 +284,7 @@ class WearMonitorNode(Node):
             self.life_pub.publish(Float64(data=report["remaining_life_h"] * 3600.0))
 
     def checkpoint(self) -> None:
+        self._rejected_all(self.feed.process())      # copied samples count in the state (as one by one)
         if self.store is not None:
             try:
                 self.store.save({self.state_key: self.monitor.state()}, self.fingerprint)

@@ -27,7 +27,8 @@ class StampAlignedFeed:
     the vectorised rules (accept_joint_samples / accept_load_samples, the same verdicts as one by one),
     the alignment decisions above event by event in plain Python, and the integration in one call of the
     model's batch path (PrecisionMonitor._advance_many). The numbers equal those of batch_events = 1 to
-    rounding (tested); rejections are reported when the batch is handled instead of on arrival.
+    rounding (tested); rejections are reported when the batch is handled instead of on arrival. With
+    window_s = 0 every sample is still handled on arrival.
     """
 
     def __init__(self, monitor: PrecisionMonitor, window_s: float = 0.5, batch_events: int = 1):
@@ -40,9 +41,10 @@ class StampAlignedFeed:
         self._events: list = []             # (is_load, t_ns, value, velocity, arrival_s) not yet handled
 
     def joint(self, t_ns: int, position_m: float, velocity_m_s: float, now_s: float) -> list[str]:
-        if self.batch_events > 1:
-            self._events.append((False, t_ns, position_m, velocity_m_s, now_s))
-            return self.process() if len(self._events) >= self.batch_events else []
+        if self._batching():
+            return self._buffer((False, t_ns, position_m, velocity_m_s, now_s))
+        if self._events:
+            return self.process() + self.joint(t_ns, position_m, velocity_m_s, now_s)
         reason = self.monitor.validate_joint(t_ns, position_m, velocity_m_s)
         if reason is not None:
             return [reason]
@@ -54,9 +56,10 @@ class StampAlignedFeed:
         return self.flush_aged(now_s)
 
     def load(self, t_ns: int, load_n: float, now_s: float) -> list[str]:
-        if self.batch_events > 1:
-            self._events.append((True, t_ns, load_n, 0.0, now_s))
-            return self.process() if len(self._events) >= self.batch_events else []
+        if self._batching():
+            return self._buffer((True, t_ns, load_n, 0.0, now_s))
+        if self._events:
+            return self.process() + self.load(t_ns, load_n, now_s)
         m = self.monitor
         if m.check_load(t_ns, load_n) is not None:
             return [m.on_load(t_ns, load_n)]          # rejected (and counted) by the monitor
@@ -98,6 +101,13 @@ class StampAlignedFeed:
         return []
 
     # --- batch_events > 1 ---------------------------------------------------------------------------
+    def _batching(self) -> bool:
+        return self.batch_events > 1 and self.window_s > 0   # window_s = 0: every sample on arrival
+
+    def _buffer(self, event: tuple) -> list[str]:
+        self._events.append(event)
+        return self.process() if len(self._events) >= self.batch_events else []
+
     def process(self) -> list[str]:
         """Handle the buffered samples as joint() and load() would have one by one; returns the reasons."""
         events, self._events = self._events, []
