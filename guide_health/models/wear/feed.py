@@ -43,8 +43,10 @@ class StampAlignedFeed:
     def joint(self, t_ns: int, position_m: float, velocity_m_s: float, now_s: float) -> list[str]:
         if self._batching():
             return self._buffer((False, t_ns, position_m, velocity_m_s, now_s))
-        if self._events:
-            return self.process() + self.joint(t_ns, position_m, velocity_m_s, now_s)
+        reasons = self.process() if self._events else []     # the window was set to 0 with samples copied
+        return reasons + self._joint_now(t_ns, position_m, velocity_m_s, now_s)
+
+    def _joint_now(self, t_ns: int, position_m: float, velocity_m_s: float, now_s: float) -> list[str]:
         reason = self.monitor.validate_joint(t_ns, position_m, velocity_m_s)
         if reason is not None:
             return [reason]
@@ -58,8 +60,10 @@ class StampAlignedFeed:
     def load(self, t_ns: int, load_n: float, now_s: float) -> list[str]:
         if self._batching():
             return self._buffer((True, t_ns, load_n, 0.0, now_s))
-        if self._events:
-            return self.process() + self.load(t_ns, load_n, now_s)
+        reasons = self.process() if self._events else []
+        return reasons + self._load_now(t_ns, load_n, now_s)
+
+    def _load_now(self, t_ns: int, load_n: float, now_s: float) -> list[str]:
         m = self.monitor
         if m.check_load(t_ns, load_n) is not None:
             return [m.on_load(t_ns, load_n)]          # rejected (and counted) by the monitor
