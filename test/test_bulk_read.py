@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from guide_health.io import bag_reader, bag_writer, cdr, storage
+from guide_health.io import bag_reader, bag_writer, cdr, packed, storage
 from guide_health.io.interfaces import JOINT_STATE, WRENCH_STAMPED
 from guide_health.io.packed import iter_sqlite_packed
 from guide_health.runs import MachineRun
@@ -83,12 +83,26 @@ def _uses_packed(bag: Path, chunk: int) -> bool:
         return iter_sqlite_packed(st._db, bag, tuple(c.id for c in st.connections), chunk) is not None
 
 
+def _read_watching_fallback(bag: Path, chunk: int, monkeypatch) -> tuple[MachineRun, list]:
+    """read_machine_bag, and the rowids from which the bulk reader fell back to ORDER BY timestamp."""
+    starts = []
+    real = packed._RangeReader.ordered_from
+
+    def spy(self, start, step):
+        starts.append(start)
+        return real(self, start, step)
+    with monkeypatch.context() as m:
+        m.setattr(packed._RangeReader, "ordered_from", spy)
+        return bag_reader.read_machine_bag(bag, chunk_messages=chunk), starts
+
+
 def test_packed_sqlite_read_equals_ordered_read(tmp_path, monkeypatch):
     run = make_run()
     bag = bag_writer.write_machine_bag(run, tmp_path / "bag", "sqlite3")
-    assert _uses_packed(bag, 700)
     for chunk in (1, 700, 200_000):
-        assert_runs_equal(bag_reader.read_machine_bag(bag, chunk_messages=chunk), run)
+        got, fallback = _read_watching_fallback(bag, chunk, monkeypatch)
+        assert_runs_equal(got, run)
+        assert fallback == []
     assert_runs_equal(bag_reader.read_machine_bag(bag, chunk_messages=700),
                       _ordered_read(bag, monkeypatch, chunk_messages=700))
     chunks = list(bag_reader.iter_machine_bag(bag, chunk_messages=700))
@@ -96,40 +110,65 @@ def test_packed_sqlite_read_equals_ordered_read(tmp_path, monkeypatch):
 
 
 def test_rows_not_in_time_order_fall_back(tmp_path, monkeypatch):
-    """Rows stored in reverse and in a seeded random order: the order check refuses the rowid order and
-    the reader gives the ORDER BY timestamp result (= the original run, = rosbags' Reader)."""
+    """Rows stored in reverse and in a seeded random order: the check of the first range fails and the
+    reader gives the ORDER BY timestamp result (= the original run, = rosbags' Reader)."""
     run = make_run()
     for name, order in (("reverse", lambda n: np.arange(n)[::-1]),
                         ("shuffled", lambda n: np.random.default_rng(11).permutation(n))):
         bag = bag_writer.write_machine_bag(run, tmp_path / name, "sqlite3")
         _renumber(bag, order)
-        assert not _uses_packed(bag, 700)
-        got = bag_reader.read_machine_bag(bag, chunk_messages=700)
+        got, fallback = _read_watching_fallback(bag, 700, monkeypatch)
+        assert fallback == [1]
         assert_runs_equal(got, run)
         assert_runs_equal(got, _rosbags_read(bag))
 
 
+def _swap_pairs(n):
+    perm = np.arange(n)
+    m = n - n % 2
+    perm[0:m:2], perm[1:m:2] = perm[1:m:2].copy(), perm[0:m:2].copy()      # swap rows (0,1), (2,3)...
+    return perm
+
+
 def test_rows_out_of_order_inside_ranges_are_sorted(tmp_path, monkeypatch):
-    """Neighbouring rows swapped (a disorder that stays inside each range of 1000 rowids): the rowid
-    ranges still do not overlap in time, so the packed path is used and sorts each range; equal to the
-    ORDER BY read and to the run. With ranges of 3 rows, swapped pairs straddle ranges: fallback."""
+    """Neighbouring rows swapped (a disorder that stays inside each range of 1000 rowids): the ranges
+    pass the check and are sorted inside; equal to the ORDER BY read and to the run. With ranges of 3
+    rows the swapped pairs straddle ranges: fallback from the first range, still equal."""
     run = make_run()
     bag = bag_writer.write_machine_bag(run, tmp_path / "bag", "sqlite3")
-
-    def swap_pairs(n):
-        perm = np.arange(n)
-        m = n - n % 2
-        perm[0:m:2], perm[1:m:2] = perm[1:m:2].copy(), perm[0:m:2].copy()      # swap rows (0,1), (2,3)...
-        return perm
-    _renumber(bag, swap_pairs)
+    _renumber(bag, _swap_pairs)
     with sqlite3.connect(_db(bag)) as con:
         stamps = [t for (t,) in con.execute("SELECT timestamp FROM messages ORDER BY id")]
     assert sum(b < a for a, b in zip(stamps, stamps[1:])) > 100          # really out of order
-    assert _uses_packed(bag, 1000) and not _uses_packed(bag, 3)
+    got, fallback = _read_watching_fallback(bag, 1000, monkeypatch)
+    assert fallback == [] and _uses_packed(bag, 1000)
+    assert_runs_equal(got, run)
+    assert_runs_equal(got, _ordered_read(bag, monkeypatch, chunk_messages=1000))
+    got, fallback = _read_watching_fallback(bag, 3, monkeypatch)
+    assert fallback == [1]
+    assert_runs_equal(got, run)
+
+
+def test_late_disorder_falls_back_from_that_range(tmp_path, monkeypatch):
+    """Rows 2000 and 2001 swapped (straddling the ranges [1001, 2001) and [2001, 3001)): the first range
+    is handed on, the second fails its check and the rest comes from ORDER BY timestamp from rowid 1001;
+    the result is the run. Without the timestamp index the whole order is checked before reading."""
+    run = make_run()
+    bag = bag_writer.write_machine_bag(run, tmp_path / "bag", "sqlite3")
+
+    def swap_late(n):
+        perm = np.arange(n)
+        perm[[1999, 2000]] = perm[[2000, 1999]]
+        return perm
+    _renumber(bag, swap_late)
+    got, fallback = _read_watching_fallback(bag, 1000, monkeypatch)
+    assert fallback == [1001]
+    assert_runs_equal(got, run)
+    with sqlite3.connect(_db(bag)) as con:
+        con.execute("DROP INDEX timestamp_idx")
+    assert not _uses_packed(bag, 1000) and _uses_packed(bag, 5000)       # 2000/2001 inside [1, 5001)
     assert_runs_equal(bag_reader.read_machine_bag(bag, chunk_messages=1000), run)
-    assert_runs_equal(bag_reader.read_machine_bag(bag, chunk_messages=3), run)
-    assert_runs_equal(bag_reader.read_machine_bag(bag, chunk_messages=1000),
-                      _ordered_read(bag, monkeypatch, chunk_messages=1000))
+    assert_runs_equal(bag_reader.read_machine_bag(bag, chunk_messages=5000), run)
 
 
 def test_replay_report_identical_to_ordered_read(tmp_path, monkeypatch):

@@ -104,40 +104,94 @@ def _read_range(db, start: int, stop: int, where: str, args: list) -> PackedBatc
     return pack_rows(*zip(*rows)) if rows else pack_rows((), (), ())
 
 
+def _has_time_index(db) -> bool:
+    """Whether an index of `messages` starts with the timestamp column (rosbag2's timestamp_idx)."""
+    for row in db.execute("PRAGMA index_list(messages)").fetchall():
+        cols = db.execute(f"PRAGMA index_info(\"{row[1]}\")").fetchall()
+        if cols and cols[0][2] == "timestamp":
+            return True
+    return False
+
+
 def iter_sqlite_packed(db, path, topic_ids: tuple, chunk_messages: int) -> Iterator[list[PackedBatch]] | None:
     """Packed batches (each alone in a list, as the mcap reader gives groups of them) of the rows of
     `topic_ids` in log-time order, `chunk_messages` rowids at a time; None if the rows are not stored in
-    log-time order or the database is not UTF-8 (the caller then reads with ORDER BY timestamp). Read
-    errors raise InputError."""
+    log-time order (known before reading) or the database is not UTF-8 (the caller then reads with ORDER
+    BY timestamp). Read errors raise InputError.
+
+    With a timestamp index the order is checked range by range while reading (see _RangeReader): before
+    range k is handed on, no wanted row after it may be earlier than the latest time so far; an index range
+    scan over the times of that range. When a check fails, the rest is read with ORDER BY timestamp (what
+    was handed on is the start of that order). Without the index, all ranges are checked first."""
     step = max(1, int(chunk_messages))
     try:
         if db.execute("PRAGMA encoding").fetchone()[0] != "UTF-8":
             return None
-        ranges = _range_ranges(db, step)
+        if _has_time_index(db):
+            lo, hi = db.execute("SELECT MIN(rowid), MAX(rowid) FROM messages").fetchone()
+            ranges = [] if lo is None else [(r, r + step) for r in range(int(lo), int(hi) + 1, step)]
+            checked = False
+        else:
+            ranges, checked = _range_ranges(db, step), True
     except Exception as exc:  # noqa: BLE001 - a damaged database: one-line error
         raise InputError(f"corrupt bag {path}: {one_line(exc)}") from None
     if ranges is None:
         return None
     where = f" AND topic_id IN ({','.join('?' * len(topic_ids))})"
-    return _iter_ranges(db, path, ranges, where, list(topic_ids))
+    return _iter_ranges(_RangeReader(db, path, where, list(topic_ids), checked), ranges, step)
 
 
-def _iter_ranges(db, path, ranges, where: str, args: list) -> Iterator[list[PackedBatch]]:
+class _RangeReader:
+    """Reads rowid ranges in order (in one worker thread), checking the log-time order as it goes."""
+
+    def __init__(self, db, path, where: str, args: list, checked: bool):
+        self.db, self.path, self.where, self.args = db, path, where, args
+        self.checked = checked
+        self.latest_ns: int | None = None      # max log time of the wanted rows read so far
+
+    def read(self, bounds: tuple[int, int]) -> PackedBatch | None:
+        """The range's wanted rows sorted by (time, rowid); None if a later row is earlier than them."""
+        try:
+            batch = time_sorted(_read_range(self.db, bounds[0], bounds[1], self.where, self.args))
+            if self.checked or not batch.lengths.size:
+                return batch
+            low = -(2**63) if self.latest_ns is None else self.latest_ns
+            high = max(low, int(batch.log_time_ns[-1]))
+            sql = f"SELECT 1 FROM messages WHERE timestamp >= ? AND timestamp < ? AND rowid >= ?{self.where} LIMIT 1"
+            if self.db.execute(sql, [low, high, bounds[1], *self.args]).fetchone() is not None:
+                return None
+            self.latest_ns = high
+            return batch
+        except Exception as exc:  # noqa: BLE001 - a damaged database: one-line error
+            raise InputError(f"corrupt bag {self.path}: {one_line(exc)}") from None
+
+    def ordered_from(self, start: int, step: int) -> Iterator[list[PackedBatch]]:
+        """The wanted rows from rowid `start` on with ORDER BY timestamp, packed `step` at a time."""
+        from itertools import islice
+
+        try:
+            rows = self.db.execute(f"SELECT topic_id, timestamp, data FROM messages WHERE rowid >= ?{self.where} "
+                                   "ORDER BY timestamp", [start, *self.args])
+            while got := list(islice(rows, step)):
+                yield [pack_rows(*zip(*got))]
+        except Exception as exc:  # noqa: BLE001 - a damaged database: one-line error
+            raise InputError(f"corrupt bag {self.path}: {one_line(exc)}") from None
+
+
+def _iter_ranges(reader: _RangeReader, ranges, step: int) -> Iterator[list[PackedBatch]]:
     """Read the ranges one ahead in a worker thread (apsw releases the GIL while sqlite works, so the
     query of the next range runs while the caller decodes this one); at most two ranges in memory."""
     from concurrent.futures import ThreadPoolExecutor
 
-    def read(bounds):
-        try:
-            return _read_range(db, bounds[0], bounds[1], where, args)
-        except Exception as exc:  # noqa: BLE001 - a damaged database: one-line error
-            raise InputError(f"corrupt bag {path}: {one_line(exc)}") from None
-
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="bag-read") as pool:
-        ahead = pool.submit(read, ranges[0]) if ranges else None
+        ahead = pool.submit(reader.read, ranges[0]) if ranges else None
         for k in range(len(ranges)):
             batch = ahead.result()
-            ahead = pool.submit(read, ranges[k + 1]) if k + 1 < len(ranges) else None
+            if batch is None:                   # out of order from here on
+                ahead = None
+                yield from reader.ordered_from(ranges[k][0], step)
+                return
+            ahead = pool.submit(reader.read, ranges[k + 1]) if k + 1 < len(ranges) else None
             if batch.lengths.size:
-                yield [time_sorted(batch)]
+                yield [batch]
             del batch
