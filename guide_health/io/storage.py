@@ -7,6 +7,10 @@
 - `RosbagsStorage`: everything else (mcap, split or compressed bags, a bare .db3 / .mcap file), and any
   bag opened with checked=True: rosbags.rosbag2.Reader.
 
+The bag reader asks a back end for `iter_packed` first (issue 14): one byte buffer per batch instead of a
+Python object per message (io.packed for sqlite3, io.mcap_chunks for a single mcap file); None means
+"not here", and it reads `iter_batches`. The player keeps `iter_batches`.
+
 Rows leave a back end as `RawBatch` columns (connection ids, log times, raw CDR bytes), not as one
 Python object per message: a replay reads millions of messages, and a named record per message costs
 0.25 s per million (measured with `iter_raw_messages`, which makes them for a player). Every read error
