@@ -24,7 +24,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 
-from bench_live_node import FEEDER, cpu_seconds, trial  # noqa: E402
+import tempfile  # noqa: E402
+
+from bench_live_node import FEEDER, cpu_seconds  # noqa: E402
 
 BARE = r'''
 import os, sys, time
@@ -49,8 +51,17 @@ node.create_subscription(WrenchStamped, "/guide/load", on_load, qos, raw=True)
 node.create_timer(0.2, check)
 executor = EventsExecutor()
 executor.add_node(node)
-executor.spin()
+while rclpy.ok():                     # the node's loop (nodes/common.run_node)
+    executor.spin_once(timeout_sec=0.1)
 '''
+
+
+def _line(proc, prefix: str) -> str:
+    """The first stdout line starting with `prefix` (Fast DDS prints its transport errors there too)."""
+    for line in proc.stdout:
+        if line.startswith(prefix):
+            return line
+    raise SystemExit(f"no {prefix!r} line from {proc.args[:2]}")
 
 
 def bare_trial(seconds: float, rate: float, env: dict) -> dict:
@@ -60,14 +71,43 @@ def bare_trial(seconds: float, rate: float, env: dict) -> dict:
     time.sleep(1.0)
     feeder = subprocess.Popen([sys.executable, "-c", FEEDER, str(seconds), str(rate)], env=env,
                               stdout=subprocess.PIPE, text=True, cwd=ROOT)
-    assert feeder.stdout.readline().strip() == "start"
+    _line(feeder, "start")
     cpu0, t0 = cpu_seconds(sub.pid), time.monotonic()
-    sent = int(feeder.stdout.readline().split()[1])
+    sent = int(_line(feeder, "sent").split()[1])
     cpu1, t1 = cpu_seconds(sub.pid), time.monotonic()
     feeder.wait(timeout=60)
-    got = sub.stdout.readline().split()
+    got = _line(sub, "count").split()
     sub.wait(timeout=60)
     return {"sent": sent, "joint": int(got[1]), "load": int(got[2]), "cpu_s": cpu1 - cpu0, "feed_s": t1 - t0}
+
+
+def trial(seconds: float, rate: float, env: dict) -> dict:
+    """bench_live_node.trial for the events executor, reading the feeder's lines past Fast DDS noise."""
+    from guide_health.nodes.session import DiagnosticsCollector, start_node, stop_node
+
+    status_name = "wear_monitor: x precision"
+    with tempfile.TemporaryDirectory() as tmp:
+        collector = DiagnosticsCollector("bench_collector_limit")
+        node = start_node("guide_health.nodes.wear_monitor", ROOT / "config" / "bench_000.yaml",
+                          {"state_file": f"{tmp}/state.db", "executor": "events", "input_timeout_s": 30.0},
+                          env, Path(tmp) / "node.log")
+        try:
+            assert collector.wait_for(status_name, timeout=30) is not None
+            feeder = subprocess.Popen([sys.executable, "-c", FEEDER, str(seconds), str(rate)], env=env,
+                                      stdout=subprocess.PIPE, text=True, cwd=ROOT)
+            _line(feeder, "start")
+            cpu0, t0 = cpu_seconds(node.pid), time.monotonic()
+            sent = int(_line(feeder, "sent").split()[1])
+            cpu1, t1 = cpu_seconds(node.pid), time.monotonic()
+            feeder.wait(timeout=60)
+            status = collector.wait_settled(status_name, "samples", settle_s=2.0, timeout=120)
+        finally:
+            stop_node(node)
+            collector.close()
+    v = status["values"]
+    return {"sent": sent, "joint": int(float(v["samples"])), "load": int(float(v["load_samples"])),
+            "cpu_pct": 100.0 * (cpu1 - cpu0) / (t1 - t0), "feed_s": t1 - t0,
+            "callback_us": float(v.get("callback_time_us", "nan")), "model_us": float(v.get("model_time_us", "nan"))}
 
 
 def main() -> int:
@@ -83,7 +123,7 @@ def main() -> int:
     print(f"load average at start: {os.getloadavg()[0]:.1f} (2 cores shared)", flush=True)
     bare = bare_trial(args.seconds, args.rate_hz, env)
     clean_fastdds_shm()
-    node = trial("events", args.seconds, args.rate_hz, env)
+    node = trial(args.seconds, args.rate_hz, env)
     clean_fastdds_shm()
     bare_us = bare["cpu_s"] / (bare["joint"] + bare["load"]) * 1e6
     node_us = node["cpu_pct"] / 100.0 * node["feed_s"] / (node["joint"] + max(node["load"], 0)) * 1e6
@@ -93,7 +133,7 @@ def main() -> int:
           f"{node['joint']:,} + {node['load']:,}; CPU {node_us:.1f} us/msg (callback {node['callback_us']:.1f} us, "
           f"model {node['model_us']:.1f} us)")
     print(f"ratio node / bare CPU per message  {node_us / bare_us:.2f}   (target <= 1.2)", flush=True)
-    loss = trial("events", args.seconds, args.loss_rate_hz, env)
+    loss = trial(args.seconds, args.loss_rate_hz, env)
     clean_fastdds_shm()
     print(f"loss at {args.loss_rate_hz:g} Hz joint + load, reliable: sent {loss['sent']:,} + {loss['sent']:,} in "
           f"{loss['feed_s']:.1f} s; lost {loss['sent'] - loss['joint']} + {loss['sent'] - loss['load']} "
