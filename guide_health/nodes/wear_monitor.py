@@ -63,7 +63,7 @@ TIMING_KEYS = ("load_samples", "callback_time_us", "model_time_us")
 ROLLING_PRECISION_KEYS = ("lambda", "asperity_load_share", "boundary_share_recent", "boundary_share_total")
 FATIGUE_KEYS = ("equivalent_load_n", "rating_life_km", "travel_km", "life_used_fraction", "remaining_life_km")
 EXTRA_FATIGUE_KEYS = ("duty_load_n", "carriages")
-FEED_BATCH_EVENTS = 64                       # samples copied per batch handled by StampAlignedFeed
+FEED_BATCH_EVENTS = 256                      # samples copied per batch handled by StampAlignedFeed
 INPUTS = ("joint_states", "guide/load")     # silent for input_timeout_s: every status STALE
 
 
