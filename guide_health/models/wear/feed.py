@@ -28,7 +28,7 @@ class StampAlignedFeed:
     the alignment decisions above event by event in plain Python, and the integration in one call of the
     model's batch path (PrecisionMonitor._advance_many). The numbers equal those of batch_events = 1 to
     rounding (tested); rejections are reported when the batch is handled instead of on arrival. With
-    window_s = 0 every sample is still handled on arrival.
+    window_s = 0, or for a monitor other than a PrecisionMonitor, every sample is handled on arrival.
     """
 
     def __init__(self, monitor: PrecisionMonitor, window_s: float = 0.5, batch_events: int = 1):
@@ -95,7 +95,7 @@ class StampAlignedFeed:
         return batch
 
     def _integrate(self, samples) -> list[str]:
-        if len(samples) > 1:                 # the model's batch path (same numbers to rounding)
+        if len(samples) > 1 and self._batch_model():     # the model's batch path (same numbers to rounding)
             t_ns, x, _ = zip(*samples)
             m = self.monitor
             m._advance_many(np.array(t_ns, np.int64), np.array(x, float), np.full(len(x), m.load_n))
@@ -105,8 +105,14 @@ class StampAlignedFeed:
         return []
 
     # --- batch_events > 1 ---------------------------------------------------------------------------
+    def _batch_model(self) -> bool:
+        """The batch path needs a PrecisionMonitor (an AxisMonitor, several guides with maintenance events
+        between samples, is fed sample by sample)."""
+        return isinstance(self.monitor, PrecisionMonitor)
+
     def _batching(self) -> bool:
-        return self.batch_events > 1 and self.window_s > 0   # window_s = 0: every sample on arrival
+        # window_s = 0: every sample on arrival
+        return self.batch_events > 1 and self.window_s > 0 and self._batch_model()
 
     def _buffer(self, event: tuple) -> list[str]:
         self._events.append(event)
