@@ -20,8 +20,9 @@ import numpy as np
 from ..errors import InputError
 from ..runs import MachineRun, SlewingLoadRun
 from .bag_metadata import count_mismatch_text, count_mismatches, read_run_metadata
-from .cdr import WRENCH_NAMES, DecodedChunk, codec_for, decode_chunk
+from .cdr import WRENCH_NAMES, DecodedChunk, codec_for, decode_chunk, decode_packed
 from .interfaces import FLOAT64, MACHINE_TOPICS, NS_PER_S, SLEWING_TOPICS, topic_name
+from .packed import PackedBatch
 from .storage import BagConnection, BagStorage, RawBatch, open_storage
 
 if TYPE_CHECKING:
@@ -94,6 +95,17 @@ class _TopicAccumulator:
             self.log_times.clear()
         self.raws.clear()
 
+    def add_packed(self, batch: PackedBatch, idx: np.ndarray | None) -> None:
+        """Decode the messages `idx` of a packed batch (None: all) straight into a part."""
+        self.flush()
+        offsets, lengths, times = batch.offsets, batch.lengths, batch.log_time_ns
+        if idx is not None:
+            offsets, lengths, times = offsets[idx], lengths[idx], times[idx]
+        dec = decode_packed(batch.buf, offsets, lengths, self.codec, self.fast)
+        self.parts.append(dec)
+        if self.log_times is not None:
+            self.log_parts.append(times[dec.keep])
+
     def take(self) -> TopicArrays:
         """The decoded arrays so far, then forget them (streaming: memory bounded by one batch)."""
         out = self.result()
@@ -154,6 +166,14 @@ def _split_batch(batch: RawBatch, acc_of: dict) -> None:
             acc.log_times.extend(times if idx.size > 1 else (times,))
 
 
+def _split_packed(batch: PackedBatch, acc_of: dict) -> None:
+    """Decode each topic's messages of a packed batch (connection by connection, as _split_batch)."""
+    ids = batch.connection_ids
+    for cid in np.unique(ids).tolist():
+        idx = np.flatnonzero(ids == cid)
+        acc_of[cid].add_packed(batch, None if idx.size == ids.size else idx)
+
+
 def _topic_accumulators(storage: BagStorage, wanted: dict, namespace: str, suffix_for_ns: str, joint: str,
                         fast: bool) -> tuple[dict[str, _TopicAccumulator], list[BagConnection]]:
     """An accumulator per topic of `wanted` ({relative topic: type}) in the bag, and their connections.
@@ -207,11 +227,23 @@ def _iter_topic_batches(path, wanted: dict, namespace: str | None, suffix_for_ns
         accs, conns = _topic_accumulators(storage, wanted, namespace, suffix_for_ns, joint, fast)
         total = int(sum(c.msgcount for c in conns))
         acc_of = {c.id: accs[c.topic] for c in conns}
-        batches = storage.iter_batches(conns, chunk_messages)
+        packed = storage.iter_packed(conns, chunk_messages) if hasattr(storage, "iter_packed") else None
+        batches = storage.iter_batches(conns, chunk_messages) if packed is None else iter(())
         if progress is not None:
             progress(0, total)
         done = 0
         rows: dict[int, int] = {}
+        for group in packed or ():                  # bulk path: no Python object per message
+            for batch in group:
+                for cid, n in zip(*np.unique(batch.connection_ids, return_counts=True)):
+                    rows[int(cid)] = rows.get(int(cid), 0) + int(n)
+                _split_packed(batch, acc_of)
+                done += int(batch.lengths.size)
+            del group, batch
+            if progress is not None:
+                progress(done, max(total, done))
+            if stream:
+                yield TopicBatch(namespace, {topic: acc.take() for topic, acc in accs.items()})
         while True:
             with _gc_paused():
                 batch = next(batches, None)     # read errors raise InputError; decoding is outside
