@@ -340,7 +340,7 @@ def test_item6_temperature_topic_feeds_the_viscosity_live_equal_to_offline(ros_c
             msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(t, 1_000_000_000)
             if kind == 0:
                 msg.temperature = value
-                node.channels[0].on_temperature(msg)
+                node.channels[0].on_temperature(msg)   # single joint: one axis channel
             else:
                 msg.name, msg.position = ["x"], [value]
                 node._on_joint(msg)
