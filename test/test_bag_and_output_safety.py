@@ -141,3 +141,23 @@ def test_open_output_refuses_links_and_special_files(tmp_path):
     with open_output(tmp_path / "f") as handle:
         handle.write("a\n")
     assert (tmp_path / "f").read_text() == "a\n" and target.read_text() == "x"
+
+
+def test_every_report_writer_goes_through_output_files():
+    """A new writer that opens its file directly would follow a planted symlink and leave 0644 (issue 10
+    item 6): every report, CSV, PNG and params file goes through guide_health/io/output_files.py."""
+    import re
+
+    direct = re.compile(r"\.write_text\(|\.write_bytes\(|\bopen\([^)]*[\"'][wa]b?[\"']"
+                        r"|\.savefig\(\s*(?!buffer)|np\.savetxt\(\s*files")
+    allowed = {"guide_health/io/output_files.py",
+               "guide_health/nodes/session.py"}      # the log of a node a test/bench starts, path from the caller
+    offenders = []
+    for path in sorted((ROOT / "guide_health").rglob("*.py")):
+        rel = path.relative_to(ROOT).as_posix()
+        if rel in allowed:
+            continue
+        for number, line in enumerate(path.read_text().splitlines(), 1):
+            if direct.search(line) and not line.lstrip().startswith("#"):
+                offenders.append(f"{rel}:{number}: {line.strip()}")
+    assert not offenders, "\n".join(offenders)

@@ -155,7 +155,7 @@ def _decode_like_store(value):
     return _decode(value)
 
 
-@hypothesis.settings(max_examples=150, deadline=None,
+@hypothesis.settings(max_examples=100, deadline=None,
                      suppress_health_check=[hypothesis.HealthCheck.too_slow, hypothesis.HealthCheck.data_too_large])
 @pytest.mark.parametrize("params", [RULE_PARAMS, ROLLING_PARAMS], ids=["sliding", "rolling"])
 @hypothesis.given(run=bad_runs())

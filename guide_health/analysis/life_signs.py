@@ -4,6 +4,7 @@ failure travel into C_test / C (seed 004 Eq. 5) and several specimens into the i
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -95,11 +96,13 @@ def read_life_test_bag(path) -> dict:
     from rosbags.rosbag2 import Reader
 
     from guide_health.errors import InputError
+    from guide_health.io.bag_metadata import check_bag_file_paths
     from guide_health.io.bag_writer import SOUND_LEVEL_REFERENCE_PA
     from guide_health.io.typestore import typestore
 
     store = typestore()
     out = {"block_t_ns": [], "blocks": [], "level_t_ns": [], "level_db": [], "sample_rate_hz": None}
+    check_bag_file_paths(Path(path))        # no storage file outside the bag folder
     try:
         reader = Reader(path)
         reader.open()
