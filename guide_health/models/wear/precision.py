@@ -32,6 +32,7 @@ from guide_health.models.wear.effect_wear import (
 )
 from guide_health.models.wear.input_rules import (
     REASON_CODES,
+    STRAIGHTNESS_WITHOUT_TIME_BASE,
     InputLimits,
     RejectionCounter,
     StampBase,
@@ -116,9 +117,16 @@ class PrecisionMonitor:
         self.load_samples += 1
         return None
 
+    def on_temperature(self, t_ns: int, temperature_c: float) -> None:
+        """A guide/temperature reading: the rolling guide's oil viscosity from its stamp on (Walther oil)."""
+        if self.rolling is not None:
+            self.rolling.add_temperature(t_ns, temperature_c)
+
     def on_straightness(self, t_ns: int, straightness_m: float) -> str | None:
         """Straightness measurement [m]; returns the rejection reason or None when accepted. A measurement
         is identified by its stamp: one with the stamp of an applied measurement is not applied again."""
+        if self.integrator.last_t_ns is None:   # before any accepted joint sample (discrepancy/duty.py alike)
+            return self.rejected.reject(STRAIGHTNESS_WITHOUT_TIME_BASE)
         times = self.estimator.measurement_t_ns
         reason = check_straightness_sample(t_ns, straightness_m, times[-1] if times else None, self.limits)
         if reason is not None:
@@ -192,6 +200,8 @@ class PrecisionMonitor:
         found by binary search, and the integration is split at the measurement times so each
         measurement sees the wear state at its own time.
         """
+        if self.rolling is not None and getattr(run, "temperature_t_ns", np.zeros(0)).size:
+            self.rolling.add_temperatures(run.temperature_t_ns, run.temperature_c)   # applied by stamp
         accepted = accept_run(run, self.joint_base, self.load_base, self.load_n, self.limits)
         self.rejected.count_all(accepted.rejected)
         self.joint_base, self.load_base = accepted.joints.base, accepted.loads.base
