@@ -139,7 +139,7 @@ def test_live_per_sample_path_equals_the_vectorised_path():
     events = sorted([(int(t), 0, float(x)) for t, x in zip(run.joint_t_ns, run.joint_position_m)]
                     + [(int(t), 1, float(w)) for t, w in zip(run.load_t_ns, run.load_n)]
                     + [(int(t), 2, float(y)) for t, y in zip(run.straightness_t_ns, run.straightness_m)],
-                    key=lambda e: (e[0], (1, 0, 2)[e[1]]))   # process_run's order at one stamp: load, joint, straightness
+                    key=lambda e: (e[0], (1, 0, 2)[e[1]]))   # at a tie: load, joint, measurement
     for t, kind, value in events:
         (live.on_joint, live.on_load, live.on_straightness)[kind](t, value)
     a, b = offline.report(), live.report()
