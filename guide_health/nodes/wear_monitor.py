@@ -4,7 +4,8 @@ Subscribes `joint_states`, `guide/load`, `guide/straightness` (and `guide/temper
 `/diagnostics`, `guide/straightness_predicted` and `guide/remaining_life`. Time comes from header stamps,
 so a bag replayed at any rate gives the same numbers. State persists in SQLite (`state_file`).
 
-Executor (parameter `executor`): `events` (default) spins rclpy's EventsExecutor with raw subscriptions
+Executor (parameter `executor`; `auto`, the default, is `events` unless `sensor_qos` is `best_effort`,
+guide_health/nodes/qos.py): `events` spins rclpy's EventsExecutor with raw subscriptions
 for joint_states and guide/load, decoded at fixed CDR offsets (guide_health.io.cdr.RawMessageDecoder, a few
 us) instead of rclpy deserialisation; it handles messages in arrival order across topics, so a
 header-less straightness message is dated by the joint samples published before it. `single_threaded`
@@ -19,7 +20,6 @@ import time
 
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
@@ -42,20 +42,18 @@ from guide_health.models.wear.input_rules import (
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.nodes.common import run_node
 from guide_health.nodes.live_params import PeriodicTimers, apply_wear_changes
+from guide_health.nodes.qos import SensorSubscriptions, resolve_executor
 from guide_health.nodes.status import RejectionLog, StatusTask, StatusUpdater
 from guide_health.params import WEAR_MONITOR_SCHEMA, declare_parameters
 
-# Reliable + keep_all: when the callbacks lag, the reader's history fills and a reliable writer waits
-# (back-pressure) instead of the reader overwriting unprocessed samples as keep_last would; a sensor
-# publishing best-effort or keep_last still connects (the reader's QoS is the weaker side of neither).
-DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1, reliability=ReliabilityPolicy.RELIABLE)
+# data QoS: parameter sensor_qos (guide_health/nodes/qos.py: reliable back-pressure vs best-effort loss)
 # status keys (README "Diagnostics"): the first tuple of each task always, 'nan' until known; the rest when known
 PRECISION_KEYS = ("straightness_um", "straightness_measured_um", "straightness_limit_um", "remaining_life_h",
                   "remaining_life_h_low", "remaining_life_h_high", "wear_volume_mm3", "sliding_distance_m",
                   "wear_coefficient", "lubrication_regime")
 EXTRA_PRECISION_KEYS = ("wear_coefficient_low", "wear_coefficient_high", "measurements", "duty_load_speed_w",
                         "stroke_min_m", "stroke_max_m", "strokes", "rejected_samples", "samples",
-                        "rejected_recent_share")
+                        "rejected_recent_share", "messages_lost", "best_effort_topics")
 TIMING_KEYS = ("load_samples", "callback_time_us", "model_time_us")
 ROLLING_PRECISION_KEYS = ("lambda", "asperity_load_share", "boundary_share_recent", "boundary_share_total")
 FATIGUE_KEYS = ("equivalent_load_n", "rating_life_km", "travel_km", "life_used_fraction", "remaining_life_km")
@@ -92,7 +90,7 @@ class WearMonitorNode(Node):
         self.diag_pub = self.updater.publisher
         self.precision_task = f"{self.joint} precision"
         self._add_status_tasks()
-        self.raw = params.get("executor", "events") == "events"
+        self.raw = resolve_executor(params) == "events"
         self._subscribe_inputs()
         self.pred_pub = self.create_publisher(Float64, "guide/straightness_predicted", 10)
         self.life_pub = self.create_publisher(Float64, "guide/remaining_life", 10)
@@ -113,17 +111,20 @@ class WearMonitorNode(Node):
                 f"slid, {self.monitor.estimator.count} measurements")
 
     def _subscribe_inputs(self) -> None:
+        p = self.params
+        self.sensors = SensorSubscriptions(self, p["sensor_qos"], p["sensor_queue_depth"], with_info=not self.raw)
+        subscribe = self.sensors.subscribe
         if self.raw:
             self._joint_decoder = RawMessageDecoder(JOINT_STATE, ("sec", "nsec", "position", "velocity"),
                                                     self.joint, absent=0.0)   # no velocity array: 0
             self._load_decoder = RawMessageDecoder(WRENCH_STAMPED, ("sec", "nsec", "fz"))
-            self.create_subscription(JointState, "joint_states", self._on_joint_raw, DATA_QOS, raw=True)
-            self.create_subscription(WrenchStamped, "guide/load", self._on_load_raw, DATA_QOS, raw=True)
+            subscribe(JointState, "joint_states", self._on_joint_raw, raw=True)
+            subscribe(WrenchStamped, "guide/load", self._on_load_raw, raw=True)
         else:
-            self.create_subscription(JointState, "joint_states", self._on_joint, DATA_QOS)
-            self.create_subscription(WrenchStamped, "guide/load", self._on_load, DATA_QOS)
-        self.create_subscription(Float64, "guide/straightness", self._on_straightness, DATA_QOS)
-        self.create_subscription(Temperature, "guide/temperature", self._on_temperature, DATA_QOS)
+            subscribe(JointState, "joint_states", self._on_joint)
+            subscribe(WrenchStamped, "guide/load", self._on_load)
+        subscribe(Float64, "guide/straightness", self._on_straightness)
+        subscribe(Temperature, "guide/temperature", self._on_temperature)
 
     def _add_status_tasks(self) -> None:
         rolling = self.monitor.rolling is not None
@@ -250,7 +251,8 @@ class WearMonitorNode(Node):
         n = self._callbacks
         report["callback_time_us"] = self._callback_s / n * 1e6 if n else math.nan
         report["model_time_us"] = self._model_s / n * 1e6 if n else math.nan
-        return report["level"], report["message"], report
+        report.update(self.sensors.values())
+        return report["level"], report["message"] + self.sensors.message_suffix(), report
 
     def _fatigue_report(self) -> tuple[int, str, dict]:
         fatigue = self.monitor.fatigue_report()
