@@ -4,8 +4,9 @@
         [slewing_params_file:=/path/to/slewing.yaml]
 
 Topics resolve in the namespace (/m1/joint_states, /m1/guide/load, ...); /diagnostics is absolute, so a
-fleet_monitor sees every machine. Needs a ROS 2 installation with `launch_ros` (not on PyPI: without it,
-start the console scripts directly, e.g. `wear_monitor --ros-args -r __ns:=/m1 --params-file FILE`).
+fleet_monitor sees every machine. The state file is the params file's state_file (shipped configs: auto =
+$ROS_HOME/guide_health/<machine_id>/wear_monitor.db). Needs a ROS 2 installation with `launch_ros` (not on
+PyPI: without it, start the console scripts directly, e.g. `wear_monitor --ros-args -r __ns:=/m1 --params-file FILE`).
 """
 import os
 

@@ -3,6 +3,12 @@ import numpy as np
 import pytest
 
 
+@pytest.fixture(autouse=True)
+def private_ros_home(tmp_path_factory, monkeypatch):
+    """state_file 'auto' (the default) lives under $ROS_HOME: each test gets its own, never ~/.ros."""
+    monkeypatch.setenv("ROS_HOME", str(tmp_path_factory.mktemp("ros_home")))
+
+
 @pytest.fixture
 def ros_context(monkeypatch):
     """A private rclpy context on a random localhost-only domain, for nodes spun in the test process."""

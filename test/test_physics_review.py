@@ -203,3 +203,37 @@ def test_item3_real_hardness_with_the_seed_k_warns():
     assert hardness_units_warning({**p, "hardness_pa": 1.95e9, "wear_coefficient": 4.33e-5}) is None
     described = {q.name: q.description for q in WEAR_MONITOR_SCHEMA.params}
     assert "Brinell" in described["hardness_pa"]
+
+
+def test_item3_hardness_warning_reaches_cli_stderr_and_node_log(tmp_path, ros_context):
+    """The warning is wired: one stderr line from the CLI (`contact rolling` reads the wear_monitor section) and a
+    start-up warning of the node. HB 199 -> 1.95e9 Pa with K = 4.42e-6: 1.95e9/199e6 = 9.8x too little wear."""
+    import subprocess
+    import sys
+
+    from rclpy.parameter import Parameter
+
+    from guide_health.nodes.wear_monitor import WearMonitorNode
+
+    params = tmp_path / "hb.yaml"
+    params.write_text("wear_monitor:\n  ros__parameters:\n    hardness_pa: 1.95e9\n")
+    run = subprocess.run([sys.executable, "-m", "guide_health.cli", "contact", "rolling", "--params", str(params),
+                          "--json"], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert run.returncode == 0, run.stderr
+    lines = [line for line in run.stderr.splitlines() if "real hardness" in line]
+    assert len(lines) == 1 and lines[0].startswith("guide-health: warning:") and "9.8x too low" in lines[0]
+    clean = tmp_path / "seed.yaml"
+    clean.write_text("wear_monitor:\n  ros__parameters:\n    hardness_pa: 199.0e6\n")
+    run = subprocess.run([sys.executable, "-m", "guide_health.cli", "contact", "rolling", "--params", str(clean),
+                          "--json"], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert run.returncode == 0 and "real hardness" not in run.stderr
+    overrides = {"hardness_pa": 1.95e9, "state_file": "", "joint": "x"}
+    node = WearMonitorNode(context=ros_context, parameter_overrides=[Parameter(k, value=v)
+                                                                      for k, v in overrides.items()])
+    try:
+        assert len(node.startup_warnings) == 1 and "4.33e-05" in node.startup_warnings[0]
+    finally:
+        node.destroy_node()
+    described = {q.name: q.description for q in __import__("guide_health.params.wear_monitor", fromlist=["x"])
+                 .WEAR_MONITOR_SCHEMA.params}
+    assert "only K/H" in described["wear_coefficient"] and "2.22e-14" in described["wear_coefficient"]

@@ -188,6 +188,7 @@ def test_state_survives_restart(ros_context, tmp_path):
     node.checkpoint()
     distance = node.monitor.integrator.sliding_distance_m
     work = node.monitor.integrator.archard_work_nm
+    node.store.close()              # a crashed process: its lock goes with it, no final checkpoint
     node.destroy_node()                                # no clean close: only the checkpoint survives
     node2 = make_node(ros_context, tmp_path)
     try:

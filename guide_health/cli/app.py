@@ -27,6 +27,10 @@ COMMANDS: list[tuple[tuple[str, ...], str, str]] = [
     (("contact", "slewing"), "contact:SLEWING", "slewing-bearing roller/raceway stresses"),
     (("contact", "rolling"), "contact:ROLLING", "rolling-guide ball/groove contact and lubrication"),
     (("life",), "life:LIFE", "rating life, Miner consumption and C from life tests"),
+    (("fleet", "replay"), "fleet:FLEET_REPLAY", "replay many bags on Dask: one report each, a fleet table"),
+    (("fleet", "diagnose"), "fleet:FLEET_DIAGNOSE", "diagnose many bags on Dask: one report each, a fleet table"),
+    (("fleet", "prior"), "fleet:FLEET_PRIOR", "K prior of a machine type from its replayed/diagnosed machines"),
+    (("fleet", "trend"), "fleet:FLEET_TREND", "per-machine trends and an HTML page from the fleet_monitor history"),
 ]
 
 
@@ -104,7 +108,8 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     if result is not None:
         print_result(command, result, as_json=args.json)
-    return 0
+    # a command that completed in part (fleet: some bags failed) says so in its result
+    return int(result.get("exit_status", 0)) if isinstance(result, dict) else 0
 
 
 def print_result(command: Command, result: dict, as_json: bool) -> None:

@@ -14,7 +14,9 @@ from guide_health.params import wear_monitor_params
 def add_arguments(parser) -> None:
     parser.add_argument("bag", help="rosbag2 directory (sqlite3 or mcap) with joint_states, guide/load, "
                                     "guide/straightness and optionally guide/temperature")
-    parser.add_argument("--params", required=True, help="ROS 2 parameters YAML (wear_monitor section)")
+    parser.add_argument("--params", required=True, action="append",
+                        help="ROS 2 parameters YAML (wear_monitor section); several merge in order, the later "
+                             "overriding (as ROS merges several --params-file)")
     parser.add_argument("--out", help="report directory (default: <bag>.diagnose beside the bag)")
     parser.add_argument("--namespace", default=None, help="topic namespace in the bag (default: detect)")
     parser.add_argument("--heldout-fraction", type=float, default=0.25,
@@ -27,6 +29,7 @@ def add_arguments(parser) -> None:
 
 def run(args) -> dict:
     from guide_health.analysis.discrepancy.duty import read_duty_cells
+    from guide_health.analysis.discrepancy.model_file import write_model_file
     from guide_health.analysis.discrepancy.report import write_report
     from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD
     from guide_health.analysis.discrepancy.workflow import diagnose_cells
@@ -56,6 +59,8 @@ def run(args) -> dict:
     out = Path(args.out) if args.out else bag.with_name(bag.name + ".diagnose")
     t1 = time.perf_counter()
     result["files"] = write_report(result, out, bag=str(bag), with_plot=not args.no_plot)
+    result["files"]["model"] = str(out / "model.yaml")
+    write_model_file(out / "model.yaml", params, result["model_file"], result["named_effects"], source=str(bag))
     result["report_s"] = time.perf_counter() - t1
     result["total_s"] = time.perf_counter() - t0
     result.pop("series")

@@ -13,7 +13,9 @@ from guide_health.params import wear_monitor_params
 
 def add_arguments(parser) -> None:
     parser.add_argument("bag", help="rosbag2 directory (sqlite3 or mcap)")
-    parser.add_argument("--params", required=True, help="ROS 2 parameters YAML (wear_monitor section)")
+    parser.add_argument("--params", required=True, action="append",
+                        help="ROS 2 parameters YAML (wear_monitor section); several merge in order, the later "
+                             "overriding (e.g. --params BASE --params DIR/model.yaml from diagnose --out DIR)")
     parser.add_argument("--out", help="report directory (default: <bag>.report beside the bag)")
     parser.add_argument("--namespace", default=None, help="topic namespace in the bag (default: detect)")
     parser.add_argument("--no-plot", action="store_true", help="skip the PNG plot")
@@ -38,7 +40,9 @@ def run_slewing(args, bag: Path) -> dict:
     from guide_health.io.progress import ProgressBar
     from guide_health.params import SLEWING_MONITOR_DEFAULTS, load_node_params, validate_slewing_params
 
-    params = load_node_params(args.params, "slewing_monitor", SLEWING_MONITOR_DEFAULTS)
+    params = dict(SLEWING_MONITOR_DEFAULTS)
+    for path in args.params:
+        params = load_node_params(path, "slewing_monitor", params)
     validate_slewing_params(params)
     bar = ProgressBar("contact", force=args.progress)
     run, report, series, timing = analyse_slewing_bag(bag, params, namespace=args.namespace, progress=bar)

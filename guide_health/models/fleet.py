@@ -109,3 +109,88 @@ class FleetBoard:
                                else Level.WARN if level in (Level.WARN, Level.STALE) else Level.OK)
             result["message"] = text
         return result
+
+
+# --- fleet prior: the population of a machine type's wear coefficient (empirical Bayes) ----------------
+
+@dataclass(frozen=True)
+class PopulationFit:
+    """Random-effects fit of per-machine estimates y_i with standard errors s_i:
+    y_i ~ N(mu, tau^2 + s_i^2) (the normal-normal hierarchical model), mu and tau by REML."""
+
+    mean: float                  # mu, the population mean
+    tau: float                   # tau, the population sd (between machines)
+    mean_std_error: float        # sd of mu given tau: (sum w_i)^-1/2, w_i = 1 / (tau^2 + s_i^2)
+    machines: int
+
+    @property
+    def predictive_sd(self) -> float:
+        """sd of a new machine's value: sqrt(tau^2 + se(mu)^2) (population spread and the error of mu)."""
+        return math.sqrt(self.tau ** 2 + self.mean_std_error ** 2)
+
+
+def _reml_objective(tau: float, y, s2) -> tuple[float, float, float]:
+    """(-log REML likelihood, mu, se(mu)) of the random-effects model at tau (Viechtbauer 2005, Eq. 7):
+    -l_R = 1/2 [sum log v_i + log sum w_i + sum w_i (y_i - mu)^2], v_i = tau^2 + s_i^2, w_i = 1/v_i."""
+    import numpy as np
+
+    v = tau * tau + s2
+    w = 1.0 / v
+    mu = float(np.sum(w * y) / np.sum(w))
+    nll = 0.5 * float(np.sum(np.log(v)) + math.log(np.sum(w)) + np.sum(w * (y - mu) ** 2))
+    return nll, mu, 1.0 / math.sqrt(float(np.sum(w)))
+
+
+def random_effects_fit(values, std_errors) -> PopulationFit:
+    """REML fit of the population (mu, tau) from per-machine estimates and their standard errors
+    (empirical Bayes: the hyper-parameters from the marginal likelihood of the machines' estimates).
+    tau is bounded to [0, 10 x (range of y + largest s)]; at least 2 machines with finite s > 0."""
+    import numpy as np
+    from scipy.optimize import minimize_scalar
+
+    y = np.asarray(values, dtype=float)
+    s = np.asarray(std_errors, dtype=float)
+    ok = np.isfinite(y) & np.isfinite(s) & (s > 0)
+    y, s = y[ok], s[ok]
+    if y.size < 2:
+        raise ValueError(f"a population fit needs at least 2 machines with an estimate, got {int(y.size)}")
+    s2 = s * s
+    upper = 10.0 * (float(np.ptp(y)) + float(s.max()))
+    best = minimize_scalar(lambda t: _reml_objective(t, y, s2)[0], bounds=(0.0, upper), method="bounded",
+                           options={"xatol": 1e-6 * upper})
+    tau = float(best.x)
+    if _reml_objective(0.0, y, s2)[0] <= best.fun:       # the boundary tau = 0 (no spread beyond the errors)
+        tau = 0.0
+    _, mu, mu_se = _reml_objective(tau, y, s2)
+    return PopulationFit(mean=mu, tau=tau, mean_std_error=mu_se, machines=int(y.size))
+
+
+def likelihood_from_posterior(posterior_mean: float, posterior_sd: float, prior_mean: float,
+                              prior_sd: float) -> tuple[float, float]:
+    """The data-only estimate (mean, sd) behind a conjugate normal posterior: Gaussian division of the
+    posterior by its prior, precision 1/sd^2 = 1/sd_post^2 - 1/sd_prior^2 and
+    mean = (m_post/sd_post^2 - m_prior/sd_prior^2) sd^2 (WearCoefficientEstimator.posterior inverted:
+    g'y/g'g and sigma/sqrt(g'g)). (nan, inf) when the posterior holds no information beyond the prior."""
+    precision = 1.0 / posterior_sd ** 2 - 1.0 / prior_sd ** 2
+    if not precision > 1e-12 / posterior_sd ** 2:
+        return math.nan, math.inf
+    mean = (posterior_mean / posterior_sd ** 2 - prior_mean / prior_sd ** 2) / precision
+    return mean, 1.0 / math.sqrt(precision)
+
+
+def wear_coefficient_prior(log_k_fit: PopulationFit) -> tuple[float, float]:
+    """(K0, relative sd) of the wear_monitor's normal prior on K that matches the mean and sd of the new
+    machine's lognormal predictive, log K ~ N(mu, v), v = tau^2 + se(mu)^2:
+    K0 = exp(mu + v/2), sd/K0 = sqrt(exp(v) - 1) (lognormal moments)."""
+    v = log_k_fit.predictive_sd ** 2
+    return math.exp(log_k_fit.mean + 0.5 * v), math.sqrt(math.expm1(v))
+
+
+def combine_estimates(values, std_errors) -> tuple[float, float]:
+    """Inverse-variance mean and its sd of independent estimates of one quantity (several bags of one
+    machine); (nan, inf) when none has a finite sd."""
+    pairs = [(v, s) for v, s in zip(values, std_errors) if math.isfinite(v) and math.isfinite(s) and s > 0]
+    if not pairs:
+        return math.nan, math.inf
+    w = [1.0 / (s * s) for _, s in pairs]
+    return sum(wi * v for wi, (v, _) in zip(w, pairs)) / sum(w), 1.0 / math.sqrt(sum(w))

@@ -24,9 +24,10 @@ from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
 
+from guide_health.errors import InputError
 from guide_health.io.cdr import MISSING, RawMessageDecoder
 from guide_health.io.interfaces import JOINT_STATE, WRENCH_STAMPED
-from guide_health.io.state_store import StateStore
+from guide_health.io.state_store import StateStore, resolve_state_path
 from guide_health.models.wear.feed import StampAlignedFeed
 from guide_health.models.wear.input_rules import (
     EMPTY_JOINT_STATES,
@@ -40,11 +41,13 @@ from guide_health.models.wear.input_rules import (
     rejected_keys,
 )
 from guide_health.models.wear.precision import PrecisionMonitor
+from guide_health.models.wear.state_schema import check_precision_state, state_fingerprint
 from guide_health.nodes.common import run_node
 from guide_health.nodes.live_params import PeriodicTimers, apply_wear_changes
 from guide_health.nodes.qos import SensorSubscriptions, resolve_executor
 from guide_health.nodes.status import RejectionLog, StatusTask, StatusUpdater
 from guide_health.params import WEAR_MONITOR_SCHEMA, declare_parameters
+from guide_health.params.wear_monitor import hardness_units_warning
 
 # data QoS: parameter sensor_qos (guide_health/nodes/qos.py: reliable back-pressure vs best-effort loss)
 # status keys (README "Diagnostics"): the first tuple of each task always, 'nan' until known; the rest when known
@@ -72,12 +75,21 @@ class WearMonitorNode(Node):
         params = declare_parameters(self, WEAR_MONITOR_SCHEMA, on_applied=self._apply_params)   # validated
         self.periodic = PeriodicTimers(self)
         self.params = params
+        self.startup_warnings = [w for w in (hardness_units_warning(params),) if w is not None]
+        for warning in self.startup_warnings:     # issue 11 item 3: a real hardness in Pa with seed 000's K
+            self.get_logger().warning(warning)
         self.joint = params["joint"]
         self.monitor = PrecisionMonitor(params)
         self.state_key = f"{params['machine_id']}/{self.joint}/precision"
-        self.store = StateStore(params["state_file"]) if params["state_file"] else None
+        self.state_path = resolve_state_path(params["state_file"], params["machine_id"], self.get_name())
+        self.fingerprint = state_fingerprint(params)
+        self.store = StateStore(self.state_path) if self.state_path is not None else None
         if self.store is not None:
-            self._resume()
+            try:
+                self._resume()
+            except BaseException:
+                self.store.close()      # the lock goes at once (a test process builds the next node)
+                raise
         self.feed = StampAlignedFeed(self.monitor, params["input_align_window_s"])
         self.rejections = RejectionLog(self.get_logger())
         self.temperature_c = math.nan
@@ -103,11 +115,15 @@ class WearMonitorNode(Node):
         apply_wear_changes(changed, [self.monitor], [self.feed], self.updater, self.periodic)
 
     def _resume(self) -> None:
-        saved = self.store.load(self.state_key)
+        template = self.monitor.state()
+        saved = self.store.load(self.state_key, self.fingerprint, lambda s: check_precision_state(s, template))
         if saved is not None:
-            self.monitor.restore(saved)
+            try:    # validated whole above: a failure here is a bug, still one line
+                self.monitor.restore(saved)
+            except (LookupError, TypeError, ValueError, ArithmeticError) as exc:
+                raise InputError(f"state file {self.state_path}: {exc}; move it away to start afresh") from None
             self.get_logger().info(
-                f"resumed from {self.params['state_file']}: {self.monitor.integrator.sliding_distance_m:.1f} m "
+                f"resumed from {self.state_path}: {self.monitor.integrator.sliding_distance_m:.1f} m "
                 f"slid, {self.monitor.estimator.count} measurements")
 
     def _subscribe_inputs(self) -> None:
@@ -268,7 +284,10 @@ class WearMonitorNode(Node):
 
     def checkpoint(self) -> None:
         if self.store is not None:
-            self.store.save({self.state_key: self.monitor.state()})
+            try:
+                self.store.save({self.state_key: self.monitor.state()}, self.fingerprint)
+            except InputError as exc:       # disk full, permissions: logged, retried at the next checkpoint
+                self.get_logger().error(str(exc), throttle_duration_sec=60.0)
 
     def close(self) -> None:
         self._rejected_all(self.feed.flush_all())

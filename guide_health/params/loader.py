@@ -17,6 +17,7 @@ Strict by default, so that a typo never goes unnoticed:
 from __future__ import annotations
 
 import difflib
+import logging
 from pathlib import Path
 from typing import Any
 
@@ -25,7 +26,7 @@ import yaml
 from guide_health.errors import InputError
 from guide_health.params.schema import check_unknown_keys, coerce_value
 from guide_health.params.simulation import SIMULATION_SCHEMA
-from guide_health.params.wear_monitor import WEAR_MONITOR_SCHEMA, validate_wear_params
+from guide_health.params.wear_monitor import WEAR_MONITOR_SCHEMA, hardness_units_warning, validate_wear_params
 
 #: parameters every rclpy node has (or reads) besides its schema's: accepted in any section, not returned
 ROS_NODE_PARAMS = ("use_sim_time", "start_type_description_service", "qos_overrides")
@@ -110,10 +111,19 @@ def load_node_params(path: str | Path | None, node_name: str, defaults: dict[str
     return params
 
 
-def wear_monitor_params(path: str | Path | None) -> dict[str, Any]:
-    """wear_monitor parameters, validated (positive sizes, known model names, declared ranges)."""
-    p = load_node_params(path, WEAR_MONITOR_SCHEMA.section, WEAR_MONITOR_SCHEMA.defaults())
-    _validate_from(path, WEAR_MONITOR_SCHEMA.section, validate_wear_params, p)
+def wear_monitor_params(path: str | Path | list | tuple | None) -> dict[str, Any]:
+    """wear_monitor parameters, validated (positive sizes, known model names, declared ranges). Several files
+    (``--params BASE --params DIR/model.yaml``) merge in order, the later overriding, as rcl merges several
+    ``--params-file``; the merged result is validated once."""
+    paths = [path] if path is None or isinstance(path, (str, Path)) else list(path)
+    p = WEAR_MONITOR_SCHEMA.defaults()
+    for one in paths:
+        p = load_node_params(one, WEAR_MONITOR_SCHEMA.section, p)
+    named = None if paths == [None] else ", ".join(str(one) for one in paths)
+    _validate_from(named, WEAR_MONITOR_SCHEMA.section, validate_wear_params, p)
+    warning = hardness_units_warning(p)
+    if warning is not None:     # one stderr line in the CLI (logging's last-resort handler), the node logs its own
+        logging.getLogger("guide_health.params").warning("guide-health: warning: %s", warning)
     return p
 
 

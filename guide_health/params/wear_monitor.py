@@ -17,6 +17,8 @@ DUTY_WINDOW_MIN_PERIODS = 3
 
 SLIDING_GUIDE_PARAMS = (
     Param("machine_id", "machine", "", "", "machine name: hardware_id of the diagnostics, key in the state file"),
+    Param("machine_type", "", "", "",
+          "machine type (model/series): machines of one type share a fleet prior (guide-health fleet prior)"),
     Param("joint", "x", "", "", "the axis to monitor: its name in sensor_msgs/JointState"),
     Param("guide_type", "sliding", "", "", "sliding (seed 000 Archard wear) or rolling (seed 001 ball guide)",
           choices=("sliding", "rolling")),
@@ -26,7 +28,9 @@ SLIDING_GUIDE_PARAMS = (
           "real hardness of about 1.95e9 Pa); only K/H enters the model, so K = 4.42e-6 belongs with H = 199e6. "
           "With a real hardness in Pa, scale K by the same factor (about 4.3e-5) or the wear is ~10x too low"),
     Param("wear_coefficient", 4.42e-6, "-", "[1e-12, 1e-1]",
-          "K, dimensionless Archard wear coefficient; a pair with hardness_pa (seed 000: 4.42e-6 with H = 199e6)"),
+          "K, dimensionless Archard wear coefficient, ALWAYS a pair with hardness_pa: only K/H enters the wear "
+          "(V = K W s / H, seed 000 Eq. 10). Seed 000: K = 4.42e-6 with H = 199e6 (K/H = 2.22e-14 1/Pa, its "
+          "pin-on-disc fit). A start-up warning names a real hardness in Pa (> 1e9) used with the seed's K"),
     Param("stroke_min_m", 0.0, "m", "[0, 100]", "l_min, shortest stroke; 0 = estimate from the observed strokes"),
     Param("stroke_max_m", 0.0, "m", "[0, 100]", "l_max, longest stroke; 0 = estimate from the observed strokes"),
     Param("stroke_detect_min_m", 0.005, "m", "[0, 1]", "reversal hysteresis: reversals closer than this are jitter"),
@@ -49,6 +53,22 @@ SLIDING_GUIDE_PARAMS = (
     Param("straightness_noise_m", 0.5e-6, "m", "[0, 0.01]",
           "1-sigma noise of a straightness measurement (prior of the K update)", dynamic=True),
     Param("wear_coefficient_prior_rel_sd", 0.5, "-", "(0, 100]", "prior sd of K relative to the configured K"),
+    # wear effects learnt by `guide-health diagnose` (its DIR/model.yaml; models/wear/effects.py); the defaults
+    # are the plain Archard model
+    Param("effects", "", "", "", "effects the live model integrates, comma-separated ids of models/wear/effects.py "
+          "(written by diagnose --out DIR as DIR/model.yaml; '' = plain Archard wear)"),
+    Param("running_in_ratio", 0.0, "-", "[0, 100]", "running_in r: K(s) = K (1 + r exp(-s / s0))"),
+    Param("running_in_distance_m", 100.0, "m", "(0, 1e9]", "running_in s0, sliding distance of the decay"),
+    Param("retract_wear_factor", 1.0, "-", "[0, 10]", "retract_asymmetry rho: retract wear per unit work / feed's"),
+    Param("retract_direction", "-x", "", "", "direction of the retract stroke (retract_asymmetry)",
+          choices=("-x", "+x")),
+    Param("lift_speed_m_s", 0.0, "m/s", "[0, 100]",
+          "speed_dependent_wear v_lift: asperity share 1 / (1 + (v / v_lift)^1.4); 0 = no effect"),
+    Param("load_exponent", 1.0, "-", "[0, 4]", "load_exponent n: wear rate proportional to (W / W_ref)^n W_ref"),
+    Param("load_reference_n", 1000.0, "N", "(0, 1e9]", "load_exponent W_ref (diagnose: the geometric mean load)"),
+    Param("effect_covariance", [0.0] * 36, "SI", "",
+          "covariance (row-major 6 x 6) of the fitted wear_coefficient, running_in_ratio, running_in_distance_m, "
+          "retract_wear_factor, lift_speed_m_s, load_exponent (SI); widens the remaining-life interval"),
     Param("life_warn_h", 500.0, "h", "(0, 1e7]", "WARN when the remaining precision life drops below this",
           dynamic=True),
     Param("life_error_h", 100.0, "h", "[0, 1e7]",
@@ -134,6 +154,26 @@ ROLLING_GUIDE_PARAMS = (
 )
 
 
+#: effect ids the live model integrates (models/wear/effect_wear.py); initial_offset is folded into A0
+LIVE_EFFECT_IDS = ("running_in", "retract_asymmetry", "speed_dependent_wear", "load_exponent")
+
+
+def effect_ids(p: dict[str, Any]) -> list[str]:
+    """The ``effects`` parameter as a list of ids ('' = none)."""
+    return [e.strip() for e in str(p.get("effects", "")).split(",") if e.strip()]
+
+
+def _effect_checks(p: dict[str, Any]) -> None:
+    for e in effect_ids(p):
+        if e not in LIVE_EFFECT_IDS:
+            raise InputError(f"parameter effects: unknown or not live effect {e!r} "
+                             f"(live: {', '.join(LIVE_EFFECT_IDS)})")
+    if effect_ids(p) and p["straightness_model"] != "eq7":
+        raise InputError("parameter effects: the live wear effects need straightness_model eq7")
+    if "speed_dependent_wear" in effect_ids(p) and not p["lift_speed_m_s"] > 0:
+        raise InputError("parameter effects: speed_dependent_wear needs lift_speed_m_s > 0")
+
+
 def _wear_cross_checks(p: dict[str, Any]) -> None:
     for name in ("contact_width_m", "hardness_pa", "wear_coefficient", "slider_length_m",
                  "profile_bin_m", "rail_length_m", "duty_window_s", "diagnostics_period_s",
@@ -177,6 +217,7 @@ def _wear_threshold_checks(p: dict[str, Any]) -> None:
 
 def _wear_all_checks(p: dict[str, Any]) -> None:
     _wear_cross_checks(p)
+    _effect_checks(p)
     WEAR_MONITOR_SCHEMA.check_ranges(p)     # ranges first: the orders below compare in-range numbers
     _wear_threshold_checks(p)
 

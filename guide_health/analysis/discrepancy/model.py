@@ -278,7 +278,11 @@ class WearProblem:
             sd_int = math.sqrt(max(cov[i, i], 0.0))
             se[spec.name] = abs(values[spec.name]) * sd_int if spec.log else sd_int * self._internal_factor(spec)
         pred = self.predict_m(values)
-        return self._score(effects, values, se, {s.name: s.unit for s in specs}, pred, k, rss, bool(best.success))
+        result = self._score(effects, values, se, {s.name: s.unit for s in specs}, pred, k, rss, bool(best.success))
+        # covariance in physical units: d(physical)/d(internal) = value (log) or the linear factor
+        scale = np.array([values[s.name] if s.log else self._internal_factor(s) for s in specs])
+        result.extra["covariance"] = {"names": [s.name for s in specs], "matrix": cov * np.outer(scale, scale)}
+        return result
 
     def _k_start(self) -> float:
         """K / K0 of the baseline by linear least squares through A0 (a good start for every model)."""

@@ -15,6 +15,7 @@ import numpy as np
 from guide_health.analysis.discrepancy.analysis import disagreement
 from guide_health.analysis.discrepancy.duty import DutyCells
 from guide_health.analysis.discrepancy.model import FitResult, WearProblem, rel_errors
+from guide_health.analysis.discrepancy.model_file import model_parameters
 from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD, forward_selection
 
 # what each effect means, for the report
@@ -43,6 +44,20 @@ def sliding_distance_at_measurements(problem: WearProblem) -> np.ndarray:
     n = problem.y_m.size
     per_interval = np.bincount(np.clip(c.interval, 0, n), weights=c.distance_m, minlength=n + 1)[:n]
     return np.cumsum(per_interval)
+
+
+def _steady_stage(problem: WearProblem, base: FitResult, final: FitResult) -> dict[str, Any]:
+    """The seed's steady stage: after the running-in transient ({} when the record does not reach it)."""
+    s0 = final.values["running_in_distance_m"]
+    steady = sliding_distance_at_measurements(problem) >= STEADY_STAGE_DISTANCES * s0
+    if not steady.any():
+        return {}
+    return {"steady_stage": {
+        "from_h": float(problem.t_s[steady][0] / 3600.0),
+        "sliding_distance_m": STEADY_STAGE_DISTANCES * s0,
+        "baseline_max_rel_error": float(rel_errors(base.predicted_m[steady], problem.y_m[steady]).max()),
+        "final_max_rel_error": float(rel_errors(final.predicted_m[steady], problem.y_m[steady]).max()),
+    }}
 
 
 def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: float = 0.25,
@@ -105,18 +120,11 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
         "selection": {"criterion": "BIC on the fit span and held-out RMSE", "bic_threshold": bic_threshold,
                       "heldout_fraction": heldout_fraction},
     }
-    # the seed's steady stage: after the running-in transient
     if "running_in" in named:
-        s0 = final.values["running_in_distance_m"]
-        s_meas = sliding_distance_at_measurements(problem)
-        steady = s_meas >= STEADY_STAGE_DISTANCES * s0
-        if steady.any():
-            result["steady_stage"] = {
-                "from_h": float(problem.t_s[steady][0] / 3600.0),
-                "sliding_distance_m": STEADY_STAGE_DISTANCES * s0,
-                "baseline_max_rel_error": float(rel_errors(base.predicted_m[steady], problem.y_m[steady]).max()),
-                "final_max_rel_error": float(rel_errors(final.predicted_m[steady], problem.y_m[steady]).max()),
-            }
+        result.update(_steady_stage(problem, base, final))
+    # the model file: the named effects refitted on every measurement (the held-out span scored the choice)
+    whole = WearProblem(cells, params, heldout_fraction=0.0)
+    result["model_file"] = model_parameters(whole, whole.fit(tuple(named), warm=final), named)
     result["fit_s"] = time.perf_counter() - t0
     result["series"] = {
         "t_h": problem.t_s / 3600.0, "measured_um": problem.y_m * 1e6,

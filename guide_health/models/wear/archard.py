@@ -204,6 +204,9 @@ class WearIntegrator:
     duty_bucket_index: list = field(default_factory=list)
     duty_bucket_work_nm: list = field(default_factory=list)
     samples: int = 0
+    # called with every sliding segment (t_start_ns, t_end_ns, xa, xb, load_n, s_start_m arrays) when set:
+    # the live wear effects (models/wear/effect_wear.py); not persisted
+    segment_sink: object = field(default=None, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if self.profile_work_n is None:
@@ -247,6 +250,9 @@ class WearIntegrator:
 
     def _segment(self, t_ns: int, xa: float, xb: float, load_n: float) -> None:
         ds = abs(xb - xa)
+        if self.segment_sink is not None and ds > 0.0:
+            self.segment_sink(np.array([self.last_t_ns]), np.array([t_ns]), np.array([xa]), np.array([xb]),
+                              np.array([load_n]), np.array([self.sliding_distance_m]))
         self.sliding_distance_m += ds
         if ds == 0.0 or not load_n > 0.0:
             if not math.isnan(load_n):
@@ -287,6 +293,11 @@ class WearIntegrator:
             seg_w = w
         xa, xb = xs[:-1], xs[1:]
         ds = np.abs(xb - xa)
+        if self.segment_sink is not None:
+            moving = ds > 0
+            t_start = t_ns[:-1] if self.last_t_ns is None else np.concatenate(([self.last_t_ns], seg_t[:-1]))
+            s_start = self.sliding_distance_m + np.cumsum(ds) - ds
+            self.segment_sink(t_start[moving], seg_t[moving], xa[moving], xb[moving], seg_w[moving], s_start[moving])
         self.sliding_distance_m += float(ds.sum())
         loaded = (ds > 0) & (seg_w > 0)
         work = np.where(loaded, np.nan_to_num(seg_w) * ds, 0.0)

@@ -14,10 +14,17 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from scipy.special import stdtrit
 
 from guide_health.models.levels import Level
-from guide_health.models.wear.archard import WearGeometry, WearIntegrator, straightness_from_wear_volume_m
-from guide_health.models.wear.calibration import WearCoefficientEstimator, remaining_life_s
+from guide_health.models.wear.archard import (
+    DUTY_BUCKETS,
+    WearGeometry,
+    WearIntegrator,
+    straightness_from_wear_volume_m,
+)
+from guide_health.models.wear.calibration import Z90, WearCoefficientEstimator, remaining_life_s
+from guide_health.models.wear.effect_wear import EffectWear, LiveEffects, life_interval_s
 from guide_health.models.wear.input_rules import (
     REASON_CODES,
     InputLimits,
@@ -43,6 +50,10 @@ class PrecisionMonitor:
         self.params = dict(params)
         self.geometry = WearGeometry.from_params(params)
         self.integrator = WearIntegrator(self.geometry)
+        # the effects diagnose learnt (DIR/model.yaml): K stays linear over the effective work
+        self.effects = LiveEffects.from_params(params)
+        self.effect_wear = None
+        self._attach_effects()
         self.estimator = WearCoefficientEstimator(
             prior_wear_coefficient=params["wear_coefficient"],
             prior_rel_sd=params["wear_coefficient_prior_rel_sd"],
@@ -107,9 +118,55 @@ class PrecisionMonitor:
         reason = check_straightness_sample(t_ns, straightness_m, times[-1] if times else None, self.limits)
         if reason is not None:
             return self.rejected.reject(reason)
-        self.estimator.add(t_ns, straightness_m, self.integrator.straightness_loss_per_k_m(),
-                           self.integrator.archard_work_nm)
+        self.estimator.add(t_ns, straightness_m, self.loss_per_k_m(), self.work_nm())
         return None
+
+    # --- the wear effects (models/wear/effect_wear.py) ---------------------------------------------
+    def _attach_effects(self) -> None:
+        if self.effects is not None:
+            self.effect_wear = EffectWear(self.effects, self.integrator.duty_bucket_s, DUTY_BUCKETS)
+            self.integrator.segment_sink = self.effect_wear.add_segments
+
+    def work_nm(self) -> float:
+        """The work K multiplies: Archard's sum W ds, or with effects sum W ds m [N m]."""
+        return self.integrator.archard_work_nm if self.effect_wear is None else self.effect_wear.effective_work_nm
+
+    def loss_per_k_m(self) -> float:
+        """Straightness loss per unit K now [m] (with the effects: Eq. 7 over the effective work)."""
+        if self.effect_wear is None:
+            return self.integrator.straightness_loss_per_k_m()
+        l_min, l_max = self.integrator.stroke_range_m()
+        if not (l_min + l_max > 0):
+            return math.nan
+        return straightness_from_wear_volume_m(self.work_nm() / self.geometry.hardness_pa,
+                                               self.geometry.contact_width_m, l_min, l_max)
+
+    def effect_forecast(self) -> dict[str, float]:
+        """Present duty with the effects: steady dA/dt per K [m/s] (running-in over), sliding speed [m/s],
+        sliding distance [m], the d ln(rate)/d(parameter) of rho, v_lift and n."""
+        sums = self.effect_wear.window_sums(self.integrator.last_t_ns)
+        rate_plain = self.integrator.straightness_rate_per_k_m_s()      # Archard work rate, Eq. 7
+        work, eff, dist = sums[0], sums[1], sums[2]
+        ratio = eff / work if work > 0 else 1.0
+        duty = self.integrator.duty_work_rate_w()
+        return {"steady_rate_per_k_m_s": rate_plain * ratio,
+                "sliding_speed_m_s": duty * dist / work if work > 0 and math.isfinite(duty) else math.nan,
+                "sliding_distance_m": self.integrator.sliding_distance_m,
+                "dln_rate": [sums[j] / eff if eff > 0 else 0.0 for j in (3, 4, 5)]}
+
+    def effect_life_interval_s(self, k: float, loss_per_k: float):
+        """(life, low, high) [s] with the effects (models/wear/effect_wear.life_interval_s): K's online spread
+        and the model file's covariance of K and the effect parameters."""
+        f = self.effect_forecast()
+        work = self.work_nm()
+        _, k_sd, _ = self.estimator.posterior(self.measurement_losses_per_k_m())
+        n = self.estimator.count
+        now = {"margin0": self.params["straightness_limit_m"] - self.params["straightness_initial_m"],
+               "c": loss_per_k / work if work > 0 else 0.0, "work": work,
+               "work_gradient": np.asarray(self.effect_wear.work_gradient), "rate_per_k": f["steady_rate_per_k_m_s"],
+               "dln_rate": np.asarray(f["dln_rate"]), "s_now": f["sliding_distance_m"], "v_s": f["sliding_speed_m_s"]}
+        z = float(stdtrit(n - 1, 0.95)) if n >= 3 else Z90
+        return life_interval_s(k, k_sd, self.effects, now, z)
 
     def reject_input(self, stream: str, reason: str) -> str:
         """Count a message-level rejection of an input stream (the live node: a JointState without the
@@ -193,14 +250,17 @@ class PrecisionMonitor:
         p = self.params
         g_meas = self.measurement_losses_per_k_m()
         k_low, k, k_high = self.estimator.interval90(g_meas)
-        loss_per_k = self.integrator.straightness_loss_per_k_m()
+        loss_per_k = self.loss_per_k_m()
         rate_per_k = self.integrator.straightness_rate_per_k_m_s()
         a0 = p["straightness_initial_m"]
         limit = p["straightness_limit_m"]
         straightness = self.straightness_m(k, loss_per_k) if math.isfinite(loss_per_k) else math.nan
-        life = remaining_life_s(limit, a0, loss_per_k, rate_per_k, k)
-        life_low = remaining_life_s(limit, a0, loss_per_k, rate_per_k, k_high)
-        life_high = remaining_life_s(limit, a0, loss_per_k, rate_per_k, k_low) if k_low > 0 else math.inf
+        if self.effect_wear is not None and math.isfinite(loss_per_k) and math.isfinite(rate_per_k):
+            life, life_low, life_high = self.effect_life_interval_s(k, loss_per_k)
+        else:
+            life = remaining_life_s(limit, a0, loss_per_k, rate_per_k, k)
+            life_low = remaining_life_s(limit, a0, loss_per_k, rate_per_k, k_high)
+            life_high = remaining_life_s(limit, a0, loss_per_k, rate_per_k, k_low) if k_low > 0 else math.inf
         l_min, l_max = self.integrator.stroke_range_m()
         measured = self.estimator.measurement_m[-1] if self.estimator.count else math.nan
         result = {
@@ -210,12 +270,13 @@ class PrecisionMonitor:
             "remaining_life_h": life / 3600.0,
             "remaining_life_h_low": life_low / 3600.0,
             "remaining_life_h_high": life_high / 3600.0,
-            "wear_volume_mm3": k * self.integrator.wear_volume_per_k_m3() * 1e9,
+            "wear_volume_mm3": k * self.work_nm() / self.geometry.hardness_pa * 1e9,
             "sliding_distance_m": self.integrator.sliding_distance_m,
             "wear_coefficient": k,
             "wear_coefficient_low": k_low,
             "wear_coefficient_high": k_high,
             "wear_coefficient_configured": p["wear_coefficient"],
+            "effects": p.get("effects", ""),
             "measurements": self.estimator.count,
             "duty_load_speed_w": self.integrator.duty_work_rate_w(),
             "stroke_min_m": l_min,
@@ -295,12 +356,16 @@ class PrecisionMonitor:
             "load_t_ns": self.load_t_ns,
             "load_samples": self.load_samples,
             "rolling": None if self.rolling is None else self.rolling.state(),
+            **({} if self.effect_wear is None else {"effects": self.effect_wear.state()}),
         }
 
     def restore(self, state: dict) -> None:
         if state.get("version") != self.STATE_VERSION:
             raise ValueError(f"unsupported state version {state.get('version')}")
         self.integrator = WearIntegrator.from_state(self.geometry, state["integrator"])
+        self._attach_effects()
+        if self.effect_wear is not None and state.get("effects"):
+            self.effect_wear.restore(state["effects"])
         est = state["estimator"]
         self.estimator = WearCoefficientEstimator.from_state(est)
         # parameters win over the saved prior (a user may re-tune them); measurements are kept

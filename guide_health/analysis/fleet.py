@@ -1,0 +1,189 @@
+"""Fleet replay/diagnose: many bags through the single-bag commands on Dask, and the combined table.
+
+Each bag goes through the very command a user runs on one bag (``guide-health replay`` /
+``guide-health diagnose``: cli/replay.py, cli/diagnose.py, parsed with their own options), in a Dask worker
+process, writing its report directory ``OUT/bags/<name>/`` as that command would. The engine is either a
+local cluster of worker processes (``LocalCluster(processes=True)``, started and stopped here: no server to
+run) or an existing Dask distributed scheduler given by address (``tcp://host:port``); ``workers=0`` runs
+the bags one after another in this process (no Dask; for debugging and the benchmark's serial baseline).
+
+The machine of a bag (docs/fleet.md): ``machine_id`` of the bag's run metadata if it has one, else the
+namespace of its topics (``/m1/joint_states`` -> ``m1``), else the bag directory's name.
+
+A bag that fails (bad bag, bad data) is a row with its one-line error; the others complete.
+"""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+from guide_health.errors import InputError
+
+#: the single-bag command behind each fleet command (guide_health.cli module:Command)
+SINGLE_BAG_COMMANDS = {"replay": "replay:REPLAY", "diagnose": "diagnose:DIAGNOSE"}
+#: keys of a per-bag result that are timings or paths (differ between runs of the same bag)
+VOLATILE_KEYS = ("read_s", "model_s", "fit_s", "report_s", "total_s", "files")
+
+
+def is_bag_dir(path: Path) -> bool:
+    """A rosbag2 directory: it holds a metadata.yaml, a .db3 or a .mcap file."""
+    return path.is_dir() and ((path / "metadata.yaml").exists() or any(path.glob("*.db3"))
+                              or any(path.glob("*.mcap")))
+
+
+def expand_bags(paths: list[str]) -> list[Path]:
+    """The bags named: a bag directory itself, or a directory's bag sub-directories (sorted by name). A
+    path that is neither is kept as a bag, so that its error is reported with the others."""
+    bags: list[Path] = []
+    for text in paths:
+        path = Path(text)
+        if path.is_dir() and not is_bag_dir(path):
+            inner = sorted(p for p in path.iterdir() if is_bag_dir(p))
+            if not inner:
+                raise InputError(f"{path}: neither a bag nor a directory of bags")
+            bags.extend(inner)
+        else:
+            bags.append(path)
+    if not bags:
+        raise InputError("no bags given")
+    return bags
+
+
+def report_names(bags: list[Path]) -> list[str]:
+    """A unique report directory name per bag: its name, with ``-2``, ``-3`` ... for repeats."""
+    seen: dict[str, int] = {}
+    names = []
+    for bag in bags:
+        n = seen.get(bag.name, 0) + 1
+        seen[bag.name] = n
+        names.append(bag.name if n == 1 else f"{bag.name}-{n}")
+    return names
+
+
+def machine_of_bag(bag: Path) -> str:
+    """The machine of a bag: run metadata ``machine_id``, else its topics' namespace, else its name."""
+    from guide_health.io.bag_info import bag_topic_types
+    from guide_health.io.bag_metadata import read_run_metadata
+
+    try:
+        machine = read_run_metadata(bag).get("machine_id")
+        if machine:
+            return str(machine)
+        for topic in bag_topic_types(bag):
+            parts = topic.strip("/").split("/")
+            if parts[-1] in ("joint_states", "load") and len(parts) > 1 + (parts[-1] == "load"):
+                return parts[0]
+    except Exception:  # noqa: BLE001 - a bag we cannot open has its name; the command reports the error
+        pass
+    return bag.name
+
+
+def error_line(exc: BaseException) -> str:
+    """The one-line error of a failed bag (the CLI's wording for input and file errors)."""
+    from guide_health.io.bag_metadata import one_line
+
+    if isinstance(exc, InputError):
+        return one_line(exc, 300)
+    if isinstance(exc, OSError) and exc.strerror:
+        return f"{exc.strerror}: {exc.filename}"
+    return f"{type(exc).__name__}: {one_line(exc)}"
+
+
+def run_bag(command: str, bag: str, params: str, out: str, options: tuple[str, ...] = ()) -> dict[str, Any]:
+    """One bag through the single-bag command (the worker task): {bag, machine, ok, error, seconds, result}.
+
+    The command's arguments are parsed by its own parser (same defaults as on the command line); its
+    stderr chatter is dropped. Never raises: a failure is ``ok: False`` with the one-line error."""
+    from guide_health.cli.app import load_command
+    from guide_health.cli.text import jsonable
+
+    t0 = time.perf_counter()
+    entry: dict[str, Any] = {"bag": bag, "machine": machine_of_bag(Path(bag)), "ok": False, "error": "",
+                             "result": None}
+    cmd = load_command(SINGLE_BAG_COMMANDS[command])
+    parser = argparse.ArgumentParser(prog=f"guide-health {command}")
+    cmd.add_arguments(parser)
+    args = parser.parse_args([bag, "--params", params, "--out", out, *options])
+    try:
+        with contextlib.redirect_stderr(io.StringIO()):
+            entry["result"] = jsonable(cmd.run(args))
+        entry["ok"] = True
+    except Exception as exc:  # noqa: BLE001 - one bag's failure is its row, never the fleet's
+        entry["error"] = error_line(exc)
+    entry["seconds"] = time.perf_counter() - t0
+    return entry
+
+
+@contextlib.contextmanager
+def dask_client(workers: int, scheduler: str | None):
+    """A distributed Client: on ``scheduler`` (an address), else on a LocalCluster of ``workers``
+    single-threaded worker processes (closed on exit)."""
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout="10s")
+        except (OSError, TimeoutError) as exc:
+            raise InputError(f"cannot reach the Dask scheduler at {scheduler}: {error_line(exc)}") from None
+        with client:
+            yield client
+        return
+    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                      silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+        yield client
+
+
+def run_fleet(command: str, bags: list[Path], params: str, out: Path, options: tuple[str, ...] = (),
+              workers: int = 2, scheduler: str | None = None, progress=None) -> list[dict[str, Any]]:
+    """Every bag through ``command`` (replay|diagnose), report directories ``out/bags/<name>``; the
+    entries of :func:`run_bag` in the order of ``bags``. ``progress(done, total)`` after each bag."""
+    params = str(Path(params).resolve())
+    jobs = [(str(bag.resolve()), str((out / "bags" / name).resolve()))
+            for bag, name in zip(bags, report_names(bags))]
+    entries: list[dict[str, Any] | None] = [None] * len(jobs)
+    if progress:
+        progress(0, len(jobs))
+    if workers == 0 and not scheduler:
+        for i, (bag, bag_out) in enumerate(jobs):
+            entries[i] = run_bag(command, bag, params, bag_out, options)
+            if progress:
+                progress(i + 1, len(jobs))
+        return entries
+    from distributed import as_completed
+
+    with dask_client(workers, scheduler) as client:
+        futures = {client.submit(run_bag, command, bag, params, bag_out, options, pure=False): i
+                   for i, (bag, bag_out) in enumerate(jobs)}
+        for done, future in enumerate(as_completed(futures), start=1):
+            i = futures[future]
+            try:
+                entries[i] = future.result()
+            except Exception as exc:  # noqa: BLE001 - a worker lost on this bag
+                entries[i] = {"bag": jobs[i][0], "machine": Path(jobs[i][0]).name, "ok": False,
+                              "error": f"worker failed: {error_line(exc)}", "result": None, "seconds": math.nan}
+            if progress:
+                progress(done, len(jobs))
+    return entries
+
+
+def same_result(a: dict, b: dict) -> bool:
+    """Two results of one bag agree, timings and file paths aside (NaN equals NaN)."""
+    keys = (set(a) | set(b)) - set(VOLATILE_KEYS)
+    return all(_same(a.get(k), b.get(k)) for k in keys)
+
+
+def _same(x, y) -> bool:
+    if isinstance(x, dict) and isinstance(y, dict):
+        return same_result(x, y)
+    if isinstance(x, list) and isinstance(y, list):
+        return len(x) == len(y) and all(_same(u, v) for u, v in zip(x, y))
+    if isinstance(x, float) and isinstance(y, float) and math.isnan(x) and math.isnan(y):
+        return True
+    return x == y

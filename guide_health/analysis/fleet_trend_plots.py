@@ -1,0 +1,80 @@
+"""PNG plots of the fleet trend: one machine's quantities over time, and the fleet overview."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from guide_health.analysis.fleet_trend import TREND_KEYS, MachineTrend, iso
+from guide_health.analysis.report_plots import _pyplot, _save_figure
+
+LEVEL_COLOURS = {0: "#27ae60", 1: "#e69f00", 2: "#c0392b", 3: "#7f8c8d"}
+
+
+def _hours(t_unix_s, t0: float) -> np.ndarray:
+    return (np.asarray(t_unix_s, dtype=float) - t0) / 3600.0
+
+
+def plot_machine_trend(path: Path, trend: MachineTrend) -> None:
+    """A panel per quantity the machine reports (one line per status), then the level of each status."""
+    plt = _pyplot()
+    keys = [(k, label) for k, label in TREND_KEYS if any(math.isfinite(v) for v in trend.values[k])]
+    fig, axes = plt.subplots(len(keys) + 1, 1, figsize=(8, 1.9 * (len(keys) + 1) + 0.6), sharex=True,
+                             squeeze=False)
+    t0 = trend.t_unix_s[0]
+    status = np.asarray(trend.status)
+    names = sorted(set(trend.status))
+    for ax, (key, label) in zip(axes[:, 0], keys):
+        values = np.asarray(trend.values[key], dtype=float)
+        for name in names:
+            sel = (status == name) & np.isfinite(values)
+            if sel.any():
+                ax.plot(_hours(np.asarray(trend.t_unix_s)[sel], t0), values[sel], ".-", ms=3, label=name)
+        ax.set_ylabel(label, fontsize=8)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="best")
+    ax = axes[-1, 0]
+    for row, name in enumerate(names):
+        sel = status == name
+        levels = np.asarray(trend.level)[sel]
+        ax.scatter(_hours(np.asarray(trend.t_unix_s)[sel], t0), np.full(levels.size, row), s=12,
+                   c=[LEVEL_COLOURS.get(int(v), "#000") for v in levels])
+    ax.set_yticks(range(len(names)))
+    ax.set_yticklabels(names, fontsize=7)
+    ax.set_ylim(-0.7, len(names) - 0.3)
+    ax.set_xlabel(f"time [h] since {iso(t0)} UTC (level: green OK, orange WARN, red ERROR, "
+                  "grey STALE)", fontsize=8)
+    fig.suptitle(f"machine {trend.machine}", fontsize=10)
+    fig.tight_layout()
+    _save_figure(plt, fig, path)
+
+
+def plot_fleet_overview(path: Path, trends: dict[str, MachineTrend], rows: list[dict]) -> None:
+    """Left: every machine's remaining life over time; right: the ranking by latest remaining life."""
+    plt = _pyplot()
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 1.8 + 0.3 * max(4, len(rows))),
+                                      gridspec_kw={"width_ratios": [3, 2]})
+    t0 = min(t.t_unix_s[0] for t in trends.values())
+    for m, trend in trends.items():
+        values = np.asarray(trend.values["remaining_life_h"], dtype=float)
+        sel = np.isfinite(values)
+        if sel.any():
+            left.plot(_hours(np.asarray(trend.t_unix_s)[sel], t0), values[sel], ".-", ms=3, label=m)
+    left.set_xlabel(f"time [h] since {iso(t0)} UTC")
+    left.set_ylabel("remaining precision life [h]")
+    left.grid(alpha=0.3)
+    if left.lines:
+        left.legend(fontsize=7, loc="best")
+    ranked = [r for r in rows if math.isfinite(r["remaining_life_h"])]
+    y = np.arange(len(ranked))[::-1]
+    colours = {"OK": "#27ae60", "WARN": "#e69f00", "ERROR": "#c0392b", "STALE": "#7f8c8d"}
+    right.barh(y, [min(r["remaining_life_h"], 1e9) for r in ranked],
+               color=[colours.get(r["level"], "#2e86c1") for r in ranked])
+    right.set_yticks(y)
+    right.set_yticklabels([r["machine"] for r in ranked], fontsize=8)
+    right.set_xlabel("latest remaining life [h]")
+    right.grid(axis="x", alpha=0.3)
+    fig.suptitle(f"fleet: {len(trends)} machines", fontsize=10)
+    fig.tight_layout()
+    _save_figure(plt, fig, path)

@@ -1,0 +1,202 @@
+"""`guide-health fleet replay|diagnose|trend|prior`: a fleet of machines at once (docs/fleet.md).
+
+* ``fleet replay|diagnose BAG_OR_DIR... --params FILE``: every bag through the single-bag command on Dask
+  (analysis/fleet.py), a combined table (CSV, Markdown, JSON) and a PNG ranking the machines.
+  Exit status 0 when every bag succeeded, :data:`PARTIAL_EXIT_STATUS` (3) when some failed (the table
+  names them with their errors), 2 on bad input (no bag succeeded is still 3: the table says why).
+* ``fleet trend HISTORY.db``: the fleet_monitor history as per-machine trends and an HTML page.
+* ``fleet prior FLEET.json... --machine-type T``: the empirical-Bayes K prior of a machine type.
+"""
+from __future__ import annotations
+
+import json
+import os
+import sys
+from pathlib import Path
+
+from guide_health.cli.command import Command
+from guide_health.errors import InputError
+
+#: exit status of a fleet run in which some bags failed (the others completed and are reported)
+PARTIAL_EXIT_STATUS = 3
+
+
+def _add_fleet_arguments(parser, command: str) -> None:
+    parser.add_argument("bags", nargs="+", metavar="BAG_OR_DIR",
+                        help="bag directories, or directories whose sub-directories are bags")
+    parser.add_argument("--params", required=True, help="ROS 2 parameters YAML (wear_monitor section), every bag")
+    parser.add_argument("--workers", type=int, default=None,
+                        help="local Dask worker processes (default: the CPU count); 0 = one bag after another "
+                             "in this process, without Dask")
+    parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                        help="an existing Dask distributed scheduler, e.g. tcp://10.0.0.5:8786 (its workers need "
+                             "guide_health and the same paths to the bags, params and --out)")
+    parser.add_argument("--out", default=None, help=f"output directory (default: ./fleet_{command})")
+    parser.add_argument("--namespace", default=None, help="topic namespace in the bags (default: detect)")
+    parser.add_argument("--no-plot", action="store_true", help="no per-bag PNG (the ranking PNG is kept)")
+    parser.add_argument("--progress", action="store_true", help="force the progress bar even without a TTY")
+    if command == "diagnose":
+        parser.add_argument("--heldout-fraction", type=float, default=None,
+                            help="as for `guide-health diagnose` (default 0.25)")
+        parser.add_argument("--bic-threshold", type=float, default=None,
+                            help="as for `guide-health diagnose` (default 10)")
+
+
+def _single_bag_options(args, command: str) -> tuple[str, ...]:
+    """The options passed on to each single-bag command."""
+    options: list[str] = []
+    if args.namespace is not None:
+        options += ["--namespace", args.namespace]
+    if args.no_plot:
+        options.append("--no-plot")
+    if command == "diagnose":
+        if args.heldout_fraction is not None:
+            options += ["--heldout-fraction", repr(args.heldout_fraction)]
+        if args.bic_threshold is not None:
+            options += ["--bic-threshold", repr(args.bic_threshold)]
+    return tuple(options)
+
+
+def _bag_progress(force: bool):
+    """progress(done, total) over bags: a tqdm bar on stderr (a TTY, or ``force``)."""
+    from tqdm import tqdm
+
+    state: dict = {}
+
+    def progress(done: int, total: int) -> None:
+        if "bar" not in state:
+            state["bar"] = tqdm(total=total, unit="bag", desc="fleet", file=sys.stderr, ascii=".#",
+                                disable=not (force or sys.stderr.isatty()), dynamic_ncols=True)
+        bar = state["bar"]
+        bar.update(done - bar.n)
+        if done >= total:
+            bar.close()
+    return progress
+
+
+def run_fleet_command(args, command: str) -> dict:
+    import time
+
+    from guide_health.analysis.fleet import expand_bags, run_fleet
+    from guide_health.analysis.fleet_report import plot_ranking, table_rows, write_tables
+    from guide_health.params import wear_monitor_params
+
+    params = wear_monitor_params(args.params)              # bad params: one error, before any worker starts
+    workers = (os.cpu_count() or 1) if args.workers is None else args.workers
+    if workers < 0:
+        raise InputError("--workers must be >= 0")
+    if args.scheduler and args.workers is not None:
+        raise InputError("--workers starts local workers; with --scheduler the cluster's workers are used")
+    bags = expand_bags(args.bags)
+    out = Path(args.out or f"fleet_{command}")
+    t0 = time.perf_counter()
+    entries = run_fleet(command, bags, args.params, out, _single_bag_options(args, command), workers=workers,
+                        scheduler=args.scheduler, progress=_bag_progress(args.progress))
+    wall_s = time.perf_counter() - t0
+    failed = [e for e in entries if not e["ok"]]
+    summary = {"command": command, "bags": len(entries), "ok": len(entries) - len(failed), "failed": len(failed),
+               "engine": args.scheduler or ("serial" if workers == 0 else f"LocalCluster({workers} processes)"),
+               "wall_s": wall_s, "machine_type": params["machine_type"],
+               "prior": {k: params[k] for k in ("wear_coefficient", "wear_coefficient_prior_rel_sd")}}
+    rows = table_rows(command, entries, params["machine_type"])
+    files = write_tables(out, rows, entries, summary)
+    files["png"] = str(out / "fleet_ranking.png")
+    plot_ranking(Path(files["png"]), rows, f"fleet {command}: {summary['ok']} of {len(entries)} bags")
+    return {**summary, "exit_status": PARTIAL_EXIT_STATUS if failed else 0,
+            "failed_bags": [{"bag": e["bag"], "error": e["error"]} for e in failed],
+            "rows": rows, "files": files, "results": entries}
+
+
+def format_fleet_text(result: dict) -> str:
+    lines = [f"fleet {result['command']}: {result['bags']} bags on {result['engine']} in {result['wall_s']:.1f} s, "
+             f"{result['ok']} ok, {result['failed']} failed"]
+    for row in result["rows"]:
+        if row["status"] != "ok":
+            continue
+        if result["command"] == "replay":
+            lines.append(f"  {row['machine']:<16} {row['level_name']:<5} remaining life "
+                         f"{row['remaining_life_h']:10.1f} h  (90 %: {row['remaining_life_h_low']:.1f} .. "
+                         f"{row['remaining_life_h_high']:.1f} h)"
+                         f"  K {row['wear_coefficient']:.4g}")
+        else:
+            lines.append(f"  {row['machine']:<16} K {row['wear_coefficient']:.4g}  effects: "
+                         f"{row['named_effects'] or 'none'}")
+    for bad in result["failed_bags"]:
+        lines.append(f"  FAILED {bad['bag']}: {bad['error']}")
+    lines.append(f"  files: {', '.join(result['files'].values())}")
+    return "\n".join(lines)
+
+
+FLEET_REPLAY = Command(lambda p: _add_fleet_arguments(p, "replay"), lambda a: run_fleet_command(a, "replay"),
+                       format_fleet_text)
+FLEET_DIAGNOSE = Command(lambda p: _add_fleet_arguments(p, "diagnose"), lambda a: run_fleet_command(a, "diagnose"),
+                         format_fleet_text)
+
+
+def add_trend_arguments(parser) -> None:
+    parser.add_argument("history", metavar="HISTORY.db", help="fleet_monitor history_file (SQLite)")
+    parser.add_argument("--machine", default=None, help="only this machine (hardware_id)")
+    parser.add_argument("--out", default=None, help="output directory (default: <history>.trend beside it)")
+
+
+def run_trend(args) -> dict:
+    from guide_health.analysis.fleet_trend import write_trend_report
+
+    db = Path(args.history)
+    out = Path(args.out) if args.out else db.with_name(db.name + ".trend")
+    return write_trend_report(db, out, args.machine)
+
+
+def format_trend_text(result: dict) -> str:
+    lines = [f"fleet trend: {result['machines']} machines, {result['rows']} status rows from {result['history']}"]
+    for r in result["ranking"]:
+        lines.append(f"  {r['machine']:<16} {r['level']:<5} remaining life {r['remaining_life_h']:10.1f} h  "
+                     f"straightness {r['straightness_um']:7.2f} um  {r['level_changes']} level changes")
+    lines.append(f"  page: {result['files']['html']}")
+    return "\n".join(lines)
+
+
+FLEET_TREND = Command(add_trend_arguments, run_trend, format_trend_text)
+
+
+def add_prior_arguments(parser) -> None:
+    parser.add_argument("results", nargs="+", metavar="FLEET_JSON",
+                        help="fleet.json of `fleet replay|diagnose` (or its output directory)")
+    parser.add_argument("--machine-type", default=None,
+                        help="the machine type (params machine_type; default: the only one in the results)")
+    parser.add_argument("--params", default=None, help="base params file to copy into the output (optional)")
+    parser.add_argument("--out", default="fleet_prior.yaml", help="params file to write (default fleet_prior.yaml)")
+    parser.add_argument("--min-machines", type=int, default=3, help="fewest machines for a prior (default 3)")
+
+
+def run_prior(args) -> dict:
+    from guide_health.analysis.fleet_prior import fleet_prior, load_fleet_results, write_prior_params
+    from guide_health.params import wear_monitor_params
+
+    if args.min_machines < 2:
+        raise InputError("--min-machines must be >= 2")
+    if args.params:
+        wear_monitor_params(args.params)
+    prior = fleet_prior(load_fleet_results(args.results), args.machine_type, args.min_machines)
+    out = Path(args.out)
+    write_prior_params(out, prior, args.params)
+    wear_monitor_params(out)                        # the file a wear_monitor will read: checked now
+    out.with_suffix(".json").write_text(json.dumps(prior, indent=1, allow_nan=True) + "\n")
+    return {**prior, "files": {"params": str(out), "json": str(out.with_suffix(".json"))}}
+
+
+def format_prior_text(r: dict) -> str:
+    lk = r["log_k"]
+    return "\n".join([
+        f"fleet prior of machine type '{r['machine_type']}': {r['machines']} machines ({r['bags']} bags)",
+        f"  log K population:  mu {lk['mean']:.4f} (median K {r['wear_coefficient_median']:.4g}), "
+        f"tau {lk['tau']:.3f}, se(mu) {lk['mean_std_error']:.3f}",
+        f"  new machine prior: wear_coefficient {r['wear_coefficient']:.4g}, "
+        f"wear_coefficient_prior_rel_sd {r['wear_coefficient_prior_rel_sd']:.3f}",
+        *[f"  effect {k}: mean {v['mean']:.4g}, tau {v['tau']:.3g} ({v['machines']} machines)"
+          for k, v in r["effects"].items()],
+        f"  files: {', '.join(r['files'].values())}",
+    ])
+
+
+FLEET_PRIOR = Command(add_prior_arguments, run_prior, format_prior_text)

@@ -1,0 +1,226 @@
+"""The wear effects ``diagnose`` learnt, integrated live (pure numpy, SI; the terms of effects.py).
+
+With effects the wear volume is V = K/H sum_i W_i ds_i m_i (models/wear/effects.py, the same functions the
+discrepancy workflow fits and the simulator hides), m_i = K(s)/K x asperity share x (W/W_ref)^(n-1) x rho on
+retract strokes. :class:`EffectWear` receives every sliding segment of the
+:class:`~guide_health.models.wear.archard.WearIntegrator` (its ``segment_sink``, the live per-sample path and
+the vectorised offline path alike) and keeps
+
+- the effective work G_eff = sum W ds m [N m] (what the online K update regresses on: K stays linear);
+- per duty bucket (the integrator's buckets): the work, the effective work without running-in, the sliding
+  distance, and the work-weighted derivatives of m by rho, v_lift and n (for the interval).
+
+The remaining life (seed 000 Eq. 12 from the present state) integrates the running-in decay forward:
+A(t_now + T) - A(t_now) = K c [T + r s0 / v_s e^(-s/s0) (1 - e^(-v_s T / s0))], c = dA/dt per K at steady
+wear of the present duty, v_s the present sliding speed (closed-form integral of K(s) = K (1 + r e^(-s/s0))).
+Its interval widens by the effect parameters' covariance (delta method on ln life, K held at its value:
+conservative, the fit's K-effect correlation is not used).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import brentq
+
+from guide_health.models.wear.effects import (
+    LUBRICATION_SPEED_EXPONENT,
+    WearEffects,
+    asperity_load_share,
+    running_in_factor_mean,
+    wear_rate_multiplier,
+)
+
+#: the order of the model file's effect_covariance rows (6 x 6, SI)
+COVARIANCE_NAMES = ("wear_coefficient", "running_in_ratio", "running_in_distance_m", "retract_wear_factor",
+                    "lift_speed_m_s", "load_exponent")
+_SUMS = 6          # per bucket: work, effective work w/o running-in, distance, d/d rho, d/d v_lift, d/d n
+
+
+@dataclass(frozen=True)
+class LiveEffects:
+    """Effect parameters of the live model (wear_monitor parameters written by ``diagnose --out``)."""
+
+    effects: tuple[str, ...]
+    running_in_ratio: float = 0.0
+    running_in_distance_m: float = 100.0
+    retract_wear_factor: float = 1.0
+    retract_sign: int = -1
+    lift_speed_m_s: float = math.inf
+    load_exponent: float = 1.0
+    load_reference_n: float = 1000.0
+    covariance: tuple = ()             # 36 numbers, COVARIANCE_NAMES order
+
+    @classmethod
+    def from_params(cls, p: dict) -> LiveEffects | None:
+        ids = tuple(e.strip() for e in str(p.get("effects", "")).split(",") if e.strip())
+        if not ids:
+            return None
+        return cls(
+            effects=ids,
+            running_in_ratio=float(p["running_in_ratio"]) if "running_in" in ids else 0.0,
+            running_in_distance_m=float(p["running_in_distance_m"]),
+            retract_wear_factor=float(p["retract_wear_factor"]) if "retract_asymmetry" in ids else 1.0,
+            retract_sign=1 if p.get("retract_direction", "-x") == "+x" else -1,
+            lift_speed_m_s=(float(p["lift_speed_m_s"]) if "speed_dependent_wear" in ids and p["lift_speed_m_s"] > 0
+                            else math.inf),
+            load_exponent=float(p["load_exponent"]) if "load_exponent" in ids else 1.0,
+            load_reference_n=float(p["load_reference_n"]),
+            covariance=tuple(float(v) for v in p.get("effect_covariance", ())),
+        )
+
+    def wear_effects(self) -> WearEffects:
+        return WearEffects(retract_wear_factor=self.retract_wear_factor, lift_speed_m_s=self.lift_speed_m_s,
+                           load_exponent=self.load_exponent, load_reference_n=self.load_reference_n)
+
+    def covariance_matrix(self) -> np.ndarray:
+        n = len(COVARIANCE_NAMES)
+        c = np.asarray(self.covariance, dtype=float)
+        return c.reshape(n, n) if c.size == n * n else np.zeros((n, n))
+
+
+@dataclass
+class EffectWear:
+    """Effective Archard work of a guide with :class:`LiveEffects` (state persisted with the monitor)."""
+
+    effects: LiveEffects
+    duty_bucket_s: float
+    duty_buckets: int
+    effective_work_nm: float = 0.0
+    buckets: dict = field(default_factory=dict)       # bucket index -> [_SUMS sums]
+    # d(effective work)/d(r, s0, rho, v_lift, n) over the whole history [N m per unit]
+    work_gradient: list = field(default_factory=lambda: [0.0] * 5)
+
+    def add_segments(self, t_start_ns, t_end_ns, xa_m, xb_m, load_n, s_start_m) -> None:
+        """Sliding segments from xa to xb between the stamps, under load_n (NaN / 0: no wear), starting at
+        cumulative sliding distance s_start [m]."""
+        xa, xb = np.asarray(xa_m, dtype=float), np.asarray(xb_m, dtype=float)
+        if xa.size == 0:
+            return
+        ds = np.abs(xb - xa)
+        w = np.nan_to_num(np.asarray(load_n, dtype=float))
+        dt = (np.asarray(t_end_ns, dtype=np.int64) - np.asarray(t_start_ns, dtype=np.int64)) * 1e-9
+        speed = np.divide(ds, dt, out=np.zeros_like(ds), where=dt > 0)
+        e = self.effects
+        retract = np.sign(xb - xa) == e.retract_sign
+        s_a = np.asarray(s_start_m, dtype=float)
+        m = wear_rate_multiplier(e.wear_effects(), speed, np.maximum(w, 1e-12), retract)
+        work = w * ds
+        eff = work * m
+        ri = running_in_factor_mean(s_a, s_a + ds, e.running_in_ratio, e.running_in_distance_m)
+        self.effective_work_nm += float((eff * ri).sum())
+        share = asperity_load_share(speed, e.lift_speed_m_s)
+        d_rho = np.where(retract, eff / e.retract_wear_factor if e.retract_wear_factor else work, 0.0)
+        d_vl = (eff * (1.0 - share) * 2.0 * LUBRICATION_SPEED_EXPONENT / e.lift_speed_m_s
+                if math.isfinite(e.lift_speed_m_s) else np.zeros_like(eff))
+        d_n = eff * np.log(np.maximum(w, 1e-12) / e.load_reference_n)
+        s0 = e.running_in_distance_m
+        decay = np.exp(-(s_a + 0.5 * ds) / s0)               # at the segment's middle (a gradient only)
+        grads = (eff * decay, eff * e.running_in_ratio * decay * (s_a + 0.5 * ds) / s0 ** 2,
+                 d_rho * ri, d_vl * ri, d_n * ri)
+        for j, g in enumerate(grads):
+            self.work_gradient[j] += float(g.sum())
+        bucket = (np.asarray(t_end_ns, dtype=np.int64) * 1e-9 // self.duty_bucket_s).astype(np.int64)
+        uniq, inverse = np.unique(bucket, return_inverse=True)
+        sums = [np.bincount(inverse, weights=v, minlength=uniq.size) for v in (work, eff, ds, d_rho, d_vl, d_n)]
+        for i, b in enumerate(uniq.tolist()):
+            row = self.buckets.setdefault(int(b), [0.0] * _SUMS)
+            for j in range(_SUMS):
+                row[j] += float(sums[j][i])
+        newest = max(self.buckets)
+        for b in [b for b in self.buckets if b <= newest - self.duty_buckets]:
+            del self.buckets[b]
+
+    def window_sums(self, last_t_ns: int | None) -> np.ndarray:
+        """The bucket sums over the duty window ending at ``last_t_ns``."""
+        if last_t_ns is None or not self.buckets:
+            return np.zeros(_SUMS)
+        now = int(last_t_ns * 1e-9 // self.duty_bucket_s)
+        rows = [v for b, v in self.buckets.items() if b > now - self.duty_buckets]
+        return np.sum(rows, axis=0) if rows else np.zeros(_SUMS)
+
+    def state(self) -> dict:
+        return {"effective_work_nm": self.effective_work_nm, "work_gradient": list(self.work_gradient),
+                "buckets": [[b, *v] for b, v in sorted(self.buckets.items())]}
+
+    def restore(self, state: dict) -> None:
+        self.effective_work_nm = float(state["effective_work_nm"])
+        self.work_gradient = [float(v) for v in state.get("work_gradient", [0.0] * 5)]
+        self.buckets = {int(row[0]): [float(v) for v in row[1:]] for row in state["buckets"]}
+
+
+def running_in_extra_m_per_rate(horizon_s, ratio: float, distance_m: float, s_now_m: float,
+                                sliding_speed_m_s: float):
+    """int_0^T r e^(-(s + v_s t)/s0) dt = r s0 / v_s e^(-s/s0) (1 - e^(-v_s T/s0)) [s] (running-in's extra
+    wear time per unit steady wear rate over a horizon T)."""
+    if ratio == 0.0 or not sliding_speed_m_s > 0:
+        return 0.0 * np.asarray(horizon_s, dtype=float)
+    return (ratio * distance_m / sliding_speed_m_s * math.exp(-s_now_m / distance_m)
+            * (1.0 - np.exp(-sliding_speed_m_s * np.asarray(horizon_s, dtype=float) / distance_m)))
+
+
+def remaining_life_with_running_in_s(margin_m: float, steady_rate_m_s: float, ratio: float, distance_m: float,
+                                     s_now_m: float, sliding_speed_m_s: float) -> float:
+    """T with steady_rate [T + extra(T)] = margin: the time to the limit with K(s) decaying on the way
+    (seed 000 Eq. 12 with running-in). 0 when the margin is used up; inf without wear."""
+    if not (math.isfinite(margin_m) and math.isfinite(steady_rate_m_s)):
+        return math.nan
+    if margin_m <= 0:
+        return 0.0
+    if steady_rate_m_s <= 0:
+        return math.inf
+    hi = margin_m / steady_rate_m_s
+    if ratio == 0.0 or not sliding_speed_m_s > 0:
+        return hi
+
+    def gap(t):
+        return steady_rate_m_s * (t + float(running_in_extra_m_per_rate(t, ratio, distance_m, s_now_m,
+                                                                        sliding_speed_m_s))) - margin_m
+
+    lo = hi / (1.0 + ratio * math.exp(-s_now_m / distance_m))
+    if gap(lo) >= 0:
+        return lo
+    return float(brentq(gap, lo, hi, xtol=1e-9 * hi))
+
+
+def forecast_straightness_m(horizon_s: np.ndarray, straightness_now_m: float, steady_rate_m_s: float,
+                            ratio: float, distance_m: float, s_now_m: float, sliding_speed_m_s: float) -> np.ndarray:
+    """A(t_now + T) at the present duty with the running-in decay [m] (the forecast curve)."""
+    t = np.asarray(horizon_s, dtype=float)
+    return straightness_now_m + steady_rate_m_s * (t + running_in_extra_m_per_rate(t, ratio, distance_m, s_now_m,
+                                                                                    sliding_speed_m_s))
+
+
+def life_interval_s(k: float, k_sd: float, e: LiveEffects, now: dict, z: float) -> tuple[float, float, float]:
+    """(life, low, high) [s] of remaining life with the effects, and its interval: the delta method on ln life
+    over K and the effect parameters with the model file's covariance, plus the online K update's sd.
+
+    ``now``: margin0 = A_max - A0 [m], c = straightness per unit K and effective work [m / (N m)], work =
+    effective work [N m], work_gradient (d work / d(r, s0, rho, v_lift, n)), rate_per_k (steady dA/dt per K
+    [m/s]), dln_rate (d ln rate / d(rho, v_lift, n) at the present duty), s_now [m], v_s [m/s].
+    A change of a parameter moves the straightness now (through the past effective work) and the rate."""
+    theta0 = np.array([k, e.running_in_ratio, e.running_in_distance_m, e.retract_wear_factor,
+                       e.lift_speed_m_s if math.isfinite(e.lift_speed_m_s) else 0.0, e.load_exponent])
+
+    def life(theta: np.ndarray) -> float:
+        d = theta - theta0
+        work = now["work"] + float(np.dot(now["work_gradient"], d[1:]))
+        rate = theta[0] * now["rate_per_k"] * (1.0 + float(np.dot(now["dln_rate"], d[3:])))
+        return remaining_life_with_running_in_s(now["margin0"] - theta[0] * now["c"] * work, rate, theta[1],
+                                                max(theta[2], 1e-9), now["s_now"], now["v_s"])
+
+    centre = life(theta0)
+    if not (math.isfinite(centre) and centre > 0):
+        return centre, centre, centre
+    cov = e.covariance_matrix().copy()
+    cov[0, 0] += k_sd ** 2                            # the online update's K spread (conservative: added)
+    grad = np.zeros(theta0.size)
+    for i in range(theta0.size):
+        h = 1e-2 * math.sqrt(cov[i, i])
+        if h > 0:
+            step = theta0.copy()
+            step[i] += h
+            grad[i] = (math.log(max(life(step), 1e-30)) - math.log(centre)) / h
+    sd = math.sqrt(max(float(grad @ cov @ grad), 0.0))
+    return centre, centre * math.exp(-z * sd), centre * math.exp(z * sd)

@@ -1,0 +1,168 @@
+"""What a saved PrecisionMonitor state must look like before it is restored, and whose it is.
+
+A state is refused whole, never half-loaded: ``check_state_like`` compares a saved state with the state of a
+freshly built monitor of the same parameters (the template): the same fields, of the same kinds (a number
+where a number is, a list of numbers of the same length where the template's list is non-empty, a
+sub-state where a sub-state is), and the parallel lists of the duty buckets and of the measurements of equal
+lengths. ``state_fingerprint`` names what a state belongs to (machine, axis, guide type and the geometry
+that fixes the meaning of the stored work profile); a state saved under another fingerprint is refused.
+
+Pure Python (no ROS, no I/O): the caller reads the state and names the file in its message.
+"""
+from __future__ import annotations
+
+import math
+import numbers
+from typing import Any
+
+from guide_health.errors import InputError
+
+#: the parameters a saved precision state belongs to: another value makes it another guide
+FINGERPRINT_PARAMS = ("machine_id", "joint", "guide_type", "contact_width_m", "slider_length_m", "rail_start_m",
+                      "rail_length_m", "profile_bin_m")
+#: lists that grow together (one entry per duty bucket, per straightness measurement)
+PARALLEL_LISTS = {
+    "integrator": ("duty_bucket_index", "duty_bucket_work_nm"),
+    "estimator": ("measurement_t_ns", "measurement_m", "measurement_loss_per_k_m", "measurement_work_nm"),
+}
+
+
+def state_fingerprint(params: dict[str, Any]) -> dict[str, Any]:
+    """{name: value} of FINGERPRINT_PARAMS in ``params``."""
+    return {name: params[name] for name in FINGERPRINT_PARAMS if name in params}
+
+
+def fingerprint_mismatch(saved: dict[str, Any], current: dict[str, Any]) -> str:
+    """'' when ``saved`` fits ``current``; else the differences, e.g. "machine_id 'm2' (now 'm1')"."""
+    diffs = [f"{name} {saved[name]!r} (now {current.get(name)!r})" for name in sorted(saved)
+             if name in current and saved[name] != current[name]]
+    return ", ".join(diffs)
+
+
+#: fields that are amounts (distances, work, counts): a negative value is a corrupt state
+NON_NEGATIVE = frozenset({
+    "sliding_distance_m", "archard_work_nm", "profile_work_n", "samples", "stroke_count", "stroke_sum_m",
+    "stroke_sum_sq_m2", "stroke_min_m", "stroke_max_m", "load_samples", "duty_bucket_work_nm",
+    "measurement_work_nm", "measurement_m", "travel_m", "load_power_travel", "recent_travel_m",
+    "recent_load_power_travel", "boundary_travel_m", "window_travel_m", "boundary", "mixed", "full_film",
+    "reverse_travel_m"})
+#: element kind of lists that are empty in a fresh monitor (the template cannot show it)
+EMPTY_LIST_ELEMENT = {"duty_bucket_index": 0, "measurement_t_ns": 0}
+_INT64 = 2**63
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
+def _is_int(value: Any) -> bool:
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool) and -_INT64 <= value < _INT64
+
+
+def _kind(value: Any) -> str:
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "true/false"
+    if isinstance(value, numbers.Integral):
+        return "an integer"
+    if _is_number(value):
+        return "a number"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, (list, tuple)):
+        return "a list"
+    if isinstance(value, dict):
+        return "a mapping"
+    return type(value).__name__
+
+
+def _field(where: str) -> str:
+    """The field name of a path such as ``state.estimator.measurement_m[3]``."""
+    return where.rsplit(".", 1)[-1].split("[", 1)[0]
+
+
+def _scalar_problem(value: Any, template: Any, where: str) -> str:
+    """'' when ``value`` fits the template's kind, else what it must be. An integer field takes 64-bit
+    integers; a number field any number, finite where the fresh value is finite (NaN/inf only where they
+    are the 'not yet known' marker); a template None (not yet known) takes None or a finite number (an
+    integer for a ``*_t_ns`` stamp); amounts (NON_NEGATIVE) and stamps are >= 0."""
+    name = _field(where)
+    stamp = name.endswith("_t_ns")
+    if template is None:
+        if value is None:
+            return ""
+        template = 0 if stamp else 0.0
+    if isinstance(template, bool):
+        return "" if isinstance(value, bool) else "true/false"
+    if isinstance(template, str):
+        return "" if isinstance(value, str) else "a string"
+    if isinstance(template, numbers.Integral):
+        if not _is_int(value):
+            return "a 64-bit integer"
+    elif _is_number(template):
+        if not _is_number(value):
+            return "a number"
+        if math.isfinite(template) and not math.isfinite(value):
+            return "a finite number"
+    else:
+        return f"of the kind {_kind(template)}"
+    if (name in NON_NEGATIVE or stamp) and not value >= 0:
+        return "a number >= 0"
+    return ""
+
+
+def _check_list(value: list, template: list, where: str) -> None:
+    if template and len(value) != len(template):
+        raise InputError(f"state field {where} has {len(value)} entries, the parameters need {len(template)}")
+    element = template[0] if template else EMPTY_LIST_ELEMENT.get(_field(where), 0.0)
+    for i, item in enumerate(value):
+        if isinstance(element, (dict, list)):
+            check_state_like(item, element, f"{where}[{i}]")
+            continue
+        problem = _scalar_problem(item, element, where)
+        if problem:
+            raise InputError(f"state field {where}[{i}] must be {problem}, got {item!r}"[:200])
+
+
+def check_state_like(value: Any, template: Any, where: str = "state") -> None:
+    """InputError (one line: the field and what it must be) unless ``value`` has the structure and kinds
+    of ``template``."""
+    if isinstance(template, dict):
+        if not isinstance(value, dict):
+            raise InputError(f"state field {where} must be a mapping, got {_kind(value)}")
+        missing = [k for k in template if k not in value]
+        extra = [k for k in value if k not in template]
+        if missing:
+            raise InputError(f"state field {where}.{missing[0]} is missing")
+        if extra:
+            raise InputError(f"state field {where}.{str(extra[0])[:40]!s} is not a field of this monitor")
+        for key, sub in template.items():
+            check_state_like(value[key], sub, f"{where}.{key}")
+        parallel = PARALLEL_LISTS.get(_field(where), ())
+        for name in parallel[1:]:
+            if len(value[name]) != len(value[parallel[0]]):
+                raise InputError(f"state field {where}.{name}: its length differs from {where}.{parallel[0]}")
+    elif isinstance(template, (list, tuple)):
+        if not isinstance(value, (list, tuple)):
+            raise InputError(f"state field {where} must be a list, got {_kind(value)}")
+        _check_list(list(value), list(template), where)
+    else:
+        problem = _scalar_problem(value, template, where)
+        if problem:
+            raise InputError(f"state field {where} must be {problem}, got {value!r}"[:200])
+
+
+def check_precision_state(saved: Any, template: dict[str, Any]) -> None:
+    """A saved PrecisionMonitor state against ``template`` (a fresh monitor's ``state()``): the guide type
+    first (a rolling-guide state for a sliding guide is another guide), then every field."""
+    if not isinstance(saved, dict):
+        raise InputError(f"state must be a mapping, got {_kind(saved)}")
+    if saved.get("version") != template.get("version"):
+        raise InputError(f"state version {saved.get('version')!r}, this monitor reads version "
+                         f"{template.get('version')!r}")
+    rolling_saved, rolling_now = saved.get("rolling"), template.get("rolling")
+    if (rolling_saved is None) != (rolling_now is None):
+        kinds = ("a sliding", "a rolling") if rolling_now is not None else ("a rolling", "a sliding")
+        raise InputError(f"state of {kinds[0]} guide, but guide_type is {kinds[1]} guide")
+    check_state_like(saved, template)

@@ -1,0 +1,118 @@
+"""`guide-health fleet replay|diagnose`: many bags on Dask (a LocalCluster of worker processes, or a
+scheduler given by address) give each bag the single-bag command's result; a bad bag is a named row
+and the run's exit status says partial (3)."""
+import json
+from pathlib import Path
+
+import pytest
+
+from guide_health.analysis.fleet import same_result
+from guide_health.cli.app import main
+from guide_health.cli.fleet import PARTIAL_EXIT_STATUS
+
+CONFIG = Path(__file__).resolve().parents[1] / "config" / "bench_000.yaml"
+FACTORS = (1.0, 1.8, 0.6)          # truth K / configured K of the three machines
+
+
+@pytest.fixture(scope="module")
+def fleet_bags(tmp_path_factory):
+    """Three tiny machine bags (1 h, 10 Hz joint states, a measurement every 0.2 h), namespaces /m0../m2,
+    and a broken bag (unparsable metadata.yaml)."""
+    from guide_health.io.bag_writer import write_machine_bag
+    from guide_health.params import simulation_params, wear_monitor_params
+    from guide_health.sim.machine import simulate_machine
+
+    root = tmp_path_factory.mktemp("fleet")
+    params = wear_monitor_params(CONFIG)
+    for i, factor in enumerate(FACTORS):
+        sim = dict(simulation_params(CONFIG), duration_h=1.0, joint_state_rate_hz=10.0,
+                   measurement_interval_h=0.2, wear_coefficient_factor=factor)
+        write_machine_bag(simulate_machine(params, sim, seed=i), root / "bags" / f"bag{i}", namespace=f"/m{i}")
+    broken = root / "broken"
+    broken.mkdir()
+    (broken / "metadata.yaml").write_text("rosbag2_bagfile_information: [\n")
+    (broken / "broken.db3").write_bytes(b"not a database")
+    return root
+
+
+def run_cli(capsys, argv):
+    code = main([*argv, "--json"])
+    return code, json.loads(capsys.readouterr().out)
+
+
+def single_replays(capsys, root, tmp_path):
+    return [run_cli(capsys, ["replay", str(root / "bags" / f"bag{i}"), "--params", str(CONFIG),
+                             "--out", str(tmp_path / f"single{i}")])[1] for i in range(len(FACTORS))]
+
+
+def test_fleet_replay_on_local_worker_processes_equals_single_replays(fleet_bags, tmp_path, capsys):
+    singles = single_replays(capsys, fleet_bags, tmp_path)
+    code, fleet = run_cli(capsys, ["fleet", "replay", str(fleet_bags / "bags"), "--params", str(CONFIG),
+                                   "--workers", "2", "--out", str(tmp_path / "fleet")])
+    assert code == 0 and fleet["engine"] == "LocalCluster(2 processes)"
+    assert (fleet["bags"], fleet["ok"], fleet["failed"]) == (3, 3, 0)
+    assert [e["machine"] for e in fleet["results"]] == ["m0", "m1", "m2"]     # from the topic namespaces
+    for single, entry in zip(singles, fleet["results"]):
+        assert entry["ok"] and same_result(single, entry["result"])
+        assert entry["result"]["remaining_life_h"] == single["remaining_life_h"]      # bit for bit
+        # the per-bag report directory holds what the single command writes
+        report = json.loads((tmp_path / "fleet" / "bags" / Path(entry["bag"]).name / "report.json").read_text())
+        assert same_result(report, single)
+    # the K estimates are ordered as the machines' true K (FACTORS x the configured K, the simulation's truth)
+    ks = [e["result"]["wear_coefficient"] for e in fleet["results"]]
+    assert ks[2] < ks[0] < ks[1]
+    ranked = [r["machine"] for r in sorted(fleet["rows"], key=lambda r: r["remaining_life_h"])]
+    assert ranked[0] == "m1" and ranked[-1] == "m2"       # the highest K wears out first
+    csv_lines = (tmp_path / "fleet" / "fleet.csv").read_text().splitlines()
+    assert len(csv_lines) == 4 and csv_lines[0].startswith("machine,machine_type,bag,status,level_name")
+    md = (tmp_path / "fleet" / "fleet.md").read_text()
+    assert md.count("| ok |") == 3
+    from matplotlib.image import imread
+    assert imread(fleet["files"]["png"]).shape[0] > 100
+
+
+def test_fleet_replay_on_a_scheduler_address_equals_serial(fleet_bags, tmp_path, capsys):
+    from distributed import LocalCluster
+
+    _, serial = run_cli(capsys, ["fleet", "replay", str(fleet_bags / "bags"), "--params", str(CONFIG),
+                                 "--workers", "0", "--no-plot", "--out", str(tmp_path / "serial")])
+    assert serial["engine"] == "serial"
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        code, remote = run_cli(capsys, ["fleet", "replay", str(fleet_bags / "bags"), "--params", str(CONFIG),
+                                        "--scheduler", cluster.scheduler_address, "--no-plot",
+                                        "--out", str(tmp_path / "remote")])
+    assert code == 0 and remote["engine"] == cluster.scheduler_address
+    assert all(same_result(a["result"], b["result"]) for a, b in zip(serial["results"], remote["results"]))
+
+
+def test_a_bad_bag_is_named_and_the_others_complete(fleet_bags, tmp_path, capsys):
+    code, fleet = run_cli(capsys, ["fleet", "replay", str(fleet_bags / "bags" / "bag0"), str(fleet_bags / "broken"),
+                                   str(fleet_bags / "bags" / "bag2"), str(fleet_bags / "missing"),
+                                   "--params", str(CONFIG), "--workers", "2", "--no-plot",
+                                   "--out", str(tmp_path / "partial")])
+    assert code == PARTIAL_EXIT_STATUS == 3
+    assert (fleet["ok"], fleet["failed"]) == (2, 2)
+    assert [e["ok"] for e in fleet["results"]] == [True, False, True, False]
+    failed = {Path(b["bag"]).name: b["error"] for b in fleet["failed_bags"]}
+    assert set(failed) == {"broken", "missing"}
+    assert "broken" in failed["broken"] and "\n" not in failed["broken"] and "Traceback" not in failed["broken"]
+    assert "missing" in failed["missing"]
+    rows = {r["machine"]: r for r in fleet["rows"]}
+    assert rows["broken"]["status"] == "error" and rows["m0"]["status"] == "ok" and rows["m2"]["status"] == "ok"
+    assert "broken" in (tmp_path / "partial" / "fleet.md").read_text()
+
+
+def test_fleet_diagnose_equals_single_diagnose(fleet_bags, tmp_path, capsys):
+    bag = fleet_bags / "bags" / "bag1"
+    _, single = run_cli(capsys, ["diagnose", str(bag), "--params", str(CONFIG), "--no-plot",
+                                 "--out", str(tmp_path / "single")])
+    code, fleet = run_cli(capsys, ["fleet", "diagnose", str(bag), "--params", str(CONFIG), "--workers", "0",
+                                   "--no-plot", "--out", str(tmp_path / "fleet")])
+    assert code == 0 and same_result(single, fleet["results"][0]["result"])
+    assert fleet["rows"][0]["wear_coefficient"] == single["final"]["wear_coefficient"]
+
+
+def test_fleet_bad_input_is_one_line(tmp_path, capsys):
+    assert main(["fleet", "replay", str(tmp_path), "--params", str(CONFIG)]) == 2     # no bags in it
+    assert "neither a bag nor a directory of bags" in capsys.readouterr().err
+    assert main(["fleet", "replay", str(tmp_path), "--params", str(CONFIG), "--workers", "-1"]) == 2

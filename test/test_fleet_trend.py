@@ -1,0 +1,188 @@
+"""`guide-health fleet trend HISTORY.db`: the fleet_monitor history as per-machine trends, CSV, PNG and a
+static HTML page whose every image is checked to exist and decode (and, where Debian's chromium is
+installed, rendered headless to a screenshot)."""
+import base64
+import csv
+import io
+import json
+import shutil
+import subprocess
+import time
+from html.parser import HTMLParser
+from pathlib import Path
+
+import numpy as np
+import pytest
+from matplotlib.image import imread
+
+from guide_health.cli.app import main
+from guide_health.io.fleet_history import FleetHistory
+
+T0_UNIX_S = 1.8e9
+LIFE_RATE_H_PER_H = {"m1": 1.0, "m2": 3.0, "m3": 0.5}     # remaining life lost per hour of history
+
+
+def life_h(machine: str, hour: int) -> float:
+    return 300.0 - LIFE_RATE_H_PER_H[machine] * hour
+
+
+def level_of(life: float) -> int:
+    return 0 if life > 200 else 1 if life > 100 else 2
+
+
+@pytest.fixture
+def history(tmp_path):
+    """40 hourly statuses of three wear monitors (life falling 1, 3, 0.5 h per h; WARN below 200 h, ERROR
+    below 100 h), one fatigue status (m2) and one slewing monitor (c1), written by fleet_monitor's history."""
+    db = tmp_path / "fleet.db"
+    h = FleetHistory(str(db), 0.0)
+    for hour in range(40):
+        t = T0_UNIX_S + 3600.0 * hour
+        for m in LIFE_RATE_H_PER_H:
+            life = life_h(m, hour)
+            h.record(t, m, "wear_monitor: x precision", level_of(life), f"life {life:.0f} h",
+                     {"remaining_life_h": repr(life), "straightness_um": repr(15.0 + hour)})
+        h.record(t, "m2", "wear_monitor: x fatigue", 0, "", {"life_used_fraction": repr(0.01 * hour)})
+        h.record(t, "c1", "slewing_monitor: b1 roller contact", 0, "", {"end_stress_ratio": repr(1.1 + 0.001 * hour)})
+    h.close()
+    return db
+
+
+class ImageSources(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.sources, self.links = [], []
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if tag == "img":
+            self.sources.append(a["src"])
+        if tag == "a" and not a["href"].startswith("#"):
+            self.links.append(a["href"])
+
+
+def check_page(page: Path) -> list[np.ndarray]:
+    """Every image of the page exists and decodes (data URI or file beside it); every linked file exists."""
+    parser = ImageSources()
+    parser.feed(page.read_text())
+    images = []
+    for src in parser.sources:
+        if src.startswith("data:image/png;base64,"):
+            images.append(imread(io.BytesIO(base64.b64decode(src.split(",", 1)[1])), format="png"))
+        else:
+            images.append(imread(page.parent / src))
+    for href in parser.links:
+        assert (page.parent / href).is_file(), href
+    assert all(img.ndim == 3 and img.shape[0] > 100 and img.shape[1] > 100 for img in images)
+    return images
+
+
+def test_trend_of_a_history(history, tmp_path, capsys):
+    assert main(["fleet", "trend", str(history), "--out", str(tmp_path / "t"), "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert (result["machines"], result["rows"]) == (4, 40 * 5)
+    # ranking by latest remaining life (hour 39): 300 - rate x 39 h = 183 (m2), 261 (m1), 280.5 (m3)
+    ranked = [(r["machine"], r["remaining_life_h"], r["level"]) for r in result["ranking"]]
+    assert ranked[:3] == [("m2", 183.0, "WARN"), ("m1", 261.0, "OK"), ("m3", 280.5, "OK")]
+    assert ranked[3][0] == "c1" and result["ranking"][3]["end_stress_ratio"] == pytest.approx(1.139)
+    # m2 drops below 200 h at hour 34 (300 - 3 h = 198): one change OK -> WARN
+    changes = result["level_changes"]["m2"]
+    assert [(c["from"], c["to"], c["t_unix_s"]) for c in changes] == [("OK", "WARN", T0_UNIX_S + 34 * 3600.0)]
+    assert result["level_changes"]["m1"] == []
+    with open(tmp_path / "t" / "machine_m2.csv") as handle:
+        rows = list(csv.DictReader(handle))
+    precision = [r for r in rows if r["status"] == "wear_monitor: x precision"]
+    assert [float(r["remaining_life_h"]) for r in precision] == [life_h("m2", h) for h in range(40)]
+    assert float(rows[-1]["life_used_fraction"]) == pytest.approx(0.39)
+    images = check_page(Path(result["files"]["html"]))
+    assert len(images) == 1 + 4                            # the overview and one plot per machine
+    only = tmp_path / "only"
+    assert main(["fleet", "trend", str(history), "--machine", "m3", "--out", str(only)]) == 0
+    assert sorted(p.name for p in only.glob("machine_*")) == ["machine_m3.csv", "machine_m3.png"]
+
+
+def test_trend_bad_input_is_one_line(history, tmp_path, capsys):
+    assert main(["fleet", "trend", str(history), "--machine", "m9", "--out", str(tmp_path / "x")]) == 2
+    assert "no history of machine 'm9'; machines: c1, m1, m2, m3" in capsys.readouterr().err
+    junk = tmp_path / "junk.db"
+    junk.write_text("not sqlite")
+    assert main(["fleet", "trend", str(junk)]) == 2
+    assert "not a fleet history" in capsys.readouterr().err
+
+
+@pytest.mark.skipif(shutil.which("chromium") is None, reason="Debian's chromium is not installed")
+def test_trend_page_renders_in_headless_chromium(history, tmp_path, capsys):
+    assert main(["fleet", "trend", str(history), "--out", str(tmp_path / "t")]) == 0
+    shot = tmp_path / "screenshot.png"
+    subprocess.run(["chromium", "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
+                    "--window-size=1200,1800", f"--screenshot={shot}", (tmp_path / "t" / "index.html").as_uri()],
+                   check=True, capture_output=True, timeout=120)
+    img = imread(shot)
+    assert img.shape[:2] == (1800, 1200)
+    # the page is drawn: the ranking rows' colours (ERROR/WARN red/orange, OK green) are on the screen
+    rgb = (img[..., :3] * 255).round().astype(int).reshape(-1, 3)
+    assert (np.abs(rgb - [0xfd, 0xeb, 0xd0]).sum(axis=1) == 0).sum() > 1000     # the WARN row (m2)
+    assert (np.abs(rgb - [0xd5, 0xf5, 0xe3]).sum(axis=1) == 0).sum() > 1000     # OK rows
+    assert rgb.std() > 20                                                      # not a blank page
+
+
+rclpy = pytest.importorskip("rclpy")
+
+
+def test_trend_of_a_history_written_by_a_live_fleet_monitor(ros_context, tmp_path, capsys):
+    """A live fleet_monitor records two machines whose life falls; the trend reads it back."""
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+
+    from guide_health.nodes.fleet_monitor import FleetMonitorNode
+
+    db = tmp_path / "live.db"
+    fleet = FleetMonitorNode(context=ros_context, parameter_overrides=[
+        Parameter("history_file", value=str(db)), Parameter("history_period_s", value=0.05),
+        Parameter("diagnostics_period_s", value=0.1)])
+    source = rclpy.create_node("machines", context=ros_context)
+    pub = source.create_publisher(DiagnosticArray, "/diagnostics", 10)
+    ex = SingleThreadedExecutor(context=ros_context)
+    ex.add_node(fleet)
+    ex.add_node(source)
+
+    def status(hw, life):
+        values = [KeyValue(key="remaining_life_h", value=repr(life)), KeyValue(key="straightness_um", value="20.0")]
+        return DiagnosticStatus(level=bytes([level_of(life)]), name="wear_monitor: x precision", hardware_id=hw,
+                                message=f"life {life:.0f} h", values=values)
+    sent = []
+
+    def publish(step):
+        life = (300.0 - 5.0 * step, 250.0 - 1.0 * step)
+        pub.publish(DiagnosticArray(status=[status("a1", life[0]), status("a2", life[1])]))
+        sent.append(life)
+        end = time.monotonic() + 0.1
+        while time.monotonic() < end:
+            ex.spin_once(timeout_sec=0.01)
+    try:
+        deadline = time.monotonic() + 15.0           # discovery: step 0 until the fleet monitor has both
+        while len(fleet.board.statuses) < 2 and time.monotonic() < deadline:
+            publish(0)
+        assert len(fleet.board.statuses) == 2
+        for step in range(1, 30):
+            publish(step)
+    finally:
+        fleet.close()
+        ex.shutdown()
+        fleet.destroy_node()
+        source.destroy_node()
+    assert main(["fleet", "trend", str(db), "--out", str(tmp_path / "t"), "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["machines"] == 2
+    by_machine = {r["machine"]: r for r in result["ranking"]}
+    with open(tmp_path / "t" / "machine_a1.csv") as handle:
+        lives = [float(r["remaining_life_h"]) for r in csv.DictReader(handle)]
+    assert len(lives) >= 5 and all(b < a for a, b in zip(lives, lives[1:]))    # recorded in order, falling
+    assert set(lives) <= {s[0] for s in sent}                                 # only values that were sent
+    assert by_machine["a1"]["remaining_life_h"] == lives[-1]
+    # a1 crossed 200 h (OK -> WARN at step 21); a2 stays above 200 h (OK)
+    assert lives[0] == 300.0 and lives[-1] < 200.0
+    assert [(c["from"], c["to"]) for c in result["level_changes"]["a1"]] == [("OK", "WARN")]
+    assert result["level_changes"]["a2"] == []
+    check_page(Path(result["files"]["html"]))

@@ -1,0 +1,261 @@
+"""Issue 10 item 5 and issue 16 (state): every state-file failure is one InputError line naming the file and
+what to do; a state that does not validate, or belongs to another machine/guide, is refused whole; two
+processes on one state file: the second is refused; the file is 0600 and never written through a symlink."""
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from guide_health.errors import InputError
+from guide_health.io.state_store import StateStore, resolve_state_path
+from guide_health.models.wear.precision import PrecisionMonitor
+from guide_health.models.wear.state_schema import check_precision_state, state_fingerprint
+from guide_health.params import WEAR_MONITOR_DEFAULTS
+
+ROOT = Path(__file__).resolve().parents[1]
+PARAMS = dict(WEAR_MONITOR_DEFAULTS, machine_id="m1")
+
+
+def _one_line(exc, *words):
+    text = str(exc.value)
+    assert "\n" not in text and all(w in text for w in words), text
+
+
+def test_garbage_directory_and_unreachable_paths_are_one_line(tmp_path):
+    garbage = tmp_path / "garbage.db"
+    garbage.write_bytes(os.urandom(4096))
+    with pytest.raises(InputError) as err:
+        StateStore(garbage)
+    _one_line(err, str(garbage), "not a usable guide_health state database", "move it away")
+    with pytest.raises(InputError) as err:
+        StateStore(tmp_path)
+    _one_line(err, str(tmp_path), "is a directory")
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    with pytest.raises(InputError) as err:
+        StateStore(blocker / "state.db")
+    _one_line(err, "cannot create its folder")
+
+
+def test_state_file_is_private_and_never_written_through_a_symlink(tmp_path):
+    store = StateStore(tmp_path / "s.db")
+    store.save({"k": {"a": 1.0}})
+    store.close()
+    assert (tmp_path / "s.db").stat().st_mode & 0o777 == 0o600
+    target = tmp_path / "victim"
+    target.write_text("keep")
+    (tmp_path / "link.db").symlink_to(target)
+    with pytest.raises(InputError) as err:
+        StateStore(tmp_path / "link.db")
+    _one_line(err, "symbolic link")
+    assert target.read_text() == "keep"
+
+
+def test_second_store_on_one_file_is_refused_until_the_first_closes(tmp_path):
+    first = StateStore(tmp_path / "s.db")
+    with pytest.raises(InputError) as err:
+        StateStore(tmp_path / "s.db")
+    _one_line(err, "in use by another process", f"pid {os.getpid()}")
+    first.close()
+    StateStore(tmp_path / "s.db").close()
+
+
+def test_second_process_is_refused(tmp_path):
+    code = ("import sys, time; from guide_health.io.state_store import StateStore; "
+            f"s = StateStore({str(tmp_path / 's.db')!r}); print('locked', flush=True); time.sleep(30)")
+    holder = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True,
+                              env=dict(os.environ, PYTHONPATH=str(ROOT)))
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        with pytest.raises(InputError) as err:
+            StateStore(tmp_path / "s.db")
+        _one_line(err, f"pid {holder.pid}")
+    finally:
+        holder.kill()
+        holder.wait()
+    StateStore(tmp_path / "s.db").close()      # the lock went with the killed process
+
+
+def test_auto_path_is_derived_from_ros_home_machine_and_node(monkeypatch, tmp_path):
+    monkeypatch.setenv("ROS_HOME", str(tmp_path))
+    assert resolve_state_path("auto", "m1", "wear_monitor") == tmp_path / "guide_health" / "m1" / "wear_monitor.db"
+    assert resolve_state_path("auto", "../evil", "wm") == tmp_path / "guide_health" / ".._evil" / "wm.db"
+    assert resolve_state_path("", "m1", "wm") is None and resolve_state_path("none", "m1", "wm") is None
+    monkeypatch.delenv("ROS_HOME")
+    assert resolve_state_path("auto", "m1", "wm") == Path.home() / ".ros" / "guide_health" / "m1" / "wm.db"
+
+
+def _state():
+    return PrecisionMonitor(PARAMS).state()
+
+
+@pytest.mark.parametrize("edit,words", [
+    (lambda s: s["integrator"].pop("sliding_distance_m"), ["integrator.sliding_distance_m is missing"]),
+    (lambda s: s["integrator"].__setitem__("sliding_distance_m", "12"), ["integrator.sliding_distance_m",
+                                                                         "a number"]),
+    (lambda s: s["integrator"].__setitem__("samples", 1.5), ["integrator.samples", "64-bit integer"]),
+    (lambda s: s["integrator"]["profile_work_n"].pop(), ["profile_work_n", "entries"]),
+    (lambda s: s["estimator"]["measurement_m"].append(1e-5), ["estimator.measurement_", "length"]),
+    (lambda s: s.__setitem__("rolling", {"version": 1}), ["rolling guide, but guide_type is a sliding"]),
+    (lambda s: s.__setitem__("extra", 1), ["state.extra is not a field"]),
+    (lambda s: s["integrator"].__setitem__("archard_work_nm", float("nan")), ["archard_work_nm", "finite"]),
+    (lambda s: s["integrator"].__setitem__("sliding_distance_m", -1.0), ["sliding_distance_m", ">= 0"]),
+    (lambda s: s["integrator"].__setitem__("last_t_ns", "123"), ["last_t_ns", "64-bit integer"]),
+    (lambda s: s["integrator"].__setitem__("samples", 2**64), ["integrator.samples", "64-bit integer"]),
+    (lambda s: s["estimator"]["measurement_t_ns"].append(1.5), ["measurement_t_ns[0]", "64-bit integer"]),
+    (lambda s: s.__setitem__("load_n", None), ["load_n", "a number"]),
+])
+def test_a_state_that_does_not_validate_is_refused(edit, words):
+    state = _state()
+    edit(state)
+    with pytest.raises(InputError) as err:
+        check_precision_state(state, _state())
+    _one_line(err, *words)
+
+
+def test_nan_sentinels_of_a_fresh_monitor_are_accepted_and_a_saved_state_round_trips(tmp_path):
+    """NaN/inf are the 'not yet known' markers of a fresh monitor (last position, stroke minimum): kept."""
+    store = StateStore(tmp_path / "s.db")
+    store.save({"k": _state()})
+    loaded = store.load("k", None, lambda s: check_precision_state(s, _state()))
+    assert json.dumps(loaded, sort_keys=True) == json.dumps(_state(), sort_keys=True)
+    store.close()
+
+
+def test_a_refused_state_is_one_line_naming_the_file_and_what_to_do(tmp_path):
+    store = StateStore(tmp_path / "s.db")
+    state = _state()
+    state["integrator"]["profile_work_n"][3] = float("inf")
+    store.save({"k": state})
+    with pytest.raises(InputError) as err:
+        store.load("k", None, lambda s: check_precision_state(s, _state()))
+    _one_line(err, str(tmp_path / "s.db"), "profile_work_n[3]", "finite", "move the file away")
+    store._db.execute("UPDATE monitor_state SET state_json = ?", ("[" * 100000,))
+    with pytest.raises(InputError) as err:
+        store.load("k")
+    _one_line(err, "not valid JSON", "move the file away")
+    store.close()
+
+
+def test_unwritable_folder_is_one_line(tmp_path):
+    """A folder the process cannot write in (root writes anywhere but in /proc)."""
+    locked = tmp_path / "ro"
+    locked.mkdir(mode=0o500)
+    path = Path("/proc/self/s.db") if os.geteuid() == 0 else locked / "s.db"
+    with pytest.raises(InputError) as err:
+        StateStore(path)
+    _one_line(err, str(path), "lock file", "writable path")
+
+
+def test_fingerprint_refuses_another_geometry_or_machine(tmp_path):
+    store = StateStore(tmp_path / "s.db")
+    store.save({"m1/x/precision": _state()}, state_fingerprint(PARAMS))
+    assert store.load("m1/x/precision", state_fingerprint(PARAMS)) is not None
+    with pytest.raises(InputError) as err:
+        store.load("m1/x/precision", state_fingerprint(dict(PARAMS, rail_length_m=0.9)))
+    _one_line(err, "saved for another guide", "rail_length_m 0.5 (now 0.9)")
+    with pytest.raises(InputError) as err:
+        store.load("m2/x/precision", state_fingerprint(dict(PARAMS, machine_id="m2")))
+    _one_line(err, "machine_id 'm1'")
+    store.close()
+
+
+rclpy = pytest.importorskip("rclpy")
+
+
+def _node(ros_context, path, **overrides):
+    from rclpy.parameter import Parameter
+
+    from guide_health.nodes.wear_monitor import WearMonitorNode
+
+    values = dict({"state_file": str(path), "machine_id": "m1"}, **overrides)
+    return WearMonitorNode(context=ros_context, parameter_overrides=[Parameter(k, value=v) for k, v in values.items()])
+
+
+def test_node_refuses_a_broken_state_whole_and_releases_its_lock(ros_context, tmp_path):
+    path = tmp_path / "s.db"
+    node = _node(ros_context, path)
+    node.close()
+    node.destroy_node()
+    import sqlite3
+
+    db = sqlite3.connect(path)
+    state = json.loads(db.execute("SELECT state_json FROM monitor_state").fetchone()[0])
+    state["integrator"]["sliding_distance_m"] = "abc"            # main: resumed, then crashed at the status
+    db.execute("UPDATE monitor_state SET state_json = ?", (json.dumps(state),))
+    db.commit()
+    db.close()
+    with pytest.raises(InputError) as err:
+        _node(ros_context, path)
+    _one_line(err, str(path), "sliding_distance_m", "move the file away")
+    with pytest.raises(InputError) as err:                       # another geometry: refused, not resumed
+        _node(ros_context, path, rail_length_m=0.9)
+    _one_line(err, "rail_length_m")
+    time.sleep(0)
+
+
+def test_node_process_on_a_garbage_state_exits_2_with_one_line(tmp_path):
+    garbage = tmp_path / "g.db"
+    garbage.write_bytes(b"not sqlite" * 100)
+    proc = subprocess.run([sys.executable, "-m", "guide_health.nodes.wear_monitor", "--ros-args", "-p",
+                           f"state_file:={garbage}"], capture_output=True, text=True, timeout=60,
+                          env=dict(os.environ, PYTHONPATH=str(ROOT)))
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert str(garbage) in proc.stderr and "Traceback" not in proc.stderr
+
+
+def _node_process(*ros_params, env=None):
+    args = [sys.executable, "-m", "guide_health.nodes.wear_monitor", "--ros-args"]
+    for p in ros_params:
+        args += ["-p", p]
+    return subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=dict(os.environ, PYTHONPATH=str(ROOT), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+                                     ROS_DOMAIN_ID="77", **(env or {})))
+
+
+def _wait_for_lock(lock: Path, proc, timeout_s=60.0):
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if lock.exists() and lock.read_text().strip() == str(proc.pid):
+            return
+        assert proc.poll() is None, proc.communicate()
+        time.sleep(0.1)
+    raise AssertionError("the first node never took the lock")
+
+
+def test_two_node_processes_on_the_default_state_file_second_refused_then_mismatch_refused(tmp_path):
+    """issue 16: state_file auto (the default) -> $ROS_HOME/guide_health/<machine>/wear_monitor.db; a second
+    node on it exits 2 with one line; after the first stops, a node with another rail_length_m is refused."""
+    env = {"ROS_HOME": str(tmp_path)}
+    state = tmp_path / "guide_health" / "m7" / "wear_monitor.db"
+    first = _node_process("machine_id:=m7", env=env)
+    try:
+        _wait_for_lock(Path(f"{state}.lock"), first)
+        second = _node_process("machine_id:=m7", env=env)
+        _, err = second.communicate(timeout=60)
+        assert second.returncode == 2 and len(err.strip().splitlines()) == 1, err
+        assert str(state) in err and f"in use by another process (pid {first.pid}" in err, err
+    finally:
+        first.send_signal(2)                            # SIGINT: final checkpoint, lock released
+        first.communicate(timeout=60)
+    assert first.returncode == 0 and state.stat().st_mode & 0o777 == 0o600
+    other = _node_process("machine_id:=m7", "rail_length_m:=0.9", env=env)
+    _, err = other.communicate(timeout=60)
+    assert other.returncode == 2 and len(err.strip().splitlines()) == 1, err
+    assert "saved for another guide: rail_length_m 0.5 (now 0.9)" in err and "Traceback" not in err, err
+
+
+def test_every_shipped_wear_monitor_config_persists_by_default():
+    import yaml
+
+    for path in sorted((ROOT / "config").glob("*.yaml")):
+        section = (yaml.safe_load(path.read_text()) or {}).get("wear_monitor")
+        if section is not None:
+            assert section["ros__parameters"].get("state_file", "auto") == "auto", path
+    for path in sorted((ROOT / "launch").glob("*.py")):
+        text = path.read_text()
+        assert '"state_file": ""' not in text and "state_file:=''" not in text, path
