@@ -102,7 +102,7 @@ class WearMonitorNode(Node):
         self.diag_pub = self.updater.publisher
         self.precision_task = f"{self.joint} precision"
         self._add_status_tasks()
-        self.raw = resolve_executor(params) == "events"
+        self.raw = resolve_executor(params, self.get_parameter("use_sim_time").value) == "events"
         self._subscribe_inputs()
         self.pred_pub = self.create_publisher(Float64, "guide/straightness_predicted", 10)
         self.life_pub = self.create_publisher(Float64, "guide/remaining_life", 10)
