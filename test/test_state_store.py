@@ -126,6 +126,19 @@ def test_nan_sentinels_of_a_fresh_monitor_are_accepted_and_a_saved_state_round_t
     store.close()
 
 
+def test_a_measurement_before_the_stroke_is_known_round_trips(tmp_path):
+    """A straightness taken before any stroke has g_j = NaN (Eq. 7 undefined): a legal saved state, found by
+    test_live_replay's SIGKILL restart (the node refused its own state)."""
+    monitor = PrecisionMonitor(dict(WEAR_MONITOR_DEFAULTS))
+    state = monitor.state()
+    state["estimator"].update(measurement_t_ns=[5], measurement_m=[1e-6], measurement_loss_per_k_m=[float("nan")],
+                              measurement_work_nm=[0.0])
+    check_precision_state(state, monitor.state())
+    state["estimator"]["measurement_m"] = [float("nan")]
+    with pytest.raises(InputError):
+        check_precision_state(state, monitor.state())
+
+
 def test_a_refused_state_is_one_line_naming_the_file_and_what_to_do(tmp_path):
     store = StateStore(tmp_path / "s.db")
     state = _state()

@@ -47,7 +47,8 @@ NON_NEGATIVE = frozenset({
     "recent_load_power_travel", "boundary_travel_m", "window_travel_m", "boundary", "mixed", "full_film",
     "reverse_travel_m"})
 #: element kind of lists that are empty in a fresh monitor (the template cannot show it)
-EMPTY_LIST_ELEMENT = {"duty_bucket_index": 0, "measurement_t_ns": 0}
+#: (a NaN element marks a measurement taken before the stroke was known: Eq. 7's g_j not yet defined)
+EMPTY_LIST_ELEMENT = {"duty_bucket_index": 0, "measurement_t_ns": 0, "measurement_loss_per_k_m": float("nan")}
 _INT64 = 2**63
 
 
