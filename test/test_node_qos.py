@@ -46,7 +46,7 @@ from guide_health.nodes.session import (  # noqa: E402
     stop_node,
 )
 
-STATUS = "wear_monitor: x precision"
+STATUS = "qos_m1/wear_monitor: x precision"   # the nodes below run with machine_id qos_m1
 T0 = 1_700_000_000
 RELIABLE = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 
@@ -119,6 +119,7 @@ def test_best_effort_and_reliable_sensors_both_feed_the_default_node(tmp_path, r
     collector = DiagnosticsCollector("qos_collector")
     node = start_node("guide_health.nodes.wear_monitor", None,
                       {"diagnostics_period_s": 0.2, "input_align_window_s": 0.0, "input_timeout_s": 30.0,
+                       "machine_id": "qos_m1",
                        "state_file": "''"}, ros_env, tmp_path / "node.log")
     sensors = Sensors(qos_profile_sensor_data, RELIABLE)     # joint best effort, load reliable
     try:
@@ -143,6 +144,7 @@ def test_reported_loss_equals_measured_loss_under_a_burst(tmp_path, ros_env):
     collector = DiagnosticsCollector("qos_collector_burst")
     node = start_node("guide_health.nodes.wear_monitor", None,
                       {"diagnostics_period_s": 0.2, "input_align_window_s": 0.0, "input_timeout_s": 60.0,
+                       "machine_id": "qos_m1",
                        "sensor_queue_depth": 5, "sensor_qos": "best_effort", "state_file": "''"},
                       ros_env, tmp_path / "node.log")
     sensors = Sensors(RELIABLE, RELIABLE)      # reliable writers into best-effort KEEP_LAST(5) readers

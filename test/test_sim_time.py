@@ -26,7 +26,7 @@ from guide_health.sim.machine import simulate_machine  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT / "config" / "bench_000.yaml"
-STATUS = "wear_monitor: x precision"
+STATUS = "simtime_m1/wear_monitor: x precision"
 
 
 def test_clock_option_and_tick_period():
@@ -92,7 +92,8 @@ def test_node_with_use_sim_time_runs_on_the_bag_clock(tmp_path, ros_env):
 
     collector = DiagnosticsCollector("sim_time_collector")
     node = start_node("guide_health.nodes.wear_monitor", BENCH,
-                      {"state_file": "''", "diagnostics_period_s": 5.0, "use_sim_time": "true",
+                      {"state_file": "''", "machine_id": "simtime_m1", "diagnostics_period_s": 5.0,
+                       "use_sim_time": "true",
                        "input_timeout_s": 60.0}, ros_env, log_path=tmp_path / "node.log")
     try:
         end = time.monotonic() + 30.0

@@ -1,7 +1,8 @@
 """`fleet_monitor`: one status for a fleet of machines, and a SQLite history of every machine's health.
 
 Subscribes `/diagnostics` (every machine's wear_monitor / slewing_monitor statuses, told apart by
-`hardware_id` = machine_id) and publishes, at `diagnostics_period_s`, a status `fleet_monitor: fleet`
+`hardware_id` = machine_id) and publishes, at `diagnostics_period_s`, a status
+`<machine_id>/fleet_monitor: fleet` (`fleet/fleet_monitor: fleet`)
 (keys: guide_health.models.fleet.SUMMARY_KEYS): counts per level, the worst machine, the least remaining
 precision life, the highest fatigue life used and end-stress ratio. Statuses silent for `stale_after_s`
 count as STALE. With `history_file`, each status is recorded at most every `history_period_s` into the
@@ -19,7 +20,7 @@ from guide_health.io.fleet_history import FleetHistory
 from guide_health.models.fleet import SUMMARY_KEYS, FleetBoard
 from guide_health.nodes.common import run_node
 from guide_health.nodes.live_params import PeriodicTimers, apply_fleet_changes
-from guide_health.nodes.status import StatusTask, StatusUpdater
+from guide_health.nodes.status import StatusTask, StatusUpdater, status_name
 from guide_health.params import FLEET_MONITOR_SCHEMA, declare_parameters
 
 
@@ -29,7 +30,8 @@ class FleetMonitorNode(Node):
         self.params = declare_parameters(self, FLEET_MONITOR_SCHEMA,   # validated: periods > 0
                                          on_applied=self._apply_params)
         self.periodic = PeriodicTimers(self)
-        self.board = FleetBoard(self.params["stale_after_s"], ignore_prefix=f"{self.get_name()}: ")
+        own = status_name(self.params["machine_id"], self.get_name(), "")     # its own statuses
+        self.board = FleetBoard(self.params["stale_after_s"], ignore_prefix=own)
         self.history = (FleetHistory(self.params["history_file"], self.params["history_period_s"])
                         if self.params["history_file"] else None)
         self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 100)

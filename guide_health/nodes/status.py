@@ -6,9 +6,11 @@ A :class:`StatusTask` is one DiagnosticStatus a node publishes: a task name, a r
 subscription callback), runs the tasks, applies the STALE rule once for all of them and publishes one
 DiagnosticArray per ``update()``.
 
-Conventions (diagnostic_updater's, INTERFACES.md): ``name`` = "<node name>: <task>", ``hardware_id`` =
-machine_id, levels OK/WARN/ERROR/STALE (guide_health.models.levels.Level), one human sentence as
-``message``, numbers as KeyValues (plain decimal via repr(float); 'nan' when unknown).
+Conventions (diagnostic_updater's, INTERFACES.md), with names unique per machine and node so that an
+aggregator or rqt_robot_monitor never merges two machines: ``name`` = "<machine_id>/<node name>: <task>"
+(:func:`status_name`), ``hardware_id`` = machine_id, levels OK/WARN/ERROR/STALE
+(guide_health.models.levels.Level), one human sentence as ``message``, numbers as KeyValues (plain decimal
+via repr(float); 'nan' when unknown).
 
 :class:`RejectionLog` is the rejected-input warning: at most once per reason and period, with the count
 of the repeats it held back.
@@ -26,6 +28,12 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from guide_health.models.levels import Level
 
 STALE_PREFIX = "no data on {inputs} for {timeout:g} s; "
+
+
+def status_name(machine_id: str, node_name: str, task: str) -> str:
+    """"m1/wear_monitor: x precision": the machine first, so that a diagnostic_aggregator analyzer groups a
+    machine with ``startswith: [m1/]`` (config/diagnostic_aggregator.yaml)."""
+    return f"{machine_id}/{node_name}: {task}"
 
 
 class Report(NamedTuple):
@@ -130,8 +138,8 @@ class StatusUpdater:
         now = time.monotonic()
         reports = {task.task: self.run(task, now) for task in self.tasks}
         node_name = self.node.get_name()
-        statuses = [make_status(f"{node_name}: {task.task}", self.hardware_id, reports[task.task], task.keys,
-                                task.optional_keys) for task in self.tasks]
+        statuses = [make_status(status_name(self.hardware_id, node_name, task.task), self.hardware_id,
+                                reports[task.task], task.keys, task.optional_keys) for task in self.tasks]
         array = DiagnosticArray()
         array.header.stamp = self.node.get_clock().now().to_msg()
         array.status = statuses
