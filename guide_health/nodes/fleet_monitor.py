@@ -5,7 +5,8 @@ Subscribes `/diagnostics` (every machine's wear_monitor / slewing_monitor status
 `<machine_id>/fleet_monitor: fleet` (`fleet/fleet_monitor: fleet`)
 (keys: guide_health.models.fleet.SUMMARY_KEYS): counts per level, the worst machine, the least remaining
 precision life, the highest fatigue life used and end-stress ratio. Statuses silent for `stale_after_s`
-count as STALE. With `history_file`, each status is recorded at most every `history_period_s` into the
+count as STALE. With `history_file`, each status is recorded at most every `history_period_s`, and at every
+level change whenever it comes, into the
 table `fleet_history(t_unix_s, hardware_id, name, level, message, values_json)` for trend reports.
 """
 from __future__ import annotations

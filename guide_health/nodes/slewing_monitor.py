@@ -13,6 +13,7 @@ import sys
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 
+from guide_health.models.levels import ERROR, OK, WARN, exceeds
 from guide_health.models.slewing.monitor import SlewingMonitor
 from guide_health.nodes.common import run_node
 from guide_health.nodes.live_params import PeriodicTimers, apply_slewing_changes
@@ -44,7 +45,7 @@ class SlewingMonitorNode(Node):
         self.periodic = PeriodicTimers(self)
         self.core = SlewingMonitor(params)
         self.params = params
-        self.updater = StatusUpdater(self, params["machine_id"], params["input_timeout_s"])
+        self.updater = StatusUpdater(self, params["machine_id"], params["input_timeout_s"], alarms=True)
         self.updater.add(StatusTask(f"{params['bearing']} roller contact", self._report,
                                     ROLLER_CONTACT_KEYS, EXTRA_KEYS, stale_inputs=("slewing/load",)))
         self.diag_pub = self.updater.publisher
@@ -65,7 +66,18 @@ class SlewingMonitorNode(Node):
 
     def _report(self) -> tuple:
         level, message, values = self.core.period_report()
-        return level, message + self.sensors.message_suffix(), {**values, **self.sensors.values()}
+        values = {**values, **self.sensors.values(), "level_clear": self._level_clear(level, values)}
+        return level, message + self.sensors.message_suffix(), values
+
+    def _level_clear(self, level, values: dict):
+        """The contact level with the thresholds lowered by alarm_clear_margin (models/levels.py hysteresis)."""
+        p_max_pa = float(values.get("p_max_MPa", values.get("p0_center_MPa", math.nan))) * 1e6
+        if not math.isfinite(p_max_pa):
+            return level
+        allowable, margin = self.core.model.allowable_pa, self.params["alarm_clear_margin"]
+        clear = (ERROR if exceeds(p_max_pa, allowable, margin)
+                 else WARN if exceeds(p_max_pa, self.core.model.warn_fraction * allowable, margin) else OK)
+        return max(level, clear)
 
     def publish_diagnostics(self) -> None:
         self.updater.update()

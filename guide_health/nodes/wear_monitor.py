@@ -98,7 +98,7 @@ class WearMonitorNode(Node):
         self._model_s = 0.0
         self._callbacks = 0
 
-        self.updater = StatusUpdater(self, params["machine_id"], params["input_timeout_s"])
+        self.updater = StatusUpdater(self, params["machine_id"], params["input_timeout_s"], alarms=True)
         self.diag_pub = self.updater.publisher
         self.precision_task = f"{self.joint} precision"
         self._add_status_tasks()

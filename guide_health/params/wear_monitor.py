@@ -107,6 +107,9 @@ SLIDING_GUIDE_PARAMS = (
     Param("executor", "auto", "", "", "events (rclpy EventsExecutor, raw CDR), single_threaded (message info: "
           "exact loss count of best-effort sensors) or auto (single_threaded when sensor_qos is best_effort, "
           "else events)", choices=("auto", "events", "single_threaded")),
+    Param("alarm_clear_margin", 0.05, "-", "[0, 0.5]",
+          "hysteresis: a raised level drops only once its value is back this fraction inside the threshold "
+          "(no toggling at a threshold); 0 = none", dynamic=True),
     Param("sensor_qos", "auto", "", "", "reader QoS of the data topics: auto (per topic: reliable KEEP_ALL "
           "while every publisher is reliable, best effort once one is), reliable or best_effort (docs/ros.md)",
           choices=("auto", "reliable", "best_effort")),
