@@ -9,10 +9,11 @@ lags (its KEEP_LAST queue is overwritten) or the network drops a datagram.
 
 Parameter ``sensor_qos``:
 
-- ``auto`` (default): per topic, RELIABLE KEEP_ALL while every publisher of the topic is reliable, BEST_EFFORT
-  KEEP_LAST(``sensor_queue_depth``) as soon as one publishes best effort (the publishers are looked up every
-  second; the subscription is recreated when the answer changes). Both kinds of sensors work out of the
-  box, and reliable ones keep their back-pressure.
+- ``auto`` (default): per topic, RELIABLE KEEP_ALL until a best-effort publisher appears, then BEST_EFFORT
+  KEEP_LAST(``sensor_queue_depth``) for the rest of the run. The reliable subscription's incompatible-QoS
+  event (DDS reports the refused writer) marks the topic, and a 1 s timer recreates its subscription: no
+  graph query in the data path. Both kinds of sensors work out of the box, and reliable ones keep their
+  back-pressure.
 - ``reliable`` / ``best_effort``: one profile for every data topic.
 
 Status keys ``messages_lost`` and ``best_effort_topics`` (how many data topics are subscribed best effort;
@@ -22,7 +23,8 @@ KEEP_ALL one loses nothing):
 - with message info (the ``single_threaded`` executor): the gaps in the writer's publication sequence
   numbers. A jump from n to n + k + 1 means k samples never reached the callback, whatever dropped them (a
   queue overwritten under KEEP_LAST, which DDS does not report, or a lost datagram). Message info carries no
-  writer id, so it is counted only while the topic has one publisher (a sensor driver); a number going
+  writer id, so it is counted only while the topic has one matched publisher (the subscription's matched
+  event; a sensor driver); a number going
   backwards (a restarted driver) starts a new run, and what a writer sent before the first message received
   from it is not counted.
 - without (the ``events`` executor: rclpy 7.1.6's EventsExecutor raises SystemError when a callback asks for
@@ -112,6 +114,7 @@ class SensorSubscriptions:
         self.node, self.mode, self.depth, self.with_info = node, mode, int(depth), with_info
         self.entries: list[_Entry] = []
         self.losses = LossCounter()
+        self.pending: set[str] = set()         # topics whose reliable subscription refused a best-effort writer
         node.create_timer(AUTO_CHECK_PERIOD_S, self.refresh)
 
     def subscribe(self, msg_type, topic: str, callback, raw: bool = False):
@@ -123,13 +126,16 @@ class SensorSubscriptions:
     def _create(self, entry: _Entry, kind: str) -> None:
         from rclpy.event_handler import SubscriptionEventCallbacks
 
-        callback, events, topic = entry.callback, None, entry.topic
+        callback, topic, writers = entry.callback, entry.topic, self.losses.single_writer
+        events = SubscriptionEventCallbacks(matched=lambda info: writers.__setitem__(topic, info.current_count == 1))
         if kind == "best_effort" and self.with_info:
             seen, inner = self.losses.seen, entry.callback
             callback = lambda msg, info: (seen(topic, info), inner(msg))  # noqa: E731
         elif kind == "best_effort":
             report = self.losses.reported
-            events = SubscriptionEventCallbacks(message_lost=lambda event: report(topic, event.total_count_change))
+            events.message_lost = lambda event: report(topic, event.total_count_change)
+        elif self.mode == "auto":
+            events.incompatible_qos = lambda event: self.pending.add(topic)
         if entry.subscription is not None:
             self.node.destroy_subscription(entry.subscription)
         entry.subscription = self.node.create_subscription(
@@ -137,20 +143,14 @@ class SensorSubscriptions:
         entry.kind = kind
 
     def refresh(self) -> None:
-        """The publishers of each topic (one writer: sequence gaps are counted); ``auto``: each topic best
-        effort when one of its publishers is, reliable when all are."""
-        from rclpy.qos import ReliabilityPolicy
-
+        """``auto``: a topic whose reliable subscription refused a best-effort writer is subscribed best effort
+        (outside the event callback, which belongs to the subscription being replaced)."""
         for entry in self.entries:
-            infos = self.node.get_publishers_info_by_topic(entry.subscription.topic_name)
-            self.losses.single_writer[entry.topic] = len(infos) == 1
-            if not infos or self.mode != "auto":
-                continue
-            best_effort = any(i.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT for i in infos)
-            kind = "best_effort" if best_effort else "reliable"
-            if kind != entry.kind:
-                self.node.get_logger().info(f"{entry.topic}: {kind} subscription (sensor_qos auto)")
-                self._create(entry, kind)
+            if entry.topic in self.pending and entry.kind == "reliable":
+                self.node.get_logger().info(f"{entry.topic}: a best-effort publisher; best_effort subscription "
+                                            f"(sensor_qos auto)")
+                self._create(entry, "best_effort")
+        self.pending.clear()
 
     def values(self) -> dict:
         return {"messages_lost": self.losses.total,
