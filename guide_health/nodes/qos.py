@@ -52,7 +52,7 @@ def reader_profile(kind: str, depth: int):
 def resolve_executor(params: dict, use_sim_time: bool = False) -> str:
     """``events`` or ``single_threaded``; ``auto``: events (raw CDR, fastest) unless every sensor topic is
     best effort (``sensor_qos: best_effort``), where the exact loss count needs message info, or the node runs
-    on ``/clock`` (``use_sim_time``): rclpy 7.1.6's EventsExecutor stopped taking messages then (twice in
+    on ``/clock`` (``use_sim_time``): rclpy 7.1.6's EventsExecutor stopped taking messages then (three runs of
     test/test_sim_time.py: bag_player's data never acknowledged)."""
     executor = params.get("executor", "auto")
     if executor == "auto":
