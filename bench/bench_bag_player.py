@@ -4,8 +4,10 @@
 
 A counting subscriber process (rclpy EventsExecutor, raw subscriptions, reliable) listens on the bag's
 topics; bag_player plays a bench bag to it in three configurations measured in the same run:
-  burst      --max-rate 0 --depth 100 : no pacing, keep_last publisher and subscriber (the baseline:
-             what a naive player does; the subscriber drops what it cannot take in time)
+  burst      --max-rate 0 --depth 1000: no pacing, a keep_last(1000) reliable publisher matching the
+             keep_last(1000) subscriber (the baseline: what a naive player with the subscriber's own QoS
+             does; the subscriber drops what it cannot take in time). Before issue 17 the publisher had
+             depth 100, a tenth of the subscriber's: a misconfigured baseline that lost more than needed
   paced      the default token bucket (DEFAULT_MAX_RATE msg/s) into a keep_last(1000) subscriber
   flow       --max-rate 0 into a reliable keep_all subscriber: the writer waits for the reader
              (back-pressure), so nothing is lost at any speed
@@ -106,7 +108,7 @@ def main() -> int:
     sent = bag_info(bag)["messages"]
     env = isolated_ros_env()
     configs = [
-        ("burst", "keep_last", ["--max-rate", "0", "--depth", "100"]),
+        ("burst", "keep_last", ["--max-rate", "0", "--depth", "1000"]),
         ("paced", "keep_last", []),
         ("flow", "keep_all", ["--max-rate", "0"]),
     ]

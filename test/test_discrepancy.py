@@ -322,12 +322,18 @@ def test_bench_bag_with_running_in_gets_below_the_seeds_22_percent(tmp_path):
     steady = out["steady_stage"]
     assert steady["final_max_rel_error"] < 0.22
     assert steady["final_max_rel_error"] < steady["baseline_max_rel_error"]
-    assert out["effects"]["running_in"]["parameters"]["running_in_ratio"]["value"] == pytest.approx(2.5, rel=0.5)
+    # hidden r = 2.5 (seed 2: fitted 2.40 +- 0.11). 10 % and 3 standard errors: a candidate fitting r - 1
+    # (1.5) or 2r, or a running-in decay over time instead of sliding distance, falls outside; rel=0.5 let
+    # 1.25..3.75 pass. (s0 is not asserted here: the bench's default s0 = 100 m is shorter than the 90 m of
+    # sliding between two measurements, so it is poorly identified; the sweep checks s0 over 300..1000 m.)
+    ratio = out["effects"]["running_in"]["parameters"]["running_in_ratio"]
+    assert ratio["value"] == pytest.approx(2.5, rel=0.1)
+    assert abs(ratio["value"] - 2.5) < 3 * ratio["std_error"]
     for key in ("rmse_um", "max_rel_error", "heldout_rmse_um"):
         assert out["final"][key] < out["baseline"][key]
     assert {c["effect"] for c in out["candidates"] if c["round"] == 1} == {
         "running_in", "retract_asymmetry", "speed_dependent_wear", "load_exponent", "stroke_distribution",
-        "initial_offset"}                          # no temperature in this bag: no thermal candidate
+        "initial_offset", "wear_rate_change", "lubrication_interval", "load_along_rail"}   # no temperature: no thermal
     rep = tmp_path / "rep"
     assert (rep / "diagnose.png").stat().st_size > 10_000
     assert "running_in" in (rep / "report.md").read_text()

@@ -16,8 +16,8 @@ FACTORS = (1.0, 1.8, 0.6)          # truth K / configured K of the three machine
 
 @pytest.fixture(scope="module")
 def fleet_bags(tmp_path_factory):
-    """Three tiny machine bags (1 h, 10 Hz joint states, a measurement every 0.2 h), namespaces /m0../m2,
-    and a broken bag (unparsable metadata.yaml)."""
+    """Three tiny machine bags (1 h, 10 Hz joint states, a measurement every 0.2 h), namespaces /m0../m2
+    (bag2's run metadata names its machine press7), and a broken bag (unparsable metadata.yaml)."""
     from guide_health.io.bag_writer import write_machine_bag
     from guide_health.params import simulation_params, wear_monitor_params
     from guide_health.sim.machine import simulate_machine
@@ -27,7 +27,10 @@ def fleet_bags(tmp_path_factory):
     for i, factor in enumerate(FACTORS):
         sim = dict(simulation_params(CONFIG), duration_h=1.0, joint_state_rate_hz=10.0,
                    measurement_interval_h=0.2, wear_coefficient_factor=factor)
-        write_machine_bag(simulate_machine(params, sim, seed=i), root / "bags" / f"bag{i}", namespace=f"/m{i}")
+        run = simulate_machine(params, sim, seed=i)
+        if i == 2:
+            run.metadata["machine_id"] = "press7"           # the run metadata names the machine
+        write_machine_bag(run, root / "bags" / f"bag{i}", namespace=f"/m{i}")
     broken = root / "broken"
     broken.mkdir()
     (broken / "metadata.yaml").write_text("rosbag2_bagfile_information: [\n")
@@ -51,7 +54,8 @@ def test_fleet_replay_on_local_worker_processes_equals_single_replays(fleet_bags
                                    "--workers", "2", "--out", str(tmp_path / "fleet")])
     assert code == 0 and fleet["engine"] == "LocalCluster(2 processes)"
     assert (fleet["bags"], fleet["ok"], fleet["failed"]) == (3, 3, 0)
-    assert [e["machine"] for e in fleet["results"]] == ["m0", "m1", "m2"]     # from the topic namespaces
+    # the machine: run metadata machine_id (press7), else the topic namespace (m0, m1)
+    assert [e["machine"] for e in fleet["results"]] == ["m0", "m1", "press7"]
     for single, entry in zip(singles, fleet["results"]):
         assert entry["ok"] and same_result(single, entry["result"])
         assert entry["result"]["remaining_life_h"] == single["remaining_life_h"]      # bit for bit
@@ -62,7 +66,7 @@ def test_fleet_replay_on_local_worker_processes_equals_single_replays(fleet_bags
     ks = [e["result"]["wear_coefficient"] for e in fleet["results"]]
     assert ks[2] < ks[0] < ks[1]
     ranked = [r["machine"] for r in sorted(fleet["rows"], key=lambda r: r["remaining_life_h"])]
-    assert ranked[0] == "m1" and ranked[-1] == "m2"       # the highest K wears out first
+    assert ranked[0] == "m1" and ranked[-1] == "press7"       # the highest K wears out first
     csv_lines = (tmp_path / "fleet" / "fleet.csv").read_text().splitlines()
     assert len(csv_lines) == 4 and csv_lines[0].startswith("machine,machine_type,bag,status,level_name")
     md = (tmp_path / "fleet" / "fleet.md").read_text()
@@ -98,7 +102,8 @@ def test_a_bad_bag_is_named_and_the_others_complete(fleet_bags, tmp_path, capsys
     assert "broken" in failed["broken"] and "\n" not in failed["broken"] and "Traceback" not in failed["broken"]
     assert "missing" in failed["missing"]
     rows = {r["machine"]: r for r in fleet["rows"]}
-    assert rows["broken"]["status"] == "error" and rows["m0"]["status"] == "ok" and rows["m2"]["status"] == "ok"
+    # a bag that cannot be opened is named by its directory
+    assert rows["broken"]["status"] == "error" and rows["m0"]["status"] == "ok" and rows["press7"]["status"] == "ok"
     assert "broken" in (tmp_path / "partial" / "fleet.md").read_text()
 
 
@@ -116,3 +121,24 @@ def test_fleet_bad_input_is_one_line(tmp_path, capsys):
     assert main(["fleet", "replay", str(tmp_path), "--params", str(CONFIG)]) == 2     # no bags in it
     assert "neither a bag nor a directory of bags" in capsys.readouterr().err
     assert main(["fleet", "replay", str(tmp_path), "--params", str(CONFIG), "--workers", "-1"]) == 2
+    bag = tmp_path / "b"
+    bag.mkdir()
+    (bag / "metadata.yaml").write_text("")
+    assert main(["fleet", "replay", str(bag), "--params", str(CONFIG), "--scheduler", "nonsense://x",
+                 "--out", str(tmp_path / "o")]) == 2
+    assert "cannot reach the Dask scheduler at nonsense://x: ValueError: unknown address scheme" \
+        in capsys.readouterr().err
+
+
+def test_dask_malloc_trim_is_undone_only_in_dask_workers():
+    """Dask's nanny sets MALLOC_TRIM_THRESHOLD_ (slow numpy allocation); run_bag resets the thresholds there."""
+    import os
+    import subprocess
+    import sys
+
+    code = "from guide_health.analysis.fleet import undo_dask_malloc_trim as u; print(u())"
+    env = {k: v for k, v in os.environ.items() if k != "MALLOC_TRIM_THRESHOLD_"}
+    plain = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    worker = subprocess.run([sys.executable, "-c", code], env={**env, "MALLOC_TRIM_THRESHOLD_": "65536"},
+                            capture_output=True, text=True, check=True)
+    assert (plain.stdout.strip(), worker.stdout.strip()) == ("False", "True" if sys.platform == "linux" else "False")

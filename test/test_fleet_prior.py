@@ -105,22 +105,21 @@ def test_fleet_prior_command_from_a_fleet_replay(tmp_path, capsys):
     from guide_health.sim.machine import simulate_machine
 
     cfg = Path(__file__).resolve().parents[1] / "config" / "bench_000.yaml"
-    data = yaml.safe_load(cfg.read_text())
-    data["wear_monitor"]["ros__parameters"]["machine_type"] = "bench45"
-    params_file = tmp_path / "type.yaml"
-    params_file.write_text(yaml.safe_dump(data))
-    params = wear_monitor_params(params_file)
+    type_file = tmp_path / "type.yaml"              # a second params file: only the machine type
+    type_file.write_text(yaml.safe_dump({"wear_monitor": {"ros__parameters": {"machine_type": "bench45"}}}))
+    params = wear_monitor_params([cfg, type_file])
     factors = (1.4, 1.6, 1.5, 1.7)
     for i, factor in enumerate(factors):
         sim = dict(simulation_params(cfg), duration_h=2.0, joint_state_rate_hz=5.0, measurement_interval_h=0.25,
                    wear_coefficient_factor=factor)
         write_machine_bag(simulate_machine(params, sim, seed=10 + i), tmp_path / "bags" / f"b{i}",
                           namespace=f"/m{i}")
-    assert main(["fleet", "replay", str(tmp_path / "bags"), "--params", str(params_file), "--workers", "0",
+    assert main(["fleet", "replay", str(tmp_path / "bags"), "--params", str(cfg), "--params", str(type_file),
+                 "--workers", "0",
                  "--no-plot", "--out", str(tmp_path / "fleet")]) == 0
     capsys.readouterr()
     out = tmp_path / "prior.yaml"
-    assert main(["fleet", "prior", str(tmp_path / "fleet"), "--params", str(params_file), "--out", str(out),
+    assert main(["fleet", "prior", str(tmp_path / "fleet"), "--params", str(cfg), "--out", str(out),
                  "--json"]) == 0
     prior = json.loads(capsys.readouterr().out)
     assert prior["machine_type"] == "bench45" and prior["machines"] == 4
@@ -136,3 +135,41 @@ def test_fleet_prior_command_from_a_fleet_replay(tmp_path, capsys):
     assert main(["fleet", "prior", str(tmp_path / "fleet"), "--machine-type", "other", "--out",
                  str(tmp_path / "x.yaml")]) == 2
     assert "0 machines with a K estimate" in capsys.readouterr().err
+
+
+def test_fleet_prior_bad_input_is_one_line(tmp_path, capsys):
+    from guide_health.cli.app import main
+
+    old = tmp_path / "fleet.json"
+    old.write_text(json.dumps({"summary": {"command": "replay"}, "bags": []}))
+    assert main(["fleet", "prior", str(old), "--out", str(tmp_path / "p.yaml")]) == 2
+    assert "summary without machine_type, prior" in capsys.readouterr().err
+    assert main(["fleet", "prior", str(tmp_path / "none.json"), "--out", str(tmp_path / "p.yaml")]) == 2
+    assert "fleet results not found" in capsys.readouterr().err
+
+
+def test_named_effects_of_most_machines_go_into_the_prior_file(tmp_path):
+    """Effect populations (diagnose) -> the live model's effect parameters and covariance diagonal."""
+    from guide_health.analysis.fleet_prior import write_prior_params
+    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES, LiveEffects
+    from guide_health.params import wear_monitor_params
+
+    cfg = Path(__file__).resolve().parents[1] / "config" / "bench_000.yaml"
+    pop = {"running_in.running_in_ratio": {"mean": 0.8, "tau": 0.1, "predictive_sd": 0.2, "machines": 3, "of_bags": 4},
+           "running_in.running_in_distance_m": {"mean": 250.0, "tau": 20.0, "predictive_sd": 30.0, "machines": 3,
+                                                "of_bags": 4},
+           "load_exponent.load_exponent": {"mean": 1.3, "tau": 0.1, "predictive_sd": 0.1, "machines": 1,
+                                           "of_bags": 4}}                  # named by 1 of 4: left out
+    prior = {"machine_type": "t", "machines": 4, "bags": 4, "wear_coefficient": 5e-6,
+             "wear_coefficient_prior_rel_sd": 0.2, "wear_coefficient_median": 4.9e-6,
+             "log_k": {"mean": -12.2, "tau": 0.2, "mean_std_error": 0.1, "predictive_sd": 0.22}, "effects": pop}
+    out = tmp_path / "prior.yaml"
+    write_prior_params(out, prior, str(cfg))
+    p = wear_monitor_params(out)
+    live = LiveEffects.from_params(p)
+    assert live.effects == ("running_in",)
+    assert (live.running_in_ratio, live.running_in_distance_m, live.load_exponent) == (0.8, 250.0, 1.0)
+    cov = live.covariance_matrix()
+    i, j = COVARIANCE_NAMES.index("running_in_ratio"), COVARIANCE_NAMES.index("running_in_distance_m")
+    assert (cov[i, i], cov[j, j], cov[0, 0]) == (pytest.approx(0.04), pytest.approx(900.0), 0.0)
+    assert "effect running_in.running_in_ratio: mean 0.8" in out.read_text()

@@ -99,6 +99,9 @@ def test_trend_of_a_history(history, tmp_path, capsys):
     only = tmp_path / "only"
     assert main(["fleet", "trend", str(history), "--machine", "m3", "--out", str(only)]) == 0
     assert sorted(p.name for p in only.glob("machine_*")) == ["machine_m3.csv", "machine_m3.png"]
+    capsys.readouterr()
+    assert main(["fleet", "trend", str(history), "--days", str(10 / 24), "--out", str(tmp_path / "d"), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["rows"] == 11 * 5          # hours 29..39 of 5 statuses
 
 
 def test_trend_bad_input_is_one_line(history, tmp_path, capsys):
@@ -129,6 +132,7 @@ def test_trend_page_renders_in_headless_chromium(history, tmp_path, capsys):
 rclpy = pytest.importorskip("rclpy")
 
 
+@pytest.mark.ros
 def test_trend_of_a_history_written_by_a_live_fleet_monitor(ros_context, tmp_path, capsys):
     """A live fleet_monitor records two machines whose life falls; the trend reads it back."""
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue

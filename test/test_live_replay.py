@@ -83,9 +83,18 @@ def test_live_node_matches_offline_replay(tmp_path, ros_env, storage):
         collector.close()
     values = {k: float(v) for k, v in live["values"].items() if k != "lubrication_regime"}
     assert values["samples"] == offline["samples"], "messages were lost on the way"
-    assert values["straightness_um"] == pytest.approx(offline["straightness_um"], rel=0.005)
-    assert values["remaining_life_h"] == pytest.approx(offline["remaining_life_h"], rel=0.005)
-    assert values["sliding_distance_m"] == pytest.approx(offline["sliding_distance_m"], rel=0.005)
+    assert values["load_samples"] == offline["load_samples"]
+    # the README's "live equals offline to 0.000 %": same samples and model, so counts exact and the sliding
+    # distance to 1e-9 (rel=0.005 let a lost stroke pass)
+    assert values["sliding_distance_m"] == pytest.approx(offline["sliding_distance_m"], rel=1e-9)
+    # OPEN (issue 17 note): in some runs the node's K differs by ~1e-4 (most likely one straightness
+    # measurement dated one joint sample early: the node takes the last joint stamp received when the
+    # measurement arrives; one 5 mm step over the first 45 m is 1.1e-4), so its K differs by
+    # ~1e-4 (seen 4.619164e-6 vs 4.619622e-6), straightness by ~6e-6 and remaining life by ~1e-4; the same
+    # model fed in log order in-process equals offline to 1e-15. Bounded here until the ordering is fixed.
+    assert values["wear_coefficient"] == pytest.approx(offline["wear_coefficient"], rel=3e-4)
+    assert values["straightness_um"] == pytest.approx(offline["straightness_um"], rel=1e-4)
+    assert values["remaining_life_h"] == pytest.approx(offline["remaining_life_h"], rel=5e-4)
     assert values["measurements"] == offline["measurements"]
 
 
@@ -131,5 +140,14 @@ def test_sigkill_and_restart_continue_where_the_node_stopped(tmp_path, udp_ros_e
         collector.close()
     assert "resumed from" in (tmp_path / "node2.log").read_text()
     values = {k: float(v) for k, v in live["values"].items() if k != "lubrication_regime"}
-    assert values["straightness_um"] == pytest.approx(offline["straightness_um"], rel=0.01)
-    assert values["sliding_distance_m"] == pytest.approx(offline["sliding_distance_m"], rel=0.01)
+    # interfaces.md: replaying from the checkpoint stamp "restores it completely without counting a
+    # measurement twice": counts exactly, sliding distance to 1e-9 (a lost or doubled chunk of the bag
+    # shifts it by ~1e-3 and more; rel=0.01 let a 1 % loss pass)
+    assert values["samples"] == offline["samples"]
+    assert values["load_samples"] == offline["load_samples"]
+    assert values["measurements"] == offline["measurements"]
+    assert values["strokes"] == offline["strokes"]
+    assert values["sliding_distance_m"] == pytest.approx(offline["sliding_distance_m"], rel=1e-9)
+    assert values["wear_coefficient"] == pytest.approx(offline["wear_coefficient"], rel=3e-4)   # see above
+    assert values["straightness_um"] == pytest.approx(offline["straightness_um"], rel=1e-4)
+    assert values["remaining_life_h"] == pytest.approx(offline["remaining_life_h"], rel=5e-4)

@@ -6,7 +6,9 @@ divided by the prior it was computed with (models/fleet.py ``likelihood_from_pos
 prior is not counted once per machine. Bags of one machine are combined (inverse variance on log K). The
 machines' log K then give the population (mu, tau) by REML, and the new machine's prior is the lognormal
 predictive's mean and relative sd (``wear_coefficient_prior``), written as a wear_monitor params file.
-Named effects' parameters (diagnose) get the same population fit on their own scale (JSON only).
+Named effects' parameters (diagnose) get the same population fit on their own scale; an effect the live
+model integrates that at least half of the diagnosed bags named goes into the params file at its
+population mean, its predictive variance on the diagonal of ``effect_covariance``.
 """
 from __future__ import annotations
 
@@ -19,6 +21,7 @@ from typing import Any
 from scipy.special import stdtrit
 
 from guide_health.errors import InputError
+from guide_health.io.bag_metadata import one_line
 from guide_health.models.fleet import (
     combine_estimates,
     likelihood_from_posterior,
@@ -37,10 +40,14 @@ def load_fleet_results(paths: list[str]) -> list[dict[str, Any]]:
         try:
             data = json.loads(path.read_text())
             summary, bags = data["summary"], data["bags"]
+            missing = [k for k in ("command", "machine_type", "prior") if k not in summary]
+            if missing or not isinstance(bags, list):
+                raise KeyError(f"summary without {', '.join(missing)}" if missing else "bags")
         except FileNotFoundError:
             raise InputError(f"fleet results not found: {path}") from None
         except (ValueError, KeyError, TypeError) as exc:
-            raise InputError(f"{path}: not a fleet.json of `guide-health fleet replay|diagnose`: {exc}") from None
+            raise InputError(f"{path}: not a fleet.json of `guide-health fleet replay|diagnose` "
+                             f"({one_line(exc)}); run it again") from None
         entries += [dict(e, summary=summary) for e in bags if e.get("ok")]
     return entries
 
@@ -95,9 +102,8 @@ def effect_populations(entries: list[dict[str, Any]]) -> dict[str, dict[str, Any
     """Per named effect parameter (diagnose), the population mean, tau and predictive sd over the machines
     that named it (at least 2)."""
     values: dict[str, list[tuple[float, float]]] = defaultdict(list)
-    for e in entries:
-        if e["summary"]["command"] != "diagnose":
-            continue
+    diagnosed = [e for e in entries if e["summary"]["command"] == "diagnose"]
+    for e in diagnosed:
         for effect, spec in e["result"].get("effects", {}).items():
             for name, p in spec["parameters"].items():
                 values[f"{effect}.{name}"].append((p["value"], p["std_error"]))
@@ -107,7 +113,33 @@ def effect_populations(entries: list[dict[str, Any]]) -> dict[str, dict[str, Any
             fit = random_effects_fit([v for v, _ in pairs], [s for _, s in pairs])
         except ValueError:
             continue
-        out[key] = {"mean": fit.mean, "tau": fit.tau, "predictive_sd": fit.predictive_sd, "machines": fit.machines}
+        out[key] = {"mean": fit.mean, "tau": fit.tau, "predictive_sd": fit.predictive_sd, "machines": fit.machines,
+                    "of_bags": len(diagnosed)}
+    return out
+
+
+def live_effect_parameters(effects: dict[str, dict[str, Any]]) -> dict[str, Any]:
+    """wear_monitor parameters of the effects the live model integrates that at least half of the diagnosed
+    bags named (every parameter with a population): ``effects``, each parameter at its population mean and
+    ``effect_covariance`` with the predictive variances on the diagonal (K's entry 0: the K prior covers K).
+    {} when none qualifies."""
+    from guide_health.analysis.discrepancy.model_file import EFFECT_PARAMETERS
+    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
+
+    chosen = [e for e, names in EFFECT_PARAMETERS.items()
+              if all(f"{e}.{n}" in effects and 2 * effects[f"{e}.{n}"]["machines"] >= effects[f"{e}.{n}"]["of_bags"]
+                     for n in names)]
+    if not chosen:
+        return {}
+    out: dict[str, Any] = {"effects": ",".join(chosen)}
+    cov = [0.0] * len(COVARIANCE_NAMES) ** 2
+    for e in chosen:
+        for n in EFFECT_PARAMETERS[e]:
+            pop = effects[f"{e}.{n}"]
+            out[n] = float(f"{pop['mean']:.6g}")
+            i = COVARIANCE_NAMES.index(n)
+            cov[i * len(COVARIANCE_NAMES) + i] = float(f"{pop['predictive_sd'] ** 2:.6g}")
+    out["effect_covariance"] = cov
     return out
 
 
@@ -122,7 +154,8 @@ def write_prior_params(path: Path, prior: dict[str, Any], base_params: str | Non
     key = next((k for k in data if str(k).rstrip("/").split("/")[-1] == "wear_monitor"), "wear_monitor")
     section = data.setdefault(key, {}).setdefault("ros__parameters", {})
     section.update(machine_type=prior["machine_type"], wear_coefficient=float(f"{prior['wear_coefficient']:.6g}"),
-                   wear_coefficient_prior_rel_sd=float(f"{prior['wear_coefficient_prior_rel_sd']:.4g}"))
+                   wear_coefficient_prior_rel_sd=float(f"{prior['wear_coefficient_prior_rel_sd']:.4g}"),
+                   **live_effect_parameters(prior["effects"]))
     lk = prior["log_k"]
     header = [f"# fleet prior of machine type '{prior['machine_type']}' (guide-health fleet prior): "
               f"{prior['machines']} machines, {prior['bags']} bags",

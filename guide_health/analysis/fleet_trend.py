@@ -69,20 +69,23 @@ def _number(value) -> float:
         return math.nan
 
 
-def read_trends(db: Path, machine: str | None = None) -> dict[str, MachineTrend]:
-    """The history of every machine (or only ``machine``), read-only; InputError for a file that is not a
-    fleet history."""
+def read_trends(db: Path, machine: str | None = None, days: float | None = None) -> dict[str, MachineTrend]:
+    """The history of every machine (or only ``machine``; only the last ``days`` before the newest row),
+    read-only; InputError for a file that is not a fleet history."""
     if not db.is_file():
         raise InputError(f"fleet history not found: {db}")
     try:
         con = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
         try:
-            query = "SELECT t_unix_s, hardware_id, name, level, message, values_json FROM fleet_history"
-            args: tuple = ()
+            where, args = ["1"], []
             if machine is not None:
-                query += " WHERE hardware_id = ?"
-                args = (machine,)
-            rows = con.execute(query + " ORDER BY t_unix_s", args).fetchall()
+                where.append("hardware_id = ?")
+                args.append(machine)
+            if days is not None:
+                where.append("t_unix_s >= (SELECT MAX(t_unix_s) FROM fleet_history) - ?")
+                args.append(days * 86400.0)
+            rows = con.execute("SELECT t_unix_s, hardware_id, name, level, message, values_json FROM fleet_history "
+                               f"WHERE {' AND '.join(where)} ORDER BY t_unix_s", args).fetchall()
         finally:
             con.close()
     except sqlite3.DatabaseError as exc:
@@ -143,11 +146,11 @@ def ranking(trends: dict[str, MachineTrend]) -> list[dict]:
     return rows
 
 
-def write_trend_report(db: Path, out: Path, machine: str | None = None) -> dict:
+def write_trend_report(db: Path, out: Path, machine: str | None = None, days: float | None = None) -> dict:
     """CSV + PNG per machine, fleet_overview.png, ranking.csv and index.html in ``out``."""
     from guide_health.analysis.fleet_trend_plots import plot_fleet_overview, plot_machine_trend
 
-    trends = read_trends(db, machine)
+    trends = read_trends(db, machine, days)
     if not trends:
         raise InputError(f"{db}: the fleet history is empty")
     out.mkdir(parents=True, exist_ok=True)

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from guide_health.errors import InputError
+from guide_health.io.output_files import save_figure
 
 #: carriage speeds of the rolling-contact plot [m/s] (log axis)
 PLOT_SPEED_RANGE_M_S = (1e-3, 2.0)
@@ -26,7 +27,7 @@ def _pyplot():
 def _save_figure(plt, fig, path) -> None:
     """Write ``fig`` (110 dpi) and close it; a path that cannot be written is bad input."""
     try:
-        fig.savefig(path, dpi=110)
+        save_figure(fig, path)
     except OSError as exc:
         raise InputError(f"cannot write plot {path}: {exc.strerror or exc}") from exc
     finally:
@@ -43,9 +44,10 @@ def plot_straightness_report(path: Path, monitor, report: dict, t_h, measured, m
     ax1.set_xlabel("time [h]")
     ax1.set_ylabel("straightness [um]")
     life = report["remaining_life_h"]
-    ax1.set_title(f"remaining precision life {life:.0f} h "
-                  f"[{report['remaining_life_h_low']:.0f}, {report['remaining_life_h_high']:.0f}]"
+    ax1.set_title(f"remaining precision life {life:.3g} h "
+                  f"[{report['remaining_life_h_low']:.3g}, {report['remaining_life_h_high']:.3g}]"
                   if math.isfinite(life) else "straightness")
+    plot_forecast(ax1, monitor.forecast(), report.get("effects", ""))
     ax1.legend()
     ax1.grid(alpha=0.3)
     u = monitor.geometry.bin_centres_m()
@@ -56,8 +58,38 @@ def plot_straightness_report(path: Path, monitor, report: dict, t_h, measured, m
     ax2.set_title("wear along the rail (profile model)")
     ax2.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _save_figure(plt, fig, path)
+
+
+def when_text(now_ns: int, hours: float) -> str:
+    """The date and time (UTC) ``hours`` after the stamp ``now_ns``; stamps before 2001 (simulated time
+    from 0) as 't = ... h'."""
+    import datetime
+
+    if not math.isfinite(hours):
+        return "never at this duty"
+    t_s = now_ns * 1e-9 + hours * 3600.0
+    if now_ns < 1e18:
+        return f"t = {t_s / 3600.0:.1f} h"
+    return datetime.datetime.fromtimestamp(t_s, datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
+
+
+def plot_forecast(ax, fc: dict, effects: str = "") -> None:
+    """The forecast from now to the limit (PrecisionMonitor.forecast) with its 90 % band and the date/time
+    the limit is reached, on a straightness-vs-time axis [h]."""
+    if not fc:
+        return
+    t = fc["now_h"] + fc["horizon_h"]
+    label = "forecast" + (f" with {effects}" if effects else "")
+    ax.fill_betweenx(fc["mid_um"], fc["now_h"] + np.interp(fc["mid_um"], fc["fast_um"], fc["horizon_h"]),
+                     fc["now_h"] + np.interp(fc["mid_um"], fc["slow_um"], fc["horizon_h"]), color="tab:purple",
+                     alpha=0.2, label="90 % band")
+    ax.plot(t, fc["mid_um"], "--", color="tab:purple", label=label)
+    reach = fc["now_h"] + fc["life_h"]
+    ax.axvline(reach, color="tab:purple", lw=0.8)
+    ax.annotate(f"limit reached {when_text(fc['now_ns'], fc['life_h'])}\n90 %: "
+                f"{when_text(fc['now_ns'], fc['life_low_h'])} .. {when_text(fc['now_ns'], fc['life_high_h'])}",
+                (reach, fc["limit_um"]), textcoords="offset points", xytext=(-10, -30), ha="right", fontsize=7.5)
 
 
 def plot_slewing_contact_series(path: Path, t_s: np.ndarray, series: np.ndarray, params: dict,
@@ -76,8 +108,7 @@ def plot_slewing_contact_series(path: Path, t_s: np.ndarray, series: np.ndarray,
     ax.legend(loc="lower right")
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _save_figure(plt, fig, path)
 
 
 def plot_rolling_contact_vs_speed(params: dict[str, Any], report: dict[str, Any], path: str) -> None:

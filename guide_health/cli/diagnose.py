@@ -72,13 +72,23 @@ def run(args) -> dict:
 def format_text(result: dict) -> str:
     b, f = result["baseline"], result["final"]
     named = result["named_effects"]
-    lines = [f"discrepancy workflow ({result['data']['duration_h']:.1f} h, {result['data']['measurements']} "
-             f"measurements, {result['messages']} messages)"]
-    lines.append(f"  named effects:   {', '.join(named) if named else 'none (the baseline explains the data)'}")
+    structure = result.get("unexplained_structure", {})
+    lines = [structure["message"]] if structure.get("present") else []
+    lines.append(f"discrepancy workflow ({result['data']['duration_h']:.1f} h, {result['data']['measurements']} "
+                 f"measurements, {result['messages']} messages)")
+    if structure.get("present"):
+        lines.append(f"  fitted effects:  {', '.join(named) if named else 'none'} (NOT an explanation: structure "
+                     "remains)")
+    else:
+        lines.append(f"  named effects:   {', '.join(named) if named else 'none (the baseline explains the data)'}")
     for e in named:
         params = ", ".join(f"{k} = {p['value']:.4g} ± {p['std_error']:.2g}"
                            for k, p in result["effects"][e]["parameters"].items())
         lines.append(f"    {e}: {params}")
+    for tie in result.get("near_ties", []):
+        lines.append(f"  near-tie:        {tie['message']}")
+    for d in result.get("dropped_by_backward_pass", []):
+        lines.append(f"  dropped:         {d['effect']} (backward pass, BIC +{d['delta_bic']:.1f} without it)")
     lines.append(f"  RMSE fit:        {b['rmse_um']:.3f} -> {f['rmse_um']:.3f} um")
     lines.append(f"  RMSE held out:   {b['heldout_rmse_um']:.3f} -> {f['heldout_rmse_um']:.3f} um")
     lines.append(f"  max rel. error:  {b['max_rel_error']:.2%} -> {f['max_rel_error']:.2%} (fit), "

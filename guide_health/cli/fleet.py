@@ -24,7 +24,8 @@ PARTIAL_EXIT_STATUS = 3
 def _add_fleet_arguments(parser, command: str) -> None:
     parser.add_argument("bags", nargs="+", metavar="BAG_OR_DIR",
                         help="bag directories, or directories whose sub-directories are bags")
-    parser.add_argument("--params", required=True, help="ROS 2 parameters YAML (wear_monitor section), every bag")
+    parser.add_argument("--params", required=True, action="append",
+                        help="ROS 2 parameters YAML (wear_monitor section) of every bag; several merge in order")
     parser.add_argument("--workers", type=int, default=None,
                         help="local Dask worker processes (default: the CPU count); 0 = one bag after another "
                              "in this process, without Dask")
@@ -113,7 +114,9 @@ def format_fleet_text(result: dict) -> str:
     for row in result["rows"]:
         if row["status"] != "ok":
             continue
-        if result["command"] == "replay":
+        if result["command"] == "replay" and not isinstance(row["remaining_life_h"], float):
+            lines.append(f"  {row['machine']:<16} {row['level_name']:<5} (a slewing bag: see its report)")
+        elif result["command"] == "replay":
             lines.append(f"  {row['machine']:<16} {row['level_name']:<5} remaining life "
                          f"{row['remaining_life_h']:10.1f} h  (90 %: {row['remaining_life_h_low']:.1f} .. "
                          f"{row['remaining_life_h_high']:.1f} h)"
@@ -136,15 +139,18 @@ FLEET_DIAGNOSE = Command(lambda p: _add_fleet_arguments(p, "diagnose"), lambda a
 def add_trend_arguments(parser) -> None:
     parser.add_argument("history", metavar="HISTORY.db", help="fleet_monitor history_file (SQLite)")
     parser.add_argument("--machine", default=None, help="only this machine (hardware_id)")
+    parser.add_argument("--days", type=float, default=None, help="only the last DAYS before the newest row")
     parser.add_argument("--out", default=None, help="output directory (default: <history>.trend beside it)")
 
 
 def run_trend(args) -> dict:
     from guide_health.analysis.fleet_trend import write_trend_report
 
+    if args.days is not None and not args.days > 0:
+        raise InputError("--days must be > 0")
     db = Path(args.history)
     out = Path(args.out) if args.out else db.with_name(db.name + ".trend")
-    return write_trend_report(db, out, args.machine)
+    return write_trend_report(db, out, args.machine, args.days)
 
 
 def format_trend_text(result: dict) -> str:

@@ -60,6 +60,8 @@ def run(args) -> dict:
     if bag.exists() and is_slewing_bag(bag):
         return run_slewing(args, bag)
     params = wear_monitor_params(args.params)
+    if params["axes"]:
+        return run_machine_axes(args, bag, params)
     bar = ProgressBar("replay", force=args.progress)
     monitor, report, timing = analyse_bag(bag, params, namespace=args.namespace, progress=bar)
     bar.close()
@@ -74,7 +76,38 @@ def run(args) -> dict:
     return report
 
 
+def run_machine_axes(args, bag: Path, params: dict) -> dict:
+    """A machine of several axes: every axis through its AxisMonitor; ``axes`` in the report."""
+    from guide_health.analysis.machine_replay import analyse_machine_bag, write_machine_outputs
+    from guide_health.io.progress import ProgressBar
+    from guide_health.params import validate_wear_params
+    from guide_health.params.machine import axes_params
+
+    axes = axes_params(params, validate_wear_params)
+    bar = ProgressBar("replay", force=args.progress)
+    models, report = analyse_machine_bag(bag, axes, namespace=args.namespace, progress=bar)
+    bar.close()
+    out = report_dir(args, bag)
+    write_machine_outputs(out, models, report, plot=not args.no_plot)
+    print(f"{report['messages']} messages, {len(axes)} axes in {report['model_s']:.2f} s; report in {out}",
+          file=sys.stderr)
+    return report
+
+
+def format_machine_text(report: dict) -> str:
+    lines = [f"machine {report['machine_id']} ({report['duration_h']:.2f} h, {report['messages']} messages): "
+             f"{report['level_name']}: {report['message']}"]
+    for axis, r in report["axes"].items():
+        lines.append(f"  {axis}: straightness {r['straightness_um']:.2f} um (limit {r['straightness_limit_um']:.0f} "
+                     f"um), remaining life {r['remaining_life_h']:.1f} h, K {r['wear_coefficient']:.4g}, "
+                     f"{r['level_name']}")
+    lines.append(f"  files: {', '.join(report['files'].values())}")
+    return "\n".join(lines)
+
+
 def format_text(report: dict) -> str:
+    if "axes" in report:
+        return format_machine_text(report)
     if report.get("kind") == "slewing":
         return "\n".join([
             f"slewing bearing report ({report['duration_h']:.2f} h, {report['messages']} loads)",

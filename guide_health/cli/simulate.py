@@ -8,7 +8,7 @@ from pathlib import Path
 from guide_health.cli.command import Command
 from guide_health.errors import InputError
 from guide_health.params import simulation_params, wear_monitor_params
-from guide_health.sim.machine import parse_effects, simulate_machine
+from guide_health.sim.machine import apply_maintenance_truth, parse_effects, parse_maintenance, simulate_machine
 
 
 def add_arguments(parser) -> None:
@@ -30,6 +30,11 @@ def add_arguments(parser) -> None:
                              "VALUE in SI: running_in=r (K starts at (1+r) K, s0 = running_in_distance_m), "
                              "retract_asymmetry=rho, speed_dependent_wear=v_lift [m/s], load_exponent=n, "
                              "stroke_distribution=w, thermal_drift=c_T [m/K], initial_offset=delta [m]")
+    parser.add_argument("--maintenance", action="append", metavar="KIND:AXIS[.GUIDE]@TIME[=VALUE]",
+                        help="a maintenance event on maintenance/events (docs/machine.md): KIND regrind, "
+                             "replace_rail, replace_carriage, relubricate or measure; TIME from the start in h "
+                             "(default), min or s; VALUE the straightness after a regrind/rail replacement or the "
+                             "manual reading, with its unit (7.5um); e.g. regrind:x@10h=8um")
 
 
 def new_bag_path(path: str) -> Path:
@@ -88,6 +93,9 @@ def run(args) -> dict:
 
     params = wear_monitor_params(args.params)
     sim = simulation_params(args.params)
+    if params["axes"]:
+        return run_machine_axes(args, params, sim)
+    _check_axis_free(args, sim)
     if args.hours is not None:
         if not args.hours > 0:
             raise InputError("--hours must be > 0")
@@ -102,8 +110,11 @@ def run(args) -> dict:
               file=sys.stderr)
     out = new_bag_path(args.out)
     t0 = time.perf_counter()
+    events = parse_maintenance(args.maintenance, {params["joint"]: params})
     machine = simulate_machine(params, sim, seed=args.seed, effects=effects)
-    write_machine_bag(machine, out, storage=args.storage, namespace=args.namespace)
+    apply_maintenance_truth(machine, events, params)
+    write_machine_bag(machine, out, storage=args.storage, namespace=args.namespace,
+                      extra=event_series(events, params["machine_id"]))
     elapsed = time.perf_counter() - t0
     print(f"wrote {machine.messages} messages ({sim['duration_h']:g} h) to {out} in {elapsed:.1f} s",
           file=sys.stderr)
@@ -117,7 +128,78 @@ def run(args) -> dict:
         "effects": effects,
         "true_wear_coefficient": truth["wear_coefficient"],
         "true_straightness_final_um": truth["straightness_m"][-1] * 1e6,
+        **({"maintenance_events": [e.as_dict() for e in events]} if events else {}),
     }
+
+
+def _check_axis_free(args, sim: dict) -> None:
+    dotted = sorted({k.partition(".")[0] for k in sim if "." in k})
+    if dotted:
+        raise InputError(f"{args.params}: guide_health_simulation has per-axis sections {dotted} but "
+                         f"wear_monitor has no 'axes'")
+
+
+def event_series(events: list, machine_id: str) -> list:
+    """The maintenance events as an extra bag series (maintenance/events, DiagnosticArray)."""
+    if not events:
+        return []
+    from guide_health.io.maintenance_msgs import DIAGNOSTIC_ARRAY, MAINTENANCE_TOPIC, encode_events
+
+    encoded = encode_events(events, machine_id)
+    return [(MAINTENANCE_TOPIC, DIAGNOSTIC_ARRAY, [e.t_ns for e in events], lambda i: [encoded[k] for k in i])]
+
+
+def _override_duration(args, sim: dict) -> None:
+    if args.hours is not None:
+        if not args.hours > 0:
+            raise InputError("--hours must be > 0")
+        sim["duration_h"] = args.hours
+    if args.rate is not None:
+        if not args.rate > 0:
+            raise InputError("--rate must be > 0")
+        sim["joint_state_rate_hz"] = args.rate
+
+
+def run_machine_axes(args, params: dict, sim: dict) -> dict:
+    """A machine of several axes (wear_monitor ``axes``): every axis with its duty in one bag."""
+    from guide_health.io.bag_writer import write_machine_axes_bag
+    from guide_health.params import SIMULATION_SCHEMA, validate_wear_params
+    from guide_health.params.machine import axes_params, simulation_axes
+    from guide_health.sim.machine import simulate_axes
+
+    if args.effect:
+        raise InputError("--effect applies to single-joint machine bags only")
+    axes = axes_params(params, validate_wear_params)
+    unknown = sorted({k.partition(".")[0] for k in sim if "." in k} - set(axes))
+    if unknown:
+        raise InputError(f"{args.params}: guide_health_simulation has sections {unknown} that are not axes "
+                         f"{list(axes)}")
+    _override_duration(args, sim)
+    sims = simulation_axes(sim, list(axes))
+    for axis, scenario in sims.items():
+        try:
+            SIMULATION_SCHEMA.validate(scenario)
+        except InputError as exc:
+            raise InputError(f"{args.params}: guide_health_simulation axis '{axis}': {exc}") from None
+    out = new_bag_path(args.out)
+    t0 = time.perf_counter()
+    events = parse_maintenance(args.maintenance, axes)
+    runs = simulate_axes(axes, sims, seed=args.seed)
+    for axis, run in runs.items():
+        apply_maintenance_truth(run, [e for e in events if e.axis == axis], axes[axis])
+    metadata = {"generator": "guide_health.simulate", "seed": args.seed, "axes": {
+        axis: {k: v for k, v in run.metadata.items() if k != "jobs"} for axis, run in runs.items()}}
+    write_machine_axes_bag(runs, axes, out, storage=args.storage, namespace=args.namespace, metadata=metadata,
+                           extra=event_series(events, params["machine_id"]))
+    messages = sum(r.messages for r in runs.values()) - (len(runs) - 1) * next(iter(runs.values())).joint_t_ns.size
+    print(f"wrote {messages} messages ({sim['duration_h']:g} h, axes {', '.join(axes)}) to {out} in "
+          f"{time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    return {"bag": str(out), "storage": args.storage, "messages": messages, "duration_h": sim["duration_h"],
+            "joint_state_rate_hz": sim["joint_state_rate_hz"],
+            "axes": {axis: {"true_wear_coefficient": run.metadata["truth"]["wear_coefficient"],
+                            "true_straightness_final_um": run.metadata["truth"]["straightness_m"][-1] * 1e6}
+                     for axis, run in runs.items()},
+            **({"maintenance_events": [e.as_dict() for e in events]} if events else {})}
 
 
 SIMULATE = Command(add_arguments, run)

@@ -17,7 +17,14 @@ import numpy as np
 from ..errors import InputError
 from ..runs import MachineRun, SlewingLoadRun
 from .bag_metadata import METADATA_KEY, one_line, run_metadata_json
-from .cdr import encode_float64, encode_joint_states, encode_temperature, encode_wrench_stamped, stamp_parts
+from .cdr import (
+    encode_float64,
+    encode_joint_states,
+    encode_joint_states_multi,
+    encode_temperature,
+    encode_wrench_stamped,
+    stamp_parts,
+)
 from .interfaces import FLOAT64, JOINT_STATE, TEMPERATURE, WRENCH_STAMPED, topic_name
 from .typestore import typestore
 
@@ -100,7 +107,7 @@ def _write_bag(series: list[_TopicSeries], path, storage: str, metadata: dict,
 
 
 def write_machine_bag(run: MachineRun, path, storage: str = "sqlite3", namespace: str = "",
-                      progress: ProgressFn | None = None) -> Path:
+                      progress: ProgressFn | None = None, extra: list | None = None) -> Path:
     """Write `run` as a rosbag2 bag (version 9, Jazzy types) at `path` (a new directory).
 
     Topics `<ns>/joint_states`, `<ns>/guide/load`, `<ns>/guide/straightness` and, when there are
@@ -141,7 +148,14 @@ def write_machine_bag(run: MachineRun, path, storage: str = "sqlite3", namespace
     ]
     # joint_states, load and straightness are always declared (empty topics too), temperature if any
     keep = [s for s in series if s.t_ns.size or s.msgtype != TEMPERATURE]
+    keep += _extra_series(extra, namespace)
     return _write_bag(keep, path, storage, run.metadata, progress)
+
+
+def _extra_series(extra: list | None, namespace: str) -> list[_TopicSeries]:
+    """(topic, msgtype, t_ns, encode) tuples (e.g. maintenance events) as series of the bag."""
+    return [_TopicSeries(topic_name(namespace, topic), msgtype, np.asarray(t_ns, np.int64), encode)
+            for topic, msgtype, t_ns, encode in extra or []]
 
 
 def write_slewing_bag(run: SlewingLoadRun, path, storage: str = "sqlite3", namespace: str = "",
@@ -201,3 +215,57 @@ def write_life_test_bag(record, path, storage: str = "sqlite3", namespace: str =
               _TopicSeries(topic_name(namespace, "guide/acceleration"), "sensor_msgs/msg/LaserScan",
                            np.asarray(record.t_ns, np.int64), blocks)]
     return _write_bag(series, path, storage, record.metadata)
+
+
+def write_machine_axes_bag(runs: dict[str, MachineRun], topics: dict[str, dict], path, storage: str = "sqlite3",
+                           namespace: str = "", metadata: dict | None = None,
+                           extra: list | None = None, progress: ProgressFn | None = None) -> Path:
+    """A machine of several axes as one bag: one `<ns>/joint_states` whose messages carry every joint (the
+    runs must share their joint stamps), and per axis its load, straightness and temperature topics
+    (``topics[axis]``: load_topic, straightness_topic, temperature_topic, relative to the namespace).
+    ``extra``: more (topic, msgtype, t_ns, encode) series, e.g. maintenance events."""
+    axes = list(runs)
+    first = runs[axes[0]]
+    jt = np.asarray(first.joint_t_ns, dtype=np.int64)
+    for axis in axes[1:]:
+        if not np.array_equal(runs[axis].joint_t_ns, jt):
+            raise InputError(f"axis {axis}: joint stamps differ from axis {axes[0]}'s (one JointState per stamp)")
+    names = [runs[a].joint_name or a for a in axes]
+    pos = np.column_stack([np.asarray(runs[a].joint_position_m, dtype=np.float64) for a in axes])
+    vel = np.column_stack([np.asarray(runs[a].joint_velocity_m_s, dtype=np.float64) if runs[a].joint_velocity_m_s.size
+                           else np.zeros(jt.size) for a in axes])
+    stamp_parts(jt)
+    series = [_TopicSeries(topic_name(namespace, "joint_states"), JOINT_STATE, jt,
+                           lambda i: encode_joint_states_multi(jt[i], pos[i], vel[i], names))]
+    for axis in axes:
+        series.extend(_axis_series(runs[axis], topics[axis], namespace))
+    series += _extra_series(extra, namespace)
+    return _write_bag(series, path, storage, metadata or {}, progress)
+
+
+def _axis_series(run: MachineRun, topics: dict, namespace: str) -> list[_TopicSeries]:
+    """The load, straightness and (when recorded) temperature topics of one axis."""
+    lt = np.asarray(run.load_t_ns, dtype=np.int64)
+    load = np.asarray(run.load_n, dtype=np.float64)
+    _check_len(topics["load_topic"], lt, load)
+    st = np.asarray(run.straightness_t_ns, dtype=np.int64)
+    straight = np.asarray(run.straightness_m, dtype=np.float64)
+    _check_len(topics["straightness_topic"], st, straight)
+    tt = np.asarray(run.temperature_t_ns, dtype=np.int64)
+    temp = np.asarray(run.temperature_c, dtype=np.float64)
+    _check_len(topics["temperature_topic"], tt, temp)
+    stamp_parts(lt)
+    stamp_parts(tt)
+
+    def load_msgs(i):
+        force = np.zeros((i.size, 3))
+        force[:, 2] = load[i]
+        return encode_wrench_stamped(lt[i], force)
+
+    series = [_TopicSeries(topic_name(namespace, topics["load_topic"]), WRENCH_STAMPED, lt, load_msgs),
+              _TopicSeries(topic_name(namespace, topics["straightness_topic"]), FLOAT64, st,
+                           lambda i: encode_float64(straight[i]))]
+    if tt.size:
+        series.append(_TopicSeries(topic_name(namespace, topics["temperature_topic"]), TEMPERATURE, tt,
+                                   lambda i: encode_temperature(tt[i], temp[i])))
+    return series

@@ -455,3 +455,25 @@ def encode_temperature(t_ns, temperature_c, variance=0.0, frame_id: str = "") ->
     return _fill_template(template, _stamped_layout(template, TEMPERATURE_NAMES), {
         "sec": sec, "nsec": nsec, "temperature": temperature_c,
         "variance": np.broadcast_to(np.asarray(variance, dtype=np.float64), temperature_c.shape)})
+
+
+def encode_joint_states_multi(t_ns, position_m, velocity_m_s, joint_names, frame_id: str = "") -> list[bytes]:
+    """CDR bytes of sensor_msgs/JointState messages with several joints (a machine controller's message):
+    position_m and velocity_m_s are (n, joints) arrays, joint_names the joints in column order."""
+    names = list(joint_names)
+    position_m = np.asarray(position_m, dtype=np.float64).reshape(-1, len(names))
+    velocity = np.asarray(velocity_m_s, dtype=np.float64).reshape(-1, len(names))
+    sec, nsec = stamp_parts(t_ns)
+    template = bytes(typestore().serialize_cdr(
+        message(JOINT_STATE, header=header(0, frame_id), name=names, position=np.zeros(len(names)),
+                velocity=np.zeros(len(names)), effort=np.zeros(0)), JOINT_STATE))
+    values = dict(_STAMP)
+    columns = {"sec": sec, "nsec": nsec}
+    for k, name in enumerate(names):
+        layout = _joint_state_layout(template, name.encode())
+        assert layout is not None and not layout.missing
+        values[f"position:{name}"] = layout.values["position"]
+        values[f"velocity:{name}"] = layout.values["velocity"]
+        columns[f"position:{name}"] = position_m[:, k]
+        columns[f"velocity:{name}"] = velocity[:, k]
+    return _fill_template(template, Layout((), values, size=len(template)), columns)

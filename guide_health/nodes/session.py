@@ -65,12 +65,13 @@ def _not_in_use(path: str) -> bool:
         return False
 
 
-def start_node(executable_module: str, params_file: str | Path | None, overrides: dict | None,
+def start_node(executable_module: str, params_file: str | Path | list | None, overrides: dict | None,
                env: dict[str, str], log_path: str | Path | None = None) -> subprocess.Popen:
-    """Start a node (``python -m guide_health.nodes.<name>``) with a params file and ``-p`` overrides."""
+    """Start a node (``python -m guide_health.nodes.<name>``) with a params file (or several, the later
+    overriding, as rcl merges them) and ``-p`` overrides."""
     cmd = [sys.executable, "-m", executable_module, "--ros-args"]
-    if params_file:
-        cmd += ["--params-file", str(params_file)]
+    for path in params_file if isinstance(params_file, (list, tuple)) else [params_file] if params_file else []:
+        cmd += ["--params-file", str(path)]
     for key, value in (overrides or {}).items():
         cmd += ["-p", f"{key}:={value}"]
     out = open(log_path, "w") if log_path else subprocess.DEVNULL

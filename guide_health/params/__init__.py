@@ -16,7 +16,7 @@ import difflib
 
 from guide_health.errors import InputError
 from guide_health.params.fleet_monitor import FLEET_MONITOR_SCHEMA
-from guide_health.params.loader import load_node_params, simulation_params, wear_monitor_params
+from guide_health.params.loader import load_node_params, machine_axes_params, simulation_params, wear_monitor_params
 from guide_health.params.ros import declare_parameters, descriptor_for
 from guide_health.params.schema import NodeSchema, Param, check_unknown_keys, markdown_table
 from guide_health.params.simulation import SIMULATION_SCHEMA, SLEWING_SIMULATION_SCHEMA, slewing_simulation_params
@@ -47,7 +47,7 @@ __all__ = [
     "FLEET_MONITOR_SCHEMA", "NodeSchema", "Param", "SCHEMAS", "SIMULATION_SCHEMA", "SLEWING_MONITOR_DEFAULTS",
     "SLEWING_MONITOR_SCHEMA",
     "SLEWING_SIMULATION_DEFAULTS", "SLEWING_SIMULATION_SCHEMA", "WEAR_MONITOR_DEFAULTS", "WEAR_MONITOR_SCHEMA",
-    "check_unknown_keys", "declare_parameters", "descriptor_for", "load_node_params",
+    "check_unknown_keys", "declare_parameters", "descriptor_for", "load_node_params", "machine_axes_params",
     "markdown_table", "schema_for", "simulation_params", "slewing_simulation_params", "validate_slewing_params",
     "validate_wear_params", "wear_monitor_params",
 ]

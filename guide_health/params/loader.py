@@ -24,6 +24,7 @@ from typing import Any
 import yaml
 
 from guide_health.errors import InputError
+from guide_health.params.machine import axes_params, check_axis_keys, coerce_axis_value, flatten
 from guide_health.params.schema import check_unknown_keys, coerce_value
 from guide_health.params.simulation import SIMULATION_SCHEMA
 from guide_health.params.wear_monitor import WEAR_MONITOR_SCHEMA, hardness_units_warning, validate_wear_params
@@ -100,7 +101,8 @@ def load_node_params(path: str | Path | None, node_name: str, defaults: dict[str
     if path is None:
         return params
     for key, section in node_sections(path, node_name, required):
-        names = [name for name in section if name not in ROS_NODE_PARAMS]
+        section = flatten(section)     # nested mappings (per-axis parameters) as rcl reads them: 'x.name'
+        names = [name for name in section if name not in ROS_NODE_PARAMS and "." not in name]
         if strict:
             known = list(defaults) if key != "/**" else sorted(_all_known_names() | set(defaults))
             source = str(path) if key != "/**" else f"{path}: section '/**'"
@@ -108,7 +110,26 @@ def load_node_params(path: str | Path | None, node_name: str, defaults: dict[str
         for name in names:
             value = section[name]
             params[name] = coerce_value(name, value, defaults[name]) if name in defaults else value
+        _axis_values(path, node_name, section, params, defaults, strict)
     return params
+
+
+def _axis_values(path, node_name: str, section: dict, params: dict, defaults: dict, strict: bool) -> None:
+    """The dotted per-axis names of a section (params/machine.py): checked against ``axes`` (or, for the
+    simulation section, which has no axes list, any axis name) and coerced by their parameter's type."""
+    from guide_health.params import schema_for
+    from guide_health.params.machine import axis_default
+
+    dotted = [name for name in section if "." in name and name.partition(".")[2] not in ROS_NODE_PARAMS]
+    if not dotted:
+        return
+    schema = schema_for(node_name)
+    axes = list(params["axes"]) if "axes" in params else sorted({n.partition(".")[0] for n in dotted})
+    if strict:
+        check_axis_keys(node_name, dotted, axes, schema, source=str(path))
+    for name in dotted:
+        default = axis_default(name.partition(".")[2], schema)
+        params[name] = coerce_axis_value(name, section[name], default)
 
 
 def wear_monitor_params(path: str | Path | list | tuple | None) -> dict[str, Any]:
@@ -121,10 +142,16 @@ def wear_monitor_params(path: str | Path | list | tuple | None) -> dict[str, Any
         p = load_node_params(one, WEAR_MONITOR_SCHEMA.section, p)
     named = None if paths == [None] else ", ".join(str(one) for one in paths)
     _validate_from(named, WEAR_MONITOR_SCHEMA.section, validate_wear_params, p)
+    _validate_from(named, WEAR_MONITOR_SCHEMA.section, lambda q: axes_params(q, validate_wear_params), p)
     warning = hardness_units_warning(p)
     if warning is not None:     # one stderr line in the CLI (logging's last-resort handler), the node logs its own
         logging.getLogger("guide_health.params").warning("guide-health: warning: %s", warning)
     return p
+
+
+def machine_axes_params(path: str | Path | list | tuple | None) -> dict[str, dict]:
+    """{axis: parameters} of the wear_monitor section (one axis named after ``joint`` without ``axes``)."""
+    return axes_params(wear_monitor_params(path), validate_wear_params)
 
 
 def simulation_params(path: str | Path | None) -> dict[str, Any]:

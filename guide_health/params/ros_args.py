@@ -13,6 +13,7 @@ import yaml
 
 from guide_health.errors import InputError
 from guide_health.params.loader import ROS_NODE_PARAMS, load_node_params
+from guide_health.params.machine import axes_params, axis_default, check_axis_keys, coerce_axis_value
 from guide_health.params.schema import NodeSchema, coerce_value
 
 
@@ -66,14 +67,21 @@ def check_ros_args(schema: NodeSchema, argv: list[str]) -> dict[str, Any] | None
             continue                                  # -p other_node:name:=value
         if name in ROS_NODE_PARAMS:
             continue
-        schema.check_unknown_keys([name], source=f"-p {item}:={text}")
         try:
             value = yaml.safe_load(text)
         except yaml.YAMLError:
             value = text
+        if "." in name:                                # a per-axis parameter (params/machine.py)
+            check_axis_keys(schema.section, [name], list(params.get("axes") or []), schema,
+                            source=f"-p {item}:={text}")
+            params[name] = coerce_axis_value(name, value, axis_default(name.partition(".")[2], schema))
+            continue
+        schema.check_unknown_keys([name], source=f"-p {item}:={text}")
         params[name] = coerce_value(name, value, schema.by_name[name].default)
     try:
         schema.validate(params)
+        if schema.section == "wear_monitor":
+            axes_params(params, schema.validate)
     except InputError as exc:
         where = ", ".join(files) if files else "-p"
         raise InputError(f"{where}: {exc}") from None

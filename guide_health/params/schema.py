@@ -63,6 +63,8 @@ class Param:
     def type_name(self) -> str:
         """bool | int | float | string | float[n] (the type the YAML value must have)."""
         if isinstance(self.default, list):
+            if not self.default or isinstance(self.default[0], str):
+                return "string[]"
             return f"float[{len(self.default)}]"
         return {bool: "bool", int: "int", float: "float", str: "string"}[type(self.default)]
 
@@ -120,6 +122,10 @@ def coerce_value(name: str, value: Any, default: Any) -> Any:
         if not isinstance(value, str):
             raise InputError(f"parameter {name} must be a string, got {value!r}")
         return value
+    if isinstance(default, list) and (not default or isinstance(default[0], str)):
+        if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
+            raise InputError(f"parameter {name} must be a list of strings, got {value!r}")
+        return list(value)
     if isinstance(default, list):
         if not isinstance(value, list) or len(value) != len(default):
             raise InputError(f"parameter {name} must be a list of {len(default)} numbers, got {value!r}")

@@ -208,3 +208,111 @@ def effective_work_at(knots: MachineKnots, at_s: np.ndarray, effects: WearEffect
     g = np.concatenate(([0.0], np.cumsum(work)))
     p = np.concatenate(([0.0], np.cumsum(pass_work)))
     return np.interp(at_s, knots.t_s, g), np.interp(at_s, knots.t_s, p)
+
+
+def simulate_axes(axes: dict[str, dict[str, Any]], sims: dict[str, dict[str, Any]],
+                  seed: int = 0) -> dict[str, MachineRun]:
+    """One :class:`MachineRun` per axis of a machine (``axes``: guide_health.params.machine.axes_params,
+    ``sims``: simulation_axes), each with its own duty and random strokes (seed ``seed`` + 1000 x the axis
+    index), cut to the common duration so that one JointState per stamp carries every joint."""
+    runs = {}
+    for index, (axis, params) in enumerate(axes.items()):
+        # the measured straightness is the most loaded guide's (the one the axis reports): its wear is the
+        # Archard wear of share x W, i.e. that of the full load with K x share (no effects: linear in W)
+        share = max(params.get("guide_load_shares", [1.0]))
+        scenario = dict(sims[axis], wear_coefficient_factor=sims[axis]["wear_coefficient_factor"] * share)
+        run = simulate_machine(params, scenario, seed=seed + 1000 * index)
+        run.metadata["truth"]["wear_coefficient"] /= share
+        run.metadata["truth"]["guide_load_share"] = share
+        runs[axis] = run
+    end_ns = min(int(run.joint_t_ns[-1]) for run in runs.values()) + 1
+    return {axis: _cut_run(run, end_ns) for axis, run in runs.items()}
+
+
+def _cut_run(run: MachineRun, end_ns: int) -> MachineRun:
+    """``run`` without the samples stamped at or after ``end_ns``."""
+    def keep(t):
+        return int(np.searchsorted(t, end_ns, side="left"))
+
+    j, ld, s, tp = (keep(run.joint_t_ns), keep(run.load_t_ns), keep(run.straightness_t_ns),
+                    keep(run.temperature_t_ns))
+    velocity = run.joint_velocity_m_s[:j] if run.joint_velocity_m_s.size else run.joint_velocity_m_s
+    return MachineRun(joint_name=run.joint_name, joint_t_ns=run.joint_t_ns[:j],
+                      joint_position_m=run.joint_position_m[:j], joint_velocity_m_s=velocity,
+                      load_t_ns=run.load_t_ns[:ld], load_n=run.load_n[:ld],
+                      straightness_t_ns=run.straightness_t_ns[:s], straightness_m=run.straightness_m[:s],
+                      temperature_t_ns=run.temperature_t_ns[:tp], temperature_c=run.temperature_c[:tp],
+                      metadata=run.metadata)
+
+
+def parse_maintenance(items: list[str] | None, axes: dict[str, dict], start_ns: int = START_TIME_NS) -> list:
+    """``KIND:AXIS[.GUIDE]@TIME[=VALUE]`` strings (``regrind:x@10h``, ``measure:z@2.5h=8.2um``,
+    ``replace_carriage:y.front@90min``) to MaintenanceEvents; TIME in h (default), min or s from the start
+    of the run, VALUE a straightness with its unit (um or m). InputError (one line) for anything else."""
+    from guide_health.models.wear.maintenance import KINDS, MaintenanceEvent, check_event
+
+    events = []
+    for item in items or []:
+        kind, sep, rest = item.partition(":")
+        where, at, when = rest.partition("@")
+        if not (sep and at) or kind not in KINDS:
+            raise InputError(f"--maintenance takes KIND:AXIS[.GUIDE]@TIME[=VALUE] with KIND one of "
+                             f"{', '.join(KINDS)}, got {item!r}")
+        axis, _, guide = where.partition(".")
+        if axis not in axes:
+            raise InputError(f"--maintenance {item!r}: no axis {axis!r} (axes: {', '.join(axes)})")
+        when, _, value = when.partition("=")
+        event = MaintenanceEvent(start_ns + int(round(_duration_s(item, when) * 1e9)), kind, axis, guide,
+                                 _straightness_m(item, value), "simulate")
+        reason = check_event(event, list(axes[axis].get("guides", ["guide"])), axes[axis]["straightness_limit_m"])
+        if reason is not None:
+            raise InputError(f"--maintenance {item!r}: {reason}")
+        events.append(event)
+    return sorted(events, key=lambda e: e.t_ns)
+
+
+def _duration_s(item: str, text: str) -> float:
+    for suffix, scale in (("min", 60.0), ("h", 3600.0), ("s", 1.0)):
+        if text.endswith(suffix):
+            text, factor = text[:-len(suffix)], scale
+            break
+    else:
+        factor = 3600.0
+    try:
+        value = float(text) * factor
+    except ValueError:
+        raise InputError(f"--maintenance {item!r}: time {text!r} is not a number (e.g. 10h, 90min, 600s)") from None
+    if not (math.isfinite(value) and value >= 0):
+        raise InputError(f"--maintenance {item!r}: time must be >= 0")
+    return value
+
+
+def _straightness_m(item: str, text: str) -> float:
+    if not text:
+        return math.nan
+    for suffix, scale in (("um", 1e-6), ("m", 1.0)):
+        if text.endswith(suffix):
+            try:
+                return float(text[:-len(suffix)]) * scale
+            except ValueError:
+                break
+    raise InputError(f"--maintenance {item!r}: value {text!r} needs its unit, e.g. 7.5um")
+
+
+def apply_maintenance_truth(run: MachineRun, events: list, params: dict[str, Any]) -> None:
+    """The measured straightness of ``run`` after each wear reset (regrind, rail replacement) of its axis:
+    from then on the truth grows from the straightness after the event (given, else A0) by the wear since
+    it, the truth at the event interpolated between the truth's measurement times (wear grows smoothly)."""
+    truth = run.metadata["truth"]
+    t_s = np.asarray(truth["straightness_t_s"], dtype=float)
+    true_m = np.asarray(truth["straightness_m"], dtype=float)
+    measured_t_s = (run.straightness_t_ns - START_TIME_NS) * 1e-9
+    for event in events:
+        if event.kind not in ("regrind", "replace_rail"):
+            continue
+        t_e = (event.t_ns - START_TIME_NS) * 1e-9
+        after = event.straightness_m if math.isfinite(event.straightness_m) else params["straightness_initial_m"]
+        shift = after - float(np.interp(t_e, t_s, true_m))
+        true_m = np.where(t_s > t_e, true_m + shift, true_m)
+        run.straightness_m = np.where(measured_t_s > t_e, run.straightness_m + shift, run.straightness_m)
+    truth["straightness_m"] = true_m.tolist()

@@ -98,10 +98,13 @@ def interval_conditions(problem: WearProblem) -> dict[str, np.ndarray]:
     return cond
 
 
-def disagreement(problem: WearProblem, predicted_m: np.ndarray, alpha: float = 0.01) -> dict[str, Any]:
-    """Residual structure of a model (usually the baseline) over the whole record."""
-    res_um = (problem.y_m - predicted_m) * 1e6
-    t_h = problem.t_s / 3600.0
+def disagreement(problem: WearProblem, predicted_m: np.ndarray, alpha: float = 0.01,
+                 mask: np.ndarray | None = None) -> dict[str, Any]:
+    """Residual structure of a model (usually the baseline) over the whole record, or over the measurements
+    in ``mask`` (the fit span: a held-out forecast error grows by nature and is not structure of the fit)."""
+    mask = np.ones(problem.y_m.size, dtype=bool) if mask is None else np.asarray(mask, dtype=bool)
+    res_um = ((problem.y_m - predicted_m) * 1e6)[mask]
+    t_h = problem.t_s[mask] / 3600.0
     sigma = noise_sd_von_neumann(res_um)
     out: dict[str, Any] = {
         "residual_rms_um": float(np.sqrt(np.mean(res_um ** 2))),
@@ -113,7 +116,7 @@ def disagreement(problem: WearProblem, predicted_m: np.ndarray, alpha: float = 0
     out["systematic_in_time"] = bool(out["runs_test"]["p_value"] < alpha
                                      or out["lag1_autocorrelation"]["p_value"] < alpha)
     increment = np.concatenate(([np.nan], np.diff(res_um)))
-    cond = interval_conditions(problem)
+    cond = {k: v[mask] for k, v in interval_conditions(problem).items()}
     rows = []
     n_tests = len([k for k in cond if k != "archard_work_nm"])
     for name, values in cond.items():
@@ -131,4 +134,32 @@ def disagreement(problem: WearProblem, predicted_m: np.ndarray, alpha: float = 0
     rows.sort(key=lambda r: r["p_value"])
     out["conditions"] = rows
     out["systematic_conditions"] = [r["condition"] for r in rows if r["systematic"]]
+    return out
+
+
+def unexplained_structure(after: dict[str, Any], named: list[str]) -> dict[str, Any]:
+    """The verdict on the residuals after the final fit: ``present`` when they are still systematic in time
+    (runs test or lag-1 autocorrelation, p < 0.01) or follow an operating condition (Bonferroni); then
+    ``where`` (time windows of one sign) and ``conditions`` (which, with rho) say where and under which
+    condition, and ``message`` says it first: physics outside the effect library, the named effects (if
+    any) are not an explanation."""
+    present = bool(after["systematic_in_time"] or after["systematic_conditions"])
+    out: dict[str, Any] = {"present": present, "where": [], "conditions": [], "message": ""}
+    if not present:
+        return out
+    out["where"] = [{k: w[k] for k in ("start_h", "end_h", "mean_residual_um", "t_statistic")}
+                    for w in after["windows"]]
+    out["conditions"] = [{"condition": c["condition"], "rho": c["rho"], "p_value": c["p_value"]}
+                         for c in after["conditions"] if c["systematic"]]
+    rt, ac = after["runs_test"], after["lag1_autocorrelation"]
+    parts = [f"runs test p = {rt['p_value']:.2g}, lag-1 autocorrelation {ac['r']:+.2f} (p = {ac['p_value']:.2g})"]
+    if out["where"]:
+        parts.append("in " + ", ".join(f"{w['start_h']:.1f}..{w['end_h']:.1f} h ({w['mean_residual_um']:+.2f} um)"
+                                       for w in out["where"][:4]))
+    if out["conditions"]:
+        parts.append("following " + ", ".join(f"{c['condition']} (rho {c['rho']:+.2f})" for c in out["conditions"]))
+    verdict = (f"the named effects ({', '.join(named)}) reduce the gap but do not explain it" if named
+               else "no library effect explains it")
+    out["message"] = ("UNEXPLAINED STRUCTURE: the residuals after the fit are not noise (" + "; ".join(parts)
+                      + f"): physics outside the effect library; {verdict}")
     return out

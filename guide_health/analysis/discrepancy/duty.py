@@ -31,6 +31,7 @@ from guide_health.models.wear.archard import sliding_positions_m
 from guide_health.models.wear.effects import pass_weight_per_m
 from guide_health.models.wear.input_rules import (
     NO_LIMITS,
+    STRAIGHTNESS_WITHOUT_TIME_BASE,
     InputLimits,
     RejectionCounter,
     StampBase,
@@ -102,6 +103,7 @@ class DutyCellAccumulator:
         self._last_load_t: int | None = None
         self._last_load = math.nan
         self._last_meas_t: int | None = None
+        self._first_joint_t: int | None = None    # first accepted joint stamp: the time base
         self._s_m = 0.0                        # cumulative sliding distance
         self._carry: dict[str, np.ndarray] | None = None   # segments of the unfinished pass
         self._cell_parts: list[tuple[np.ndarray, dict]] = []
@@ -132,10 +134,22 @@ class DutyCellAccumulator:
                 self._t_end_ns = max(self._t_end_ns or int(a[-1]), int(a[-1]))
         accepted = accept_run(run, self._joint_base, self._load_base, self._last_load, self.limits)
         self._joint_base, self._load_base = accepted.joints.base, accepted.loads.base
-        measurements = accept_straightness_samples(stamps[2], run.straightness_m, self._last_meas_t, self.limits)
+        # a measurement processed before any accepted joint sample has no time base: rejected, as in
+        # PrecisionMonitor.process_run (joints up to a measurement's stamp, and all earlier chunks', come first)
+        if self._first_joint_t is not None:
+            based = np.ones(stamps[2].size, dtype=bool)
+        elif accepted.joint_t_ns.size:
+            self._first_joint_t = int(accepted.joint_t_ns[0])
+            based = np.maximum.accumulate(stamps[2]) >= self._first_joint_t if stamps[2].size else np.ones(0, bool)
+        else:
+            based = np.zeros(stamps[2].size, dtype=bool)
+        meas_t, meas_y = stamps[2][based], np.asarray(run.straightness_m, dtype=float)[based]
+        measurements = accept_straightness_samples(meas_t, meas_y, self._last_meas_t, self.limits)
         self.rejected_samples.count_all({**accepted.rejected, **measurements.rejected})
-        self._meas_t.append(stamps[2][measurements.accepted])
-        self._meas_y.append(np.asarray(run.straightness_m, dtype=float)[measurements.accepted])
+        if not based.all():
+            self.rejected_samples.count(STRAIGHTNESS_WITHOUT_TIME_BASE, int((~based).sum()))
+        self._meas_t.append(meas_t[measurements.accepted])
+        self._meas_y.append(meas_y[measurements.accepted])
         if self._meas_t[-1].size:
             self._last_meas_t = int(self._meas_t[-1][-1])
         self._temp_t.append(np.asarray(run.temperature_t_ns, dtype=np.int64))

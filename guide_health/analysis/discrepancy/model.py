@@ -21,11 +21,14 @@ from scipy.optimize import least_squares
 
 from guide_health.analysis.discrepancy.duty import DutyCells
 from guide_health.models.wear.effects import (
-    EFFECT_IDS,
+    CANDIDATE_IDS,
     WearEffects,
+    load_along_rail_factor,
+    lubrication_interval_factor,
     measured_straightness_m,
     running_in_factor_spread,
     straightness_wear_m,
+    wear_rate_change_factor,
     wear_rate_multiplier,
 )
 
@@ -48,6 +51,9 @@ class ParamSpec:
 def _effect_specs(problem: WearProblem) -> dict[str, list[ParamSpec]]:
     dist = max(problem.cells.total_distance_m, 1.0)
     v_feed = problem.feed_speed_m_s
+    t_fit = float(problem.t_s[problem.fit_mask][-1])
+    spread = float(np.max(np.abs(problem.cells.position_m - problem.position_ref_m))) if problem.cells.cells else 0.0
+    g_max = 1.0 / max(spread, 1e-3)
     return {
         "running_in": [ParamSpec("running_in_ratio", "-", 0.0, 100.0, False, (1.0,)),
                        ParamSpec("running_in_distance_m", "m", dist * 1e-3, dist, True,
@@ -57,9 +63,34 @@ def _effect_specs(problem: WearProblem) -> dict[str, list[ParamSpec]]:
                                            tuple(v_feed * f for f in (0.5, 2.0, 8.0)))],
         "load_exponent": [ParamSpec("load_exponent", "-", 0.0, 4.0, False, (0.7, 1.5))],
         "stroke_distribution": [ParamSpec("stroke_distribution_weight", "-", -1.0, 2.0, False, (0.5,))],
-        "thermal_drift": [ParamSpec("thermal_drift_m_per_k", "m/K", -1e-4, 1e-4, False, (0.0,))],
+        "thermal_drift": [ParamSpec("thermal_drift_m_per_k", "m/K", -1e-4, 1e-4, False, (0.0,))]
+        + ([] if problem.a0_free else [ParamSpec("thermal_offset_m", "m", -1e-3, 1e-3, False, (0.0,))]),
         "initial_offset": [ParamSpec("initial_offset_m", "m", -1e-3, 1e-3, False, (0.0,))],
+        "wear_rate_change": [ParamSpec("wear_rate_change_time_s", "s", 0.0, t_fit, False,
+                                       tuple(t_fit * f for f in (0.2, 0.4, 0.6, 0.8))),
+                             ParamSpec("wear_rate_change_factor", "-", 0.05, 20.0, True, (0.5, 2.0))],
+        "lubrication_interval": [ParamSpec("lubrication_interval_s", "s", 1800.0, max(t_fit, 3600.0), True,
+                                           tuple(h * 3600.0 for h in (1.5, 2.0, 3.0, 4.0, 5.5, 7.0, 9.0, 12.0, 16.0)
+                                                 if h * 3600.0 < t_fit)
+                                           or (t_fit / 2,)),
+                                 ParamSpec("lubrication_wear_growth", "-", -0.9, 20.0, False, (1.0,))],
+        "load_along_rail": [ParamSpec("load_gradient_per_m", "1/m", -g_max, g_max, False, (0.0,))],
     }
+
+
+def _thermal_reference(values: dict, se: dict, cov: np.ndarray, specs: list) -> None:
+    """dT_ref = T_ref - T_0 = -b / c_T [K] from the fitted offset b and drift c_T, its standard error by the
+    delta method (both are um-scaled inside the fit)."""
+    names = [s.name for s in specs]
+    i, j = names.index("thermal_drift_m_per_k"), names.index("thermal_offset_m")
+    c, b = values["thermal_drift_m_per_k"], values["thermal_offset_m"]
+    if c == 0.0:
+        values["thermal_reference_offset_k"], se["thermal_reference_offset_k"] = math.nan, math.nan
+        return
+    grad = np.array([b / c ** 2, -1.0 / c]) * 1e-6          # per internal (um) unit of c_T and b
+    sub = cov[np.ix_([i, j], [i, j])]
+    values["thermal_reference_offset_k"] = -b / c
+    se["thermal_reference_offset_k"] = math.sqrt(max(float(grad @ sub @ grad), 0.0))
 
 
 @dataclass
@@ -161,13 +192,18 @@ class WearProblem:
             o = np.argsort(tt, kind="stable")
             temp = np.interp(self.t_s, tt[o], cells.temperature_c[o])
             self.temperature_change_k = temp - temp[0]
+        # each cell spans its measurement interval (for a change point inside it: uniform work assumed)
+        edges = np.concatenate(([0.0], self.t_s, [max(cells.duration_s, float(self.t_s[-1]))]))
+        k = np.clip(cells.interval, 0, n)
+        self.cell_start_s, self.cell_end_s = edges[k], edges[k + 1]
+        self.position_ref_m = float(np.sum(cells.work_nm * cells.position_m) / max(cells.work_nm.sum(), 1e-300))
         self.specs = _effect_specs(self)
 
     # --- candidates ---------------------------------------------------------------------------
     def available_effects(self) -> list[str]:
         """Effect ids that can be tried on this data: thermal drift only with a temperature record, an
         initial offset only when A0 is given (with A0 = 0 the baseline fits A0 itself)."""
-        ids = list(EFFECT_IDS)
+        ids = list(CANDIDATE_IDS)
         if self.temperature_change_k is None:
             ids.remove("thermal_drift")
         if self.a0_free:
@@ -190,12 +226,14 @@ class WearProblem:
             return math.log(value)
         if spec.name == "wear_coefficient":
             return value / self.k0
-        return value * UM if spec.unit in MICRO_UNITS else value
+        return value / self._internal_factor(spec)
 
     def _internal_factor(self, spec: ParamSpec) -> float:
         """d(physical)/d(internal) of a linear parameter."""
         if spec.name == "wear_coefficient":
             return self.k0
+        if spec.unit == "s":
+            return 3600.0                        # times in hours inside the fit
         return 1e-6 if spec.unit in MICRO_UNITS else 1.0
 
     def _physical(self, specs: list[ParamSpec], x: np.ndarray) -> dict[str, float]:
@@ -222,12 +260,31 @@ class WearProblem:
             ri = running_in_factor_spread(c.sliding_distance_m, c.sliding_distance_var_m2, eff.running_in_ratio,
                                           eff.running_in_distance_m)
         m = wear_rate_multiplier(eff, c.speed_m_s, c.load_n, self.retract, ri)
+        m = m * self._duty_factors(values)
         g = np.concatenate(([0.0], np.cumsum(c.work_nm * m)))[self.cell_index]
         p = np.concatenate(([0.0], np.cumsum(c.pass_work_n * m)))[self.cell_index]
         wear = straightness_wear_m(values["wear_coefficient"], self.hardness_pa, self.width_m, g, p,
                                    self.stroke_sum_m, eff.stroke_distribution_weight)
         a0 = values.get("straightness_initial_m", 0.0) if self.a0_free else self.a0_m
-        return measured_straightness_m(wear, a0, self.temperature_change_k, eff)
+        temp = self.temperature_change_k
+        y = measured_straightness_m(wear, a0, temp, eff)
+        # c_T (T - T_ref) = c_T (T - T_0) + b with b = -c_T dT_ref: fitted linear in b (no local minima)
+        return y + values.get("thermal_offset_m", 0.0) if temp is not None else y
+
+    def _duty_factors(self, values: dict[str, float]) -> np.ndarray | float:
+        """The multipliers of wear_rate_change, lubrication_interval and load_along_rail (effects.py)."""
+        c = self.cells
+        m = 1.0
+        if "wear_rate_change_factor" in values:
+            m = m * wear_rate_change_factor(0.5 * (self.cell_start_s + self.cell_end_s),
+                                            self.cell_end_s - self.cell_start_s, values["wear_rate_change_time_s"],
+                                            values["wear_rate_change_factor"])
+        if "lubrication_interval_s" in values:
+            m = m * lubrication_interval_factor(c.time_s, values["lubrication_interval_s"],
+                                                values["lubrication_wear_growth"])
+        if "load_gradient_per_m" in values:
+            m = m * load_along_rail_factor(c.position_m, values["load_gradient_per_m"], self.position_ref_m)
+        return m
 
     # --- fitting -------------------------------------------------------------------------------
     def fit(self, effects: tuple[str, ...] | list[str] = (), warm: FitResult | None = None) -> FitResult:
@@ -278,7 +335,10 @@ class WearProblem:
             sd_int = math.sqrt(max(cov[i, i], 0.0))
             se[spec.name] = abs(values[spec.name]) * sd_int if spec.log else sd_int * self._internal_factor(spec)
         pred = self.predict_m(values)
-        result = self._score(effects, values, se, {s.name: s.unit for s in specs}, pred, k, rss, bool(best.success))
+        if "thermal_offset_m" in values:
+            _thermal_reference(values, se, cov, specs)
+        units = {s.name: s.unit for s in specs} | {"thermal_reference_offset_k": "K"}
+        result = self._score(effects, values, se, units, pred, k, rss, bool(best.success))
         # covariance in physical units: d(physical)/d(internal) = value (log) or the linear factor
         scale = np.array([values[s.name] if s.log else self._internal_factor(s) for s in specs])
         result.extra["covariance"] = {"names": [s.name for s in specs], "matrix": cov * np.outer(scale, scale)}

@@ -9,6 +9,8 @@ from typing import Any
 
 import numpy as np
 
+from guide_health.io.output_files import open_output, save_figure, write_text
+
 
 def _fmt(v: float, unit: str = "") -> str:
     if v is None or (isinstance(v, float) and not math.isfinite(v)):
@@ -20,14 +22,21 @@ def markdown(result: dict[str, Any], bag: str = "") -> str:
     b, f, d = result["baseline"], result["final"], result["data"]
     where = result["where_baseline_disagrees"]
     lines = [f"# Discrepancy report{(': ' + bag) if bag else ''}", ""]
+    structure = result.get("unexplained_structure", {})
+    if structure.get("present"):
+        lines += [f"> **{structure['message']}**", ""]
     lines.append(f"{d['measurements']} straightness measurements over {d['duration_h']:.1f} h "
                  f"({d['fit_measurements']} fitted, the last {d['heldout_measurements']} from "
                  f"{d['heldout_from_h']:.1f} h held out for forecasts); {d['sliding_distance_m']:.0f} m of sliding.")
     lines.append("")
     named = result["named_effects"]
-    lines.append("## Effects named" if named else "## No missing effect found")
+    if structure.get("present"):
+        lines.append("## Effects named: NOT an explanation (structure remains)" if named
+                     else "## No library effect explains the structure")
+    else:
+        lines.append("## Effects named" if named else "## No missing effect found")
     lines.append("")
-    if not named:
+    if not named and not structure.get("present"):
         lines.append("No candidate earned its parameters: the baseline (K calibrated) explains the measurements "
                      "to their noise.")
     for e in named:
@@ -35,6 +44,11 @@ def markdown(result: dict[str, Any], bag: str = "") -> str:
         params = ", ".join(f"{k} = {_fmt(p['value'], p['unit'])} ± {_fmt(p['std_error'], p['unit'])}"
                            for k, p in info["parameters"].items())
         lines.append(f"- **{e}**: {info['meaning']} ({params})")
+    for tie in result.get("near_ties", []):
+        lines.append(f"- near-tie: {tie['message']}")
+    for d in result.get("dropped_by_backward_pass", []):
+        lines.append(f"- dropped by the backward pass: {d['effect']} (BIC rises by only {d['delta_bic']:.1f} "
+                     "without it)")
     lines += ["", "## The gap", "", "| model | RMSE fit [um] | max rel. error fit | RMSE held out [um] | "
               "max rel. error held out | K |", "|---|---|---|---|---|---|"]
     for label, g in (("baseline (K calibrated)", b), ("with " + (" + ".join(named) or "nothing"), f)):
@@ -91,7 +105,23 @@ def plot(result: dict[str, Any], path: Path) -> None:
     ax1.plot(t, f, "-", color="tab:blue",
              label=f"with {named}, held-out RMSE {result['final']['heldout_rmse_um']:.2f} um")
     ax1.set_ylabel("straightness [um]")
-    ax1.set_title(f"discrepancy workflow: {named}")
+    if result.get("forecast"):
+        from guide_health.analysis.report_plots import plot_forecast
+
+        fc = {k: np.asarray(v) if isinstance(v, list) else v for k, v in result["forecast"].items()}
+        plot_forecast(ax1, fc, " + ".join(result["named_effects"]))
+        ax1.axhline(fc["limit_um"], color="r", ls=":", lw=0.8)
+    structure = result.get("unexplained_structure", {})
+    if structure.get("present"):
+        import textwrap
+
+        fig.suptitle("\n".join(textwrap.wrap(structure["message"], 130)), color="tab:red", fontsize=8.5,
+                     fontweight="bold")
+        ax1.set_title(f"UNEXPLAINED STRUCTURE - fitted with {named} (not an explanation)", color="tab:red")
+        for w in structure["where"]:
+            ax2.axvspan(w["start_h"], w["end_h"], color="tab:red", alpha=0.12)
+    else:
+        ax1.set_title(f"discrepancy workflow: {named}")
     ax1.legend(loc="upper left", fontsize=8)
     ax1.grid(alpha=0.3)
     ax2.axhline(0.0, color="0.5", lw=0.8)
@@ -102,8 +132,10 @@ def plot(result: dict[str, Any], path: Path) -> None:
     ax2.legend(loc="lower left", fontsize=8)
     ax2.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    try:
+        save_figure(fig, path)
+    finally:
+        plt.close(fig)
 
 
 def write_report(result: dict[str, Any], out: Path, bag: str = "", with_plot: bool = True) -> dict[str, str]:
@@ -111,7 +143,7 @@ def write_report(result: dict[str, Any], out: Path, bag: str = "", with_plot: bo
     out.mkdir(parents=True, exist_ok=True)
     files = {"json": str(out / "report.json"), "markdown": str(out / "report.md"), "csv": str(out / "residuals.csv")}
     s = result["series"]
-    with open(files["csv"], "w", newline="") as handle:
+    with open_output(files["csv"]) as handle:
         w = csv.writer(handle)
         w.writerow(["time_h", "measured_um", "baseline_um", "final_um", "heldout"])
         for row in zip(s["t_h"], s["measured_um"], s["baseline_um"], s["final_um"], s["heldout"]):
@@ -119,8 +151,8 @@ def write_report(result: dict[str, Any], out: Path, bag: str = "", with_plot: bo
     if with_plot:
         files["png"] = str(out / "diagnose.png")
         plot(result, Path(files["png"]))
-    Path(files["markdown"]).write_text(markdown(result, bag))
+    write_text(files["markdown"], markdown(result, bag))
     body = {k: v for k, v in result.items() if k != "series"}
     body["files"] = files
-    Path(files["json"]).write_text(json.dumps(body, indent=2, allow_nan=True, default=float) + "\n")
+    write_text(files["json"], json.dumps(body, indent=2, allow_nan=True, default=float) + "\n")
     return files

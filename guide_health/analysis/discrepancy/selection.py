@@ -23,6 +23,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 BIC_THRESHOLD = 10.0
+TIE_MARGIN = 2.0        # BIC differences below 2 are "not worth more than a bare mention" (Kass & Raftery)
 
 
 @dataclass
@@ -32,6 +33,8 @@ class SelectionResult:
     final: Any
     rounds: list[list[dict]] = field(default_factory=list)   # per round: one row per candidate tried
     fits: dict = field(default_factory=dict)                  # effect tuple -> fit
+    dropped: list[dict] = field(default_factory=list)         # the backward pass: {effect, delta_bic}
+    ties: list[dict] = field(default_factory=list)            # per round: {selected, tied: [effects]}
 
 
 def forward_selection(fit: Callable[..., Any], candidates: list[str],
@@ -62,12 +65,37 @@ def forward_selection(fit: Callable[..., Any], candidates: list[str],
         if not earning:
             break
         best = earning[0]
+        tied = [r["effect"] for r in earning[1:] if r["fit"].bic - best["fit"].bic < TIE_MARGIN]
+        if tied:
+            result.ties.append({"round": len(result.rounds), "selected": best["effect"], "tied": tied,
+                                "bic_margin": TIE_MARGIN})
         current = current + (best["effect"],)
         cur_fit = best["fit"]
         result.named.append(best["effect"])
         remaining.remove(best["effect"])
     result.final = cur_fit
+    if len(current) > 1:
+        backward_pass(fit, result, bic_threshold)
     return result
+
+
+def backward_pass(fit: Callable[..., Any], result: SelectionResult, bic_threshold: float) -> None:
+    """After the forward search: drop, one at a time, the named effect whose removal costs the least BIC
+    while that cost is below the threshold (an effect added early can be made redundant by later ones)."""
+    current = tuple(result.named)
+    while len(current) > 1:
+        trials = []
+        for name in current:
+            rest = tuple(e for e in current if e != name)
+            f = result.fits.get(rest) or fit(rest, warm=result.final)
+            result.fits[rest] = f
+            trials.append((f.bic - result.final.bic, name, rest, f))
+        cost, name, rest, f = min(trials, key=lambda t: t[0])
+        if cost >= bic_threshold:
+            break
+        result.dropped.append({"effect": name, "delta_bic": cost})
+        current, result.final = rest, f
+        result.named.remove(name)
 
 
 def selection_score(fit) -> float:

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from guide_health.analysis.discrepancy.analysis import disagreement
+from guide_health.analysis.discrepancy.analysis import disagreement, unexplained_structure
 from guide_health.analysis.discrepancy.duty import DutyCells
 from guide_health.analysis.discrepancy.model import FitResult, WearProblem, rel_errors
 from guide_health.analysis.discrepancy.model_file import model_parameters
@@ -27,6 +27,24 @@ EFFECT_MEANING = {
     "stroke_distribution": "stroke distribution: the observed strokes, not Eq. 5's j = 1/2, set the wear depth",
     "thermal_drift": "thermal drift: the straightness measurement follows the guide temperature",
     "initial_offset": "initial offset: the initial straightness is not the A0 of the parameters",
+    "wear_rate_change": "wear-rate change: the wear coefficient changed by a factor at a time (contamination, "
+                        "a damaged wiper, another lubricant)",
+    "lubrication_interval": "lubrication interval: wear grows with the time since the last relubrication",
+    "load_along_rail": "load along the rail: the load varies along the travel (misalignment, foundation)",
+}
+
+# the duty variation that makes an effect's signature distinct from the others' (for near-ties)
+SEPARATING_DUTY = {
+    "running_in": "a longer record (running-in decays with sliding distance and is over after 3 s0)",
+    "retract_asymmetry": "retract strokes at another speed or load than the feed (or feed-only passes)",
+    "speed_dependent_wear": "jobs at two or more feed speeds under the same load",
+    "load_exponent": "jobs at two or more loads at the same feed speed",
+    "stroke_distribution": "separate jobs of short and of long strokes",
+    "thermal_drift": "straightness measured at rest across a temperature change (a warm-up without motion)",
+    "initial_offset": "a straightness measurement before the first motion",
+    "wear_rate_change": "the same duty before and after a suspected event, with the event logged",
+    "lubrication_interval": "relubrication at recorded times (maintenance events) at another interval",
+    "load_along_rail": "jobs confined to different sections of the rail",
 }
 
 STEADY_STAGE_DISTANCES = 3.0     # the running-in transient is over after 3 s0 (exp(-3) = 5 %)
@@ -44,6 +62,51 @@ def sliding_distance_at_measurements(problem: WearProblem) -> np.ndarray:
     n = problem.y_m.size
     per_interval = np.bincount(np.clip(c.interval, 0, n), weights=c.distance_m, minlength=n + 1)[:n]
     return np.cumsum(per_interval)
+
+
+def fit_forecast(problem: WearProblem, fit: FitResult, limit_m: float, points: int = 60) -> dict[str, Any]:
+    """The fitted model's forecast from the last measurement to the limit at the duty of the last quarter of
+    the record (its mean straightness rate): life = (A_max - A_now) / rate, the 90 % band by the delta method
+    over the fit's parameter covariance (A_now and the rate both move). {} without wear growth."""
+    t, n = problem.t_s, problem.t_s.size
+    j = max(0, int(0.75 * n) - 1)
+
+    def now_and_rate(values):
+        p = problem.predict_m(values)
+        return p[-1], (p[-1] - p[j]) / max(t[-1] - t[j], 1e-9)
+
+    a_now, rate = now_and_rate(fit.values)
+    if not (rate > 0 and a_now < limit_m):
+        return {}
+    life_s = (limit_m - a_now) / rate
+    cov = fit.extra.get("covariance")
+    grad = np.zeros(len(cov["names"])) if cov else np.zeros(0)
+    for i, name in enumerate(cov["names"] if cov else []):
+        h = 1e-3 * math.sqrt(max(cov["matrix"][i, i], 0.0)) or 1e-9 * max(abs(fit.values[name]), 1e-12)
+        a, r = now_and_rate({**fit.values, name: fit.values[name] + h})
+        grad[i] = (math.log((limit_m - a) / r) - math.log(life_s)) / h if r > 0 and a < limit_m else 0.0
+    sd = math.sqrt(max(float(grad @ cov["matrix"] @ grad), 0.0)) if cov else 0.0
+    life_h = life_s / 3600.0
+    low, high = life_h * math.exp(-1.645 * sd), life_h * math.exp(1.645 * sd)
+    h = np.linspace(0.0, high, points)
+    a_um, limit_um = a_now * 1e6, limit_m * 1e6
+    return {"now_h": float(t[-1] / 3600.0), "now_ns": int(problem.cells.t0_ns + t[-1] * 1e9), "life_h": life_h,
+            "life_low_h": low, "life_high_h": high, "limit_um": limit_um, "horizon_h": h.tolist(),
+            **{k: np.minimum(a_um + (limit_um - a_um) * h / x, limit_um).tolist()
+               for k, x in (("mid_um", life_h), ("fast_um", low), ("slow_um", high))}}
+
+
+def _names(problem: WearProblem, effect: str) -> list[str]:
+    """The reported parameters of an effect (thermal_drift: also its reference temperature)."""
+    extra = ["thermal_reference_offset_k"] if effect == "thermal_drift" else []
+    return [s.name for s in problem.specs[effect]] + extra
+
+
+def _tie(tie: dict) -> dict[str, Any]:
+    """A near-tie of the forward search, with what would separate the effects."""
+    effects = [tie["selected"], *tie["tied"]]
+    return {**tie, "message": (f"the data cannot tell {' from '.join(effects)} (BIC within {tie['bic_margin']:g}); "
+                               "to separate them run " + "; or ".join(SEPARATING_DUTY[e] for e in effects))}
 
 
 def _steady_stage(problem: WearProblem, base: FitResult, final: FitResult) -> dict[str, Any]:
@@ -69,7 +132,9 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
     selection = forward_selection(problem.fit, problem.available_effects(), bic_threshold=bic_threshold)
     base, final = selection.baseline, selection.final
     where = disagreement(problem, base.predicted_m)
-    after = disagreement(problem, final.predicted_m)
+    after = disagreement(problem, final.predicted_m, mask=problem.fit_mask)     # the fit's own residuals
+    named = list(selection.named)
+    structure = unexplained_structure(after, named)
     candidates = []
     for round_index, rows in enumerate(selection.rounds):
         for r in rows:
@@ -83,13 +148,17 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
                 "selected": r["selected"],
                 "parameters": f.parameter_table(),
             })
-    named = list(selection.named)
     final_gap = _gap(final)
     effects = {e: {"meaning": EFFECT_MEANING[e],
-                   "parameters": {s.name: final_gap["parameters"][s.name] for s in problem.specs[e]}}
+                   "parameters": {name: final_gap["parameters"][name] for name in _names(problem, e)
+                                  if name in final_gap["parameters"]}}
                for e in named}
     result: dict[str, Any] = {
+        "unexplained_structure": structure,
+        "explained": bool(named) and not structure["present"],
         "named_effects": named,
+        "near_ties": [_tie(t) for t in selection.ties],
+        "dropped_by_backward_pass": selection.dropped,
         "effects": effects,
         "baseline": _gap(base),
         "final": final_gap,
@@ -101,7 +170,7 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
         "candidates": candidates,
         "where_baseline_disagrees": where,
         "residuals_after": {k: after[k] for k in ("residual_rms_um", "runs_test", "lag1_autocorrelation",
-                                                  "systematic_in_time", "systematic_conditions")},
+                                                  "systematic_in_time", "systematic_conditions", "windows")},
         "data": {
             "measurements": int(problem.y_m.size), "fit_measurements": int(problem.fit_mask.sum()),
             "heldout_measurements": int(problem.heldout_mask.sum()),
@@ -124,7 +193,9 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
         result.update(_steady_stage(problem, base, final))
     # the model file: the named effects refitted on every measurement (the held-out span scored the choice)
     whole = WearProblem(cells, params, heldout_fraction=0.0)
-    result["model_file"] = model_parameters(whole, whole.fit(tuple(named), warm=final), named)
+    whole_fit = whole.fit(tuple(named), warm=final)
+    result["model_file"] = model_parameters(whole, whole_fit, named)
+    result["forecast"] = fit_forecast(whole, whole_fit, float(params["straightness_limit_m"]))
     result["fit_s"] = time.perf_counter() - t0
     result["series"] = {
         "t_h": problem.t_s / 3600.0, "measured_um": problem.y_m * 1e6,

@@ -28,6 +28,19 @@ Wear-rate multipliers m_i (dV_i = K W_i ds_i m_i / H):
     W_ref only scales K; the simulator uses ``load_reference_n``, the workflow the work-weighted
     geometric mean load of the run, so its fitted K stays comparable with the baseline's.
 
+``wear_rate_change`` (t_c [s], f [-])
+    The wear coefficient changes by the factor f at an unknown time t_c (contamination, a chipped wiper, a
+    new lubricant batch): m = 1 before, f after. Over a cell of duration d centred at t the share of the
+    work after t_c is clip((t + d/2 - t_c) / d, 0, 1) (uniform work within the cell).
+``lubrication_interval`` (T [s], a [-])
+    Wear grows with the time since the last relubrication, reset every interval T from the start of the
+    record (relubricated at t = 0, T, 2T, ...): m = 1 + a tau / T, tau = t mod T (the lubricant film
+    thins and is contaminated between services).
+``load_along_rail`` (g [1/m])
+    The load varies along the rail (a misaligned rail or a non-uniform foundation): W(x) = W (1 + g (x -
+    x_ref)), x_ref the work-weighted mean position of the run (so K stays the mean): m = max(1 + g (x -
+    x_ref), 0).
+
 Straightness mapping:
 
 ``stroke_distribution`` (w [-])
@@ -40,9 +53,10 @@ Straightness mapping:
 
 Measurement terms:
 
-``thermal_drift`` (c_T [m/K])
-    The straightness measurement bends with the guide temperature: y = A + c_T (T - T_0), T_0 the
-    temperature of the first measurement (where A0 was taken). Reversible, unlike wear.
+``thermal_drift`` (c_T [m/K], dT_ref [K])
+    The straightness measurement bends with the guide temperature: y = A + c_T (T - T_ref), T_ref =
+    T_0 + dT_ref the temperature at which the guide is straight to A0 (T_0 that of the first measurement).
+    dT_ref is fitted when A0 is given (otherwise it is one with A0). Reversible, unlike wear.
 ``initial_offset`` (delta [m])
     The initial straightness is A0 + delta, not the A0 of the parameters.
 """
@@ -55,6 +69,9 @@ import numpy as np
 
 EFFECT_IDS = ("running_in", "retract_asymmetry", "speed_dependent_wear", "load_exponent",
               "stroke_distribution", "thermal_drift", "initial_offset")
+# candidates of the discrepancy workflow that the simulator does not hide (their tests write their truth)
+DUTY_EFFECT_IDS = ("wear_rate_change", "lubrication_interval", "load_along_rail")
+CANDIDATE_IDS = EFFECT_IDS + DUTY_EFFECT_IDS
 
 # what `guide-health simulate --effect NAME=VALUE` sets, its unit, and the no-effect value
 EFFECT_VALUE = {
@@ -179,3 +196,24 @@ def measured_straightness_m(wear_straightness_m: np.ndarray, straightness_initia
     if effects.thermal_drift_m_per_k != 0.0 and temperature_change_k is not None:
         y = y + effects.thermal_drift_m_per_k * np.asarray(temperature_change_k, dtype=float)
     return y
+
+
+def wear_rate_change_factor(time_s: np.ndarray, duration_s: np.ndarray, change_time_s: float,
+                            factor: float) -> np.ndarray:
+    """m of ``wear_rate_change`` for cells of the given duration centred at ``time_s``: 1 + (f - 1) x the
+    share of the cell's work after t_c [-]."""
+    t = np.asarray(time_s, dtype=float)
+    d = np.maximum(np.asarray(duration_s, dtype=float), 1e-9)
+    after = np.clip((t + 0.5 * d - change_time_s) / d, 0.0, 1.0)
+    return 1.0 + (factor - 1.0) * after
+
+
+def lubrication_interval_factor(time_s: np.ndarray, interval_s: float, growth: float) -> np.ndarray:
+    """m of ``lubrication_interval``: 1 + a (t mod T) / T [-] (relubricated at t = 0, T, 2T, ...)."""
+    t = np.asarray(time_s, dtype=float)
+    return 1.0 + growth * np.mod(t, interval_s) / interval_s
+
+
+def load_along_rail_factor(position_m: np.ndarray, gradient_per_m: float, reference_m: float) -> np.ndarray:
+    """m of ``load_along_rail``: max(1 + g (x - x_ref), 0) [-]."""
+    return np.maximum(1.0 + gradient_per_m * (np.asarray(position_m, dtype=float) - reference_m), 0.0)

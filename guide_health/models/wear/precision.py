@@ -24,9 +24,15 @@ from guide_health.models.wear.archard import (
     straightness_from_wear_volume_m,
 )
 from guide_health.models.wear.calibration import Z90, WearCoefficientEstimator, remaining_life_s
-from guide_health.models.wear.effect_wear import EffectWear, LiveEffects, life_interval_s
+from guide_health.models.wear.effect_wear import (
+    EffectWear,
+    LiveEffects,
+    forecast_straightness_m,
+    life_interval_s,
+)
 from guide_health.models.wear.input_rules import (
     REASON_CODES,
+    STRAIGHTNESS_WITHOUT_TIME_BASE,
     InputLimits,
     RejectionCounter,
     StampBase,
@@ -111,9 +117,16 @@ class PrecisionMonitor:
         self.load_samples += 1
         return None
 
+    def on_temperature(self, t_ns: int, temperature_c: float) -> None:
+        """A guide/temperature reading: the rolling guide's oil viscosity from its stamp on (Walther oil)."""
+        if self.rolling is not None:
+            self.rolling.add_temperature(t_ns, temperature_c)
+
     def on_straightness(self, t_ns: int, straightness_m: float) -> str | None:
         """Straightness measurement [m]; returns the rejection reason or None when accepted. A measurement
         is identified by its stamp: one with the stamp of an applied measurement is not applied again."""
+        if self.integrator.last_t_ns is None:   # before any accepted joint sample (discrepancy/duty.py alike)
+            return self.rejected.reject(STRAIGHTNESS_WITHOUT_TIME_BASE)
         times = self.estimator.measurement_t_ns
         reason = check_straightness_sample(t_ns, straightness_m, times[-1] if times else None, self.limits)
         if reason is not None:
@@ -187,6 +200,8 @@ class PrecisionMonitor:
         found by binary search, and the integration is split at the measurement times so each
         measurement sees the wear state at its own time.
         """
+        if self.rolling is not None and getattr(run, "temperature_t_ns", np.zeros(0)).size:
+            self.rolling.add_temperatures(run.temperature_t_ns, run.temperature_c)   # applied by stamp
         accepted = accept_run(run, self.joint_base, self.load_base, self.load_n, self.limits)
         self.rejected.count_all(accepted.rejected)
         self.joint_base, self.load_base = accepted.joints.base, accepted.loads.base
@@ -302,6 +317,29 @@ class PrecisionMonitor:
             else:
                 result["message"] = f"{result['message']}; {text}"
         return result
+
+    def forecast(self, points: int = 60) -> dict[str, Any]:
+        """Straightness from now to the limit at the present duty [um] over the horizon [h]: the point
+        forecast (with the effects: running-in decaying on the way, effect_wear.forecast_straightness_m) and
+        the 90 % band, whose edges reach the limit at the interval's ends. {} without a finite life."""
+        r = self.report()
+        life, low, high = r["remaining_life_h"], r["remaining_life_h_low"], r["remaining_life_h_high"]
+        a_now, limit = r["straightness_um"], r["straightness_limit_um"]
+        if not (math.isfinite(life) and life > 0 and math.isfinite(a_now) and self.integrator.last_t_ns):
+            return {}
+        end = high if math.isfinite(high) else 3.0 * life
+        h = np.linspace(0.0, end, points)
+        mid = a_now + (limit - a_now) * h / life
+        if self.effect_wear is not None and self.effects.running_in_ratio > 0:
+            f = self.effect_forecast()
+            mid = forecast_straightness_m(h * 3600.0, a_now, r["wear_coefficient"] * f["steady_rate_per_k_m_s"] * 1e6,
+                                          self.effects.running_in_ratio, self.effects.running_in_distance_m,
+                                          f["sliding_distance_m"], f["sliding_speed_m_s"])
+        band = [a_now + (limit - a_now) * h / x if x > 0 else np.full_like(h, limit) for x in (low, high)]
+        return {"now_h": (self.integrator.last_t_ns - (self.integrator.first_t_ns or 0)) * 1e-9 / 3600.0,
+                "now_ns": int(self.integrator.last_t_ns), "horizon_h": h, "mid_um": np.minimum(mid, limit),
+                "fast_um": np.minimum(band[0], limit), "slow_um": np.minimum(band[1], limit), "limit_um": limit,
+                "life_h": life, "life_low_h": low, "life_high_h": high}
 
     def recent_rejected_share(self) -> tuple[float, str, str]:
         """(share, stream, dominant reason) of the input stream with the largest share of rejected samples

@@ -1,0 +1,248 @@
+"""One axis of the wear_monitor node: its model (AxisMonitor), its input topics, status tasks and outputs.
+
+The node owns the shared joint_states subscription and hands every JointState to each axis
+(:meth:`AxisChannel.joint_values` / :meth:`AxisChannel.joint_message`); the axis subscribes its own load,
+straightness and temperature topics and publishes ``<prefix>/straightness_predicted`` and
+``<prefix>/remaining_life`` (prefix ``guide`` for the single-joint node, ``<axis>/guide`` otherwise).
+"""
+from __future__ import annotations
+
+import math
+import time
+
+from geometry_msgs.msg import WrenchStamped
+from rclpy.serialization import deserialize_message
+from sensor_msgs.msg import JointState, Temperature
+from std_msgs.msg import Float64
+from std_srvs.srv import Trigger
+
+from guide_health.io.cdr import RawMessageDecoder
+from guide_health.io.interfaces import JOINT_STATE, WRENCH_STAMPED
+from guide_health.models.wear.axis import PRECISION_KEYS, AxisMonitor
+from guide_health.models.wear.feed import StampAlignedFeed
+from guide_health.models.wear.input_rules import (
+    EMPTY_JOINT_STATES,
+    INVALID_STAMP,
+    JOINT_POSITION_MISSING,
+    MALFORMED_LOAD,
+    STRAIGHTNESS_WITHOUT_TIME_BASE,
+    header_stamp_ns,
+    joint_missing,
+    rejected_keys,
+)
+from guide_health.models.wear.maintenance import KINDS, MaintenanceEvent
+from guide_health.nodes.status import RejectionLog, StatusTask
+
+# status keys (README "Diagnostics"): the first tuple of each task always, 'nan' until known; the rest when known
+EXTRA_PRECISION_KEYS = ("wear_coefficient_low", "wear_coefficient_high", "measurements", "duty_load_speed_w",
+                        "stroke_min_m", "stroke_max_m", "strokes", "rejected_samples", "samples",
+                        "rejected_recent_share", "guide", "maintenance_event_count",
+                        "last_maintenance", "messages_lost", "best_effort_topics")
+TIMING_KEYS = ("load_samples", "callback_time_us", "model_time_us")
+ROLLING_PRECISION_KEYS = ("lambda", "asperity_load_share", "boundary_share_recent", "boundary_share_total",
+                          "oil_viscosity_pa_s", "oil_temperature_c")
+FATIGUE_KEYS = ("equivalent_load_n", "rating_life_km", "travel_km", "life_used_fraction", "remaining_life_km")
+EXTRA_FATIGUE_KEYS = ("duty_load_n", "carriages", "guide")
+
+
+def stamp_ns(header) -> int | None:
+    """The header stamp [ns], None when invalid (input_rules.header_stamp_ns)."""
+    return header_stamp_ns(header.stamp.sec, header.stamp.nanosec)
+
+
+class AxisChannel:
+    """The live wiring of one axis (``params``: one entry of guide_health.params.machine.axes_params; ``qos``:
+    the node's SensorSubscriptions, guide_health/nodes/qos.py, which subscribes under ``sensor_qos``)."""
+
+    def __init__(self, node, params: dict, qos, single: bool):
+        self.node = node
+        self.params = params
+        self.name = params["axis"]
+        self.joint = params["joint"]
+        self.model = AxisMonitor(params)
+        self.feed = StampAlignedFeed(self.model, params["input_align_window_s"])
+        prefix = "rejected input: " if single else f"rejected input on axis {self.name}: "
+        self.rejections = RejectionLog(node.get_logger(), prefix=prefix)
+        self.temperature_c = math.nan
+        self.load_input = params["load_topic"]
+        self.precision_task = f"{self.name} precision"
+        self.joint_decoder = RawMessageDecoder(JOINT_STATE, ("sec", "nsec", "position", "velocity"),
+                                               self.joint, absent=0.0)   # no velocity array: 0
+        self.load_decoder = RawMessageDecoder(WRENCH_STAMPED, ("sec", "nsec", "fz"))
+        if node.raw:
+            qos.subscribe(WrenchStamped, self.load_input, self.on_load_raw, raw=True)
+        else:
+            qos.subscribe(WrenchStamped, self.load_input, self.on_load)
+        qos.subscribe(Float64, params["straightness_topic"], self.on_straightness)
+        qos.subscribe(Temperature, params["temperature_topic"], self.on_temperature)
+        out = params["output_prefix"]
+        self.pred_pub = node.create_publisher(Float64, f"{out}/straightness_predicted", 10)
+        self.life_pub = node.create_publisher(Float64, f"{out}/remaining_life", 10)
+        for kind in KINDS:      # std_srvs/Trigger maintenance/<axis>/<kind> (values: maintenance_* parameters)
+            node.create_service(Trigger, f"maintenance/{self.name}/{kind}",
+                                lambda request, response, kind=kind: self.on_maintenance_call(kind, response))
+
+    def status_tasks(self, report_extras) -> list[StatusTask]:
+        """`<axis> precision` (and `<axis> fatigue` for rolling guides); ``report_extras(values)`` adds the
+        node's timing numbers."""
+        rolling = self.model.rolling is not None
+        inputs = ("joint_states", self.load_input)
+
+        def precision():
+            report = self.model.report()
+            report_extras(report)
+            return report["level"], report["message"], report
+
+        def fatigue():
+            report = self.model.fatigue_report()
+            return report["level"], report["message"], report
+
+        tasks = [StatusTask(self.precision_task, precision, PRECISION_KEYS,
+                            EXTRA_PRECISION_KEYS + TIMING_KEYS + (ROLLING_PRECISION_KEYS if rolling else ())
+                            + rejected_keys(self.joint), stale_inputs=inputs)]
+        if rolling:
+            tasks.append(StatusTask(f"{self.name} fatigue", fatigue, FATIGUE_KEYS, EXTRA_FATIGUE_KEYS,
+                                    stale_inputs=inputs, stale_prefix="no data on {inputs}; "))
+        return tasks
+
+    # --- inputs ----------------------------------------------------------------------------------
+    def reject(self, stream: str, reason: str) -> None:
+        self.rejections.log(self.model.reject_input(stream, reason))
+
+    def joint_values(self, sec: int, nsec: int, position: float, velocity: float) -> tuple[float, float]:
+        """A decoded JointState sample of this axis; returns the (start, end) perf_counter of the model."""
+        t_ns = header_stamp_ns(sec, nsec)
+        if t_ns is None:
+            self.reject("joint_states", INVALID_STAMP)
+            return 0.0, 0.0
+        t1 = time.perf_counter()
+        reasons = self.feed.joint(t_ns, position, velocity, time.monotonic())
+        t2 = time.perf_counter()
+        self.rejections.log_all(reasons)
+        return t1, t2
+
+    def joint_message(self, msg: JointState) -> tuple[float, float]:
+        """A deserialised JointState: this axis's joint picked out, or the message rejected for it."""
+        if not msg.name or len(msg.position) == 0:
+            self.reject("joint_states", EMPTY_JOINT_STATES)
+            return 0.0, 0.0
+        try:
+            i = list(msg.name).index(self.joint)
+        except ValueError:
+            self.reject("joint_states", joint_missing(self.joint))
+            return 0.0, 0.0
+        if i >= len(msg.position):
+            self.reject("joint_states", JOINT_POSITION_MISSING)
+            return 0.0, 0.0
+        velocity = msg.velocity[i] if i < len(msg.velocity) else 0.0
+        stamp = msg.header.stamp
+        return self.joint_values(stamp.sec, stamp.nanosec, float(msg.position[i]), float(velocity))
+
+    def on_load_raw(self, raw: bytes) -> None:
+        t0 = time.perf_counter()
+        values = self.load_decoder.decode(raw)
+        if values is None:
+            try:
+                msg = deserialize_message(raw, WrenchStamped)
+            except Exception:  # noqa: BLE001 - anything undecodable is malformed input
+                self.node.updater.touch(self.load_input)
+                self.reject(self.load_input, MALFORMED_LOAD)
+                return
+            self.on_load(msg)
+            return
+        self.node.updater.touch(self.load_input)
+        t1, t2 = self._load(*values)
+        self.node.account(t0, t1, t2)
+
+    def on_load(self, msg: WrenchStamped) -> None:
+        self.node.updater.touch(self.load_input)
+        t1, t2 = self._load(msg.header.stamp.sec, msg.header.stamp.nanosec, float(msg.wrench.force.z))
+        self.node.account(t1, t1, t2)   # deserialisation happened before the callback: not measurable here
+
+    def _load(self, sec: int, nsec: int, force_z: float) -> tuple[float, float]:
+        t_ns = header_stamp_ns(sec, nsec)
+        if t_ns is None:
+            self.reject(self.load_input, INVALID_STAMP)
+            return 0.0, 0.0
+        t1 = time.perf_counter()
+        reasons = self.feed.load(t_ns, force_z, time.monotonic())
+        t2 = time.perf_counter()
+        self.rejections.log_all(reasons)
+        return t1, t2
+
+    def on_straightness(self, msg: Float64) -> None:
+        self.rejections.log_all(self.feed.flush_all())    # the joint samples that came before it count
+        t = self.model.last_t_ns
+        if t is None:
+            self.rejections.log(self.model.reject(STRAIGHTNESS_WITHOUT_TIME_BASE))
+            return
+        self.rejections.log(self.model.on_straightness(t, float(msg.data)))
+
+    def on_temperature(self, msg: Temperature) -> None:
+        if math.isfinite(msg.temperature):
+            self.temperature_c = float(msg.temperature)
+            t = stamp_ns(msg.header)
+            if t is not None:        # the rolling guide's Walther oil viscosity, by stamp as offline
+                self.model.on_temperature(t, self.temperature_c)
+
+    # --- maintenance ---------------------------------------------------------------------------------
+    def maintenance_event(self, kind: str, values: dict) -> MaintenanceEvent | str:
+        """The event a service call records (values: the node's maintenance_* parameters), or why none."""
+        self.rejections.log_all(self.feed.flush_all())     # the present = every joint sample received
+        now = self.model.last_t_ns
+        if now is None:
+            return "no joint_states sample of this axis yet: the event would have no time"
+        t_ns = now
+        if kind == "measure" and values["maintenance_time_s"] > 0:
+            t_ns = int(round(values["maintenance_time_s"] * 1e9))
+        a = values["maintenance_straightness_m"]
+        return MaintenanceEvent(t_ns, kind, self.name, values["maintenance_guide"], a if a > 0 else math.nan,
+                                "service")
+
+    def on_maintenance_call(self, kind: str, response):
+        event = self.maintenance_event(kind, self.node.maintenance_values())
+        if isinstance(event, str):
+            response.success, response.message = False, event
+            return response
+        reason = self.model.schedule(event)
+        if reason is not None:
+            response.success, response.message = False, reason
+            return response
+        self.node.publish_event(event)
+        report = self.model.report()
+        response.success = True
+        response.message = (f"{kind} of {self.name}{' ' + event.guide if event.guide else ''} at {event.t_ns} ns: "
+                            f"straightness {report['straightness_um']:.2f} um, K {report['wear_coefficient']:.4g}")
+        self.node.get_logger().info(f"maintenance: {response.message}")
+        return response
+
+    def on_event(self, event: MaintenanceEvent) -> None:
+        """An event from the maintenance/events topic (a bag, an HMI, this node's own)."""
+        self.rejections.log(self.model.schedule(event))
+
+    # --- outputs ---------------------------------------------------------------------------------
+    def publish_outputs(self, values: dict) -> None:
+        if math.isfinite(values["straightness_um"]):
+            self.pred_pub.publish(Float64(data=values["straightness_um"] * 1e-6))
+        if not math.isnan(values["remaining_life_h"]):
+            self.life_pub.publish(Float64(data=values["remaining_life_h"] * 3600.0))
+
+    def states(self, machine_id: str) -> dict[str, dict]:
+        """{state key: state} of every guide of the axis, and the axis's maintenance log."""
+        keys = self.model.state_keys(machine_id)
+        states = {keys[name]: guide.state() for name, guide in self.model.guides.items()}
+        states[self.maintenance_key(machine_id)] = self.model.maintenance_state()
+        return states
+
+    def maintenance_key(self, machine_id: str) -> str:
+        return f"{machine_id}/{self.name}/maintenance"
+
+    def resume(self, store, machine_id: str) -> list[tuple]:
+        """Restore every guide saved in ``store``; the (key, guide model) pairs resumed."""
+        resumed = []
+        for name, key in self.model.state_keys(machine_id).items():
+            saved = store.load(key)
+            if saved is not None:
+                self.model.guides[name].restore(saved)
+                resumed.append((key, self.model.guides[name]))
+        return resumed

@@ -1,0 +1,138 @@
+"""The effects added to the library in issue 15, each found on hidden data (>= 9/10 named, slow) whose truth
+is written here, not with the package's terms: config/machine_jobs.yaml motion and load from the simulator,
+straightness integrated sample by sample over the bag's JointState and load samples (zero-order hold):
+
+- ``wear_rate_change``: K x f from t_c on (f 1.8..2.5, t_c 4..11 h of 20 h: contamination);
+- ``lubrication_interval``: K (1 + a tau / T), tau the time since the last relubrication at 0, T, 2T, ...
+  (T 6..9 h, a 1..2);
+- ``load_along_rail``: the load W (1 + g x) at rail position x (g +-1.5..3 per m: a misaligned rail);
+- ``thermal_drift`` with a reference temperature T_ref = T_0 + d (d +-2..5 K) other than the first
+  measurement's: the fitted dT_ref recovers d, and no surrogate initial_offset is named.
+
+The total wear is scaled to the plain Archard wear of the run. Noise 0.3 um.
+"""
+from __future__ import annotations
+
+import math
+import multiprocessing as mp
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from guide_health.analysis.discrepancy.duty import duty_cells_from_runs
+from guide_health.analysis.discrepancy.workflow import diagnose_cells
+from guide_health.params import simulation_params, wear_monitor_params
+from guide_health.sim.machine import simulate_machine
+
+JOBS = Path(__file__).resolve().parents[1] / "config" / "machine_jobs.yaml"
+RATE_HZ = 10.0
+HOURS = 30.0            # the issue's experiments: 30 h at 10 Hz
+NOISE_M = 0.3e-6
+
+
+def draw(effect: str, rng: np.random.Generator) -> dict:
+    if effect == "wear_rate_change":
+        return {"t_c_h": rng.uniform(4.0, 11.0), "factor": rng.uniform(1.8, 2.5)}
+    if effect == "lubrication_interval":
+        return {"interval_h": rng.uniform(6.0, 9.0), "growth": rng.uniform(1.0, 2.0)}
+    if effect == "load_along_rail":
+        return {"gradient_per_m": float(rng.choice([-1.0, 1.0]) * rng.uniform(1.5, 3.0))}
+    if effect == "thermal_drift":
+        return {"c_m_per_k": float(rng.choice([-1.0, 1.0]) * rng.uniform(0.8e-6, 1.5e-6)),
+                "d_k": float(rng.choice([-1.0, 1.0]) * rng.uniform(2.0, 5.0))}
+    return {}
+
+
+def hidden_truth(run, effect: str, h: dict, params: dict, stroke_sum_m: float) -> np.ndarray:
+    """Noise-free straightness [m] at the measurement stamps (this file's own integration)."""
+    t_ns = np.asarray(run.joint_t_ns, dtype=np.int64)
+    t_h = (t_ns - t_ns[0]) * 1e-9 / 3600.0
+    x = np.asarray(run.joint_position_m, dtype=float)
+    ds = np.abs(np.diff(x))
+    held = np.searchsorted(run.load_t_ns, t_ns[1:], side="right") - 1
+    load = np.where(held >= 0, np.asarray(run.load_n)[np.clip(held, 0, None)], 0.0)
+    plain = load * ds
+    t_mid = 0.5 * (t_h[1:] + t_h[:-1])
+    if effect == "wear_rate_change":
+        work = plain * np.where(t_mid >= h["t_c_h"], h["factor"], 1.0)
+    elif effect == "lubrication_interval":
+        since = t_mid - h["interval_h"] * np.floor(t_mid / h["interval_h"])
+        work = plain * (1.0 + h["growth"] * since / h["interval_h"])
+    elif effect == "load_along_rail":
+        work = plain * (1.0 + h["gradient_per_m"] * 0.5 * (x[1:] + x[:-1]))
+    else:
+        work = plain
+    work = work * plain.sum() / work.sum()
+    g = np.concatenate(([0.0], np.cumsum(work)))
+    at_h = (np.asarray(run.straightness_t_ns, dtype=np.int64) - t_ns[0]) * 1e-9 / 3600.0
+    y = params["straightness_initial_m"] + params["wear_coefficient"] / (
+        params["hardness_pa"] * params["contact_width_m"]) * 2.0 * np.interp(at_h, t_h, g) / stroke_sum_m
+    if effect == "thermal_drift":
+        temp = np.interp(np.asarray(run.straightness_t_ns, dtype=float), np.asarray(run.temperature_t_ns, float),
+                         run.temperature_c)
+        y = y + h["c_m_per_k"] * (temp - (temp[0] + h["d_k"]))
+    return y
+
+
+def case(args):
+    effect, seed = args
+    params = wear_monitor_params(JOBS)
+    sim = dict(simulation_params(JOBS), duration_h=HOURS, joint_state_rate_hz=RATE_HZ, load_rate_hz=RATE_HZ)
+    run = simulate_machine(params, sim, seed=seed)
+    h = draw(effect, np.random.default_rng(700 + seed))
+    truth = run.metadata["truth"]
+    y = hidden_truth(run, effect, h, params, truth["stroke_min_m"] + truth["stroke_max_m"])
+    run.straightness_m = y + np.random.default_rng(900 + seed).normal(0.0, NOISE_M, y.size)
+    result = diagnose_cells(duty_cells_from_runs(run, params["slider_length_m"]), params)
+    values = {k: p["value"] for e in result["named_effects"] for k, p in result["effects"][e]["parameters"].items()}
+    return {"effect": effect, "seed": seed, "hidden": h, "named": result["named_effects"], "values": values,
+            "flag": result["unexplained_structure"]["present"],
+            "heldout_ratio": result["gap"]["heldout_rmse_ratio"]}
+
+
+def run_cases(effects, seeds):
+    with mp.get_context("spawn").Pool(2) as pool:
+        rows = pool.map(case, [(e, s) for e in effects for s in seeds])
+    for r in rows:
+        print(f"{r['effect']} seed {r['seed']}: named {r['named']} flag {r['flag']} "
+              f"held-out ratio {r['heldout_ratio']:.2f} {r['hidden']} -> "
+              + ", ".join(f"{k} {v:.4g}" for k, v in r["values"].items()))
+    return rows
+
+
+def check_parameters(r):
+    """The named effect's parameters are the hidden ones (tolerances: physics, not a curve)."""
+    v, h = r["values"], r["hidden"]
+    if r["effect"] == "wear_rate_change":
+        assert abs(v["wear_rate_change_time_s"] / 3600.0 - h["t_c_h"]) < 0.5, r
+        assert v["wear_rate_change_factor"] == pytest.approx(h["factor"], rel=0.15), r
+    elif r["effect"] == "lubrication_interval":
+        assert v["lubrication_interval_s"] / 3600.0 == pytest.approx(h["interval_h"], rel=0.05), r
+    elif r["effect"] == "load_along_rail":
+        assert math.copysign(1.0, v["load_gradient_per_m"]) == math.copysign(1.0, h["gradient_per_m"]), r
+    elif r["effect"] == "thermal_drift":
+        assert v["thermal_reference_offset_k"] == pytest.approx(h["d_k"], abs=1.0), r
+        assert "initial_offset" not in r["named"], r
+
+
+EFFECTS = ["wear_rate_change", "lubrication_interval", "load_along_rail", "thermal_drift"]
+
+
+def test_new_effects_default():
+    """Default suite: seed 0 of each new effect is named, with its hidden parameters."""
+    for r in run_cases(EFFECTS, [0]):
+        assert r["effect"] in r["named"], r
+        check_parameters(r)
+
+
+@pytest.mark.slow
+def test_new_effects_named_in_9_of_10():
+    rows = run_cases(EFFECTS, range(10))
+    for effect in EFFECTS:
+        mine = [r for r in rows if r["effect"] == effect]
+        named = [r for r in mine if effect in r["named"]]
+        assert len(named) >= 9, (effect, [r["named"] for r in mine])
+        for r in named:
+            if r["named"] == [effect]:
+                check_parameters(r)

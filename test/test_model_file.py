@@ -1,0 +1,315 @@
+"""The model file (issue 15): what ``diagnose`` learns drives the live monitor's remaining life.
+
+- the live effect integration (models/wear/effect_wear.py inside PrecisionMonitor) against the independent
+  reference integration of test/reference_wear.py (shares no function with the package);
+- the seed 000 bench with running-in (``--effect running_in=2.5``, s0 = 300 m), diagnosed on its 20 h and
+  replayed with the model file: remaining life against the noise-free truth's, with and without the file;
+- the CLI: diagnose --out DIR writes DIR/model.yaml, replay --params BASE --params DIR/model.yaml loads it.
+
+Truth remaining life: the noise-free straightness of the simulator (bag metadata "truth") extrapolated
+linearly from its last 5 h (the running-in has decayed to e^-12 by then) to the 100 um limit.
+"""
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from guide_health.analysis.discrepancy.duty import duty_cells_from_runs
+from guide_health.analysis.discrepancy.workflow import diagnose_cells
+from guide_health.errors import InputError
+from guide_health.models.wear.input_rules import InputLimits
+from guide_health.models.wear.precision import PrecisionMonitor
+from guide_health.params import simulation_params, wear_monitor_params
+from guide_health.sim.machine import simulate_machine
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import reference_wear as ref  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+BENCH = ROOT / "config" / "bench_000.yaml"
+JOBS = ROOT / "config" / "machine_jobs.yaml"
+
+
+def cli(*args, check=True):
+    proc = subprocess.run([sys.executable, "-m", "guide_health.cli", *args], capture_output=True, text=True,
+                          cwd=ROOT, timeout=600)
+    if check:
+        assert proc.returncode == 0, proc.stderr
+    return proc
+
+
+def true_remaining_life_h(run, limit_m: float) -> float:
+    """From the noise-free truth: the last 5 h's straight line extrapolated to the limit."""
+    truth = run.metadata["truth"]
+    t = np.asarray(truth["straightness_t_s"])
+    y = np.asarray(truth["straightness_m"])
+    last = t >= t[-1] - 5 * 3600.0
+    slope = np.polyfit(t[last], y[last], 1)[0]
+    return (limit_m - y[-1]) / slope / 3600.0
+
+
+def bench_running_in(seed: int, rate_hz: float = 10.0):
+    params = wear_monitor_params(BENCH)
+    sim = dict(simulation_params(BENCH), joint_state_rate_hz=rate_hz, load_rate_hz=2.0)
+    return params, simulate_machine(params, sim, seed=seed, effects={"running_in": 2.5})
+
+
+def replay_life(params: dict, run) -> tuple[float, float, float]:
+    monitor = PrecisionMonitor(params)
+    monitor.process_run(run)
+    r = monitor.report()
+    return r["remaining_life_h"], r["remaining_life_h_low"], r["remaining_life_h_high"]
+
+
+def coverage(seeds) -> list[dict]:
+    rows = []
+    for seed in seeds:
+        params, run = bench_running_in(seed)
+        truth = true_remaining_life_h(run, params["straightness_limit_m"])
+        cells = duty_cells_from_runs(run, params["slider_length_m"], limits=InputLimits.from_params(params),
+                                     sliding_deadband_m=params["sliding_deadband_m"])
+        result = diagnose_cells(cells, params)
+        with_file = replay_life({**params, **result["model_file"]}, run)
+        plain = replay_life(params, run)
+        rows.append({"seed": seed, "named": result["named_effects"], "truth_h": truth, "model": with_file,
+                     "plain": plain, "model_file": result["model_file"]})
+    return rows
+
+
+def covers(interval, truth) -> bool:
+    return interval[1] <= truth <= interval[2]
+
+
+# --- the live effect integration against the independent reference -------------------------------
+
+@pytest.mark.parametrize("effects, live", [
+    ({"retract_asymmetry": 0.3}, {"effects": "retract_asymmetry", "retract_wear_factor": 0.3}),
+    ({"load_exponent": 1.6}, {"effects": "load_exponent", "load_exponent": 1.6}),
+    ({"speed_dependent_wear": 0.03}, {"effects": "speed_dependent_wear", "lift_speed_m_s": 0.03}),
+    ({"running_in": 2.0}, {"effects": "running_in", "running_in_ratio": 2.0}),
+    ({"running_in": 1.5, "retract_asymmetry": 0.5, "load_exponent": 1.4},
+     {"effects": "running_in,retract_asymmetry,load_exponent", "running_in_ratio": 1.5, "retract_wear_factor": 0.5,
+      "load_exponent": 1.4}),
+])
+def test_live_effects_integrate_the_independent_reference(effects, live):
+    """machine_jobs (varying feed speed, cutting load, rapid light retract): the monitor's straightness at
+    every measurement with the true K and effect parameters equals reference_wear's sample integration
+    (feed +x, retract -x, zero-order-hold load) to 0.2 % of the wear; with the plain model it does not."""
+    params = wear_monitor_params(JOBS)
+    sim = dict(simulation_params(JOBS), duration_h=4.0, joint_state_rate_hz=20.0, straightness_noise_m=0.0)
+    run = simulate_machine(params, sim, seed=4, effects=effects)
+    stroke = (float(run.metadata["truth"]["stroke_min_m"]), float(run.metadata["truth"]["stroke_max_m"]))
+    fixed = {**params, "stroke_min_m": stroke[0], "stroke_max_m": stroke[1], "sliding_deadband_m": 0.0,
+             "running_in_distance_m": sim["running_in_distance_m"], "load_reference_n": sim["load_reference_n"],
+             "retract_direction": "-x"}
+    k = params["wear_coefficient"] * sim["wear_coefficient_factor"]
+    hidden = ref.hidden_from_effects(effects, sim["running_in_distance_m"], sim["load_reference_n"])
+    expected = ref.reference_straightness_m(
+        run, hidden, wear_coefficient=k, hardness_pa=params["hardness_pa"], contact_width_m=params["contact_width_m"],
+        slider_length_m=params["slider_length_m"], straightness_initial_m=params["straightness_initial_m"],
+        stroke_sum_m=sum(stroke))
+    wear_ref = expected - params["straightness_initial_m"]
+    for extra, should_match in ((live, True), ({}, False)):
+        monitor = PrecisionMonitor({**fixed, **extra})
+        monitor.process_run(run)
+        got = monitor.straightness_m(k, monitor.measurement_losses_per_k_m()) - params["straightness_initial_m"]
+        assert got.size == wear_ref.size
+        err = np.max(np.abs(got - wear_ref)[1:] / wear_ref[1:])
+        assert (err < 2e-3) == should_match, (extra, err)
+
+
+def test_live_per_sample_path_equals_the_vectorised_path():
+    """The node's per-sample callbacks and process_run give the same effective work and life (one model
+    object, two input paths)."""
+    params = wear_monitor_params(JOBS)
+    sim = dict(simulation_params(JOBS), duration_h=1.0, joint_state_rate_hz=10.0)
+    run = simulate_machine(params, sim, seed=2, effects={"running_in": 1.0, "retract_asymmetry": 0.4})
+    p = {**params, "effects": "running_in,retract_asymmetry", "running_in_ratio": 1.0, "running_in_distance_m": 300.0,
+         "retract_wear_factor": 0.4, "effect_covariance": list(np.diag([1e-14, 0.01, 100.0, 0.001, 0, 0]).ravel())}
+    offline = PrecisionMonitor(p)
+    offline.process_run(run)
+    live = PrecisionMonitor(p)
+    events = sorted([(int(t), 0, float(x)) for t, x in zip(run.joint_t_ns, run.joint_position_m)]
+                    + [(int(t), 1, float(w)) for t, w in zip(run.load_t_ns, run.load_n)]
+                    + [(int(t), 2, float(y)) for t, y in zip(run.straightness_t_ns, run.straightness_m)],
+                    key=lambda e: (e[0], -e[1]))
+    for t, kind, value in events:
+        (live.on_joint, live.on_load, live.on_straightness)[kind](t, value)
+    a, b = offline.report(), live.report()
+    assert live.effect_wear.effective_work_nm == pytest.approx(offline.effect_wear.effective_work_nm, rel=1e-9)
+    for key in ("straightness_um", "remaining_life_h", "remaining_life_h_low", "remaining_life_h_high",
+                "wear_coefficient"):
+        assert b[key] == pytest.approx(a[key], rel=1e-6), key
+    # persisted and restored, the effect state goes on identically
+    again = PrecisionMonitor(p)
+    again.restore(json.loads(json.dumps(offline.state())))
+    assert again.report()["remaining_life_h"] == pytest.approx(a["remaining_life_h"], rel=1e-9)
+
+
+# --- the running-in bench: remaining life with and without the model file -----------------------------
+
+def test_running_in_remaining_life_with_the_model_file_default_seeds():
+    """Seeds 1-3 (default suite, ~10 s): with the model file the point estimate is within 10 % of the true
+    remaining life and its 90 % interval contains it; without, the life is < 50 % of the truth and the
+    interval excludes it (the issue's measurement: 1.75 h [1.16, 2.37] h against 4.18 h)."""
+    for row in coverage(range(1, 4)):
+        assert row["named"] == ["running_in"]
+        assert abs(row["model"][0] / row["truth_h"] - 1.0) < 0.10, row
+        assert covers(row["model"], row["truth_h"]), row
+        assert row["plain"][0] < 0.5 * row["truth_h"] and not covers(row["plain"], row["truth_h"]), row
+
+
+@pytest.mark.slow
+def test_running_in_remaining_life_coverage_seeds_0_to_9():
+    """Seeds 0-9 (~40 s): point estimate within 10 % in every seed; the interval's coverage is printed
+    (measured 7/10 with the file, 0/10 without; see docs/discrepancy.md) and must beat the plain model's."""
+    rows = coverage(range(10))
+    hits = sum(covers(r["model"], r["truth_h"]) for r in rows)
+    plain_hits = sum(covers(r["plain"], r["truth_h"]) for r in rows)
+    print(f"coverage with the model file {hits}/10, without {plain_hits}/10")
+    assert all(abs(r["model"][0] / r["truth_h"] - 1.0) < 0.10 for r in rows), rows
+    assert hits >= 7 and plain_hits == 0
+
+
+# --- the CLI ----------------------------------------------------------------------------------------
+
+def test_diagnose_writes_a_model_file_that_replay_loads(tmp_path):
+    """simulate (20 h, 5 Hz, running-in) -> diagnose --out DIR -> DIR/model.yaml (a wear_monitor ROS 2 parameters
+    file) -> replay --params BASE --params DIR/model.yaml: the remaining life moves from < 50 % of the truth
+    to within 10 %."""
+    bag = tmp_path / "bench"
+    cli("simulate", "--params", str(BENCH), "--out", str(bag), "--rate", "5", "--seed", "3",
+        "--effect", "running_in=2.5")
+    out = tmp_path / "diag"
+    cli("diagnose", str(bag), "--params", str(BENCH), "--out", str(out), "--no-plot")
+    model = yaml.safe_load((out / "model.yaml").read_text())["wear_monitor"]["ros__parameters"]
+    assert model["effects"] == "running_in"
+    assert model["running_in_ratio"] == pytest.approx(2.5, rel=0.2)
+    assert model["running_in_distance_m"] == pytest.approx(300.0, rel=0.2)
+    assert len(model["effect_covariance"]) == 36 and model["effect_covariance"][0] > 0
+    merged = wear_monitor_params([BENCH, out / "model.yaml"])
+    assert merged["effects"] == "running_in" and merged["contact_width_m"] == 0.040    # base kept, model over it
+    params = wear_monitor_params(BENCH)
+    sim = dict(simulation_params(BENCH), joint_state_rate_hz=5.0)
+    truth = true_remaining_life_h(simulate_machine(params, sim, seed=3, effects={"running_in": 2.5}),
+                                  params["straightness_limit_m"])
+    lives = {}
+    for name, extra in (("plain", []), ("model", ["--params", str(out / "model.yaml")])):
+        rep = json.loads(cli("replay", str(bag), "--params", str(BENCH), *extra, "--out", str(tmp_path / name),
+                             "--no-plot", "--json").stdout)
+        lives[name] = rep["remaining_life_h"]
+    assert lives["plain"] < 0.5 * truth
+    assert abs(lives["model"] / truth - 1.0) < 0.10, (lives, truth)
+
+
+def test_a_bad_model_file_is_one_line(tmp_path):
+    bad = tmp_path / "model.yaml"
+    bad.write_text("wear_monitor:\n  ros__parameters:\n    effects: running_in,thermal_drift\n")
+    with pytest.raises(InputError, match="not live effect 'thermal_drift'"):
+        wear_monitor_params([BENCH, bad])
+    bad.write_text("wear_monitor:\n  ros__parameters:\n    running_in_ratio: -1.0\n")
+    proc = cli("replay", str(tmp_path / "nobag"), "--params", str(BENCH), "--params", str(bad), check=False)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert "running_in_ratio" in proc.stderr
+    assert math.isfinite(wear_monitor_params([BENCH])["wear_coefficient"])
+
+
+# --- live == offline with a model file -------------------------------------------------------------------
+
+@pytest.mark.ros
+def test_live_node_with_several_params_files_matches_replay(tmp_path, monkeypatch):
+    """wear_monitor --params-file BASE --params-file model.yaml against replay --params BASE --params model.yaml
+    on the same bag (1.5 h, running-in and retract asymmetry): same samples, straightness and remaining life
+    with its interval to 0.5 %."""
+    pytest.importorskip("rclpy")
+    from guide_health.analysis.replay import analyse
+    from guide_health.io.bag_reader import read_machine_bag
+    from guide_health.io.bag_writer import write_machine_bag
+    from guide_health.nodes.session import (
+        DiagnosticsCollector,
+        clean_fastdds_shm,
+        isolated_ros_env,
+        play_bag,
+        start_node,
+        stop_node,
+    )
+
+    env = isolated_ros_env()
+    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID", "FASTDDS_BUILTIN_TRANSPORTS"):
+        if key in env:
+            monkeypatch.setenv(key, env[key])
+    base = wear_monitor_params(BENCH)
+    sim = dict(simulation_params(BENCH), duration_h=1.5, joint_state_rate_hz=10.0, load_rate_hz=1.0,
+               measurement_interval_h=0.25)
+    run = simulate_machine(base, sim, seed=7, effects={"running_in": 2.0, "retract_asymmetry": 0.5})
+    bag = tmp_path / "bench"
+    write_machine_bag(run, bag)
+    model = tmp_path / "model.yaml"
+    cov = np.diag([(0.02 * 4.4e-6) ** 2, 0.1 ** 2, 30.0 ** 2, 0.05 ** 2, 0.0, 0.0]).ravel().tolist()
+    model.write_text(yaml.safe_dump({"wear_monitor": {"ros__parameters": {
+        "wear_coefficient": 4.4e-6, "effects": "running_in,retract_asymmetry", "running_in_ratio": 2.0,
+        "running_in_distance_m": 300.0, "retract_wear_factor": 0.5, "retract_direction": "-x",
+        "effect_covariance": cov}}}))
+    offline = analyse(read_machine_bag(bag, joint="x"), wear_monitor_params([BENCH, model]))[1]
+    collector = DiagnosticsCollector("test_collector_model")
+    overrides = {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25}
+    node = start_node("guide_health.nodes.wear_monitor", [BENCH, model], overrides, env,
+                      log_path=tmp_path / "node.log")
+    try:
+        assert collector.wait_for("bench_000/wear_monitor: x precision", timeout=30.0) is not None, \
+            (tmp_path / "node.log").read_text()
+        played = play_bag(bag, env, ["--wait-subscribers", "1", "--max-rate", "0"])
+        assert played.returncode == 0, played.stderr
+        live = collector.wait_settled("bench_000/wear_monitor: x precision", "sliding_distance_m", settle_s=2.0,
+                                      timeout=120.0)
+    finally:
+        stop_node(node)
+        collector.close()
+        clean_fastdds_shm()
+    values = {k: float(v) for k, v in live["values"].items() if k != "lubrication_regime"}
+    assert values["samples"] == offline["samples"]
+    assert values["measurements"] == offline["measurements"]
+    for key in ("straightness_um", "remaining_life_h", "remaining_life_h_low", "remaining_life_h_high",
+                "wear_coefficient"):
+        assert values[key] == pytest.approx(offline[key], rel=0.005), key
+    plain = analyse(read_machine_bag(bag, joint="x"), base)[1]
+    assert abs(plain["wear_coefficient"] / offline["wear_coefficient"] - 1.0) > 0.05    # the file matters
+
+
+# --- the forecast plot ------------------------------------------------------------------------------------
+
+def test_forecast_reaches_the_limit_at_the_remaining_life_and_diagnose_agrees(tmp_path):
+    """Seed 1 of the running-in bench: the replay forecast (with the model file) reaches the limit at the
+    remaining life, its band edges at the interval's ends, the date is the bag's stamp + life; diagnose's own
+    forecast (fitted model, last quarter's rate) agrees with the replay's life to 3 % and with the truth to
+    10 %; both PNGs are written."""
+    from guide_health.analysis.discrepancy.report import write_report
+    from guide_health.analysis.replay import analyse, write_outputs
+    from guide_health.analysis.report_plots import when_text
+
+    params, run = bench_running_in(1)
+    truth = true_remaining_life_h(run, params["straightness_limit_m"])
+    result = diagnose_cells(duty_cells_from_runs(run, params["slider_length_m"]), params)
+    monitor, report = analyse(run, {**params, **result["model_file"]})
+    fc = monitor.forecast()
+    life = report["remaining_life_h"]
+    assert np.interp(params["straightness_limit_m"] * 1e6 - 1e-9, fc["mid_um"], fc["horizon_h"]) == \
+        pytest.approx(life, abs=fc["horizon_h"][1])      # to one grid step
+    assert fc["fast_um"][np.searchsorted(fc["horizon_h"], report["remaining_life_h_low"]) - 1] < 100.0
+    assert fc["slow_um"][-1] == pytest.approx(100.0)
+    assert fc["now_h"] == pytest.approx(20.0, abs=0.01)
+    assert when_text(fc["now_ns"], life).endswith("UTC")
+    assert result["forecast"]["life_h"] == pytest.approx(life, rel=0.03)
+    assert result["forecast"]["life_h"] == pytest.approx(truth, rel=0.10)
+    assert result["forecast"]["life_low_h"] < result["forecast"]["life_h"] < result["forecast"]["life_high_h"]
+    files = write_outputs(tmp_path / "replay", monitor, report, plot=True)
+    assert Path(files["png"]).stat().st_size > 10_000
+    files = write_report(result, tmp_path / "diag", bag="bench", with_plot=True)
+    assert Path(files["png"]).stat().st_size > 10_000
