@@ -13,8 +13,9 @@ the node runs on /clock, guide_health/nodes/qos.py): `events` spins rclpy's Even
 subscriptions for joint_states and guide/load, decoded at fixed CDR offsets
 (guide_health.io.cdr.RawMessageDecoder, a few us) instead of rclpy deserialisation; it handles messages in
 arrival order across topics, so a header-less straightness message is dated by the joint samples published
-before it. `single_threaded` is rclpy's SingleThreadedExecutor with deserialised messages (the reference; it takes one message per
-subscription per wait, so under a backlog a straightness message overtakes queued joint samples).
+before it. `single_threaded` is rclpy's SingleThreadedExecutor with deserialised messages (the reference; it
+takes one message per subscription per wait, so under a backlog a straightness message overtakes queued joint
+samples).
 """
 from __future__ import annotations
 
