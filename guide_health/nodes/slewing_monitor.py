@@ -13,8 +13,7 @@ import sys
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 
-from guide_health.models.levels import ERROR, OK, WARN, exceeds
-from guide_health.models.slewing.monitor import SlewingMonitor
+from guide_health.models.slewing.monitor import SlewingMonitor, contact_level
 from guide_health.nodes.common import run_node
 from guide_health.nodes.live_params import PeriodicTimers, apply_slewing_changes
 from guide_health.nodes.qos import SensorSubscriptions
@@ -74,10 +73,9 @@ class SlewingMonitorNode(Node):
         p_max_pa = float(values.get("p_max_MPa", values.get("p0_center_MPa", math.nan))) * 1e6
         if not math.isfinite(p_max_pa):
             return level
-        allowable, margin = self.core.model.allowable_pa, self.params["alarm_clear_margin"]
-        clear = (ERROR if exceeds(p_max_pa, allowable, margin)
-                 else WARN if exceeds(p_max_pa, self.core.model.warn_fraction * allowable, margin) else OK)
-        return max(level, clear)
+        model = self.core.model
+        return max(level, contact_level(p_max_pa, model.allowable_pa, model.warn_fraction,
+                                        self.params["alarm_clear_margin"]))
 
     def publish_diagnostics(self) -> None:
         self.updater.update()
