@@ -41,7 +41,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 BENCH = ROOT / "config" / "bench_000.yaml"
-STATUS = "wear_monitor: x precision"
+STATUS = "bench_000/wear_monitor: x precision"
 CHECKPOINT_S = 1.0
 RATE_HZ = 10.0
 

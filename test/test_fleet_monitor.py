@@ -12,13 +12,13 @@ from guide_health.models.levels import ERROR, OK, STALE, WARN
 
 
 def test_board_counts_levels_and_finds_the_weakest_machine():
-    board = FleetBoard(stale_after_s=10.0, ignore_prefix="fleet_monitor: ")
-    board.update("wear_monitor: x precision", "m1", OK, "fine", {"remaining_life_h": "412.5"}, 100.0)
-    board.update("wear_monitor: x precision", "m2", WARN, "low life", {"remaining_life_h": "12.0"}, 100.0)
-    board.update("wear_monitor: x fatigue", "m2", OK, "", {"life_used_fraction": "0.31"}, 100.0)
-    board.update("slewing_monitor: b1 roller contact", "c1", OK, "", {"end_stress_ratio": "1.21"}, 100.0)
-    board.update("wear_monitor: x precision", "m3", OK, "", {"remaining_life_h": "nan"}, 100.0)
-    assert not board.update("fleet_monitor: fleet", "fleet", OK, "", {}, 100.0)   # own status ignored
+    board = FleetBoard(stale_after_s=10.0, ignore_prefix="fleet/fleet_monitor: ")
+    board.update("m1/wear_monitor: x precision", "m1", OK, "fine", {"remaining_life_h": "412.5"}, 100.0)
+    board.update("m2/wear_monitor: x precision", "m2", WARN, "low life", {"remaining_life_h": "12.0"}, 100.0)
+    board.update("m2/wear_monitor: x fatigue", "m2", OK, "", {"life_used_fraction": "0.31"}, 100.0)
+    board.update("c1/slewing_monitor: b1 roller contact", "c1", OK, "", {"end_stress_ratio": "1.21"}, 100.0)
+    board.update("m3/wear_monitor: x precision", "m3", OK, "", {"remaining_life_h": "nan"}, 100.0)
+    assert not board.update("fleet/fleet_monitor: fleet", "fleet", OK, "", {}, 100.0)   # own status ignored
     s = board.summary(now_s=105.0)
     assert (s["machines"], s["statuses"]) == (4, 5)
     assert (s["ok"], s["warn"], s["error"], s["stale"]) == (4, 1, 0, 0)
@@ -26,7 +26,7 @@ def test_board_counts_levels_and_finds_the_weakest_machine():
     assert s["min_remaining_life_h"] == 12.0 and s["min_remaining_life_machine"] == "m2"
     assert s["max_life_used_fraction"] == 0.31 and s["max_end_stress_machine"] == "c1"
     # an ERROR anywhere makes the fleet ERROR
-    board.update("wear_monitor: x precision", "m1", ERROR, "limit", {"remaining_life_h": "0"}, 106.0)
+    board.update("m1/wear_monitor: x precision", "m1", ERROR, "limit", {"remaining_life_h": "0"}, 106.0)
     s = board.summary(now_s=107.0)
     assert s["level"] == ERROR and s["worst_machine"] == "m1" and s["min_remaining_life_h"] == 0.0
 
@@ -113,13 +113,13 @@ def test_fleet_node_aggregates_statuses_from_the_topic_and_records_history(ros_c
     pub = source.create_publisher(DiagnosticArray, "/diagnostics", 10)
     seen = []
     source.create_subscription(DiagnosticArray, "/diagnostics",
-                               lambda m: seen.extend(s for s in m.status if s.name == "fleet_monitor: fleet"), 10)
+                               lambda m: seen.extend(s for s in m.status if s.name == "fleet/fleet_monitor: fleet"), 10)
     ex = SingleThreadedExecutor(context=ros_context)
     ex.add_node(fleet)
     ex.add_node(source)
 
     def machine_status(hw, level, life_h):
-        return DiagnosticStatus(level=bytes([level]), name="wear_monitor: x precision", hardware_id=hw,
+        return DiagnosticStatus(level=bytes([level]), name=f"{hw}/wear_monitor: x precision", hardware_id=hw,
                                 message="m", values=[KeyValue(key="remaining_life_h", value=repr(life_h))])
     def spin(seconds):
         end = time.monotonic() + seconds

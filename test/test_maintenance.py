@@ -200,7 +200,7 @@ def test_regrind_mid_bag_live_equals_offline(tmp_path, ros_env):
     write_machine_bag(run, bag, extra=event_series([event], params["machine_id"]))
     offline = analyse_bag(bag, params)[1]
     assert offline["maintenance_events"][0]["applied"] is True
-    status = "wear_monitor: x precision"
+    status = "bench_000/wear_monitor: x precision"
     collector = DiagnosticsCollector("maintenance_collector")
     node = start_node("guide_health.nodes.wear_monitor", BENCH,
                       {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25}, ros_env,

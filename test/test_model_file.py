@@ -263,11 +263,12 @@ def test_live_node_with_several_params_files_matches_replay(tmp_path, monkeypatc
     node = start_node("guide_health.nodes.wear_monitor", [BENCH, model], overrides, env,
                       log_path=tmp_path / "node.log")
     try:
-        assert collector.wait_for("wear_monitor: x precision", timeout=30.0) is not None, \
+        assert collector.wait_for("bench_000/wear_monitor: x precision", timeout=30.0) is not None, \
             (tmp_path / "node.log").read_text()
         played = play_bag(bag, env, ["--wait-subscribers", "1", "--max-rate", "0"])
         assert played.returncode == 0, played.stderr
-        live = collector.wait_settled("wear_monitor: x precision", "sliding_distance_m", settle_s=2.0, timeout=120.0)
+        live = collector.wait_settled("bench_000/wear_monitor: x precision", "sliding_distance_m", settle_s=2.0,
+                                      timeout=120.0)
     finally:
         stop_node(node)
         collector.close()

@@ -164,11 +164,12 @@ def test_rolling_bag_through_bag_player_and_node_matches_replay(tmp_path, monkey
     node = start_node("guide_health.nodes.wear_monitor", LH45, {"diagnostics_period_s": 0.25}, env,
                       tmp_path / "node.log")
     try:
-        assert collector.wait_for("wear_monitor: x fatigue", timeout=90.0) is not None
+        assert collector.wait_for("nsk_lh45_bench/wear_monitor: x fatigue", timeout=90.0) is not None
         played = play_bag(bag, env, ["--wait-subscribers", "1", "--max-rate", "0"])
         assert played.returncode == 0, played.stderr
-        fatigue = collector.wait_settled("wear_monitor: x fatigue", "travel_km", settle_s=2.0, timeout=60.0)
-        precision = collector.get("wear_monitor: x precision")
+        fatigue = collector.wait_settled("nsk_lh45_bench/wear_monitor: x fatigue", "travel_km", settle_s=2.0,
+                                         timeout=60.0)
+        precision = collector.get("nsk_lh45_bench/wear_monitor: x precision")
     finally:
         stop_node(node)
         collector.close()

@@ -71,7 +71,7 @@ def test_live_node_equals_offline_chain_over_dds(tmp_path, monkeypatch):
         monkeypatch.setenv(key, env[key])
     collector = DiagnosticsCollector("vibration_collector")
     node = start_node("guide_health.nodes.vibration_monitor", params, {}, env, tmp_path / "node.log")
-    name = "vibration_monitor: x vibration"
+    name = "bench/vibration_monitor: x vibration"
     try:
         assert collector.wait_for(name, timeout=90.0) is not None, (tmp_path / "node.log").read_text()
         played = play_bag(bag, env, ["--wait-subscribers", "1", "--max-rate", "0"])

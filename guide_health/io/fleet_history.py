@@ -27,7 +27,8 @@ CREATE INDEX IF NOT EXISTS fleet_history_machine ON fleet_history (hardware_id, 
 
 
 class FleetHistory:
-    """Append-only SQLite record of statuses, at most one row per status every `period_s`."""
+    """Append-only SQLite record of statuses: at most one row per status every `period_s`, and every level
+    change whenever it comes (a short ERROR between two OKs is two rows, however short)."""
 
     def __init__(self, path: str, period_s: float, retention_days: float = 0.0):
         self.path = Path(path)
@@ -44,6 +45,7 @@ class FleetHistory:
         self.period_s = float(period_s)
         self.retention_s = float(retention_days) * 86400.0      # 0: keep every row
         self._last: dict[tuple[str, str], float] = {}
+        self._last_level: dict[tuple[str, str], int] = {}
         self._pending: list[tuple] = []
         self._pruned_at = -float("inf")
         self.deleted_rows = 0
@@ -64,9 +66,11 @@ class FleetHistory:
     def record(self, t_unix_s: float, hardware_id: str, name: str, level: int, message: str, values: dict):
         key = (hardware_id, name)
         last = self._last.get(key)
-        if last is not None and t_unix_s - last < self.period_s:
+        changed = self._last_level.get(key) != level
+        if last is not None and t_unix_s - last < self.period_s and not changed:
             return
         self._last[key] = t_unix_s
+        self._last_level[key] = level
         self._pending.append((t_unix_s, hardware_id, name, level, message, json.dumps(values)))
 
     def commit(self, now_unix_s: float | None = None) -> None:

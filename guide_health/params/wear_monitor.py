@@ -107,8 +107,16 @@ SLIDING_GUIDE_PARAMS = (
     Param("rejected_share_warn", 0.5, "-", "[0, 1]",
           "WARN when more than this share of a stream's recent samples was rejected (names the reason)",
           dynamic=True),
-    Param("executor", "events", "", "", "events (rclpy EventsExecutor, raw CDR) or single_threaded",
-          choices=("events", "single_threaded")),
+    Param("executor", "auto", "", "", "events (rclpy EventsExecutor, raw CDR), single_threaded (message info: "
+          "exact loss count of best-effort sensors) or auto (single_threaded when sensor_qos is best_effort, "
+          "else events)", choices=("auto", "events", "single_threaded")),
+    Param("alarm_clear_margin", 0.05, "-", "[0, 0.5]",
+          "hysteresis: a raised level drops only once its value is back this fraction inside the threshold "
+          "(no toggling at a threshold); 0 = none", dynamic=True),
+    Param("sensor_qos", "auto", "", "", "reader QoS of the data topics: auto (per topic: reliable KEEP_ALL "
+          "while every publisher is reliable, best effort once one is), reliable or best_effort (docs/ros.md)",
+          choices=("auto", "reliable", "best_effort")),
+    Param("sensor_queue_depth", 1000, "-", "[1, 1000000]", "best-effort subscriptions: reader queue depth"),
     Param("state_file", "auto", "", "",
           "SQLite state file; auto = $ROS_HOME/guide_health/<machine_id>/<node>.db (ROS_HOME: ~/.ros); "
           "'' or none = no persistence"),
@@ -201,8 +209,8 @@ def _wear_cross_checks(p: dict[str, Any]) -> None:
         raise InputError("stroke_min_m/stroke_max_m: both 0 (estimate) or 0 < min <= max")
     if p["guide_type"] not in ("sliding", "rolling"):
         raise InputError(f"guide_type must be 'sliding' or 'rolling', got {p['guide_type']!r}")
-    if p.get("executor", "events") not in ("events", "single_threaded"):
-        raise InputError(f"executor must be 'events' or 'single_threaded', got {p['executor']!r}")
+    if p.get("executor", "auto") not in ("auto", "events", "single_threaded"):
+        raise InputError(f"executor must be 'auto', 'events' or 'single_threaded', got {p['executor']!r}")
     if p["straightness_model"] not in ("eq7", "profile"):
         raise InputError(f"straightness_model must be 'eq7' or 'profile', got {p['straightness_model']!r}")
 
