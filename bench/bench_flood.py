@@ -30,7 +30,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-STATUS = "wear_monitor: x precision"
+STATUS = "bench_000/wear_monitor: x precision"     # <machine_id>/<node>: <task>
 
 FEEDER = r'''
 import sys, time, math

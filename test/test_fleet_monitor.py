@@ -87,6 +87,7 @@ def test_history_retention_deletes_old_rows_and_forgets_old_periods(tmp_path):
     rows = [r[0] for r in history.db.execute("SELECT t_unix_s FROM fleet_history ORDER BY t_unix_s")]
     assert rows == [3 * day, 4 * day] and list(history._last) == [("m1", "w: t")]
     assert history.prune(4 * day + 60.0) == 1 and history._last == {}     # day 3 goes; the last period is over
+    assert history._last_level == {}                    # memory bounded by the statuses of one period
     history.close()
     assert (tmp_path / "h.db").stat().st_mode & 0o777 == 0o600
     (tmp_path / "link.db").symlink_to(tmp_path / "h.db")

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from guide_health.io.output_files import save_figure
 from guide_health.models.rolling.vibration import welch_psd
 
 ZOOM_HARMONICS = 4
@@ -69,6 +70,8 @@ def plot_life_test(path: str | Path, data: dict, summary: dict, p: dict, title: 
     axes[2].set_xlabel("travel [km]")
     fig.tight_layout()
     path = Path(path)
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    try:
+        save_figure(fig, path, dpi=90)          # 0640, never through a symlink
+    finally:
+        plt.close(fig)
     return path

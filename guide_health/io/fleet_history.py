@@ -54,6 +54,8 @@ class FleetHistory:
         """Delete the rows older than the retention (if any); forget the per-status periods that are over
         (the history's memory stays bounded by the statuses of one period). Returns the rows deleted."""
         self._last = {k: t for k, t in self._last.items() if now_unix_s - t < self.period_s}
+        # a status without a running period is recorded at its next message anyway: its last level can go
+        self._last_level = {k: level for k, level in self._last_level.items() if k in self._last}
         self._pruned_at = now_unix_s
         if not self.retention_s > 0:
             return 0
