@@ -147,8 +147,9 @@ def test_rolling_bag_through_bag_player_and_node_matches_replay(tmp_path, monkey
         stop_node,
     )
 
-    env = isolated_ros_env()
-    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID"):
+    # UDP only: a shared-memory port left locked by another process's killed node hides a node started after it
+    env = isolated_ros_env(transports="UDPv4")
+    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID", "FASTDDS_BUILTIN_TRANSPORTS"):
         monkeypatch.setenv(key, env[key])
     import dataclasses
 
