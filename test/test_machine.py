@@ -163,11 +163,11 @@ def test_three_axis_bag_through_one_live_node_equals_offline_replay(tmp_path, ro
         played = play_bag(bag, ros_machine_env, ["--wait-subscribers", "1"])   # paced: no burst
         assert played.returncode == 0, played.stderr
         # done when every axis has taken every joint sample (a loaded machine may pause the node for seconds)
-        name = "vmc_xyz_01/wear_monitor: {} precision".format
-        live = {axis: collector.wait_for(name(axis), timeout=240.0, predicate=lambda st, a=axis:
+        live = {axis: collector.wait_for(f"vmc_xyz_01/wear_monitor: {axis} precision", timeout=240.0,
+                                         predicate=lambda st, a=axis:
                                          int(st["values"]["samples"]) >= offline[a]["samples"]) for axis in axes}
-        live = {axis: collector.wait_settled(name(axis), "sliding_distance_m", settle_s=2.0, timeout=60.0)
-                for axis in axes}
+        live = {axis: collector.wait_settled(f"vmc_xyz_01/wear_monitor: {axis} precision", "sliding_distance_m",
+                                             settle_s=2.0, timeout=60.0) for axis in axes}
     finally:
         stop_node(node)
         collector.close()
