@@ -79,7 +79,7 @@ def trial(executor: str, seconds: float, rate: float, env: dict) -> dict:
                           {"state_file": f"{tmp}/state.db", "executor": executor, "input_timeout_s": 30.0},
                           env, Path(tmp) / "node.log")
         try:
-            assert collector.wait_for("wear_monitor: x precision", timeout=30) is not None
+            assert collector.wait_for("bench_000/wear_monitor: x precision", timeout=30) is not None
             feeder = subprocess.Popen([sys.executable, "-c", FEEDER, str(seconds), str(rate)], env=env,
                                       stdout=subprocess.PIPE, text=True, cwd=ROOT)
             assert feeder.stdout.readline().strip() == "start"
@@ -88,7 +88,7 @@ def trial(executor: str, seconds: float, rate: float, env: dict) -> dict:
             cpu1, t1 = cpu_seconds(node.pid), time.monotonic()
             feeder.wait(timeout=60)
             n_sent = int(sent_line[1])
-            status = collector.wait_settled("wear_monitor: x precision", "samples", settle_s=2.0, timeout=120)
+            status = collector.wait_settled("bench_000/wear_monitor: x precision", "samples", settle_s=2.0, timeout=120)
         finally:
             stop_node(node)
             collector.close()

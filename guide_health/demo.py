@@ -66,7 +66,7 @@ def main(argv: list[str] | None = None) -> int:
     node = start_node("guide_health.nodes.wear_monitor", args.params,
                       {"state_file": str(out / "wear_state.db"), "diagnostics_period_s": 0.5}, env,
                       log_path=out / "wear_monitor.log")
-    name = f"wear_monitor: {params['joint']} precision"
+    name = f"{params['machine_id']}/wear_monitor: {params['joint']} precision"
     try:
         if collector.wait_for(name, timeout=30.0) is None:
             print("demo: wear_monitor did not come up (see out/demo/wear_monitor.log)", file=sys.stderr)

@@ -192,3 +192,28 @@ def test_slewing_and_fleet_nodes_apply_their_dynamic_parameters(ros_context):
         slewing.destroy_node()
         fleet.close()
         fleet.destroy_node()
+
+
+def test_hysteresis_and_latched_error_through_the_parameter_and_acknowledge_services(spinning_node):
+    from std_srvs.srv import Trigger
+
+    node, client = spinning_node                                 # life 28.27 h, alarm_clear_margin 0.05
+    assert client.set("life_warn_h", 28.5).successful
+    assert status_of(node)[0] == 1                               # 28.27 < 28.5: WARN
+    assert client.set("life_warn_h", 28.0).successful
+    assert status_of(node)[0] == 1                               # 28.27 < 28.0 x 1.05: WARN holds
+    assert client.set("alarm_clear_margin", 0.0).successful
+    assert status_of(node)[0] == 0                               # no margin: back to OK at once
+
+    assert client.set("life_warn_h", 40.0).successful and client.set("life_error_h", 30.0).successful
+    level, _, values = status_of(node)
+    assert level == 2 and values["alarm_events"] == "1"
+    assert client.set("life_error_h", 10.0).successful and client.set("life_warn_h", 20.0).successful
+    level, message, values = status_of(node)
+    assert level == 2 and message.startswith("ERROR latched until acknowledged (1 events; first: remaining precision")
+    ack = client.node.create_client(Trigger, "/wear_monitor/acknowledge_alarms")
+    assert ack.wait_for_service(timeout_sec=20.0)
+    response = client._call(ack, Trigger.Request())
+    assert response.success and response.message == "acknowledged x precision (1 ERROR events)"
+    level, _, values = status_of(node)
+    assert level == 0 and values["alarm_latched"] == "0" and values["alarm_events"] == "1"

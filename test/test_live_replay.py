@@ -27,7 +27,7 @@ from guide_health.sim.machine import simulate_machine  # noqa: E402
 pytestmark = pytest.mark.ros
 ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT / "config" / "bench_000.yaml"
-STATUS = "wear_monitor: x precision"
+STATUS = "bench_000/wear_monitor: x precision"
 
 
 def _ros_env(monkeypatch, transports=None):

@@ -158,12 +158,16 @@ def test_three_axis_bag_through_one_live_node_equals_offline_replay(tmp_path, ro
                       log_path=tmp_path / "node.log")
     try:
         for axis in axes:
-            assert collector.wait_for(f"wear_monitor: {axis} precision", timeout=30.0) is not None, \
+            assert collector.wait_for(f"vmc_xyz_01/wear_monitor: {axis} precision", timeout=120.0) is not None, \
                 (tmp_path / "node.log").read_text()
         played = play_bag(bag, ros_machine_env, ["--wait-subscribers", "1"])   # paced: no burst
         assert played.returncode == 0, played.stderr
-        live = {axis: collector.wait_settled(f"wear_monitor: {axis} precision", "sliding_distance_m", settle_s=2.0,
-                                             timeout=120.0) for axis in axes}
+        # done when every axis has taken every joint sample (a loaded machine may pause the node for seconds)
+        live = {axis: collector.wait_for(f"vmc_xyz_01/wear_monitor: {axis} precision", timeout=240.0,
+                                         predicate=lambda st, a=axis:
+                                         int(st["values"]["samples"]) >= offline[a]["samples"]) for axis in axes}
+        live = {axis: collector.wait_settled(f"vmc_xyz_01/wear_monitor: {axis} precision", "sliding_distance_m",
+                                             settle_s=2.0, timeout=60.0) for axis in axes}
     finally:
         stop_node(node)
         collector.close()
@@ -175,9 +179,10 @@ def test_three_axis_bag_through_one_live_node_equals_offline_replay(tmp_path, ro
                     "wear_volume_mm3"):
             assert float(values[key]) == pytest.approx(offline[axis][key], rel=1e-3), (axis, key)
         assert values["guide"] == offline[axis]["guide"]
-    # the three state keys of each axis's guides (two rails of an axis never share a key)
+    # a state key per guide (two rails of an axis never share a key) and each axis's maintenance log
     import sqlite3
 
     keys = {row[0] for row in sqlite3.connect(tmp_path / "state.db").execute("SELECT key FROM monitor_state")}
     assert keys == {f"vmc_xyz_01/{a}/{g}/precision" for a, g in
-                    [("x", "front"), ("x", "rear"), ("y", "front"), ("y", "rear"), ("z", "left"), ("z", "right")]}
+                    [("x", "front"), ("x", "rear"), ("y", "front"), ("y", "rear"), ("z", "left"), ("z", "right")]
+                    } | {f"vmc_xyz_01/{a}/maintenance" for a in "xyz"}

@@ -200,16 +200,18 @@ def test_regrind_mid_bag_live_equals_offline(tmp_path, ros_env):
     write_machine_bag(run, bag, extra=event_series([event], params["machine_id"]))
     offline = analyse_bag(bag, params)[1]
     assert offline["maintenance_events"][0]["applied"] is True
-    status = "wear_monitor: x precision"
+    status = "bench_000/wear_monitor: x precision"
     collector = DiagnosticsCollector("maintenance_collector")
     node = start_node("guide_health.nodes.wear_monitor", BENCH,
                       {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25}, ros_env,
                       log_path=tmp_path / "node.log")
     try:
-        assert collector.wait_for(status, timeout=30.0) is not None, (tmp_path / "node.log").read_text()
+        assert collector.wait_for(status, timeout=120.0) is not None, (tmp_path / "node.log").read_text()
         played = play_bag(bag, ros_env, ["--wait-subscribers", "1"])
         assert played.returncode == 0, played.stderr + (tmp_path / "node.log").read_text()[-3000:]
-        live = collector.wait_settled(status, "sliding_distance_m", settle_s=2.0, timeout=120.0)
+        collector.wait_for(status, timeout=240.0,       # every joint sample taken (a loaded machine is slow)
+                           predicate=lambda st: int(st["values"]["samples"]) >= offline["samples"])
+        live = collector.wait_settled(status, "sliding_distance_m", settle_s=2.0, timeout=60.0)
     finally:
         stop_node(node)
         collector.close()
@@ -264,3 +266,52 @@ def test_services_apply_publish_and_log_the_event(ros_context, tmp_path):
         for n in (node, other):
             n.close()
             n.destroy_node()
+
+
+def test_regrind_service_called_through_ros(ros_context, tmp_path):
+    """The Trigger service over DDS (an rclpy client in another node of the same domain), with the value set
+    through the parameter service as `ros2 param set` does."""
+    import threading
+    import time
+
+    import rclpy
+    from rcl_interfaces.srv import SetParameters
+    from rclpy.executors import MultiThreadedExecutor
+    from rclpy.parameter import Parameter
+    from std_srvs.srv import Trigger
+    from test_wear_monitor_node import T0, feed_cycle, make_node
+
+    node = make_node(ros_context, tmp_path)
+    client_node = rclpy.create_node("maintenance_client", context=ros_context)
+    executor = MultiThreadedExecutor(context=ros_context)
+    executor.add_node(node)
+    executor.add_node(client_node)
+    thread = threading.Thread(target=executor.spin, daemon=True)
+    try:
+        feed_cycle(node, T0 + 1.0, strokes=(0.1, 0.25, 0.18, 0.3))     # before spinning: no concurrent timer
+        assert node.monitor.report()["straightness_um"] > 15.0
+        thread.start()
+
+        def call(srv_type, name, request):
+            client = client_node.create_client(srv_type, name)
+            assert client.wait_for_service(timeout_sec=10.0), name
+            future = client.call_async(request)
+            end = time.monotonic() + 10.0
+            while not future.done() and time.monotonic() < end:
+                time.sleep(0.01)
+            return future.result()
+
+        result = call(SetParameters, "/wear_monitor/set_parameters", SetParameters.Request(
+            parameters=[Parameter("maintenance_straightness_m", value=11.0e-6).to_parameter_msg()]))
+        assert result.results[0].successful, result.results[0].reason
+        response = call(Trigger, "/maintenance/x/regrind", Trigger.Request())
+        assert response.success, response.message
+        assert "straightness 11.00 um" in response.message
+        assert node.monitor.report()["straightness_um"] == pytest.approx(11.0, abs=1e-9)
+    finally:
+        executor.shutdown()
+        if thread.is_alive():
+            thread.join(timeout=5)
+        node.close()
+        node.destroy_node()
+        client_node.destroy_node()

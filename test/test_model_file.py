@@ -139,7 +139,7 @@ def test_live_per_sample_path_equals_the_vectorised_path():
     events = sorted([(int(t), 0, float(x)) for t, x in zip(run.joint_t_ns, run.joint_position_m)]
                     + [(int(t), 1, float(w)) for t, w in zip(run.load_t_ns, run.load_n)]
                     + [(int(t), 2, float(y)) for t, y in zip(run.straightness_t_ns, run.straightness_m)],
-                    key=lambda e: (e[0], -e[1]))
+                    key=lambda e: (e[0], (1, 0, 2)[e[1]]))   # at a tie: load, joint, measurement
     for t, kind, value in events:
         (live.on_joint, live.on_load, live.on_straightness)[kind](t, value)
     a, b = offline.report(), live.report()
@@ -263,11 +263,12 @@ def test_live_node_with_several_params_files_matches_replay(tmp_path, monkeypatc
     node = start_node("guide_health.nodes.wear_monitor", [BENCH, model], overrides, env,
                       log_path=tmp_path / "node.log")
     try:
-        assert collector.wait_for("wear_monitor: x precision", timeout=30.0) is not None, \
+        assert collector.wait_for("bench_000/wear_monitor: x precision", timeout=30.0) is not None, \
             (tmp_path / "node.log").read_text()
         played = play_bag(bag, env, ["--wait-subscribers", "1", "--max-rate", "0"])
         assert played.returncode == 0, played.stderr
-        live = collector.wait_settled("wear_monitor: x precision", "sliding_distance_m", settle_s=2.0, timeout=120.0)
+        live = collector.wait_settled("bench_000/wear_monitor: x precision", "sliding_distance_m", settle_s=2.0,
+                                      timeout=120.0)
     finally:
         stop_node(node)
         collector.close()

@@ -25,7 +25,8 @@ from guide_health.params import (
 )
 
 ROOT = Path(__file__).resolve().parents[1]
-CONFIGS = sorted((ROOT / "config").glob("*.yaml"))
+# every parameters file of guide_health's nodes (diagnostic_aggregator.yaml configures another package's node)
+CONFIGS = sorted(p for p in (ROOT / "config").glob("*.yaml") if p.name != "diagnostic_aggregator.yaml")
 ALL_PARAMS = [(s, p) for s in SCHEMAS.values() for p in s.params]
 
 

@@ -107,7 +107,7 @@ def test_node_keys_stale_and_bad_messages(ros_context):
     try:
         node.publish_diagnostics()
         status = published[-1].status[0]
-        assert status.name == "slewing_monitor: 131.32.2000.00Z roller contact" and status.level == b"\x03"
+        assert status.name == "machine/slewing_monitor: 131.32.2000.00Z roller contact" and status.level == b"\x03"
         msg = WrenchStamped()
         msg.wrench.force.z, msg.wrench.force.x, msg.wrench.torque.x = 6e5, 2e4, 5e6
         node._on_load(msg)
@@ -149,7 +149,7 @@ def test_slewing_bag_through_bag_player_and_node_matches_offline(tmp_path, monke
     write_slewing_bag(simulate_slewing({"duration_h": 0.02, "load_rate_hz": 200.0}, seed=2), bag)
     params = load_node_params(CONFIG, "slewing_monitor", SLEWING_MONITOR_DEFAULTS)
     _, offline = analyse_slewing_run(read_slewing_bag(bag), params)
-    name = "slewing_monitor: 131.32.2000.00Z roller contact"
+    name = "slewing_131/slewing_monitor: 131.32.2000.00Z roller contact"
     collector = DiagnosticsCollector("slewing_collector")
     node = start_node("guide_health.nodes.slewing_monitor", CONFIG,
                       {"diagnostics_period_s": 0.2, "input_timeout_s": 2.0}, env, tmp_path / "node.log")

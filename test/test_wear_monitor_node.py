@@ -139,7 +139,7 @@ def test_diagnostics_keys_levels_and_stale(ros_context, tmp_path):
     try:
         node.publish_diagnostics()                     # no input yet: STALE
         status = node.published[-1].status[0]
-        assert status.name == "wear_monitor: x precision"
+        assert status.name == "m1/wear_monitor: x precision"
         assert status.hardware_id == "m1"
         assert status.level == b"\x03"
         values = {kv.key: kv.value for kv in status.values}

@@ -22,6 +22,7 @@ from scipy.special import stdtrit
 
 from guide_health.errors import InputError
 from guide_health.io.bag_metadata import one_line
+from guide_health.io.output_files import write_text
 from guide_health.models.fleet import (
     combine_estimates,
     likelihood_from_posterior,
@@ -165,4 +166,4 @@ def write_prior_params(path: Path, prior: dict[str, Any], base_params: str | Non
     header += [f"# effect {k}: mean {v['mean']:.4g}, tau {v['tau']:.3g}, predictive sd {v['predictive_sd']:.3g} "
                f"({v['machines']} machines)" for k, v in prior["effects"].items()]
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("\n".join(header) + "\n" + yaml.safe_dump(data, sort_keys=False))
+    write_text(path, "\n".join(header) + "\n" + yaml.safe_dump(data, sort_keys=False))

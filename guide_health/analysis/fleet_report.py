@@ -7,6 +7,8 @@ import math
 from pathlib import Path
 from typing import Any
 
+from guide_health.io.output_files import open_output, write_text
+
 #: table columns of each command, in order (after machine, bag, status); missing values are blank
 REPLAY_COLUMNS = ("level_name", "remaining_life_h", "remaining_life_h_low", "remaining_life_h_high",
                   "straightness_um", "straightness_measured_um", "wear_coefficient", "wear_coefficient_low",
@@ -50,7 +52,7 @@ def write_tables(out: Path, rows: list[dict[str, Any]], entries: list[dict[str, 
     out.mkdir(parents=True, exist_ok=True)
     files = {"csv": str(out / "fleet.csv"), "md": str(out / "fleet.md"), "json": str(out / "fleet.json")}
     columns = list(rows[0]) if rows else ["machine", "bag", "status", "error"]
-    with open(files["csv"], "w", newline="") as handle:
+    with open_output(files["csv"]) as handle:
         writer = csv.writer(handle)
         writer.writerow(columns)
         writer.writerows([[_cell(row[c]) for c in columns] for row in rows])
@@ -58,8 +60,8 @@ def write_tables(out: Path, rows: list[dict[str, Any]], entries: list[dict[str, 
              "", "| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
     for row in rows:
         lines.append("| " + " | ".join(_cell(row[c]).replace("|", "/") for c in columns) + " |")
-    Path(files["md"]).write_text("\n".join(lines) + "\n")
-    Path(files["json"]).write_text(json.dumps({"summary": summary, "bags": entries}, indent=1,
+    write_text(files["md"], "\n".join(lines) + "\n")
+    write_text(files["json"], json.dumps({"summary": summary, "bags": entries}, indent=1,
                                               allow_nan=True) + "\n")
     return files
 

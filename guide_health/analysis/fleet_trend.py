@@ -18,6 +18,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 from guide_health.errors import InputError
+from guide_health.io.output_files import open_output, write_text
 from guide_health.models.levels import LEVEL_NAMES
 
 #: the trend quantities: status key, label with unit
@@ -127,7 +128,7 @@ def iso(t_unix_s: float) -> str:
 
 
 def write_trend_csv(path: Path, trend: MachineTrend) -> None:
-    with open(path, "w", newline="") as handle:
+    with open_output(path) as handle:
         writer = csv.writer(handle)
         writer.writerow(["t_unix_s", "time_utc", "status", "level", *[k for k, _ in TREND_KEYS], "message"])
         for i, t in enumerate(trend.t_unix_s):
@@ -163,12 +164,12 @@ def write_trend_report(db: Path, out: Path, machine: str | None = None, days: fl
     rows = ranking(trends)
     overview = out / "fleet_overview.png"
     plot_fleet_overview(overview, trends, rows)
-    with open(out / "ranking.csv", "w", newline="") as handle:
+    with open_output(out / "ranking.csv") as handle:
         writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
     page = out / "index.html"
-    page.write_text(trend_html(db, rows, trends, overview, files))
+    write_text(page, trend_html(db, rows, trends, overview, files))
     return {"history": str(db), "machines": len(trends), "rows": sum(len(t.t_unix_s) for t in trends.values()),
             "ranking": rows, "level_changes": {m: t.level_changes() for m, t in trends.items()},
             "files": {"html": str(page), "overview_png": str(overview), "ranking_csv": str(out / "ranking.csv"),

@@ -8,6 +8,7 @@ import math
 import time
 from pathlib import Path
 
+from guide_health.io.output_files import open_output, write_text
 from guide_health.models.levels import LEVEL_NAMES
 from guide_health.models.wear.axis import PRECISION_KEYS, AxisMonitor
 
@@ -88,7 +89,7 @@ def write_machine_outputs(out: Path, models: dict[str, AxisMonitor], report: dic
         guide = model.guides.get(report["axes"][axis].get("guide", model.primary_name))
         t_h, measured, fitted = model_curve(guide)
         files[f"csv_{axis}"] = str(out / f"straightness_{axis}.csv")
-        with open(files[f"csv_{axis}"], "w", newline="") as handle:
+        with open_output(files[f"csv_{axis}"]) as handle:
             writer = csv.writer(handle)
             writer.writerow(["time_h", "straightness_measured_um", "straightness_model_um", "residual_um"])
             for row in zip(t_h, measured, fitted, measured - fitted):
@@ -97,5 +98,5 @@ def write_machine_outputs(out: Path, models: dict[str, AxisMonitor], report: dic
             files[f"png_{axis}"] = str(out / f"straightness_{axis}.png")
             plot_straightness_report(Path(files[f"png_{axis}"]), guide, report["axes"][axis], t_h, measured, fitted)
     report["files"] = files
-    Path(files["json"]).write_text(json.dumps(report, indent=2, allow_nan=True, default=float) + "\n")
+    write_text(files["json"], json.dumps(report, indent=2, allow_nan=True, default=float) + "\n")
     return files

@@ -303,65 +303,58 @@ def _field_mask(layout: Layout) -> tuple[np.ndarray, np.ndarray]:
             np.concatenate(values) if values else np.zeros(0, np.uint8))
 
 
-def decode_chunk(raws: list, codec: MessageCodec, fast: bool = True) -> DecodedChunk:
-    """Decode a chunk of raw CDR messages of one type into arrays `codec.names`.
+def _decode_rows(rows: np.ndarray, idx: np.ndarray, codec: MessageCodec, out: dict, present: dict,
+                 status: np.ndarray, pending: list) -> int:
+    """Decode the messages `idx` (of the chunk) of one length, given as the C-contiguous uint8 matrix `rows`
+    (one message per row), into out/present/status at their indices; those no template fits go to
+    `pending`. Returns how many were decoded here."""
+    size = rows.shape[1]
+    n_fast = 0
+    rem = np.arange(idx.size)
+    for _ in range(_MAX_TEMPLATES):
+        if not rem.size:
+            break
+        layout = codec.layout(rows[rem[0]].tobytes())
+        if layout is None:
+            pending.append(int(idx[rem[0]]))
+            rem = rem[1:]
+            continue
+        whole = rem.size == idx.size
+        cols, expect = _field_mask(layout)
+        if cols.size and cols.max() >= size:
+            match = np.zeros(rem.size, bool)
+        else:               # one gather of all structural bytes, one comparison
+            got = rows[:, cols] if whole else rows[rem[:, None], cols]
+            match = (got == expect).all(axis=1)
+        hit = rem[match]
+        target = idx[hit]
+        if layout.missing:
+            status[target] = 1
+        else:
+            status[target] = 0
+            for name, (off, dtype) in layout.values.items():
+                if name in out:
+                    col = np.ndarray((idx.size,), dtype=dtype, buffer=rows, offset=off, strides=(size,))
+                    out[name][target] = col if whole and hit.size == idx.size else col[hit]
+                    present[name][target] = True
+        n_fast += hit.size
+        rem = rem[~match]
+    pending.extend(idx[rem].tolist())
+    return n_fast
 
-    fast=False decodes every message with codec.fallback (rosbags deserialize_cdr, the reference).
-    """
+
+def _decode(n: int, groups, raw_of: Callable[[int], bytes], codec: MessageCodec) -> DecodedChunk:
+    """The DecodedChunk of `n` messages: `groups` yields (indices, rows) per message length (see
+    _decode_rows; None: decode every message with the fallback); raw_of(i): the bytes of message i."""
     names = codec.names
-    n = len(raws)
     out = {k: np.full(n, np.nan) if k not in ("sec", "nsec") else np.zeros(n, np.int64) for k in names}
     present = {k: np.zeros(n, bool) for k in names}
     status = np.full(n, -1, np.int8)            # 0 kept, 1 missing, 2 malformed, -1 not done
-    n_fast = 0
-    pending: list = []
-    if fast and n:
-        lengths = np.fromiter(map(len, raws), dtype=np.int64, count=n)
-        sizes = np.unique(lengths)
-        for size in sizes.tolist():
-            if sizes.size == 1:
-                idx = np.arange(n)
-                buf = b"".join(raws)
-            else:
-                idx = np.flatnonzero(lengths == size)
-                buf = b"".join([raws[i] for i in idx.tolist()])
-            rows = np.frombuffer(buf, dtype=np.uint8).reshape(idx.size, size)
-            rem = np.arange(idx.size)
-            for _ in range(_MAX_TEMPLATES):
-                if not rem.size:
-                    break
-                layout = codec.layout(raws[int(idx[rem[0]])])
-                if layout is None:
-                    pending.append(int(idx[rem[0]]))
-                    rem = rem[1:]
-                    continue
-                whole = rem.size == idx.size
-                cols, expect = _field_mask(layout)
-                if cols.size and cols.max() >= size:
-                    match = np.zeros(rem.size, bool)
-                else:               # one gather of all structural bytes, one comparison
-                    got = rows[:, cols] if whole else rows[rem[:, None], cols]
-                    match = (got == expect).all(axis=1)
-                hit = rem[match]
-                target = idx[hit]
-                if layout.missing:
-                    status[target] = 1
-                else:
-                    status[target] = 0
-                    for name, (off, dtype) in layout.values.items():
-                        if name in out:
-                            col = np.ndarray((idx.size,), dtype=dtype, buffer=buf, offset=off,
-                                             strides=(size,))
-                            out[name][target] = col if whole and hit.size == idx.size else col[hit]
-                            present[name][target] = True
-                n_fast += hit.size
-                rem = rem[~match]
-            pending.extend(idx[rem].tolist())
-    else:
-        pending = list(range(n))
+    pending: list = [] if groups is not None else list(range(n))
+    n_fast = sum(_decode_rows(rows, idx, codec, out, present, status, pending) for idx, rows in groups or ())
     n_fallback = len(pending)
     for i in pending:
-        got = codec.fallback(raws[i])
+        got = codec.fallback(raw_of(i))
         if got is None:
             status[i] = 2
         elif got == MISSING:
@@ -374,6 +367,52 @@ def decode_chunk(raws: list, codec: MessageCodec, fast: bool = True) -> DecodedC
     keep = np.flatnonzero(status == 0)
     return DecodedChunk({k: v[keep] for k, v in out.items()}, {k: v[keep] for k, v in present.items()},
                         keep, int((status == 1).sum()), int((status == 2).sum()), n_fast, n_fallback)
+
+
+def _list_groups(raws: list):
+    n = len(raws)
+    lengths = np.fromiter(map(len, raws), dtype=np.int64, count=n)
+    sizes = np.unique(lengths)
+    for size in sizes.tolist():
+        if sizes.size == 1:
+            idx = np.arange(n)
+            buf = b"".join(raws)
+        else:
+            idx = np.flatnonzero(lengths == size)
+            buf = b"".join([raws[i] for i in idx.tolist()])
+        yield idx, np.frombuffer(buf, dtype=np.uint8).reshape(idx.size, size)
+
+
+def decode_chunk(raws: list, codec: MessageCodec, fast: bool = True) -> DecodedChunk:
+    """Decode a chunk of raw CDR messages of one type into arrays `codec.names`.
+
+    fast=False decodes every message with codec.fallback (rosbags deserialize_cdr, the reference).
+    """
+    groups = _list_groups(raws) if fast else None
+    return _decode(len(raws), groups, raws.__getitem__, codec)
+
+
+def _packed_groups(buf: np.ndarray, offsets: np.ndarray, lengths: np.ndarray):
+    sizes = np.unique(lengths)
+    for size in sizes.tolist():
+        idx = np.arange(lengths.size) if sizes.size == 1 else np.flatnonzero(lengths == size)
+        if size == 0:
+            yield idx, np.zeros((idx.size, 0), np.uint8)
+            continue
+        # every window of `size` bytes of the buffer, as a view; indexing its rows copies whole messages
+        # (a row copy each, not a gather per byte: 0.03 s against 0.12 s for 180 k messages of 104 bytes)
+        windows = np.lib.stride_tricks.sliding_window_view(buf, size)
+        yield idx, windows[offsets[idx]]
+
+
+def decode_packed(buf: np.ndarray, offsets: np.ndarray, lengths: np.ndarray, codec: MessageCodec,
+                  fast: bool = True) -> DecodedChunk:
+    """decode_chunk for messages packed in one uint8 buffer: message i is buf[offsets[i]:offsets[i] +
+    lengths[i]] (what the bulk sqlite3 and mcap chunk readers give). Same result as decode_chunk of the
+    list of those bytes."""
+    n = int(lengths.size)
+    groups = _packed_groups(buf, offsets, lengths) if fast else None
+    return _decode(n, groups, lambda i: buf[offsets[i]:offsets[i] + lengths[i]].tobytes(), codec)
 
 
 # ---------------------------------------------------------------------------------------------

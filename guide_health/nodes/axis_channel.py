@@ -37,9 +37,10 @@ from guide_health.nodes.status import RejectionLog, StatusTask
 EXTRA_PRECISION_KEYS = ("wear_coefficient_low", "wear_coefficient_high", "measurements", "duty_load_speed_w",
                         "stroke_min_m", "stroke_max_m", "strokes", "rejected_samples", "samples",
                         "rejected_recent_share", "guide", "maintenance_event_count",
-                        "last_maintenance")
+                        "last_maintenance", "messages_lost", "best_effort_topics")
 TIMING_KEYS = ("load_samples", "callback_time_us", "model_time_us")
-ROLLING_PRECISION_KEYS = ("lambda", "asperity_load_share", "boundary_share_recent", "boundary_share_total")
+ROLLING_PRECISION_KEYS = ("lambda", "asperity_load_share", "boundary_share_recent", "boundary_share_total",
+                          "oil_viscosity_pa_s", "oil_temperature_c")
 FATIGUE_KEYS = ("equivalent_load_n", "rating_life_km", "travel_km", "life_used_fraction", "remaining_life_km")
 EXTRA_FATIGUE_KEYS = ("duty_load_n", "carriages", "guide")
 
@@ -50,7 +51,8 @@ def stamp_ns(header) -> int | None:
 
 
 class AxisChannel:
-    """The live wiring of one axis (``params``: one entry of guide_health.params.machine.axes_params)."""
+    """The live wiring of one axis (``params``: one entry of guide_health.params.machine.axes_params; ``qos``:
+    the node's SensorSubscriptions, guide_health/nodes/qos.py, which subscribes under ``sensor_qos``)."""
 
     def __init__(self, node, params: dict, qos, single: bool):
         self.node = node
@@ -68,11 +70,11 @@ class AxisChannel:
                                                self.joint, absent=0.0)   # no velocity array: 0
         self.load_decoder = RawMessageDecoder(WRENCH_STAMPED, ("sec", "nsec", "fz"))
         if node.raw:
-            node.create_subscription(WrenchStamped, self.load_input, self.on_load_raw, qos, raw=True)
+            qos.subscribe(WrenchStamped, self.load_input, self.on_load_raw, raw=True)
         else:
-            node.create_subscription(WrenchStamped, self.load_input, self.on_load, qos)
-        node.create_subscription(Float64, params["straightness_topic"], self.on_straightness, qos)
-        node.create_subscription(Temperature, params["temperature_topic"], self.on_temperature, qos)
+            qos.subscribe(WrenchStamped, self.load_input, self.on_load)
+        qos.subscribe(Float64, params["straightness_topic"], self.on_straightness)
+        qos.subscribe(Temperature, params["temperature_topic"], self.on_temperature)
         out = params["output_prefix"]
         self.pred_pub = node.create_publisher(Float64, f"{out}/straightness_predicted", 10)
         self.life_pub = node.create_publisher(Float64, f"{out}/remaining_life", 10)
@@ -179,6 +181,9 @@ class AxisChannel:
     def on_temperature(self, msg: Temperature) -> None:
         if math.isfinite(msg.temperature):
             self.temperature_c = float(msg.temperature)
+            t = stamp_ns(msg.header)
+            if t is not None:        # the rolling guide's Walther oil viscosity, by stamp as offline
+                self.model.on_temperature(t, self.temperature_c)
 
     # --- maintenance ---------------------------------------------------------------------------------
     def maintenance_event(self, kind: str, values: dict) -> MaintenanceEvent | str:

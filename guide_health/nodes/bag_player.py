@@ -2,7 +2,7 @@
 
     bag_player BAG [--rate FACTOR | --max-rate MSGS_PER_S] [--topics T ...] [--remap-ns /m1]
                    [--wait-subscribers N] [--wait-timeout S] [--start-delay S] [--ack-timeout S]
-                   [--start-after-ns T]
+                   [--start-after-ns T] [--clock [HZ]]
 
 Every message is published as its raw CDR bytes (rclpy ``Publisher.publish(bytes)`` -> publish_raw,
 no deserialisation) in log-time order, with the bag's message type. Pacing (`Pacer`, pure, no ROS):
@@ -37,6 +37,12 @@ The same holds for any sparse topic (fewer than ``--barrier-sparse`` of the bag'
 resent only at the next heartbeat, and the node would integrate the samples stamped after the load
 change with the old load.
 
+Simulated time: ``--clock [HZ]`` also publishes rosgraph_msgs/Clock on ``/clock`` (best effort, depth 1,
+like ``ros2 bag play --clock``): the log time of the message about to be published, whenever it has
+advanced by 1/HZ s of bag time (default 100 Hz) since the last clock message, and the last log time at
+the end. Nodes started with ``use_sim_time:=true`` then run their timers (the diagnostics period) on bag
+time, whatever the playback speed; the numbers never depend on it (they come from header stamps).
+
 Topic names: as in the bag (absolute; ``--ros-args -r from:=to`` remaps them). ``--remap-ns /m1``
 replaces the bag's machine namespace (the prefix of its `.../joint_states` or `.../slewing/load` topic,
 '' if none) by /m1, so one bag can play as machine m1, m2, ... of a fleet. Exit 0 after the bag, 1 with one
@@ -60,6 +66,7 @@ DEFAULT_DEPTH = 0               # data topics: 0 = keep_all (back-pressure from 
 _MACHINE_SUFFIXES = ("joint_states", "slewing/load")
 DEFAULT_BARRIER_TYPES = ("std_msgs/msg/Float64",)
 DEFAULT_BARRIER_SPARSE = 0.01
+DEFAULT_CLOCK_HZ = 100.0        # /clock messages per second of bag time (--clock)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -177,6 +184,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "samples stamped after it); 0: off")
     p.add_argument("--deserialize", action="store_true",
                    help="deserialize each message into its ROS class before publishing (slower; for comparison)")
+    p.add_argument("--clock", type=float, nargs="?", const=DEFAULT_CLOCK_HZ, default=None, metavar="HZ",
+                   help=f"publish /clock (rosgraph_msgs/Clock) with the log time, at most HZ per s of bag time "
+                        f"(default {DEFAULT_CLOCK_HZ:g}), for nodes with use_sim_time:=true")
     p.add_argument("--quiet", action="store_true", help="no summary on stderr")
     return p
 
@@ -266,6 +276,40 @@ def barrier_publishers(connections, pubs: dict, barrier_types, barrier_sparse: f
             for c in connections if c.msgtype in barrier_types or c.topic in sparse}
 
 
+class ClockPublisher:
+    """``--clock``: /clock = the log time, whenever it advanced by ``period_ns`` since the last one."""
+
+    def __init__(self, node, hz: float):
+        from rclpy.qos import QoSProfile, ReliabilityPolicy
+        from rosgraph_msgs.msg import Clock
+
+        if not hz > 0:
+            raise InputError("--clock must be > 0 Hz")
+        self._clock_type = Clock
+        self.publisher = node.create_publisher(Clock, "/clock", QoSProfile(depth=1,
+                                               reliability=ReliabilityPolicy.BEST_EFFORT))
+        self.period_ns = int(round(1e9 / hz))
+        self.last_ns: int | None = None
+        self.latest_ns: int | None = None
+        self.published = 0
+
+    def tick(self, log_time_ns: int) -> None:
+        self.latest_ns = int(log_time_ns)
+        if self.last_ns is None or self.latest_ns - self.last_ns >= self.period_ns:
+            self.publish(self.latest_ns)
+
+    def publish(self, t_ns: int) -> None:
+        msg = self._clock_type()
+        msg.clock.sec, msg.clock.nanosec = divmod(int(t_ns), 1_000_000_000)
+        self.publisher.publish(msg)
+        self.last_ns = int(t_ns)
+        self.published += 1
+
+    def finish(self) -> None:
+        if self.latest_ns is not None and self.latest_ns != self.last_ns:
+            self.publish(self.latest_ns)
+
+
 @dataclass
 class Playback:
     """The publishing side of a play: publishers per topic and, per bag connection id, its publish
@@ -275,6 +319,7 @@ class Playback:
     publish: dict
     msg_class: dict
     barrier_of: dict
+    clock: ClockPublisher | None = None
 
 
 def create_playback(node, connections, classes: dict, args) -> Playback:
@@ -286,7 +331,8 @@ def create_playback(node, connections, classes: dict, args) -> Playback:
     return Playback(pubs=pubs,
                     publish={c.id: pubs[c.topic].publish for c in connections},
                     msg_class={c.id: classes[c.topic] for c in connections},
-                    barrier_of=barrier_publishers(connections, pubs, args.barrier_types, args.barrier_sparse))
+                    barrier_of=barrier_publishers(connections, pubs, args.barrier_types, args.barrier_sparse),
+                    clock=None if args.clock is None else ClockPublisher(node, args.clock))
 
 
 def wait_for_subscribers(pubs, count: int, timeout_s: float) -> None:
@@ -324,10 +370,12 @@ def publish_in_order(messages, playback: Playback, pacer: Pacer, args) -> tuple[
     blocked = 0.0
     t_start = time.monotonic()
     due = pacer.due
+    tick = playback.clock.tick if playback.clock is not None else lambda t: None
     for conn, log_t, raw in messages:
         when = t_start + due(log_t)
         if when > time.monotonic():
             _sleep_until(when)
+        tick(log_t)
         data = deserialize_message(raw, playback.msg_class[conn.id]) if args.deserialize else bytes(raw)
         others = barrier_of.get(conn.id)
         if others:
@@ -381,6 +429,8 @@ def play(args, rclpy_args) -> int:
                 time.sleep(args.start_delay)
             messages = iter_raw_messages(reader, connections, start_ns)
             sent, blocked, t_start, t_sent = publish_in_order(messages, playback, pacer, args)
+            if playback.clock is not None:
+                playback.clock.finish()
             acked = wait_all_acked(playback.pubs.values(), args.ack_timeout)
             t_total = time.monotonic() - t_start
             if not args.quiet:

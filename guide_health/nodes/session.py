@@ -126,6 +126,7 @@ class DiagnosticsCollector:
             pass
 
     def _on_array(self, msg) -> None:
+        stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec   # the node's clock
         with self._lock:
             for status in msg.status:
                 self.latest[status.name] = entry = {
@@ -134,6 +135,7 @@ class DiagnosticsCollector:
                     "hardware_id": status.hardware_id,
                     "values": {kv.key: kv.value for kv in status.values},
                     "received": time.monotonic(),
+                    "stamp_ns": stamp_ns,
                 }
                 self.history.setdefault(status.name, []).append(entry)
                 self.count += 1

@@ -12,22 +12,22 @@ import sys
 
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from guide_health.models.slewing.monitor import SlewingMonitor
+from guide_health.models.slewing.monitor import SlewingMonitor, contact_level
 from guide_health.nodes.common import run_node
 from guide_health.nodes.live_params import PeriodicTimers, apply_slewing_changes
+from guide_health.nodes.qos import SensorSubscriptions
 from guide_health.nodes.status import StatusTask, StatusUpdater
 from guide_health.params import SLEWING_MONITOR_SCHEMA, declare_parameters
 
-# reliable keep_all: a lagging node pushes back on a reliable writer instead of dropping loads
-DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1, reliability=ReliabilityPolicy.RELIABLE)
+# data QoS: parameter sensor_qos (guide_health/nodes/qos.py: reliable back-pressure vs best-effort loss)
 # status keys (README "Diagnostics"): ROLLER_CONTACT_KEYS always, 'nan' until known; EXTRA_KEYS when known
 ROLLER_CONTACT_KEYS = ("roller_load_max_n", "p0_hertz_MPa", "p0_center_MPa", "p0_end_MPa", "end_stress_ratio",
                        "von_mises_max_MPa", "von_mises_depth_mm", "shear_max_MPa", "allowable_MPa")
 EXTRA_KEYS = ("p_max_MPa", "p_max_position_mm", "shear_depth_mm", "von_mises_subsurface_max_MPa",
               "von_mises_surface_MPa", "axial_main_row_max_n",
-              "axial_opposite_row_max_n", "radial_row_max_n", "worst_row", "loads_in_period", "rejected_loads")
+              "axial_opposite_row_max_n", "radial_row_max_n", "worst_row", "loads_in_period", "rejected_loads",
+              "messages_lost", "best_effort_topics")
 LOG_THROTTLE_S = 5.0        # at most one rejected-load warning per period; it carries the running count
 
 
@@ -44,11 +44,12 @@ class SlewingMonitorNode(Node):
         self.periodic = PeriodicTimers(self)
         self.core = SlewingMonitor(params)
         self.params = params
-        self.updater = StatusUpdater(self, params["machine_id"], params["input_timeout_s"])
-        self.updater.add(StatusTask(f"{params['bearing']} roller contact", self.core.period_report,
+        self.updater = StatusUpdater(self, params["machine_id"], params["input_timeout_s"], alarms=True)
+        self.updater.add(StatusTask(f"{params['bearing']} roller contact", self._report,
                                     ROLLER_CONTACT_KEYS, EXTRA_KEYS, stale_inputs=("slewing/load",)))
         self.diag_pub = self.updater.publisher
-        self.create_subscription(WrenchStamped, "slewing/load", self._on_load, DATA_QOS)
+        self.sensors = SensorSubscriptions(self, params["sensor_qos"], params["sensor_queue_depth"], with_info=True)
+        self.sensors.subscribe(WrenchStamped, "slewing/load", self._on_load)
         self.periodic.create("diagnostics_period_s", params["diagnostics_period_s"], self.publish_diagnostics)
 
     def _apply_params(self, changed: dict) -> None:
@@ -61,6 +62,20 @@ class SlewingMonitorNode(Node):
         if reason:
             self.get_logger().warning(f"rejected load: {reason} ({self.core.rejected} so far)",
                                       throttle_duration_sec=LOG_THROTTLE_S)
+
+    def _report(self) -> tuple:
+        level, message, values = self.core.period_report()
+        values = {**values, **self.sensors.values(), "level_clear": self._level_clear(level, values)}
+        return level, message + self.sensors.message_suffix(), values
+
+    def _level_clear(self, level, values: dict):
+        """The contact level with the thresholds lowered by alarm_clear_margin (models/levels.py hysteresis)."""
+        p_max_pa = float(values.get("p_max_MPa", values.get("p0_center_MPa", math.nan))) * 1e6
+        if not math.isfinite(p_max_pa):
+            return level
+        model = self.core.model
+        return max(level, contact_level(p_max_pa, model.allowable_pa, model.warn_fraction,
+                                        self.params["alarm_clear_margin"]))
 
     def publish_diagnostics(self) -> None:
         self.updater.update()

@@ -6,9 +6,11 @@ A :class:`StatusTask` is one DiagnosticStatus a node publishes: a task name, a r
 subscription callback), runs the tasks, applies the STALE rule once for all of them and publishes one
 DiagnosticArray per ``update()``.
 
-Conventions (diagnostic_updater's, INTERFACES.md): ``name`` = "<node name>: <task>", ``hardware_id`` =
-machine_id, levels OK/WARN/ERROR/STALE (guide_health.models.levels.Level), one human sentence as
-``message``, numbers as KeyValues (plain decimal via repr(float); 'nan' when unknown).
+Conventions (diagnostic_updater's, INTERFACES.md), with names unique per machine and node so that an
+aggregator or rqt_robot_monitor never merges two machines: ``name`` = "<machine_id>/<node name>: <task>"
+(:func:`status_name`), ``hardware_id`` = machine_id, levels OK/WARN/ERROR/STALE
+(guide_health.models.levels.Level), one human sentence as ``message``, numbers as KeyValues (plain decimal
+via repr(float); 'nan' when unknown).
 
 :class:`RejectionLog` is the rejected-input warning: at most once per reason and period, with the count
 of the repeats it held back.
@@ -23,9 +25,17 @@ from typing import NamedTuple
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
-from guide_health.models.levels import Level
+from guide_health.models.levels import Alarm, Level
 
 STALE_PREFIX = "no data on {inputs} for {timeout:g} s; "
+ALARM_KEYS = ("alarm_events", "alarm_latched")      # statuses of an updater with alarms
+ACKNOWLEDGE_SERVICE = "~/acknowledge_alarms"          # std_srvs/Trigger
+
+
+def status_name(machine_id: str, node_name: str, task: str) -> str:
+    """"m1/wear_monitor: x precision": the machine first, so that a diagnostic_aggregator analyzer groups a
+    machine with ``startswith: [m1/]`` (config/diagnostic_aggregator.yaml)."""
+    return f"{machine_id}/{node_name}: {task}"
 
 
 class Report(NamedTuple):
@@ -93,18 +103,27 @@ class StatusUpdater:
     calls :meth:`update`.
     """
 
-    def __init__(self, node, hardware_id: str, input_timeout_s: float | None = None):
+    def __init__(self, node, hardware_id: str, input_timeout_s: float | None = None, alarms: bool = False):
         self.node = node
         self.hardware_id = hardware_id
         self.input_timeout_s = input_timeout_s
         self.tasks: list[StatusTask] = []
         self.last_arrival: dict[str, float | None] = {}
         self.publisher = node.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        # alarms (guide_health.models.levels.Alarm): hysteresis with the report's 'level_clear', ERROR latched
+        # until a call of the node's ~/acknowledge_alarms service (std_srvs/Trigger)
+        self.alarms: dict[str, Alarm] | None = {} if alarms else None
+        if alarms:
+            from std_srvs.srv import Trigger
+
+            node.create_service(Trigger, ACKNOWLEDGE_SERVICE, self._acknowledge)
 
     def add(self, task: StatusTask) -> None:
         if task.stale_inputs and self.input_timeout_s is None:
             raise ValueError(f"task {task.task!r} has stale inputs but the updater has no input timeout")
         self.tasks.append(task)
+        if self.alarms is not None:
+            self.alarms[task.task] = Alarm()
         for name in task.stale_inputs:
             self.last_arrival.setdefault(name, None)
 
@@ -119,19 +138,35 @@ class StatusUpdater:
     def run(self, task: StatusTask, now: float) -> Report:
         """The task's report with the STALE rule applied."""
         level, message, values = task.report()
+        alarm = self.alarms.get(task.task) if self.alarms is not None else None
+        if alarm is not None:
+            values = {**values, **alarm.values()}
         silent = self.silent_inputs(task.stale_inputs, now)
         if silent:
             prefix = task.stale_prefix.format(inputs=", ".join(silent), timeout=self.input_timeout_s)
             return Report(Level.STALE, prefix + message, values)
+        if alarm is not None:
+            level, message = alarm.update(Level(level), Level(values.get("level_clear", level)), message)
+            values.update(alarm.values())
         return Report(Level(level), message, values)
+
+    def _acknowledge(self, request, response):
+        """~/acknowledge_alarms: clear every latched ERROR; the response names what was latched."""
+        held = {task: alarm.acknowledge() for task, alarm in self.alarms.items()}
+        held = {task: n for task, n in held.items() if n}
+        response.success = True
+        response.message = ("acknowledged " + ", ".join(f"{task} ({n} ERROR events)" for task, n in held.items())
+                            if held else "no latched alarm")
+        return response
 
     def update(self) -> dict[str, Report]:
         """Run every task, publish one DiagnosticArray; the reports by task name."""
         now = time.monotonic()
         reports = {task.task: self.run(task, now) for task in self.tasks}
         node_name = self.node.get_name()
-        statuses = [make_status(f"{node_name}: {task.task}", self.hardware_id, reports[task.task], task.keys,
-                                task.optional_keys) for task in self.tasks]
+        extra = ALARM_KEYS if self.alarms is not None else ()
+        statuses = [make_status(status_name(self.hardware_id, node_name, task.task), self.hardware_id,
+                                reports[task.task], task.keys + extra, task.optional_keys) for task in self.tasks]
         array = DiagnosticArray()
         array.header.stamp = self.node.get_clock().now().to_msg()
         array.status = statuses

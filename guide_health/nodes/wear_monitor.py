@@ -8,12 +8,14 @@ A machine (``axes: [x, y, z]``, docs/machine.md): one `joint_states` for all axe
 Time comes from header stamps, so a bag replayed at any rate gives the same numbers. State persists in
 SQLite (`state_file`), one key per guide.
 
-Executor (parameter `executor`): `events` (default) spins rclpy's EventsExecutor with raw subscriptions
-for joint_states and guide/load, decoded at fixed CDR offsets (guide_health.io.cdr.RawMessageDecoder, a few
-us) instead of rclpy deserialisation; it handles messages in arrival order across topics, so a
-header-less straightness message is dated by the joint samples published before it. `single_threaded`
-is rclpy's SingleThreadedExecutor with deserialised messages (the reference; it takes one message per
-subscription per wait, so under a backlog a straightness message overtakes queued joint samples).
+Executor (parameter `executor`; `auto`, the default, is `events` unless `sensor_qos` is `best_effort` or
+the node runs on /clock, guide_health/nodes/qos.py): `events` spins rclpy's EventsExecutor with raw
+subscriptions for joint_states and guide/load, decoded at fixed CDR offsets
+(guide_health.io.cdr.RawMessageDecoder, a few us) instead of rclpy deserialisation; it handles messages in
+arrival order across topics, so a header-less straightness message is dated by the joint samples published
+before it. `single_threaded` is rclpy's SingleThreadedExecutor with deserialised messages (the reference; it
+takes one message per subscription per wait, so under a backlog a straightness message overtakes queued joint
+samples).
 """
 from __future__ import annotations
 
@@ -31,9 +33,9 @@ from sensor_msgs.msg import JointState
 from guide_health.errors import InputError
 from guide_health.io.cdr import MISSING
 from guide_health.io.maintenance_msgs import MAINTENANCE_TOPIC, event_from_status, event_values
-from guide_health.io.state_store import StateStore, resolve_state_path
+from guide_health.io.state_store import StateStore, resolve_state_path, resume_monitor, resume_with
 from guide_health.models.wear.input_rules import MALFORMED_JOINT_STATES
-from guide_health.models.wear.state_schema import check_precision_state, state_fingerprint
+from guide_health.models.wear.state_schema import state_fingerprint
 from guide_health.nodes.axis_channel import (  # noqa: F401 - the status keys are part of this module's API
     EXTRA_FATIGUE_KEYS,
     EXTRA_PRECISION_KEYS,
@@ -46,15 +48,13 @@ from guide_health.nodes.axis_channel import (  # noqa: F401 - the status keys ar
 )
 from guide_health.nodes.common import run_node
 from guide_health.nodes.live_params import PeriodicTimers, apply_wear_changes
+from guide_health.nodes.qos import SensorSubscriptions, resolve_executor
 from guide_health.nodes.status import StatusUpdater
 from guide_health.params import WEAR_MONITOR_SCHEMA, declare_parameters
 from guide_health.params.machine import declare_axis_parameters
 from guide_health.params.wear_monitor import hardness_units_warning
 
-# Reliable + keep_all: when the callbacks lag, the reader's history fills and a reliable writer waits
-# (back-pressure) instead of the reader overwriting unprocessed samples as keep_last would; a sensor
-# publishing best-effort or keep_last still connects (the reader's QoS is the weaker side of neither).
-DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1, reliability=ReliabilityPolicy.RELIABLE)
+# data QoS: parameter sensor_qos (guide_health/nodes/qos.py: reliable back-pressure vs best-effort loss)
 # maintenance events are few and must not be lost: reliable; published transient local so that a recorder
 # started later still gets the last ones, read volatile so that any publisher (a bag player) connects
 EVENT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
@@ -74,14 +74,16 @@ class WearMonitorNode(Node):
         self.startup_warnings = [w for w in {hardness_units_warning(p) for p in self.axes.values()} if w]
         for warning in self.startup_warnings:     # issue 11 item 3: a real hardness in Pa with seed 000's K
             self.get_logger().warning(warning)
-        self.raw = params.get("executor", "events") == "events"
+        self.raw = resolve_executor(params, self.get_parameter("use_sim_time").value) == "events"
         # cost accounting since start: callback wall time per message and the model's part of it
         self._callback_s = 0.0
         self._model_s = 0.0
         self._callbacks = 0
-        self.updater = StatusUpdater(self, params["machine_id"], params["input_timeout_s"])
+        self.updater = StatusUpdater(self, params["machine_id"], params["input_timeout_s"], alarms=True)
         self.diag_pub = self.updater.publisher
-        self.channels = [AxisChannel(self, p, DATA_QOS, self.single) for p in self.axes.values()]
+        self.sensors = SensorSubscriptions(self, params["sensor_qos"], params["sensor_queue_depth"],
+                                           with_info=not self.raw)
+        self.channels = [AxisChannel(self, p, self.sensors, self.single) for p in self.axes.values()]
         self.by_axis = {channel.name: channel for channel in self.channels}
         first = self.channels[0]
         # the single-joint names of old (tests, tools): the first axis's model, feed and log
@@ -99,10 +101,8 @@ class WearMonitorNode(Node):
         for channel in self.channels:
             for task in channel.status_tasks(self._timing_values):
                 self.updater.add(task)
-        if self.raw:
-            self.create_subscription(JointState, "joint_states", self._on_joint_raw, DATA_QOS, raw=True)
-        else:
-            self.create_subscription(JointState, "joint_states", self._on_joint, DATA_QOS)
+        self.sensors.subscribe(JointState, "joint_states", self._on_joint_raw if self.raw else self._on_joint,
+                               raw=self.raw)
         # maintenance events (docs/machine.md): published by the services, taken from any publisher or bag
         self.event_pub = self.create_publisher(DiagnosticArray, MAINTENANCE_TOPIC, EVENT_QOS)
         self.create_subscription(DiagnosticArray, MAINTENANCE_TOPIC, self._on_events, EVENT_READ_QOS)
@@ -124,20 +124,13 @@ class WearMonitorNode(Node):
             fingerprint = state_fingerprint(channel.params)
             for name, key in channel.model.state_keys(self.params["machine_id"]).items():
                 guide = channel.model.guides[name]
-                template = guide.state()
-                saved = self.store.load(key, fingerprint, lambda s, t=template: check_precision_state(s, t))
-                if saved is None:
+                if not resume_monitor(self.store, key, fingerprint, guide):     # validated whole, one line
                     continue
-                try:    # validated whole above: a failure here is a bug, still one line
-                    guide.restore(saved)
-                except (LookupError, TypeError, ValueError, ArithmeticError) as exc:
-                    raise InputError(f"state file {self.state_path}: {exc}; move it away to start afresh") from None
                 self.get_logger().info(
                     f"resumed from {self.state_path} ({key}): {guide.integrator.sliding_distance_m:.1f} m slid, "
                     f"{guide.estimator.count} measurements")
-            saved = self.store.load(channel.maintenance_key(self.params["machine_id"]), fingerprint)
-            if saved is not None:
-                channel.model.restore_maintenance(saved)
+            resume_with(self.store, channel.maintenance_key(self.params["machine_id"]), fingerprint,
+                        channel.model.restore_maintenance)
 
     # --- inputs ----------------------------------------------------------------------------------
     def _on_joint_raw(self, raw: bytes) -> None:
@@ -216,6 +209,8 @@ class WearMonitorNode(Node):
         n = self._callbacks
         report["callback_time_us"] = self._callback_s / n * 1e6 if n else math.nan
         report["model_time_us"] = self._model_s / n * 1e6 if n else math.nan
+        report.update(self.sensors.values())          # messages_lost, best_effort_topics (nodes/qos.py)
+        report["message"] += self.sensors.message_suffix()
 
     def publish_diagnostics(self) -> None:
         now = time.monotonic()

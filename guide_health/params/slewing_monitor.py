@@ -50,6 +50,13 @@ SLEWING_MONITOR_PARAMS = (
     Param("numerical_table_loads", 16, "-", "[4, 10000]", "numerical model live: loads in the table"),
     Param("diagnostics_period_s", 1.0, "s", "[0.01, 3600]", "period of the /diagnostics status", dynamic=True),
     Param("input_timeout_s", 2.0, "s", "(0, 86400]", "STALE when slewing/load is silent longer", dynamic=True),
+    Param("alarm_clear_margin", 0.05, "-", "[0, 0.5]",
+          "hysteresis: a raised level drops only once its value is back this fraction inside the threshold "
+          "(no toggling at a threshold); 0 = none", dynamic=True),
+    Param("sensor_qos", "auto", "", "", "reader QoS of slewing/load: auto (reliable KEEP_ALL while every "
+          "publisher is reliable, best effort once one is), reliable or best_effort (docs/ros.md)",
+          choices=("auto", "reliable", "best_effort")),
+    Param("sensor_queue_depth", 1000, "-", "[1, 1000000]", "best-effort subscription: reader queue depth"),
 )
 
 

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from guide_health.io.output_files import write_text
 from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
 from guide_health.params import validate_wear_params
 from guide_health.params.wear_monitor import LIVE_EFFECT_IDS
@@ -72,4 +73,4 @@ def write_model_file(path: Path, base_params: dict[str, Any], model: dict[str, A
     if not_live:
         header.append(f"# named but not integrated live: {', '.join(not_live)}")
     body = yaml.safe_dump({"wear_monitor": {"ros__parameters": model}}, sort_keys=False, width=200)
-    path.write_text("\n".join(header) + "\n" + body)
+    write_text(path, "\n".join(header) + "\n" + body)

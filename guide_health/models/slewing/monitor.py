@@ -13,7 +13,7 @@ from typing import Any
 
 from guide_health.models.contact.elastic import effective_modulus_pa
 from guide_health.models.contact.hertz_line import checked_load_n, effective_radius_m, hertz_line_contact
-from guide_health.models.levels import ERROR, OK, WARN, Level
+from guide_health.models.levels import ERROR, OK, WARN, Level, exceeds
 from guide_health.models.slewing.finite_roller import (
     FiniteRollerScalars,
     finite_roller_contact,
@@ -33,11 +33,12 @@ SEED003_EXAMPLE_ROLLER_LOAD_N: float = 103_400.0
 # ----------------------------------------------------------------------------------------------------
 # Report (INTERFACES.md `contact slewing --json`)
 # ----------------------------------------------------------------------------------------------------
-def contact_level(p_max_pa: float, allowable_pa: float, warn_fraction: float) -> Level:
-    """OK, WARN above warn_fraction x allowable, ERROR above allowable (judged on p_max)."""
-    if not math.isfinite(p_max_pa) or p_max_pa > allowable_pa:
+def contact_level(p_max_pa: float, allowable_pa: float, warn_fraction: float, margin: float = 0.0) -> Level:
+    """OK, WARN above warn_fraction x allowable, ERROR above allowable (judged on p_max); ``margin``: the
+    thresholds of the alarm's clearing test (guide_health.models.levels.exceeds)."""
+    if not math.isfinite(p_max_pa) or exceeds(p_max_pa, allowable_pa, margin):
         return ERROR
-    return WARN if p_max_pa > warn_fraction * allowable_pa else OK
+    return WARN if exceeds(p_max_pa, warn_fraction * allowable_pa, margin) else OK
 
 
 def _level_message(level: Level, p_max_mpa: float, position_mm: float, allowable_mpa: float) -> str:

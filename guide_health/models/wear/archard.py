@@ -323,6 +323,9 @@ class WearIntegrator:
             cover_up = _ramp_sum(up, a, wl) - _ramp_sum(up, b, wl)
             cover_down = _ramp_sum(down, a, wl) - _ramp_sum(down, b, wl)
             self.profile_work_n += (cover_up - cover_down) / self.geometry.slider_length_m
+            # w(u) >= 0: the ramp-sum differences leave rounding residues of either sign (-4e-10 N seen
+            # where nothing was added), which a saved state must not carry
+            np.maximum(self.profile_work_n, 0.0, out=self.profile_work_n)
         self.strokes.update_many(x)
         self.last_t_ns = int(t_ns[-1])
         self.last_position_m = float(x[-1])

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from scipy.special import stdtrit
 
-from guide_health.models.levels import Level
+from guide_health.models.levels import Level, exceeds, falls_below
 from guide_health.models.wear.archard import (
     DUTY_BUCKETS,
     WearGeometry,
@@ -117,6 +117,11 @@ class PrecisionMonitor:
         self.load_samples += 1
         return None
 
+    def on_temperature(self, t_ns: int, temperature_c: float) -> None:
+        """A guide/temperature reading: the rolling guide's oil viscosity from its stamp on (Walther oil)."""
+        if self.rolling is not None:
+            self.rolling.add_temperature(t_ns, temperature_c)
+
     def on_straightness(self, t_ns: int, straightness_m: float) -> str | None:
         """Straightness measurement [m]; returns the rejection reason or None when accepted. A measurement
         is identified by its stamp: one with the stamp of an applied measurement is not applied again."""
@@ -195,6 +200,8 @@ class PrecisionMonitor:
         found by binary search, and the integration is split at the measurement times so each
         measurement sees the wear state at its own time.
         """
+        if self.rolling is not None and getattr(run, "temperature_t_ns", np.zeros(0)).size:
+            self.rolling.add_temperatures(run.temperature_t_ns, run.temperature_c)   # applied by stamp
         accepted = accept_run(run, self.joint_base, self.load_base, self.load_n, self.limits)
         self.rejected.count_all(accepted.rejected)
         self.joint_base, self.load_base = accepted.joints.base, accepted.loads.base
@@ -298,9 +305,13 @@ class PrecisionMonitor:
             **{rejected_key(reason): n for reason, n in self.rejected.items()},
         }
         result["level"], result["message"] = self._judge(result)
+        # the level with every threshold moved by the clear margin (models/levels.py hysteresis_level)
+        margin = float(self.params.get("alarm_clear_margin", 0.0))
+        result["level_clear"] = self._judge_inputs(*self._judge_precision(result, margin))[0]
         if self.rolling is not None:
             result.update(self.rolling.lubrication_values())
             level, text = self.rolling.lubrication_level()
+            result["level_clear"] = max(result["level_clear"], level)
             if level > result["level"]:
                 result["level"], result["message"] = level, f"{text}; {result['message']}"
             else:
@@ -354,7 +365,9 @@ class PrecisionMonitor:
     def _judge(self, r: dict) -> tuple[Level, str]:
         return self._judge_inputs(*self._judge_precision(r))
 
-    def _judge_precision(self, r: dict) -> tuple[Level, str]:
+    def _judge_precision(self, r: dict, margin: float = 0.0) -> tuple[Level, str]:
+        """The precision level at the thresholds, or with each moved by ``margin`` towards the good side
+        (the clearing test of the alarm hysteresis, guide_health.models.levels)."""
         p = self.params
         a = r["straightness_um"]
         limit = r["straightness_limit_um"]
@@ -365,11 +378,12 @@ class PrecisionMonitor:
                                     f"'{p['joint']}' accepted")
             return Level.WARN, "no wear estimate yet (waiting for motion and load)"
         level = Level.OK
-        if a >= limit:
+        if exceeds(a, limit, margin, inclusive=True):
             return Level.ERROR, f"straightness {a:.1f} um exceeds the limit {limit:.1f} um: precision lost"
-        if life < p["life_error_h"]:
+        if falls_below(life, p["life_error_h"], margin):
             level = Level.ERROR
-        elif life < p["life_warn_h"] or a > p["straightness_warn_fraction"] * limit:
+        elif falls_below(life, p["life_warn_h"], margin) or exceeds(a, p["straightness_warn_fraction"] * limit,
+                                                                      margin):
             level = Level.WARN
         if math.isfinite(life):
             text = f"remaining precision life {life:.0f} h at current duty (straightness {a:.1f} of {limit:.0f} um)"

@@ -1,0 +1,117 @@
+"""Issue 16, sim time: bag_player --clock publishes /clock with the bag's log time, and a wear_monitor started
+with use_sim_time:=true runs its diagnostics timer on it: no status before the clock starts, statuses
+stamped in bag time (2023, not today's wall time) during the play, and the same numbers as offline replay."""
+import random
+import time
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("rclpy")
+
+from guide_health.analysis.replay import analyse  # noqa: E402
+from guide_health.io.bag_reader import read_machine_bag  # noqa: E402
+from guide_health.io.bag_writer import write_machine_bag  # noqa: E402
+from guide_health.nodes.bag_player import ClockPublisher, build_parser  # noqa: E402
+from guide_health.nodes.session import (  # noqa: E402
+    DiagnosticsCollector,
+    clean_fastdds_shm,
+    isolated_ros_env,
+    play_bag,
+    start_node,
+    stop_node,
+)
+from guide_health.params import simulation_params, wear_monitor_params  # noqa: E402
+from guide_health.sim.machine import simulate_machine  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+BENCH = ROOT / "config" / "bench_000.yaml"
+STATUS = "simtime_m1/wear_monitor: x precision"
+
+
+def test_clock_option_and_tick_period():
+    assert build_parser().parse_args(["b"]).clock is None
+    assert build_parser().parse_args(["b", "--clock"]).clock == 100.0
+    assert build_parser().parse_args(["b", "--clock", "10"]).clock == 10.0
+
+    class FakeNode:
+        def create_publisher(self, msg_type, topic, qos):
+            self.topic, self.sent = topic, []
+            return type("P", (), {"publish": lambda _, m: self.sent.append(m.clock.sec * 10**9 + m.clock.nanosec)})()
+
+    node = FakeNode()
+    clock = ClockPublisher(node, 10.0)                  # every 0.1 s of bag time
+    for t_ns in (5 * 10**9, 5 * 10**9 + 50_000_000, 5 * 10**9 + 100_000_000, 5 * 10**9 + 150_000_000):
+        clock.tick(t_ns)
+    clock.finish()                                       # the last log time at the end
+    assert node.topic == "/clock"
+    assert node.sent == [5_000_000_000, 5_100_000_000, 5_150_000_000]
+
+
+def run_clock_on(collector, from_ns, done, step_ns=5 * 10**9, steps=12):
+    """After the bag: the node has its data queued but stamps a status only when /clock passes a period, so
+    run the clock on (5 s of bag time per 0.5 s of wall time, at most 60 s) until ``done(status)``."""
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from rosgraph_msgs.msg import Clock
+
+    publisher = collector.node.create_publisher(Clock, "/clock", QoSProfile(depth=1,
+                                                reliability=ReliabilityPolicy.BEST_EFFORT))
+    for k in range(1, steps + 1):
+        status = collector.wait_for(STATUS, done, timeout=0.5)
+        if status is not None:
+            return status
+        msg = Clock()
+        msg.clock.sec, msg.clock.nanosec = divmod(from_ns + k * step_ns, 10**9)
+        publisher.publish(msg)
+    return collector.wait_for(STATUS, done, timeout=2.0)
+
+
+@pytest.fixture
+def ros_env(monkeypatch):
+    # domain ids above the 1..100 of the other live tests: concurrent test runs on one host (a reliable
+    # reader of another run's node on the same domain can hold back bag_player) stay apart
+    env = isolated_ros_env(domain_id=random.randint(170, 230))
+    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID"):
+        monkeypatch.setenv(key, env[key])
+    yield env
+    clean_fastdds_shm()
+
+
+@pytest.mark.ros
+def test_node_with_use_sim_time_runs_on_the_bag_clock(tmp_path, ros_env):
+    params = wear_monitor_params(BENCH)
+    sim = dict(simulation_params(BENCH), duration_h=0.5, joint_state_rate_hz=10.0, load_rate_hz=1.0,
+               measurement_interval_h=0.25)
+    run = simulate_machine(params, sim, seed=11)
+    bag = tmp_path / "bag"
+    write_machine_bag(run, bag)
+    offline = analyse(read_machine_bag(bag, joint="x"), params)[1]
+    stamps_ns = [int(t[0]) for t in (run.joint_t_ns, run.load_t_ns, run.straightness_t_ns) if len(t)]
+    bag_start_ns = min(stamps_ns)
+    bag_end_ns = max(int(t[-1]) for t in (run.joint_t_ns, run.load_t_ns, run.straightness_t_ns) if len(t))
+
+    collector = DiagnosticsCollector("sim_time_collector")
+    node = start_node("guide_health.nodes.wear_monitor", BENCH,
+                      {"state_file": "''", "machine_id": "simtime_m1", "diagnostics_period_s": 5.0,
+                       "use_sim_time": "true",
+                       "input_timeout_s": 60.0}, ros_env, log_path=tmp_path / "node.log")
+    try:
+        end = time.monotonic() + 30.0
+        while "wear_monitor" not in collector.node.get_node_names() and time.monotonic() < end:
+            time.sleep(0.1)
+        time.sleep(6.0)                          # > one period of wall time: a wall-time timer would have fired
+        assert collector.get(STATUS) is None, "a status before /clock started"
+        played = play_bag(bag, ros_env, ["--wait-subscribers", "1", "--max-rate", "0", "--clock", "10"])
+        assert played.returncode == 0, played.stderr
+        live = run_clock_on(collector, bag_end_ns, lambda s: float(s["values"]["samples"]) >= offline["samples"])
+    finally:
+        stop_node(node)
+        collector.close()
+    assert live is not None, (tmp_path / "node.log").read_text()
+    stamps = [status["stamp_ns"] for status in collector.history[STATUS]]
+    # the clock published /clock up to the bag's end; this test ran it on for at most 60 s of bag time
+    assert all(bag_start_ns <= t <= bag_end_ns + 60 * 10**9 for t in stamps), (stamps[:3], bag_start_ns)
+    # 1800 s of bag time + 60 s at one status per 5 s of bag time: at most 372, whatever the wall time
+    assert 10 <= len(stamps) <= 373
+    assert float(live["values"]["samples"]) == offline["samples"]
+    assert float(live["values"]["sliding_distance_m"]) == pytest.approx(offline["sliding_distance_m"], rel=1e-9)
