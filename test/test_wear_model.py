@@ -262,6 +262,10 @@ def test_stamp_aligned_feed_gives_the_offline_load_rule_whatever_the_arrival_ord
     assert live(0.5, lag=3) == pytest.approx(offline.integrator.archard_work_nm, rel=1e-12)
     unaligned = live(0.0, lag=3)
     assert abs(unaligned / offline.integrator.archard_work_nm - 1) > 1e-5   # the problem it solves (1.3e-4 here)
+    # loads that overtake the joint samples stamped before them (3 samples early): each of those samples
+    # still takes the load in force at its stamp, with or without the window
+    assert live(0.5, lag=-3) == pytest.approx(offline.integrator.archard_work_nm, rel=1e-12)
+    assert live(0.0, lag=-3) == pytest.approx(offline.integrator.archard_work_nm, rel=1e-12)
     # a load stream slower than the window: samples go with the latest load after the window
     monitor = PrecisionMonitor(params)
     feed = StampAlignedFeed(monitor, window_s=0.5)
@@ -276,3 +280,33 @@ def test_stamp_aligned_feed_gives_the_offline_load_rule_whatever_the_arrival_ord
     assert feed.joint(int(T0_NS + 2e8), 0.2, 0.0, 0.7) == ["joint_states time going backwards"]
     assert feed.load(int(T0_NS + 5e8), math.inf, 0.7) == ["non-finite load"]
     assert len(feed.pending) == 1
+
+
+def test_first_load_overtaking_the_first_joint_samples_leaves_them_unloaded():
+    """The live/offline K gap of the 1.5 h bench bag (docs/interfaces.md "Time"): its first load (6000 N,
+    stamped t0 + 0.5 s) reached the node before the joint samples t0 + 0.1..0.4 s (5 mm steps), which were
+    then integrated with it: 4 x 5 mm x 6000 N = 120 N m more work than offline, where no load is known
+    before its stamp (NaN: no wear), K 4.619164e-6 instead of 4.619622e-6."""
+    from guide_health.models.wear.feed import StampAlignedFeed
+    from guide_health.models.wear.precision import PrecisionMonitor
+    from guide_health.runs import MachineRun
+
+    params = wear_monitor_params(BENCH)
+    t = T0_NS + np.arange(20) * 100_000_000
+    x = 0.005 * np.arange(20)                                       # 5 mm per sample, one way
+    lt, lw = np.array([T0_NS + 500_000_000, T0_NS + 1_500_000_000]), np.array([6000.0, 6000.0])
+    offline = PrecisionMonitor(params)
+    offline.process_run(MachineRun("x", t, x, np.zeros(0), lt, lw, np.zeros(0, np.int64), np.zeros(0)))
+    assert offline.integrator.archard_work_nm == pytest.approx(6000.0 * 0.005 * 15, rel=1e-12)   # t0+0.6 s on
+    for window_s in (0.5, 0.0):
+        monitor = PrecisionMonitor(params)
+        feed = StampAlignedFeed(monitor, window_s)
+        assert feed.joint(int(t[0]), float(x[0]), 0.0, 0.0) == []
+        assert feed.load(int(lt[0]), float(lw[0]), 0.01) == []       # overtakes samples 1..4
+        for i in range(1, 20):
+            assert feed.joint(int(t[i]), float(x[i]), 0.0, 0.02 + 1e-3 * i) == []
+        assert feed.load(int(lt[1]), float(lw[1]), 0.1) == []
+        assert feed.flush_all() == []
+        work = monitor.integrator.archard_work_nm
+        assert work == pytest.approx(offline.integrator.archard_work_nm, rel=1e-12)   # the old feed: 570 N m
+        assert monitor.integrator.sliding_distance_m == pytest.approx(offline.integrator.sliding_distance_m)
