@@ -28,6 +28,7 @@ setup(
             "wear_monitor = guide_health.nodes.wear_monitor:main",
             "slewing_monitor = guide_health.nodes.slewing_monitor:main",
             "fleet_monitor = guide_health.nodes.fleet_monitor:main",
+            "vibration_monitor = guide_health.nodes.vibration_monitor:main",
             "bag_player = guide_health.nodes.bag_player:main",
         ],
     },

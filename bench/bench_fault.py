@@ -13,8 +13,12 @@ of the bag plays, the node stops cleanly and its last state is compared with the
 same bag. Then the node is restarted, resumed the same way and SIGKILLed --restarts-at-end (3) times more
 with the bag complete (the bag's last straightness message, logged after its last joint sample, plays
 again each time). Printed:
-  - per kill: the checkpoint read back (parsed, restorable by PrecisionMonitor, measurement stamps
-    strictly increasing, sliding distance and samples not below the previous checkpoint's);
+  - per kill: the checkpoint read back (parsed, validated like a resuming node does, restored by
+    PrecisionMonitor, measurement stamps strictly increasing, sliding distance and samples not below the
+    previous checkpoint's) and the samples lost at the kill (the node's last status before the kill minus
+    the checkpoint), also in seconds at the node's sample rate just before the kill (the player plays
+    faster than 10 Hz);
+  - state never corrupt: checkpoints validated / read;
   - measurements counted (live vs offline: a measurement counted twice makes live > offline);
   - joint samples and sliding distance lost (offline - live) against one checkpoint period of samples.
 Targets: state never corrupt, no measurement counted twice, loss <= one checkpoint period.
@@ -42,21 +46,49 @@ CHECKPOINT_S = 1.0
 RATE_HZ = 10.0
 
 
+CHECKS = {"read": 0, "valid": 0}
+
+
 def read_checkpoint(state_db: Path, params: dict) -> dict:
-    """The saved state, checked: parses, restores; says so when measurement stamps repeat."""
+    """The saved state, checked like a resuming node checks it (models/wear/state_schema.py: every field
+    present, of its kind, finite, lengths agree; then restored): counted in CHECKS; says so when
+    measurement stamps repeat."""
+    from guide_health.errors import InputError
+    from guide_health.io.state_store import _decode
     from guide_health.models.wear.precision import PrecisionMonitor
+    from guide_health.models.wear.state_schema import check_precision_state
 
     with sqlite3.connect(state_db) as db:
-        rows = db.execute("SELECT state_json FROM monitor_state").fetchall()
+        rows = db.execute("SELECT state_json FROM monitor_state WHERE key LIKE '%/precision'").fetchall()
     if len(rows) != 1:
-        raise AssertionError(f"{len(rows)} states in the state file")
-    state = json.loads(rows[0][0])
-    PrecisionMonitor(params).restore(state)
+        raise AssertionError(f"{len(rows)} precision states in the state file")
+    CHECKS["read"] += 1
+    state = _decode(json.loads(rows[0][0]))
+    monitor = PrecisionMonitor(params)
+    try:
+        check_precision_state(state, monitor.state())
+    except InputError as exc:
+        raise SystemExit(f"FAIL: checkpoint {CHECKS['read']} refused by the state schema: {exc}") from None
+    monitor.restore(state)
+    CHECKS["valid"] += 1
     stamps = state["estimator"]["measurement_t_ns"]
     twice = sum(b <= a for a, b in zip(stamps, stamps[1:]))
     if twice:
         print(f"  !! {twice} measurement(s) counted twice (stamps not strictly increasing)")
     return state
+
+
+def processing_rate(collector, seen: dict | None) -> float:
+    """Samples per wall second the node counted over the ~2 s of statuses before ``seen`` (the player plays
+    faster than the bag's 10 Hz, so a checkpoint period holds more samples than 10)."""
+    if seen is None:
+        return float("inf")
+    t = seen["received"]
+    recent = [h for h in collector.history.get(STATUS, []) if t - 2.5 <= h["received"] <= t]
+    if len(recent) < 2 or recent[-1]["received"] <= recent[0]["received"]:
+        return float("inf")
+    counted = float(recent[-1]["values"]["samples"]) - float(recent[0]["values"]["samples"])
+    return max(counted, 1.0) / (recent[-1]["received"] - recent[0]["received"])
 
 
 def resumed(state: dict | None):
@@ -110,8 +142,9 @@ def main(argv: list[str] | None = None) -> int:
         previous = None
         start_after: int | None = None
         print(f"bag: {args.hours} h, {offline['samples']} joint samples, {offline['measurements']} measurements")
+        kill_losses: list[float] = []
         print(f"{'kill':>4} {'after s':>7} {'checkpoint stamp':>20} {'measurements':>12} {'samples':>8} "
-              f"{'distance m':>10}  state")
+              f"{'distance m':>10} {'lost/kill':>9} {'= s':>9}  state")
         try:
             for kill in range(1, args.kills + 1):
                 node = start_node("guide_health.nodes.wear_monitor", BENCH, overrides, env, tmp / f"node{kill}.log")
@@ -128,6 +161,7 @@ def main(argv: list[str] | None = None) -> int:
                                    timeout=120.0)
                 delay = rng.uniform(0.0, 4.0)
                 time.sleep(delay)
+                seen = collector.get(STATUS)            # what the node had counted just before the kill
                 os.kill(node.pid, signal.SIGKILL)
                 node.wait()
                 player.send_signal(signal.SIGINT)
@@ -147,8 +181,12 @@ def main(argv: list[str] | None = None) -> int:
                         verdict = "WENT BACK"
                     start_after = integ["last_t_ns"]
                     n_meas = len(state["estimator"]["measurement_t_ns"])
+                    at_kill = int(float(seen["values"]["samples"])) if seen else integ["samples"]
+                    lost_at_kill = at_kill - integ["samples"]
+                    kill_losses.append(lost_at_kill / processing_rate(collector, seen))
                     print(f"{kill:>4} {delay:>7.1f} {start_after:>20} {n_meas:>12} "
-                          f"{integ['samples']:>8} {integ['sliding_distance_m']:>10.2f}  {verdict}")
+                          f"{integ['samples']:>8} {integ['sliding_distance_m']:>10.2f} {lost_at_kill:>9} "
+                          f"{kill_losses[-1]:>9.2f}  {verdict}")
                     previous = state
                 else:
                     print(f"{kill:>4} {delay:>7.1f} {'-':>20} {'-':>12} {'-':>8} {'-':>10}  {verdict}")
@@ -194,7 +232,17 @@ def main(argv: list[str] | None = None) -> int:
               f"(one checkpoint period = {CHECKPOINT_S * RATE_HZ:.0f} samples)")
         print(f"sliding distance: live {final['integrator']['sliding_distance_m']:.3f} m, offline "
               f"{offline['sliding_distance_m']:.3f} m")
-        ok = live_meas <= offline["measurements"] and abs(lost) <= CHECKPOINT_S * RATE_HZ
+        period = CHECKPOINT_S * RATE_HZ
+        worst = max(kill_losses, default=0.0)
+        print(f"state never corrupt: {CHECKS['valid']}/{CHECKS['read']} checkpoints read back validated and "
+              f"restored")
+        print(f"no measurement counted twice: {'yes' if live_meas <= offline['measurements'] else 'NO'} "
+              f"(live {live_meas}, offline {offline['measurements']})")
+        print(f"loss at a kill (samples the node had counted at its last status before the kill - the "
+              f"checkpoint's, over the node's sample rate then): max {worst:.2f} s of <= {CHECKPOINT_S} s (one "
+              f"checkpoint period); after resume {lost} samples lost")
+        ok = (live_meas <= offline["measurements"] and abs(lost) <= period and worst <= CHECKPOINT_S + 0.25
+              and CHECKS["valid"] == CHECKS["read"])
         print("PASS" if ok else "FAIL")
         return 0 if ok else 1
 

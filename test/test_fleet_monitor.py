@@ -41,6 +41,60 @@ def test_silent_machines_turn_stale_and_the_fleet_warns():
     assert empty["level"] == STALE and empty["machines"] == 0 and math.isnan(empty["min_remaining_life_h"])
 
 
+def test_silent_statuses_are_forgotten_and_the_board_stays_bounded():
+    """Issue 10 item 7: 50,000 ids used to stay on the board forever (fleet WARN forever)."""
+    board = FleetBoard(stale_after_s=5.0, forget_after_s=60.0, max_statuses=1000)
+    for i in range(1000):
+        assert board.update("a: t", f"old{i}", OK, "", {}, 0.0)
+    assert not board.update("a: t", "new", OK, "", {}, 1.0)          # full: ignored, counted
+    assert board.ignored == {"board full": 1} and "board full" in board.last_problem
+    board.update("a: t", "live", OK, "", {}, 59.0) or None           # still full at 59 s
+    s = board.summary(now_s=60.5)                                     # 60.5 s > 60 s: the 1000 are gone
+    assert (s["machines"], s["statuses"], s["forgotten_statuses"]) == (0, 0, 1000)
+    assert s["level"] == STALE and s["ignored_statuses"] == 2
+    assert board.update("a: t", "live", OK, "", {}, 61.0)
+    s = board.summary(now_s=62.0)
+    assert (s["machines"], s["ok"], s["level"]) == (1, 1, OK)          # no WARN left from the retired ones
+    with pytest.raises(ValueError):
+        FleetBoard(stale_after_s=10.0, forget_after_s=5.0)
+
+
+def test_invalid_values_and_unknown_levels_are_ignored_and_counted():
+    board = FleetBoard()
+    board.update("w: x precision", "m1", OK, "", {"remaining_life_h": "40.0"}, 0.0)
+    assert board.update("w: x precision", "m2", OK, "", {"remaining_life_h": "-5"}, 0.0)   # main: fleet min
+    assert "remaining_life_h = '-5' (invalid)" in board.last_problem
+    board.update("w: x precision", "m3", OK, "", {"remaining_life_h": "banana", "life_used_fraction": "-0.1"}, 0.0)
+    board.update("w: x precision", "m4", OK, "", {"remaining_life_h": "nan"}, 0.0)          # not known yet: fine
+    board.update("w: x precision", "m5", OK, "", {"remaining_life_h": "inf"}, 0.0)          # no wear: fine
+    assert not board.update("w: x precision", "m6", 7, "", {}, 0.0)                        # main: dropped silently
+    assert "unknown level (7)" in board.last_problem
+    s = board.summary(1.0)
+    assert s["min_remaining_life_h"] == 40.0 and s["min_remaining_life_machine"] == "m1"
+    assert math.isnan(s["max_life_used_fraction"])
+    assert (s["invalid_values"], s["ignored_statuses"], s["statuses"]) == (3, 1, 5)
+
+
+def test_history_retention_deletes_old_rows_and_forgets_old_periods(tmp_path):
+    from guide_health.io.fleet_history import FleetHistory
+
+    history = FleetHistory(str(tmp_path / "h.db"), period_s=60.0, retention_days=1.0)
+    day = 86400.0
+    for k in range(5):                                  # one row a day for 5 days
+        history.record(k * day, "m1", "w: t", OK, "", {})
+    history.commit()
+    assert history.prune(4 * day - 1.0) == 3             # rows of day 0, 1, 2 are older than one day
+    rows = [r[0] for r in history.db.execute("SELECT t_unix_s FROM fleet_history ORDER BY t_unix_s")]
+    assert rows == [3 * day, 4 * day] and list(history._last) == [("m1", "w: t")]
+    assert history.prune(4 * day + 60.0) == 1 and history._last == {}     # day 3 goes; the last period is over
+    history.close()
+    assert (tmp_path / "h.db").stat().st_mode & 0o777 == 0o600
+    (tmp_path / "link.db").symlink_to(tmp_path / "h.db")
+    from guide_health.errors import InputError
+    with pytest.raises(InputError, match="history file .*link.db: cannot be used"):
+        FleetHistory(str(tmp_path / "link.db"), period_s=1.0)
+
+
 rclpy = pytest.importorskip("rclpy")
 
 

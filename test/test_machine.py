@@ -175,9 +175,10 @@ def test_three_axis_bag_through_one_live_node_equals_offline_replay(tmp_path, ro
                     "wear_volume_mm3"):
             assert float(values[key]) == pytest.approx(offline[axis][key], rel=1e-3), (axis, key)
         assert values["guide"] == offline[axis]["guide"]
-    # the three state keys of each axis's guides (two rails of an axis never share a key)
+    # a state key per guide (two rails of an axis never share a key) and each axis's maintenance log
     import sqlite3
 
     keys = {row[0] for row in sqlite3.connect(tmp_path / "state.db").execute("SELECT key FROM monitor_state")}
     assert keys == {f"vmc_xyz_01/{a}/{g}/precision" for a, g in
-                    [("x", "front"), ("x", "rear"), ("y", "front"), ("y", "rear"), ("z", "left"), ("z", "right")]}
+                    [("x", "front"), ("x", "rear"), ("y", "front"), ("y", "rear"), ("z", "left"), ("z", "right")]
+                    } | {f"vmc_xyz_01/{a}/maintenance" for a in "xyz"}

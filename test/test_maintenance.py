@@ -264,3 +264,52 @@ def test_services_apply_publish_and_log_the_event(ros_context, tmp_path):
         for n in (node, other):
             n.close()
             n.destroy_node()
+
+
+def test_regrind_service_called_through_ros(ros_context, tmp_path):
+    """The Trigger service over DDS (an rclpy client in another node of the same domain), with the value set
+    through the parameter service as `ros2 param set` does."""
+    import threading
+    import time
+
+    import rclpy
+    from rcl_interfaces.srv import SetParameters
+    from rclpy.executors import MultiThreadedExecutor
+    from rclpy.parameter import Parameter
+    from std_srvs.srv import Trigger
+    from test_wear_monitor_node import T0, feed_cycle, make_node
+
+    node = make_node(ros_context, tmp_path)
+    client_node = rclpy.create_node("maintenance_client", context=ros_context)
+    executor = MultiThreadedExecutor(context=ros_context)
+    executor.add_node(node)
+    executor.add_node(client_node)
+    thread = threading.Thread(target=executor.spin, daemon=True)
+    try:
+        feed_cycle(node, T0 + 1.0, strokes=(0.1, 0.25, 0.18, 0.3))     # before spinning: no concurrent timer
+        assert node.monitor.report()["straightness_um"] > 15.0
+        thread.start()
+
+        def call(srv_type, name, request):
+            client = client_node.create_client(srv_type, name)
+            assert client.wait_for_service(timeout_sec=10.0), name
+            future = client.call_async(request)
+            end = time.monotonic() + 10.0
+            while not future.done() and time.monotonic() < end:
+                time.sleep(0.01)
+            return future.result()
+
+        result = call(SetParameters, "/wear_monitor/set_parameters", SetParameters.Request(
+            parameters=[Parameter("maintenance_straightness_m", value=11.0e-6).to_parameter_msg()]))
+        assert result.results[0].successful, result.results[0].reason
+        response = call(Trigger, "/maintenance/x/regrind", Trigger.Request())
+        assert response.success, response.message
+        assert "straightness 11.00 um" in response.message
+        assert node.monitor.report()["straightness_um"] == pytest.approx(11.0, abs=1e-9)
+    finally:
+        executor.shutdown()
+        if thread.is_alive():
+            thread.join(timeout=5)
+        node.close()
+        node.destroy_node()
+        client_node.destroy_node()

@@ -237,3 +237,186 @@ def test_item3_hardness_warning_reaches_cli_stderr_and_node_log(tmp_path, ros_co
     described = {q.name: q.description for q in __import__("guide_health.params.wear_monitor", fromlist=["x"])
                  .WEAR_MONITOR_SCHEMA.params}
     assert "only K/H" in described["wear_coefficient"] and "2.22e-14" in described["wear_coefficient"]
+
+
+# --- item 5: seed 001 boundary calibration (Fig. 8) ------------------------------------------------------------
+def test_item5_boundary_ends_at_0p0005_m_s_and_area_ratio_73p76_at_0p001():
+    """Seed 001 Fig. 8: boundary below 0.0005 m/s, contact-area ratio 73.76 % at 0.001 m/s (was: boundary up to
+    0.007 m/s, 83.4 % at 0.001 m/s with lambda_boundary 0.03 and eta_s 1.7e11). One source for LAMBDA_*."""
+    import inspect
+
+    from guide_health.models.rolling import lubrication
+    from guide_health.models.rolling.ball_contact import rolling_contact_report
+    from guide_health.params import wear_monitor as wm
+
+    p = rolling_params()                       # config/nsk_lh45.yaml: 68# oil at 21 degC
+    regime = {v: rolling_contact_report(p, None, v)["regime"] for v in (0.00045, 0.00055)}
+    assert regime == {0.00045: "boundary", 0.00055: "mixed"}
+    assert rolling_contact_report(p, None, 0.0005)["lambda"] == pytest.approx(0.00978, rel=0.01)
+    assert lubrication.LAMBDA_BOUNDARY == pytest.approx(0.0098)
+    assert rolling_contact_report(p, None, 0.001)["contact_area_ratio"] == pytest.approx(0.7376, abs=0.002)
+    # the schema takes its defaults from the model module: no second literal
+    defaults = wm.WEAR_MONITOR_SCHEMA.defaults()
+    assert defaults["lambda_boundary"] is lubrication.LAMBDA_BOUNDARY
+    assert defaults["lambda_full_film"] is lubrication.LAMBDA_FULL_FILM
+    source = inspect.getsource(wm)
+    assert '"lambda_boundary", 0.' not in source and '"lambda_full_film", 3' not in source
+
+
+# --- item 6: oil viscosity by Walther / ASTM D341, fed by guide/temperature ----------------------------------------
+def hand_walther_mm2_s(t_c: float) -> float:
+    """ASTM D341 through seed 000's 68# oil (65.4 / 8.83 cSt at 40 / 100 degC), written out here."""
+    y1, y2 = math.log10(math.log10(65.4 + 0.7)), math.log10(math.log10(8.83 + 0.7))
+    x1, x2 = math.log10(313.15), math.log10(373.15)
+    y = y1 + (y2 - y1) * (math.log10(t_c + 273.15) - x1) / (x2 - x1)
+    return 10 ** 10 ** y - 0.7
+
+
+def test_item6_walther_oil_puts_lambda_1_at_0p5_m_s_at_21_degc(tmp_path):
+    from guide_health.models.rolling.oil import WaltherOil
+
+    oil = WaltherOil.from_catalogue(65.4, 8.83, 880.0)
+    assert oil.kinematic_viscosity_mm2_s(40.0) == pytest.approx(65.4, rel=1e-9)
+    assert oil.kinematic_viscosity_mm2_s(100.0) == pytest.approx(8.83, rel=1e-9)
+    assert oil.kinematic_viscosity_mm2_s(21.0) == pytest.approx(hand_walther_mm2_s(21.0), rel=1e-9)
+    assert oil.kinematic_viscosity_mm2_s(21.0) == pytest.approx(186.07, abs=0.05)
+    assert oil.dynamic_viscosity_pa_s(21.0) == pytest.approx(0.163, abs=0.0005)        # the issue's 0.163 Pa s
+    import json
+    import subprocess
+    import sys
+
+    def cli(*extra):
+        run = subprocess.run([sys.executable, "-m", "guide_health.cli", "contact", "rolling", "--params", str(LH45),
+                              "--speed", "0.5", "--json", *extra], capture_output=True, text=True, cwd=ROOT,
+                             timeout=120)
+        assert run.returncode == 0, run.stderr
+        return json.loads(run.stdout)
+
+    at21, at40 = cli(), cli("--temperature-c", "40")
+    assert at21["oil_viscosity_pa_s"] == pytest.approx(0.1631, abs=2e-4) and at21["oil_temperature_c"] == 21.0
+    assert at21["lambda"] == pytest.approx(1.0, abs=0.01)                      # seed 001 Fig. 9
+    assert at40["oil_viscosity_pa_s"] == pytest.approx(0.05663, abs=2e-4)
+    assert at40["lambda"] / at21["lambda"] == pytest.approx((0.05663 / 0.16311) ** 0.67, rel=2e-3)
+
+
+def temperature_run():
+    """Slow-then-fast strokes at 2 kN while the guide warms 20 -> 45 degC (guide/temperature at 1 Hz)."""
+    i = np.arange(6001)
+    t = T0 + i * 50_000_000                                   # 20 Hz for 300 s
+    x = 0.15 + 0.15 * np.sin(2 * np.pi * i / 1200.0)          # 0.3 m stroke, peak 0.024 m/s
+    tt = T0 + np.arange(301) * 1_000_000_000
+    return MachineRun("x", t, x, np.zeros(0), np.array([T0]), np.array([2000.0]), np.zeros(0, np.int64),
+                      np.zeros(0), temperature_t_ns=tt, temperature_c=20.0 + 25.0 * np.arange(301) / 300.0)
+
+
+def test_item6_temperature_topic_feeds_the_viscosity_live_equal_to_offline(ros_context):
+    """The node's guide/temperature callback and the offline run give the same lambda and regime shares, and
+    the warming guide differs from one at a constant 21 degC (lambda down by (eta45/eta21)^0.67)."""
+    from rclpy.parameter import Parameter
+    from sensor_msgs.msg import JointState, Temperature
+
+    from guide_health.models.rolling.oil import WaltherOil
+    from guide_health.nodes.wear_monitor import WearMonitorNode
+
+    run = temperature_run()
+    p = rolling_params()
+    offline = PrecisionMonitor(p)
+    offline.process_run(run)
+    constant = PrecisionMonitor(p)
+    constant.process_run(MachineRun("x", run.joint_t_ns, run.joint_position_m, np.zeros(0), run.load_t_ns,
+                                    run.load_n, np.zeros(0, np.int64), np.zeros(0)))
+    names = ("guide_type", "ball_radius_m", "groove_conformity", "contact_angle_deg", "balls_per_row", "preload_n",
+             "dynamic_load_rating_n", "oil_viscosity_40c_mm2_s", "oil_viscosity_100c_mm2_s",
+             "oil_density_15c_kg_m3", "oil_temperature_c", "rail_start_m", "rail_length_m")
+    overrides = {k: p[k] for k in names} | {"state_file": "", "input_align_window_s": 0.0}
+    node = WearMonitorNode(context=ros_context, parameter_overrides=[Parameter(k, value=v)
+                                                                      for k, v in overrides.items()])
+    try:
+        node.monitor.on_load(int(run.load_t_ns[0]), float(run.load_n[0]))
+        events = [(int(t), 0, float(c)) for t, c in zip(run.temperature_t_ns, run.temperature_c)]
+        events += [(int(t), 1, float(x)) for t, x in zip(run.joint_t_ns, run.joint_position_m)]
+        for t, kind, value in sorted(events):
+            msg = Temperature() if kind == 0 else JointState()
+            msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(t, 1_000_000_000)
+            if kind == 0:
+                msg.temperature = value
+                node.channels[0].on_temperature(msg)   # single joint: one axis channel
+            else:
+                msg.name, msg.position = ["x"], [value]
+                node._on_joint(msg)
+        live = node.monitor.report()
+    finally:
+        node.destroy_node()
+    ref = offline.report()
+    for key in ("lambda", "boundary_share_total", "mixed_share_total", "oil_viscosity_pa_s", "oil_temperature_c"):
+        assert live[key] == pytest.approx(ref[key], rel=1e-9), key
+    oil = WaltherOil.from_catalogue(65.4, 8.83, 880.0)
+    assert ref["oil_temperature_c"] == pytest.approx(45.0)
+    assert ref["oil_viscosity_pa_s"] == pytest.approx(oil.dynamic_viscosity_pa_s(45.0), rel=1e-12)
+    assert constant.report()["oil_temperature_c"] == 21.0
+    last_speed = constant.rolling.last_speed_m_s
+    assert offline.rolling.last_speed_m_s == last_speed
+    assert ref["lambda"] / constant.report()["lambda"] == pytest.approx(
+        (oil.dynamic_viscosity_pa_s(45.0) / oil.dynamic_viscosity_pa_s(21.0)) ** 0.67, rel=1e-4)
+
+
+# --- item 7: seed 004 readings side by side, and C from geometry -------------------------------------------------
+def life_test_json(*args):
+    import json
+    import subprocess
+    import sys
+
+    run = subprocess.run([sys.executable, "-m", "guide_health.cli", "life", "test", "--json", *args],
+                         capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert run.returncode == 0, run.stderr
+    return json.loads(run.stdout)
+
+
+def reading(out, l_ref, exponent_of, median):
+    rows = [r for r in out["readings"] if r["rating_distance_km"] == l_ref and r["exponent_of"] == exponent_of
+            and r["life_reading"].startswith("median") == median]
+    assert len(rows) == 1
+    return rows[0]
+
+
+def test_item7_life_test_reports_the_readings_that_change_the_conclusion():
+    """Seed 004 Eq. 5. Roller, 62 km at 1.0 C: (62/50)^0.3 = 1.067 with the paper's own 50 km (C confirmed,
+    reversing its conclusion); 0.852 = (62/100)^(1/3) needs 100 km AND p = 3. Ball, 450 km at 0.3 C: 0.624 as
+    L10; as a median with Weibull shape 1.5, B10 = 450 (ln(1/0.9)/ln 2)^(1/1.5) = 128.2 km -> 0.41."""
+    roller = life_test_json("--load-fraction", "1.0", "--life-km", "62", "--element", "roller")
+    assert len(roller["readings"]) == 8
+    own = reading(roller, 50.0, "roller", False)
+    assert own["c_ratio"] == pytest.approx((62 / 50) ** 0.3, rel=1e-9) and round(own["c_ratio"], 2) == 1.07
+    assert own["verdict"] == "catalogue C confirmed"
+    paper = reading(roller, 100.0, "ball", False)
+    assert paper["c_ratio"] == pytest.approx(0.852, abs=0.001) and paper["verdict"] == "catalogue C optimistic"
+    assert reading(roller, 100.0, "roller", False)["c_ratio"] == pytest.approx(0.866, abs=0.001)
+    assert roller["conclusion_depends_on_reading"] is True
+    ball = life_test_json("--load-fraction", "0.3", "--life-km", "450")
+    assert reading(ball, 50.0, "ball", False)["c_ratio"] == pytest.approx(0.624, abs=0.001)
+    b10 = 450 * (math.log(1 / 0.9) / math.log(2)) ** (1 / 1.5)
+    median = reading(ball, 50.0, "ball", True)
+    assert median["life_km"] == pytest.approx(b10, rel=1e-9) and b10 == pytest.approx(128.17, abs=0.01)
+    assert median["c_ratio"] == pytest.approx(0.41, abs=0.005)
+    assert ball["conclusion_depends_on_reading"] is False       # every reading: the ball guide's C is optimistic
+
+
+def test_item7_c_from_geometry_checks_the_catalogue_c():
+    """Lundberg-Palmgren for a straight raceway with ISO 281's A = 98.1 and seed 004's ISO 14728-1 b_m = 1.3,
+    lambda = 0.9, written out here for the seed 001 LH45 (D 7.937 mm, f 0.52, Z_t 10, l_t = 10 D, 50 deg, 50 km):
+    Q_c = 98.1 * 0.9 * (1.04/0.04)^0.41 * D^2.1 * (1e6 pi^0.9 l_t^0.1 / (Z_t 5e7))^(1/3);
+    C = 1.3 * 2 * 10 * Q_c * 2^-0.3 * sin 50 deg = 86.5 kN (config C 80 kN: 0.925 of it)."""
+    from guide_health.models.rolling.iso_rating import ball_guide_dynamic_rating_n
+
+    d = 7.937
+    q_c = 98.1 * 0.9 * (1.04 / 0.04) ** 0.41 * d ** 2.1 * (1e6 * math.pi ** 0.9 * (10 * d) ** 0.1 / (10 * 5e7)) ** (
+        1 / 3)
+    hand = 1.3 * 2 * 10 * q_c * 2 ** -0.3 * math.sin(math.radians(50))
+    assert hand == pytest.approx(86_500, abs=100)
+    assert ball_guide_dynamic_rating_n(7.937e-3, 0.52, 50.0, 10, 50.0) == pytest.approx(hand, rel=1e-9)
+    # the rating distance converts as L^(-1/3) (ball exponent), the lambda band 0.7-0.9 moves C by 22 %
+    assert ball_guide_dynamic_rating_n(7.937e-3, 0.52, 50.0, 10, 100.0) / hand == pytest.approx(2 ** (-1 / 3))
+    assert ball_guide_dynamic_rating_n(7.937e-3, 0.52, 50.0, 10, 50.0, lam=0.7) / hand == pytest.approx(0.7 / 0.9)
+    out = life_test_json("--load-fraction", "0.3", "--life-km", "450", "--params", str(LH45))
+    assert out["c_geometry_n"] == pytest.approx(hand, rel=1e-6)
+    assert out["c_catalogue_over_geometry"] == pytest.approx(80_000 / hand, rel=1e-6)

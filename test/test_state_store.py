@@ -272,3 +272,45 @@ def test_every_shipped_wear_monitor_config_persists_by_default():
     for path in sorted((ROOT / "launch").glob("*.py")):
         text = path.read_text()
         assert '"state_file": ""' not in text and "state_file:=''" not in text, path
+
+
+def test_a_malformed_maintenance_log_is_one_line(tmp_path):
+    """The axis maintenance log has no schema of its own: whatever its restore raises is one line."""
+    from guide_health.io.state_store import resume_with
+
+    store = StateStore(tmp_path / "s.db")
+    store.save({"m1/x/maintenance": {"events": [{"kind": 3}]}, "m1/x/other": {"a": 1}})
+    store._db.execute("UPDATE monitor_state SET state_json = '[1, 2]' WHERE key = 'm1/x/other'")
+
+    def restore(saved):
+        return [dict(e)["time_ns"] for e in saved["events"]]          # KeyError on the malformed event
+
+    with pytest.raises(InputError) as err:
+        resume_with(store, "m1/x/maintenance", None, restore)
+    _one_line(err, str(tmp_path / "s.db"), "m1/x/maintenance", "cannot be restored", "move the file away")
+    with pytest.raises(InputError) as err:
+        resume_with(store, "m1/x/other", None, restore)
+    _one_line(err, "must be a mapping")
+    assert resume_with(store, "m1/x/none", None, restore) is False
+    store.close()
+
+
+def test_a_failed_checkpoint_write_is_one_line_and_the_node_keeps_running(ros_context, tmp_path):
+    """A write that fails (disk full, the file gone read-only: here sqlite refusing a query-only connection)
+    is one InputError line from the store, and only a logged error in the node (retried next period)."""
+    store = StateStore(tmp_path / "s.db")
+    store._db.execute("PRAGMA query_only = ON")
+    with pytest.raises(InputError) as err:
+        store.save({"k": {"a": 1.0}})
+    _one_line(err, str(tmp_path / "s.db"), "cannot be written", "retries at the next checkpoint")
+    store.close()
+    node = _node(ros_context, tmp_path / "n.db")
+    try:
+        node.store._db.execute("PRAGMA query_only = ON")
+        node.checkpoint()                                # logged, no exception
+        node.store._db.execute("PRAGMA query_only = OFF")
+        node.checkpoint()
+        assert node.store.load("m1/x/precision") is not None
+    finally:
+        node.close()
+        node.destroy_node()

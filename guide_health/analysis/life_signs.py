@@ -9,7 +9,7 @@ import numpy as np
 
 from guide_health.models.rolling import rating_life as lm
 from guide_health.models.rolling import weibull
-from guide_health.models.rolling.life_signs import LifeTestSigns, NoiseTrend
+from guide_health.models.rolling.life_signs import LifeTestSigns, NoiseTrend, StampedLifeTest
 from guide_health.models.rolling.vibration import AbnormalBand, GuideKinematics
 
 
@@ -33,18 +33,40 @@ def detect_life_signs(p: dict, block_t_ns: np.ndarray, blocks, level_t_ns: np.nd
     if start_ns is None:
         firsts = [int(a[0]) for a in (block_t_ns, level_t_ns) if len(a)]
         start_ns = min(firsts) if firsts else 0
-    v = p["carriage_speed_m_s"]
+    feed = StampedLifeTest(signs, p["carriage_speed_m_s"], start_ns)
     events = sorted([(int(t), 0, i) for i, t in enumerate(level_t_ns)] +
                     [(int(t), 1, i) for i, t in enumerate(block_t_ns)])
     for t, kind, i in events:
-        travel = v * (t - start_ns) / 1e9
         if kind == 0:
-            signs.update_level(travel, float(level_db[i]))
+            signs.update_level(feed.travel_m(t), float(level_db[i]))
         else:
-            signs.update_block(travel, blocks[i])
+            signs.update_block(feed.travel_m(t), blocks[i])
         if stop_at_end_of_test and signs.level()[0].name == "ERROR":
             break
     return signs
+
+
+def vibration_status_values(feed: StampedLifeTest) -> dict:
+    """The `<joint> vibration` status values of a StampedLifeTest (live node and offline alike)."""
+    signs = feed.signs
+    s = signs.summary()
+    last = feed.last_block
+    energies = last.get("energies")
+    band = s["abnormal_band_hz"]
+    defect_hz = signs.defects_hz.get(f"{signs.defect}_hz", math.nan) if signs.defect else math.nan
+    return {
+        "blocks": signs.blocks, "rejected_blocks": feed.rejected_blocks, "rejected_levels": feed.rejected_levels,
+        "travel_km": s["last_travel_km"], "z_max": s["z_max"], "z_threshold": s["z_threshold"],
+        "abnormal_band_hz": f"{band[0]:.0f}-{band[1]:.0f}" if band and last.get("abnormal") else "",
+        "defect": signs.defect or "", "defect_frequency_hz": defect_hz,
+        "noise_level_db": s["noise_level_db"], "noise_rise_db": s["noise_rise_db"],
+        "noise_rise_km": s["noise_rise_km"], "noise_drop_km": s["noise_drop_km"],
+        "failure_travel_km": s["failure_travel_km"],
+        "band_energies_m2_s4": "" if energies is None else " ".join(f"{e:.4g}" for e in energies),
+        "raceway_hz": signs.defects_hz["raceway_hz"], "ball_defect_hz": signs.defects_hz["ball_defect_hz"],
+        "recirculation_hz": signs.defects_hz["recirculation_hz"],
+    }
+
 
 
 def c_ratio_of(signs: LifeTestSigns, p: dict) -> float | None:
@@ -104,9 +126,13 @@ def read_life_test_bag(path) -> dict:
 
 def life_test_from_bag(path, p: dict) -> dict:
     """The seed's chain from a bag: failure travel from the recorded signs -> C_test / C (seed 004 Eq. 5)."""
+    return life_test_from_data(path, read_life_test_bag(path), p)
+
+
+def life_test_from_data(path, d: dict, p: dict) -> dict:
+    """:func:`life_test_from_bag` on data already read by :func:`read_life_test_bag` (``path`` names it)."""
     from guide_health.errors import InputError
 
-    d = read_life_test_bag(path)
     if d["sample_rate_hz"] and abs(d["sample_rate_hz"] - p["sample_rate_hz"]) > 1e-6 * p["sample_rate_hz"]:
         raise InputError(f"{path}: blocks at {d['sample_rate_hz']:g} Hz, sample_rate_hz is {p['sample_rate_hz']:g}")
     try:
@@ -115,3 +141,12 @@ def life_test_from_bag(path, p: dict) -> dict:
     except ValueError as exc:
         raise InputError(f"{path}: {exc}") from None
     return signs.summary() | {"c_ratio": c_ratio_of(signs, p), "load_fraction": p["load_fraction"]}
+
+
+def specimen_interval_km(summary: dict) -> tuple[float, float]:
+    """A specimen's interval-censored life [km]: (previous block, failure block] when it failed, (last travel,
+    inf) when it survived the recorded test (seed 004 Sec. 3.2)."""
+    if summary.get("failure_interval_km"):
+        lower, upper = summary["failure_interval_km"]
+        return float(lower), float(upper)
+    return float(summary["last_travel_km"]), math.inf

@@ -61,3 +61,33 @@ def equal_spacing_refit(lower_km: np.ndarray, upper_km: np.ndarray, counts: np.n
     except ValueError:
         pass
     return eq
+
+
+#: the Weibull shape of the alternative single-specimen reading (issue 11 item 7; rolling guides 1.1-1.5)
+SINGLE_SPECIMEN_WEIBULL_SHAPE = 1.5
+
+
+def life_test_readings(load_fraction: float, life_km: float, life_factors: list[float],
+                       weibull_shape: float = SINGLE_SPECIMEN_WEIBULL_SHAPE) -> dict:
+    """C_test / C of one test life under every reading that changes it (issue 11 item 7), side by side:
+    rating distance 50 km (the seed's own definition, catalogues) or 100 km (ISO 14728-1), exponent p = 3 or
+    10/3, and the single specimen's life read as L10 (the seed) or as a median converted to B10 with a Weibull
+    shape. Each row says whether the catalogue C is confirmed (C_test/C >= 1) or optimistic (< 1).
+
+    Seed 004: roller, 62 km at 1.0 C: 1.07 with 50 km and p = 10/3 (C confirmed), 0.852 only with 100 km and
+    p = 3; ball, 450 km at 0.3 C: 0.624 as L10, 0.41 as a median with shape 1.5."""
+    rows = []
+    b10 = lm.median_to_b_life(life_km, weibull_shape)
+    for l_ref in (lm.CATALOGUE_RATING_DISTANCE_KM, lm.ISO_RATING_DISTANCE_KM):
+        for exponent_of, p in (("ball", 3.0), ("roller", 10.0 / 3.0)):
+            for reading, life in (("single life as L10", life_km),
+                                  (f"median, Weibull shape {weibull_shape:g} -> B10", b10)):
+                ratio = lm.c_ratio_from_life(load_fraction, life, l_ref, exponent=p, life_factors=life_factors)
+                rows.append({"rating_distance_km": l_ref, "exponent": p, "exponent_of": exponent_of,
+                             "life_reading": reading, "life_km": life, "c_ratio": ratio,
+                             "verdict": "catalogue C confirmed" if ratio >= 1.0 else "catalogue C optimistic"})
+    ratios = [r["c_ratio"] for r in rows]
+    verdicts = {r["verdict"] for r in rows}
+    return {"readings": rows, "c_ratio_min": min(ratios), "c_ratio_max": max(ratios),
+            "weibull_shape": weibull_shape, "b10_from_median_km": b10,
+            "conclusion_depends_on_reading": len(verdicts) > 1}

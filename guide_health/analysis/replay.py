@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from guide_health.analysis.report_plots import plot_slewing_contact_series, plot_straightness_report
+from guide_health.io.output_files import open_output, write_text
 from guide_health.models.wear.precision import PrecisionMonitor
 
 
@@ -54,8 +55,9 @@ def analyse_bag(bag, params: dict, namespace: str | None = None, progress=None,
     t_first = t_last = None
     t_model = 0.0
     t0 = time.perf_counter()
+    stats: dict = {}
     for chunk in iter_machine_bag(bag, joint=params["joint"], namespace=namespace, progress=progress,
-                                  chunk_messages=chunk_messages):
+                                  chunk_messages=chunk_messages, stats=stats):
         t1 = time.perf_counter()
         model.process_run(chunk)
         t_model += time.perf_counter() - t1
@@ -72,6 +74,8 @@ def analyse_bag(bag, params: dict, namespace: str | None = None, progress=None,
     t_model += time.perf_counter() - t1
     report["messages"] = messages
     report["duration_h"] = (t_last - t_first) * 1e-9 / 3600.0 if t_first is not None else 0.0
+    if "bag_count_mismatch" in stats:       # metadata.yaml counts that disagree with the stored rows
+        report["bag_count_mismatch"] = stats["bag_count_mismatch"]
     return monitor, report, {"read_s": time.perf_counter() - t0 - t_model, "model_s": t_model}
 
 
@@ -97,9 +101,9 @@ def write_outputs(out: Path, monitor: PrecisionMonitor, report: dict, plot: bool
     straightness.png in ``out``; returns the files written {json, csv[, png]}."""
     out.mkdir(parents=True, exist_ok=True)
     files = {"json": str(out / "report.json"), "csv": str(out / "straightness.csv")}
-    Path(files["json"]).write_text(json.dumps(report, indent=2, allow_nan=True) + "\n")
+    write_text(files["json"], json.dumps(report, indent=2, allow_nan=True) + "\n")
     t_h, measured, model = model_curve(monitor)
-    with open(files["csv"], "w", newline="") as handle:
+    with open_output(files["csv"]) as handle:
         writer = csv.writer(handle)
         writer.writerow(["time_h", "straightness_measured_um", "straightness_model_um", "residual_um"])
         for row in zip(t_h, measured, model, measured - model):
@@ -131,11 +135,12 @@ def write_slewing_outputs(out: Path, run, params: dict, report: dict, series: np
     out.mkdir(parents=True, exist_ok=True)
     files = {"json": str(out / "report.json"), "csv": str(out / "contact.csv")}
     t_s = (np.asarray(run.t_ns) - (run.t_ns[0] if run.t_ns.size else 0)) * 1e-9
-    np.savetxt(files["csv"], np.c_[t_s, run.axial_n, run.radial_n, run.moment_nm, series], delimiter=",",
-               header="time_s,axial_n,radial_n,moment_nm,p_max_MPa", comments="", fmt="%.6g")
+    with open_output(files["csv"]) as handle:
+        np.savetxt(handle, np.c_[t_s, run.axial_n, run.radial_n, run.moment_nm, series], delimiter=",",
+                   header="time_s,axial_n,radial_n,moment_nm,p_max_MPa", comments="", fmt="%.6g")
     if plot:
         files["png"] = str(out / "contact.png")
         plot_slewing_contact_series(Path(files["png"]), t_s, series, params, report)
     report["files"] = files
-    Path(files["json"]).write_text(json.dumps(report, indent=2, allow_nan=True, default=float) + "\n")
+    write_text(files["json"], json.dumps(report, indent=2, allow_nan=True, default=float) + "\n")
     return files

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from guide_health.errors import InputError
+from guide_health.io.output_files import save_figure
 
 #: carriage speeds of the rolling-contact plot [m/s] (log axis)
 PLOT_SPEED_RANGE_M_S = (1e-3, 2.0)
@@ -26,7 +27,7 @@ def _pyplot():
 def _save_figure(plt, fig, path) -> None:
     """Write ``fig`` (110 dpi) and close it; a path that cannot be written is bad input."""
     try:
-        fig.savefig(path, dpi=110)
+        save_figure(fig, path)
     except OSError as exc:
         raise InputError(f"cannot write plot {path}: {exc.strerror or exc}") from exc
     finally:
@@ -57,8 +58,7 @@ def plot_straightness_report(path: Path, monitor, report: dict, t_h, measured, m
     ax2.set_title("wear along the rail (profile model)")
     ax2.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _save_figure(plt, fig, path)
 
 
 def when_text(now_ns: int, hours: float) -> str:
@@ -108,8 +108,7 @@ def plot_slewing_contact_series(path: Path, t_s: np.ndarray, series: np.ndarray,
     ax.legend(loc="lower right")
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _save_figure(plt, fig, path)
 
 
 def plot_rolling_contact_vs_speed(params: dict[str, Any], report: dict[str, Any], path: str) -> None:

@@ -13,6 +13,7 @@ import importlib
 import json
 import os
 import sys
+import warnings
 
 from guide_health.cli.command import Command
 from guide_health.cli.text import format_key_values, jsonable
@@ -87,6 +88,11 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def _warning_line(message, category, filename, lineno, file=None, line=None) -> None:
+    """A warning of a command (skipped messages, stale bag metadata) as one line on stderr."""
+    print(f"guide-health: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser(argv)
@@ -95,6 +101,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"guide-health: error: '{args.command}' is not available in this build", file=sys.stderr)
         return 2
     command = load_command(args._command)
+    warnings.showwarning = _warning_line
     try:
         result = command.run(args)
     except InputError as exc:

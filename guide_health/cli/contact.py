@@ -121,6 +121,9 @@ def add_rolling_arguments(parser: argparse.ArgumentParser) -> None:
                              "preload only); sets the four-row ball loads and equivalent_fatigue_load_n")
     parser.add_argument("--speed", type=float, default=DEFAULT_SPEED_M_S, metavar="M_S",
                         help=f"carriage speed [m/s] (default {DEFAULT_SPEED_M_S}; entrainment speed = speed/2)")
+    parser.add_argument("--temperature-c", type=float, default=None, metavar="C",
+                        help="oil temperature [degC] for a catalogue (Walther) oil, oil_viscosity_40c_mm2_s > 0 "
+                             "(default: oil_temperature_c)")
     parser.add_argument("--plot", default=None, metavar="PNG",
                         help="write film / lambda / contact-area ratio vs speed (1e-3..2 m/s) to PNG")
 
@@ -140,7 +143,8 @@ def run_rolling(args: argparse.Namespace) -> dict[str, Any]:
     if not math.isfinite(args.carriage_load_n):
         raise InputError(f"--carriage-load-n must be a finite number, got {args.carriage_load_n!r}")
     with value_errors_as_input_errors():
-        report = bc.rolling_contact_report(params, args.load_n, args.speed, args.carriage_load_n)
+        report = bc.rolling_contact_report(params, args.load_n, args.speed, args.carriage_load_n,
+                                           args.temperature_c)
     report["load_source"] = "--load-n" if args.load_n is not None else "max ball load (preload + carriage load)"
     return _named_report(report, params, ("machine_id", "joint"), args.plot, plot_rolling_contact_vs_speed)
 
@@ -156,6 +160,9 @@ def format_rolling(result: dict[str, Any]) -> str:
         f"entrainment {result['entrainment_speed_m_s']:.4g} m/s",
         f"  film central / min     {result['film_central_nm']:.1f} / {result['film_min_nm']:.1f} nm "
         f"(sigma {result['composite_roughness_nm']:.0f} nm)",
+        f"  oil                    {result['oil_viscosity_pa_s']:.4g} Pa s"
+        + (f" at {result['oil_temperature_c']:.1f} degC (Walther)" if math.isfinite(result['oil_temperature_c'])
+           else ""),
         f"  lambda                 {result['lambda']:.3g} -> {result['regime']}",
         f"  asperity load share    {result['asperity_load_share']:.3f} (contact-area ratio estimate)",
         f"  carriage load          {result['carriage_load_n']:.0f} N: ball loads upper "

@@ -17,7 +17,13 @@ from pathlib import Path
 
 import numpy as np
 
-from guide_health.analysis.life_test import LifeTestLoad, c_ratio_alternatives, equal_spacing_refit
+from guide_health.analysis.life_test import (
+    SINGLE_SPECIMEN_WEIBULL_SHAPE,
+    LifeTestLoad,
+    c_ratio_alternatives,
+    equal_spacing_refit,
+    life_test_readings,
+)
 from guide_health.cli.command import Command, value_errors_as_input_errors
 from guide_health.cli.text import format_key_values
 from guide_health.errors import InputError
@@ -65,15 +71,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     _add_rating_options(p, element_default=None)
 
     p = mode("test", "C_test / C from one life-test result (seed 004 Eq. 5), or from a life-test BAG")
-    p.add_argument("bag", nargs="?", default=None, metavar="BAG",
-                   help="life-test bag: the failure travel is detected from its sound level and vibration "
-                        "(docs/vibration.md); --params gives the vibration_monitor section")
-    p.add_argument("--params", default=None, metavar="FILE", help="parameters YAML (with BAG)")
+    p.add_argument("bag", nargs="*", default=[], metavar="BAG",
+                   help="life-test bag(s): the failure travel is detected from the sound level and vibration "
+                        "(docs/vibration.md; --params gives the vibration_monitor section); several bags = "
+                        "several specimens -> interval-censored Weibull fit, B10 and C_test / C")
+    p.add_argument("--out", default=None, metavar="DIR",
+                   help="with BAG: write <bag>_life_test.png (noise vs travel, spectrogram with the defect "
+                        "frequency marked) into DIR")
+    p.add_argument("--params", default=None, metavar="FILE",
+                   help="parameters YAML: vibration_monitor section (with BAG); a wear_monitor section adds the "
+                        "geometry check of its C (ISO 14728-1 / Lundberg-Palmgren, b_m = 1.3)")
     p.add_argument("--load-fraction", type=float, default=None, metavar="F_OVER_C",
                    help="test load as a fraction of the catalogue C (e.g. 0.30)")
     p.add_argument("--life-km", type=float, default=None, metavar="KM", help="test life [km] (without BAG)")
     p.add_argument("--weibull-shape", type=float, default=None, metavar="BETA",
-                   help="also treat the single life as a median and convert it to B10 with this Weibull shape")
+                   help="also treat the single life as a median and convert it to B10 with this Weibull shape "
+                        f"(the readings table uses it too; default there {SINGLE_SPECIMEN_WEIBULL_SHAPE})")
     _add_rating_options(p)
 
     p = mode("weibull", "Weibull fit of interval-censored failure mileages, B10 and C_test / C with CI")
@@ -185,19 +198,76 @@ def _test_load(load_fraction: float, s: dict) -> LifeTestLoad:
 
 
 def _run_test_bag(args) -> dict:
-    from guide_health.analysis.life_signs import life_test_from_bag
+    from guide_health.analysis.life_signs import (
+        life_test_from_data,
+        read_life_test_bag,
+        specimen_interval_km,
+        weibull_of_specimens,
+    )
     from guide_health.params import SCHEMAS
 
     section = SCHEMAS["vibration_monitor"]
     p = load_node_params(args.params, section.section, section.defaults()) if args.params else section.defaults()
     if args.load_fraction is not None:
         p["load_fraction"] = _positive(args.load_fraction, "--load-fraction")
-    return {"mode": "test", "bag": args.bag} | life_test_from_bag(args.bag, p)
+    out_dir = None if args.out is None else Path(args.out)
+    if out_dir is not None:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    specimens = []
+    for bag in args.bag:
+        data = read_life_test_bag(bag)
+        one = {"bag": bag} | life_test_from_data(bag, data, p)
+        if out_dir is not None:
+            from guide_health.analysis.life_plots import plot_life_test
+
+            png = out_dir / f"{Path(bag).name}_life_test.png"
+            one["png"] = str(plot_life_test(png, data, one, p, title=f"{Path(bag).name}: life test (seed 004)"))
+        specimens.append(one)
+    if len(specimens) == 1:
+        out = {"mode": "test"} | specimens[0]
+        if out.get("failure_travel_km") is not None:
+            out |= life_test_readings(p["load_fraction"], out["failure_travel_km"], [1.0] * 4, _shape(args))
+        return out | _geometry_check(args)
+    intervals = [specimen_interval_km(s) for s in specimens]
+    if not any(math.isfinite(u) for _, u in intervals):
+        raise InputError(f"no failure detected in any of the {len(intervals)} bags: no Weibull fit")
+    fit = weibull_of_specimens(intervals, p)
+    return {"mode": "test", "specimens": specimens, "intervals_km": [list(i) for i in intervals],
+            "weibull": fit, "c_ratio": fit["c_ratio"], "c_ratio_ci": fit["c_ratio_ci"],
+            "load_fraction": p["load_fraction"]} | _geometry_check(args)
+
+
+def _shape(args) -> float:
+    return SINGLE_SPECIMEN_WEIBULL_SHAPE if args.weibull_shape is None else _positive(args.weibull_shape,
+                                                                                      "--weibull-shape")
+
+
+def _geometry_check(args) -> dict:
+    """C from the wear_monitor geometry of --params (when the file has that section) next to its catalogue C."""
+    from guide_health.models.rolling.iso_rating import B_M, LAMBDA_REDUCTION, ball_guide_dynamic_rating_n
+
+    if not args.params:
+        return {}
+    g = load_node_params(args.params, "wear_monitor", WEAR_MONITOR_DEFAULTS, required=False)
+    if g.get("guide_type") != "rolling" or g.get("rolling_element", lm.BALL) != lm.BALL:
+        return {}
+    l_ref = g["rating_distance_km"]
+    c_geo = ball_guide_dynamic_rating_n(2 * g["ball_radius_m"], g["groove_conformity"], g["contact_angle_deg"],
+                                        g["balls_per_row"], l_ref)
+    c_low = ball_guide_dynamic_rating_n(2 * g["ball_radius_m"], g["groove_conformity"], g["contact_angle_deg"],
+                                        g["balls_per_row"], l_ref, lam=0.7)
+    catalogue = float(g["dynamic_load_rating_n"])
+    return {"c_geometry_n": c_geo, "c_geometry_lambda_0p7_n": c_low, "c_geometry_b_m": B_M,
+            "c_geometry_lambda": LAMBDA_REDUCTION, "c_geometry_rating_distance_km": l_ref,
+            "c_catalogue_n": catalogue,
+            "c_catalogue_over_geometry": catalogue / c_geo if catalogue > 0 else float("nan")}
 
 
 def _run_test(args) -> dict:
-    if args.bag is not None:
+    if args.bag:
         return _run_test_bag(args)
+    if args.out is not None:
+        raise InputError("--out needs a life-test BAG")
     if args.life_km is None or args.load_fraction is None:
         raise InputError("life test needs --load-fraction and --life-km (or a life-test BAG)")
     s = _rating_setup(args, from_params=False)
@@ -207,6 +277,7 @@ def _run_test(args) -> dict:
     out = {"mode": "test", "c_ratio": test_load.c_ratio(life), "load_fraction": frac, "life_km": life,
            "element": s["element"], "exponent": s["exponent"], "rating_distance_km": s["rating_distance_km"],
            "life_factors": s["life_factors"], "alternatives": c_ratio_alternatives(frac, life, s["life_factors"])}
+    out |= life_test_readings(frac, life, s["life_factors"], _shape(args)) | _geometry_check(args)
     if args.weibull_shape is not None:
         beta = _positive(args.weibull_shape, "--weibull-shape")
         b10 = lm.median_to_b_life(life, beta)

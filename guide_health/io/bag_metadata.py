@@ -71,3 +71,61 @@ def run_metadata_json(metadata: dict | None) -> str:
         return json.dumps(metadata or {}, default=_json_default, allow_nan=True, sort_keys=True)
     except (TypeError, ValueError) as exc:
         raise InputError(f"run metadata is not JSON serialisable: {one_line(exc)}") from None
+
+
+def _storage_file_entries(info: dict) -> list:
+    """Every storage file path metadata.yaml names (relative_file_paths and files[].path)."""
+    entries = list(info.get("relative_file_paths") or [])
+    for item in info.get("files") or []:
+        if isinstance(item, dict) and "path" in item:
+            entries.append(item["path"])
+    return entries
+
+
+def check_bag_file_paths(path: Path) -> None:
+    """InputError (one line) unless every storage file metadata.yaml of the bag directory `path` names lies
+    inside the bag folder: an absolute path, a '..' and a symbolic link that leads out are refused (a
+    metadata.yaml must not make guide_health read, or the player publish, another folder's files)."""
+    path = Path(path)
+    if not path.is_dir():
+        return
+    folder = path.resolve()
+    for entry in _storage_file_entries(bag_yaml(path)):
+        text = str(entry)
+        inside = not Path(text).is_absolute()
+        if inside:
+            try:
+                (folder / text).resolve().relative_to(folder)
+            except (ValueError, OSError, RuntimeError):
+                inside = False
+        if not inside:
+            raise InputError(f"bag {path}: metadata.yaml names the storage file {text!r} outside the bag folder; "
+                             "a bag's files must be inside its folder (copy the file into it and name it "
+                             "relative to it)")
+
+
+def metadata_message_counts(path: Path) -> dict[str, int]:
+    """{topic: message_count} of metadata.yaml's topics_with_message_count ({} if absent or unreadable)."""
+    counts: dict[str, int] = {}
+    for entry in bag_yaml(Path(path)).get("topics_with_message_count") or []:
+        try:
+            counts[str(entry["topic_metadata"]["name"])] = int(entry["message_count"])
+        except (KeyError, TypeError, ValueError):
+            continue
+    return counts
+
+
+def count_mismatches(path: Path, rows_by_topic: dict[str, int]) -> dict[str, dict[str, int]]:
+    """{topic: {"metadata": n, "rows": m}} for the topics read whose metadata.yaml count n differs from the
+    m rows the storage holds ({} when they agree, or the bag has no metadata.yaml counts)."""
+    counts = metadata_message_counts(path)
+    return {topic: {"metadata": counts[topic], "rows": int(rows)} for topic, rows in sorted(rows_by_topic.items())
+            if topic in counts and counts[topic] != int(rows)}
+
+
+def count_mismatch_text(path: Path, mismatches: dict[str, dict[str, int]]) -> str:
+    """One line for the warning: which topics, how many messages metadata.yaml says and the storage holds."""
+    parts = ", ".join(f"{topic} {m['metadata']} in metadata.yaml, {m['rows']} stored"
+                      for topic, m in mismatches.items())
+    return (f"bag {path}: message counts disagree ({parts}); the stored messages were used (metadata.yaml is "
+            "stale: a recorder that died or an edited bag; `ros2 bag reindex` rewrites it)")

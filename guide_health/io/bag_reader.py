@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..runs import MachineRun, SlewingLoadRun
-from .bag_metadata import read_run_metadata
+from .bag_metadata import count_mismatch_text, count_mismatches, read_run_metadata
 from .cdr import WRENCH_NAMES, DecodedChunk, codec_for, decode_chunk
 from .interfaces import FLOAT64, MACHINE_TOPICS, NS_PER_S, SLEWING_TOPICS, topic_name
 from .storage import BagConnection, BagStorage, RawBatch, open_storage
@@ -177,13 +177,27 @@ def _topic_accumulators(storage: BagStorage, wanted: dict, namespace: str, suffi
     return accs, conns
 
 
+def _check_counts(storage: BagStorage, conns: list[BagConnection], rows: dict, stats: dict | None) -> None:
+    """Rows read per topic against metadata.yaml's counts: a disagreement is a one-line warning and, with
+    `stats`, stats["bag_count_mismatch"] = {topic: {metadata, rows}} (the stored rows are used)."""
+    by_topic: dict[str, int] = {}
+    for c in conns:
+        by_topic[c.topic] = by_topic.get(c.topic, 0) + rows.get(c.id, 0)
+    mismatches = count_mismatches(storage.path, by_topic)
+    if mismatches:
+        warnings.warn(count_mismatch_text(storage.path, mismatches), stacklevel=4)
+        if stats is not None:
+            stats["bag_count_mismatch"] = mismatches
+
+
 def _iter_topic_batches(path, wanted: dict, namespace: str | None, suffix_for_ns: str, joint: str,
                         progress: ProgressFn | None, chunk_messages: int, fast: bool,
-                        stream: bool) -> Iterator[TopicBatch]:
+                        stream: bool, stats: dict | None = None) -> Iterator[TopicBatch]:
     """One pass over the bag in batches of `chunk_messages` (log-time order).
 
     stream=False: yields once, the TopicBatch of the whole bag; stream=True: yields one for every batch
-    (arrays of the batch only), so memory stays bounded.
+    (arrays of the batch only), so memory stays bounded. At the end the rows read are checked against
+    metadata.yaml's counts (_check_counts).
     """
     chunk_messages = max(1, int(chunk_messages))
     with open_storage(path) as storage:
@@ -197,11 +211,14 @@ def _iter_topic_batches(path, wanted: dict, namespace: str | None, suffix_for_ns
         if progress is not None:
             progress(0, total)
         done = 0
+        rows: dict[int, int] = {}
         while True:
             with _gc_paused():
                 batch = next(batches, None)     # read errors raise InputError; decoding is outside
                 if batch is None:
                     break
+                for cid, n in zip(*np.unique(batch.connection_ids, return_counts=True)):
+                    rows[int(cid)] = rows.get(int(cid), 0) + int(n)
                 _split_batch(batch, acc_of)
                 done += len(batch.data)
                 del batch
@@ -213,6 +230,7 @@ def _iter_topic_batches(path, wanted: dict, namespace: str | None, suffix_for_ns
                 yield TopicBatch(namespace, {topic: acc.take() for topic, acc in accs.items()})
         if total == 0 and progress is not None:
             progress(0, 0)
+        _check_counts(storage, conns, rows, stats)
         if not stream:
             yield TopicBatch(namespace, {topic: acc.result() for topic, acc in accs.items()})
         elif done == 0:                       # an empty bag still yields one (empty) batch
@@ -220,10 +238,11 @@ def _iter_topic_batches(path, wanted: dict, namespace: str | None, suffix_for_ns
 
 
 def _read_topics(path, wanted: dict, namespace: str | None, suffix_for_ns: str, joint: str,
-                 progress: ProgressFn | None, chunk_messages: int, fast: bool) -> TopicBatch:
+                 progress: ProgressFn | None, chunk_messages: int, fast: bool,
+                 stats: dict | None = None) -> TopicBatch:
     """Read the topics `wanted` ({relative topic: type}) in one pass."""
     return next(_iter_topic_batches(path, wanted, namespace, suffix_for_ns, joint, progress, chunk_messages,
-                                    fast, stream=False))
+                                    fast, stream=False, stats=stats))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -247,7 +266,7 @@ def read_machine_bag(path, joint: str = "x", namespace: str | None = None,
     path = Path(path)
     topics = dict(topics or {})
     wanted = {topics.get(rel, rel): msgtype for rel, msgtype in MACHINE_TOPICS.items()}
-    read = _read_topics(path, wanted, namespace, "joint_states", joint, progress, chunk_messages, fast)
+    read = _read_topics(path, wanted, namespace, "joint_states", joint, progress, chunk_messages, fast, stats)
     run, counts = _machine_run(read, joint, read_run_metadata(path), topics)
     _report_counts(path, joint, read.namespace, counts, stats)
     return run
@@ -269,7 +288,7 @@ def iter_machine_bag(path, joint: str = "x", namespace: str | None = None,
     topics = dict(topics or {})
     wanted = {topics.get(rel, rel): msgtype for rel, msgtype in MACHINE_TOPICS.items()}
     for read in _iter_topic_batches(path, wanted, namespace, "joint_states", joint,
-                                    progress, chunk_messages, fast, stream=True):
+                                    progress, chunk_messages, fast, stream=True, stats=stats):
         namespace_seen = read.namespace
         run, counts = _machine_run(read, joint, metadata, topics)
         for topic, c in counts.items():
@@ -310,12 +329,33 @@ def _machine_run(read: TopicBatch, joint: str, metadata: dict,
     return run, {rel: v.counts for rel, v in got.items()}
 
 
+def joint_names_in_bag(path, namespace) -> list[str]:
+    """The joint names of the first joint_states message of the bag ([] when it has none or is unreadable)."""
+    from .storage import iter_raw_messages
+    from .typestore import typestore
+
+    try:
+        with open_storage(path) as storage:
+            conns = [c for c in storage.connections if c.topic == topic_name(namespace, "joint_states")]
+            for message in iter_raw_messages(storage, conns, chunk_messages=1):
+                return list(typestore().deserialize_cdr(message.data, conns[0].msgtype).name)
+    except Exception:  # noqa: BLE001 - only a hint for an error message
+        return []
+    return []
+
+
 def _report_counts(path, joint: str, namespace, counts: dict, stats: dict | None) -> None:
+    """Counts into `stats`; skipped messages as a warning; InputError (one line naming the joint and the
+    joints present) when joint_states messages exist and none carries `joint`."""
     if stats is not None:
         stats.update({"namespace": namespace, **counts})
     if not counts:
         return
     missing = counts["joint_states"]["missing"]
+    if missing and not counts["joint_states"]["kept"]:
+        present = joint_names_in_bag(path, namespace)
+        raise InputError(f"bag {path}: no joint_states message has joint {joint!r} (joints present: "
+                         f"{', '.join(present) or 'none'}); set the params file's joint to one of them")
     dropped = missing + sum(c["malformed"] for c in counts.values())
     if dropped:
         warnings.warn(f"bag {path}: skipped {missing} joint_states without joint {joint!r} "
@@ -328,7 +368,8 @@ def read_slewing_bag(path, namespace: str | None = None, progress: ProgressFn | 
     """Read `<ns>/slewing/load` into a SlewingLoadRun (axial = force.z, radial = hypot(force.x, force.y),
     moment = hypot(torque.x, torque.y)); namespace None = auto-detected. Raises InputError on a bad bag."""
     path = Path(path)
-    read = _read_topics(path, SLEWING_TOPICS, namespace, "slewing/load", "x", progress, chunk_messages, fast)
+    read = _read_topics(path, SLEWING_TOPICS, namespace, "slewing/load", "x", progress, chunk_messages, fast,
+                        stats)
     load = read.topics.get(topic_name(read.namespace, "slewing/load"),
                            _empty_topic(("sec", "nsec") + WRENCH_NAMES))
     values, counts = load.values, load.counts

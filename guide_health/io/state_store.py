@@ -241,3 +241,47 @@ class StateStore:
         if self._lock_fd is not None:
             os.close(self._lock_fd)          # releases the flock
             self._lock_fd = None
+
+
+#: what a restore of a validated state may still raise (a bug, or a combination the schema cannot see)
+_RESTORE_ERRORS = (LookupError, TypeError, ValueError, ArithmeticError, AttributeError, RecursionError)
+
+
+def resume_monitor(store: StateStore, key: str, fingerprint: dict | None, monitor) -> bool:
+    """Restore ``monitor`` (a PrecisionMonitor) from the state of ``key`` in ``store``: validated whole
+    against the monitor's fresh state first (models/wear/state_schema.py), then restored and reported once,
+    so that a state which would crash the first status is refused here. False when there is no saved state;
+    InputError (one line naming the file and what to do) when it is refused."""
+    from guide_health.models.wear.state_schema import check_precision_state
+
+    template = monitor.state()
+    saved = store.load(key, fingerprint, lambda state: check_precision_state(state, template))
+    if saved is None:
+        return False
+    try:
+        monitor.restore(saved)
+        monitor.report()
+    except _RESTORE_ERRORS as exc:
+        raise store._fail(f"the saved state of '{key}' cannot be restored ({_reason(exc)})",
+                          "move the file away to start afresh") from None
+    return True
+
+
+def _mapping(state) -> None:
+    if not isinstance(state, dict):
+        raise InputError(f"state must be a mapping, got {type(state).__name__}")
+
+
+def resume_with(store: StateStore, key: str, fingerprint: dict | None, restore) -> bool:
+    """``restore(saved)`` with the saved mapping of ``key`` (a state without a schema of its own, e.g. an
+    axis's maintenance log); False when there is none; whatever ``restore`` raises on a malformed state
+    becomes one InputError line naming the file."""
+    saved = store.load(key, fingerprint, _mapping)
+    if saved is None:
+        return False
+    try:
+        restore(saved)
+    except _RESTORE_ERRORS as exc:
+        raise store._fail(f"the saved state of '{key}' cannot be restored ({_reason(exc)})",
+                          "move the file away to start afresh") from None
+    return True

@@ -24,7 +24,7 @@ from typing import NamedTuple, Protocol
 import numpy as np
 
 from ..errors import InputError
-from .bag_metadata import bag_yaml, one_line
+from .bag_metadata import bag_yaml, check_bag_file_paths, one_line
 
 #: exceptions that mean "this is not a good bag" when raised by a back end while opening or reading.
 #: rosbags raises ReaderError, but a damaged file also surfaces as apsw/sqlite, struct, zstd, lz4,
@@ -105,9 +105,11 @@ def open_storage(path, *, checked: bool = False) -> BagStorage:
 
     checked=True always uses rosbags, whose open reads every storage file's index (it counts a sqlite3
     database with a full scan), so that a damaged bag is refused before anything is reported or played.
-    Raises InputError if the bag is missing or unreadable. Close it (or use it in a `with`).
+    Raises InputError if the bag is missing or unreadable, or its metadata.yaml names a storage file
+    outside the bag folder. Close it (or use it in a `with`).
     """
     path = Path(path)
+    check_bag_file_paths(path)          # no storage file outside the bag folder
     if not checked:
         direct = SqliteDirectStorage.open(path)
         if direct is not None:

@@ -7,6 +7,7 @@ which has the least remaining life. `fleet_monitor` is the ROS adapter.
 from __future__ import annotations
 
 import math
+from collections import Counter
 from dataclasses import dataclass, field
 
 from guide_health.models.levels import LEVEL_NAMES, Level
@@ -15,7 +16,12 @@ from guide_health.models.levels import LEVEL_NAMES, Level
 _SEVERITY = {Level.OK: 0, Level.WARN: 1, Level.STALE: 2, Level.ERROR: 3}
 SUMMARY_KEYS = ("machines", "statuses", "ok", "warn", "error", "stale", "worst_machine", "worst_status",
                 "min_remaining_life_h", "min_remaining_life_machine", "max_life_used_fraction",
-                "max_life_used_machine", "max_end_stress_ratio", "max_end_stress_machine")
+                "max_life_used_machine", "max_end_stress_ratio", "max_end_stress_machine", "ignored_statuses",
+                "invalid_values", "forgotten_statuses")
+#: summary values a status may carry, and the smallest valid value of each (NaN = not known yet: skipped)
+CHECKED_VALUES = {"remaining_life_h": 0.0, "life_used_fraction": 0.0, "end_stress_ratio": 0.0}
+#: why a status was ignored (FleetBoard.ignored counts them)
+UNKNOWN_LEVEL, BOARD_FULL = "unknown level", "board full"
 
 
 def _number(text) -> float:
@@ -35,31 +41,74 @@ class MachineStatus:
     received_s: float = 0.0
 
 
-class FleetBoard:
-    """Latest status per (hardware_id, name); silent ones turn STALE after `stale_after_s`."""
+def invalid_value(key: str, text) -> bool:
+    """True when `text` of a CHECKED_VALUES key is no number or below the key's minimum (e.g. a remaining life
+    of -5 h, 'banana'); NaN is "not known yet" (every monitor publishes it until it knows), not invalid."""
+    value = _number(text)
+    if math.isnan(value):
+        return str(text).strip().lower() not in ("nan", "-nan", "")
+    return not value >= CHECKED_VALUES[key]
 
-    def __init__(self, stale_after_s: float = 10.0, ignore_prefix: str = ""):
+
+class FleetBoard:
+    """Latest status per (hardware_id, name); silent ones turn STALE after `stale_after_s` and are forgotten
+    after `forget_after_s` (a retired machine, a renamed node: the board does not grow forever). At most
+    `max_statuses` statuses; statuses of an unknown level (and beyond the maximum) are ignored, invalid
+    summary values dropped, each counted (`ignored`, `invalid_values`, `forgotten`); `last_problem` says
+    what the last update ignored or dropped ('' if nothing), for the node's log line."""
+
+    def __init__(self, stale_after_s: float = 10.0, ignore_prefix: str = "", forget_after_s: float = math.inf,
+                 max_statuses: int = 10**7):
         if not stale_after_s > 0:
             raise ValueError("stale_after_s must be > 0")
+        if not forget_after_s > stale_after_s:
+            raise ValueError("forget_after_s must be above stale_after_s")
         self.stale_after_s = float(stale_after_s)
+        self.forget_after_s = float(forget_after_s)
+        self.max_statuses = int(max_statuses)
         self.ignore_prefix = ignore_prefix      # the fleet monitor's own statuses
         self.statuses: dict[tuple[str, str], MachineStatus] = {}
+        self.ignored: Counter = Counter()       # reason -> statuses ignored
+        self.invalid_values = 0                 # summary values dropped
+        self.forgotten = 0                      # statuses dropped after forget_after_s of silence
+        self.last_problem = ""
 
     def update(self, name: str, hardware_id: str, level: int, message: str, values: dict,
                received_s: float) -> bool:
-        """Record a status; False (ignored) for the board's own statuses or an unknown level."""
+        """Record a status; False (ignored) for the board's own statuses, an unknown level or a new status on
+        a full board. Invalid CHECKED_VALUES are dropped from the values and counted."""
+        self.last_problem = ""
         if self.ignore_prefix and name.startswith(self.ignore_prefix):
             return False
-        if level not in LEVEL_NAMES:
+        key = (hardware_id, name)
+        reason = (UNKNOWN_LEVEL if level not in LEVEL_NAMES
+                  else BOARD_FULL if key not in self.statuses and len(self.statuses) >= self.max_statuses else "")
+        if reason:
+            self.ignored[reason] += 1
+            self.last_problem = f"ignored {hardware_id} '{name}': {reason} ({level!r})"[:200]
             return False
-        self.statuses[(hardware_id, name)] = MachineStatus(name, hardware_id, Level(level), message,
-                                                            dict(values), float(received_s))
+        values = dict(values)
+        bad = sorted(k for k in CHECKED_VALUES if k in values and invalid_value(k, values[k]))
+        for k in bad:
+            self.last_problem = f"dropped {hardware_id} '{name}' {k} = {values.pop(k)!r} (invalid)"[:200]
+        self.invalid_values += len(bad)
+        self.statuses[key] = MachineStatus(name, hardware_id, Level(level), message, values, float(received_s))
         return True
+
+    def forget_silent(self, now_s: float) -> int:
+        """Drop the statuses silent for more than forget_after_s; returns how many."""
+        old = [key for key, status in self.statuses.items() if now_s - status.received_s > self.forget_after_s]
+        for key in old:
+            del self.statuses[key]
+        self.forgotten += len(old)
+        return len(old)
 
     def effective_level(self, status: MachineStatus, now_s: float) -> Level:
         return Level.STALE if now_s - status.received_s > self.stale_after_s else status.level
 
     def summary(self, now_s: float) -> dict:
+        """Counts per level, the worst status, the extreme values (silent statuses forgotten first)."""
+        self.forget_silent(now_s)
         counts = {level: 0 for level in Level}
         worst, worst_level = None, None
         life = (math.inf, "")
@@ -94,6 +143,9 @@ class FleetBoard:
             "max_life_used_machine": used[1],
             "max_end_stress_ratio": end_ratio[0] if end_ratio[1] else math.nan,
             "max_end_stress_machine": end_ratio[1],
+            "ignored_statuses": sum(self.ignored.values()),
+            "invalid_values": self.invalid_values,
+            "forgotten_statuses": self.forgotten,
         }
         if worst is None:
             result["level"], result["message"] = Level.STALE, "no machine has reported yet"

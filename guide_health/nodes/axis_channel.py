@@ -39,7 +39,8 @@ EXTRA_PRECISION_KEYS = ("wear_coefficient_low", "wear_coefficient_high", "measur
                         "rejected_recent_share", "guide", "maintenance_event_count",
                         "last_maintenance")
 TIMING_KEYS = ("load_samples", "callback_time_us", "model_time_us")
-ROLLING_PRECISION_KEYS = ("lambda", "asperity_load_share", "boundary_share_recent", "boundary_share_total")
+ROLLING_PRECISION_KEYS = ("lambda", "asperity_load_share", "boundary_share_recent", "boundary_share_total",
+                          "oil_viscosity_pa_s", "oil_temperature_c")
 FATIGUE_KEYS = ("equivalent_load_n", "rating_life_km", "travel_km", "life_used_fraction", "remaining_life_km")
 EXTRA_FATIGUE_KEYS = ("duty_load_n", "carriages", "guide")
 
@@ -179,6 +180,9 @@ class AxisChannel:
     def on_temperature(self, msg: Temperature) -> None:
         if math.isfinite(msg.temperature):
             self.temperature_c = float(msg.temperature)
+            t = stamp_ns(msg.header)
+            if t is not None:        # the rolling guide's Walther oil viscosity, by stamp as offline
+                self.model.on_temperature(t, self.temperature_c)
 
     # --- maintenance ---------------------------------------------------------------------------------
     def maintenance_event(self, kind: str, values: dict) -> MaintenanceEvent | str:

@@ -4,8 +4,12 @@ Subscribes `/diagnostics` (every machine's wear_monitor / slewing_monitor status
 `hardware_id` = machine_id) and publishes, at `diagnostics_period_s`, a status `fleet_monitor: fleet`
 (keys: guide_health.models.fleet.SUMMARY_KEYS): counts per level, the worst machine, the least remaining
 precision life, the highest fatigue life used and end-stress ratio. Statuses silent for `stale_after_s`
-count as STALE. With `history_file`, each status is recorded at most every `history_period_s` into the
-table `fleet_history(t_unix_s, hardware_id, name, level, message, values_json)` for trend reports.
+count as STALE; silent for `forget_after_s` they leave the board (at most `max_statuses`). Statuses of an
+unknown level and invalid values (a negative remaining life, 'banana') are ignored, counted in the fleet
+status (`ignored_statuses`, `invalid_values`, `forgotten_statuses`) and logged (throttled). With
+`history_file`, each status is recorded at most every `history_period_s` into the table
+`fleet_history(t_unix_s, hardware_id, name, level, message, values_json)` for trend reports; rows older
+than `history_retention_days` are deleted hourly.
 """
 from __future__ import annotations
 
@@ -29,8 +33,11 @@ class FleetMonitorNode(Node):
         self.params = declare_parameters(self, FLEET_MONITOR_SCHEMA,   # validated: periods > 0
                                          on_applied=self._apply_params)
         self.periodic = PeriodicTimers(self)
-        self.board = FleetBoard(self.params["stale_after_s"], ignore_prefix=f"{self.get_name()}: ")
-        self.history = (FleetHistory(self.params["history_file"], self.params["history_period_s"])
+        self.board = FleetBoard(self.params["stale_after_s"], ignore_prefix=f"{self.get_name()}: ",
+                                forget_after_s=self.params["forget_after_s"],
+                                max_statuses=self.params["max_statuses"])
+        self.history = (FleetHistory(self.params["history_file"], self.params["history_period_s"],
+                                     self.params["history_retention_days"])
                         if self.params["history_file"] else None)
         self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 100)
         # the board ages silent machines to STALE itself: the task has no stale inputs
@@ -48,8 +55,11 @@ class FleetMonitorNode(Node):
         for status in msg.status:
             level = status.level[0] if isinstance(status.level, (bytes, bytearray)) else int(status.level)
             values = {kv.key: kv.value for kv in status.values}
-            if self.board.update(status.name, status.hardware_id, level, status.message, values, now) \
-                    and self.history is not None:
+            kept = self.board.update(status.name, status.hardware_id, level, status.message, values, now)
+            if self.board.last_problem:     # unknown level, full board, invalid value: counted in the status
+                self.get_logger().warning(f"{self.board.last_problem} (counted in the fleet status)",
+                                          throttle_duration_sec=10.0)
+            if kept and self.history is not None:
                 self.history.record(wall, status.hardware_id, status.name, level, status.message, values)
 
     def _fleet_report(self) -> tuple[int, str, dict]:
@@ -59,7 +69,7 @@ class FleetMonitorNode(Node):
     def publish_diagnostics(self) -> None:
         self.updater.update()
         if self.history is not None:
-            self.history.commit()
+            self.history.commit(time.time())
 
     def close(self) -> None:
         if self.history is not None:

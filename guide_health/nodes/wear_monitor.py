@@ -31,9 +31,9 @@ from sensor_msgs.msg import JointState
 from guide_health.errors import InputError
 from guide_health.io.cdr import MISSING
 from guide_health.io.maintenance_msgs import MAINTENANCE_TOPIC, event_from_status, event_values
-from guide_health.io.state_store import StateStore, resolve_state_path
+from guide_health.io.state_store import StateStore, resolve_state_path, resume_monitor, resume_with
 from guide_health.models.wear.input_rules import MALFORMED_JOINT_STATES
-from guide_health.models.wear.state_schema import check_precision_state, state_fingerprint
+from guide_health.models.wear.state_schema import state_fingerprint
 from guide_health.nodes.axis_channel import (  # noqa: F401 - the status keys are part of this module's API
     EXTRA_FATIGUE_KEYS,
     EXTRA_PRECISION_KEYS,
@@ -124,20 +124,13 @@ class WearMonitorNode(Node):
             fingerprint = state_fingerprint(channel.params)
             for name, key in channel.model.state_keys(self.params["machine_id"]).items():
                 guide = channel.model.guides[name]
-                template = guide.state()
-                saved = self.store.load(key, fingerprint, lambda s, t=template: check_precision_state(s, t))
-                if saved is None:
+                if not resume_monitor(self.store, key, fingerprint, guide):     # validated whole, one line
                     continue
-                try:    # validated whole above: a failure here is a bug, still one line
-                    guide.restore(saved)
-                except (LookupError, TypeError, ValueError, ArithmeticError) as exc:
-                    raise InputError(f"state file {self.state_path}: {exc}; move it away to start afresh") from None
                 self.get_logger().info(
                     f"resumed from {self.state_path} ({key}): {guide.integrator.sliding_distance_m:.1f} m slid, "
                     f"{guide.estimator.count} measurements")
-            saved = self.store.load(channel.maintenance_key(self.params["machine_id"]), fingerprint)
-            if saved is not None:
-                channel.model.restore_maintenance(saved)
+            resume_with(self.store, channel.maintenance_key(self.params["machine_id"]), fingerprint,
+                        channel.model.restore_maintenance)
 
     # --- inputs ----------------------------------------------------------------------------------
     def _on_joint_raw(self, raw: bytes) -> None:

@@ -10,6 +10,7 @@ from guide_health.errors import InputError
 from guide_health.params.schema import NodeSchema, Param
 
 VIBRATION_MONITOR_PARAMS = (
+    Param("machine_id", "machine", "", "", "machine name: hardware_id of the diagnostics"),
     Param("joint_name", "x", "", "", "the guide's joint: status '<joint> vibration'"),
     Param("sample_rate_hz", 25600.0, "Hz", "[1000, 1e6]", "accelerometer sample rate (IEPE, 10-50 kHz)"),
     Param("carriage_speed_m_s", 1.0, "m/s", "(0, 20]", "carriage speed of the constant-speed test"),
@@ -33,6 +34,8 @@ VIBRATION_MONITOR_PARAMS = (
     Param("load_fraction", 0.3, "-", "(0, 10]", "test load F / C (seed 004: 0.3 for its ball guide)"),
     Param("rating_distance_km", 50.0, "km", "(0, inf)", "reference travel of C (seed 004: 50 km)"),
     Param("status_period_s", 1.0, "s", "(0, 3600]", "status publishing period", dynamic=True),
+    Param("input_timeout_s", 10.0, "s", "(0, 86400]",
+          "STALE when guide/acceleration and guide/sound_pressure are silent longer (arrival time)"),
 )
 
 

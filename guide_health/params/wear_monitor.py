@@ -8,6 +8,7 @@ from __future__ import annotations
 from typing import Any
 
 from guide_health.errors import InputError
+from guide_health.models.rolling.lubrication import LAMBDA_BOUNDARY, LAMBDA_FULL_FILM  # the one source
 from guide_health.params.machine import AXES_PARAM, MAINTENANCE_PARAMS
 from guide_health.params.schema import NodeSchema, Param
 
@@ -127,13 +128,28 @@ ROLLING_GUIDE_PARAMS = (
           "upper ones: equal ratings up and down); enter the catalogue's reverse-load factor for other designs"),
     Param("rolling_element", "ball", "", "", "ball or roller (life exponent 3 or 10/3)", choices=("ball", "roller")),
     Param("oil_viscosity_pa_s", 0.060, "Pa s", "[1e-5, 100]",
-          "eta_0, dynamic oil viscosity at the operating temperature (VG68 at 40 degC inlet: 0.060)"),
+          "eta_0, dynamic oil viscosity at the operating temperature (VG68 at 40 degC inlet: 0.060); used when "
+          "oil_viscosity_40c_mm2_s is 0, otherwise the Walther oil below sets eta_0"),
+    Param("oil_viscosity_40c_mm2_s", 0.0, "mm^2/s", "[0, 1e5]",
+          "catalogue kinematic viscosity at 40 degC; > 0 makes eta_0 follow the guide temperature by Walther/"
+          "ASTM D341 through this and oil_viscosity_100c_mm2_s (seed 000's 68# oil: 65.4); 0 = constant "
+          "oil_viscosity_pa_s"),
+    Param("oil_viscosity_100c_mm2_s", 0.0, "mm^2/s", "[0, 1e4]",
+          "catalogue kinematic viscosity at 100 degC (< the 40 degC value; seed 000's 68# oil: 8.83)"),
+    Param("oil_density_15c_kg_m3", 880.0, "kg/m^3", "[500, 1500]",
+          "oil density at 15 degC (falls 6.4e-4 per K); 880 gives seed 000's oil 0.163 Pa s at 21 degC"),
+    Param("oil_temperature_c", 40.0, "degC", "[-50, 250]",
+          "oil temperature for the Walther viscosity until guide/temperature reports (then its readings, "
+          "applied by stamp live and offline alike)"),
     Param("pressure_viscosity_pa_inv", 2.0e-8, "1/Pa", "(0, 1e-6]", "alpha, pressure-viscosity coefficient"),
     Param("roughness_rms_m", 0.2e-6, "m", "(0, 1e-4]", "composite RMS roughness sqrt(Rq_ball^2 + Rq_groove^2)"),
     Param("asperity_radius_m", 2.0e-6, "m", "(0, 1e-3]", "beta, Greenwood-Tripp asperity summit radius"),
-    Param("asperity_density_per_m2", 1.7e11, "1/m^2", "(0, 1e16]", "eta_s, Greenwood-Tripp summit density"),
-    Param("lambda_boundary", 0.03, "-", "(0, 100]", "boundary below this film/roughness ratio lambda"),
-    Param("lambda_full_film", 3.0, "-", "(0, 100]", "full film from this lambda on (> lambda_boundary)"),
+    Param("asperity_density_per_m2", 1.597e11, "1/m^2", "(0, 1e16]",
+          "eta_s, Greenwood-Tripp summit density (1.597e11: seed 001's contact-area ratio 73.76 % at 0.001 m/s)"),
+    Param("lambda_boundary", LAMBDA_BOUNDARY, "-", "(0, 100]",
+          "boundary below this film/roughness ratio lambda (default: seed 001 Fig. 8, boundary below 0.0005 m/s "
+          "with its 68# oil at 21 degC; models/rolling/lubrication.py)"),
+    Param("lambda_full_film", LAMBDA_FULL_FILM, "-", "(0, 100]", "full film from this lambda on (> lambda_boundary)"),
     Param("life_factors", [1.0, 1.0, 1.0, 1.0], "-", "(0, 10]", "fh (hardness), ft (temperature), fc (contact), "
           "fw (load/shock) of the rating life"),
     Param("rating_distance_km", 50.0, "km", "(0, 1e6]", "rating distance of C (50 or 100 km)"),
@@ -203,6 +219,9 @@ def _wear_threshold_checks(p: dict[str, Any]) -> None:
                          f"straightness_limit_m ({p['straightness_limit_m']!r} m)")
     if not p["lambda_boundary"] < p["lambda_full_film"]:
         raise InputError("lambda_boundary must be below lambda_full_film")
+    if p["oil_viscosity_40c_mm2_s"] > 0 and not 0 < p["oil_viscosity_100c_mm2_s"] < p["oil_viscosity_40c_mm2_s"]:
+        raise InputError(f"oil_viscosity_100c_mm2_s ({p['oil_viscosity_100c_mm2_s']!r}) must be > 0 and below "
+                         f"oil_viscosity_40c_mm2_s ({p['oil_viscosity_40c_mm2_s']!r})")
     bins = p["rail_length_m"] / p["profile_bin_m"]
     if not bins <= MAX_PROFILE_BINS:
         raise InputError(f"rail_length_m / profile_bin_m = {bins:.3g} bins: at most {MAX_PROFILE_BINS:.0e} "

@@ -9,6 +9,8 @@ from typing import Any
 
 import numpy as np
 
+from guide_health.io.output_files import open_output, save_figure, write_text
+
 
 def _fmt(v: float, unit: str = "") -> str:
     if v is None or (isinstance(v, float) and not math.isfinite(v)):
@@ -130,8 +132,10 @@ def plot(result: dict[str, Any], path: Path) -> None:
     ax2.legend(loc="lower left", fontsize=8)
     ax2.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    try:
+        save_figure(fig, path)
+    finally:
+        plt.close(fig)
 
 
 def write_report(result: dict[str, Any], out: Path, bag: str = "", with_plot: bool = True) -> dict[str, str]:
@@ -139,7 +143,7 @@ def write_report(result: dict[str, Any], out: Path, bag: str = "", with_plot: bo
     out.mkdir(parents=True, exist_ok=True)
     files = {"json": str(out / "report.json"), "markdown": str(out / "report.md"), "csv": str(out / "residuals.csv")}
     s = result["series"]
-    with open(files["csv"], "w", newline="") as handle:
+    with open_output(files["csv"]) as handle:
         w = csv.writer(handle)
         w.writerow(["time_h", "measured_um", "baseline_um", "final_um", "heldout"])
         for row in zip(s["t_h"], s["measured_um"], s["baseline_um"], s["final_um"], s["heldout"]):
@@ -147,8 +151,8 @@ def write_report(result: dict[str, Any], out: Path, bag: str = "", with_plot: bo
     if with_plot:
         files["png"] = str(out / "diagnose.png")
         plot(result, Path(files["png"]))
-    Path(files["markdown"]).write_text(markdown(result, bag))
+    write_text(files["markdown"], markdown(result, bag))
     body = {k: v for k, v in result.items() if k != "series"}
     body["files"] = files
-    Path(files["json"]).write_text(json.dumps(body, indent=2, allow_nan=True, default=float) + "\n")
+    write_text(files["json"], json.dumps(body, indent=2, allow_nan=True, default=float) + "\n")
     return files

@@ -26,6 +26,7 @@ Axis ratio b/a = 8.136, approach 6.01 um per contact at 385 N.
 from __future__ import annotations
 
 import bisect
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -42,6 +43,7 @@ from guide_health.models.rolling.carriage import (
     equivalent_fatigue_load_n,
 )
 from guide_health.models.rolling.lubrication import (
+    HD_CENTRAL_U_EXP,
     LAMBDA_BOUNDARY,
     LAMBDA_FULL_FILM,
     MixedLubrication,
@@ -52,6 +54,7 @@ from guide_health.models.rolling.lubrication import (
     jgp_greenwood_tripp,
     lubrication_regime,
 )
+from guide_health.models.rolling.oil import WaltherOil, oil_from_params, oil_viscosity_pa_s
 from guide_health.params import WEAR_MONITOR_DEFAULTS
 
 ROWS_SUPPORTED = 4
@@ -101,6 +104,8 @@ class RollingGuideContact:
     radius_y_m: float
     effective_modulus_pa: float        # E* [Pa]
     ball_stiffness: float
+    oil: WaltherOil | None = None      # catalogue oil: viscosity_pa_s is its value at oil_temperature_c
+    oil_temperature_c: float = math.nan
 
     @classmethod
     def from_params(cls, params: dict[str, Any]) -> RollingGuideContact:
@@ -149,7 +154,7 @@ class RollingGuideContact:
         return cls(
             ball_radius_m=radius, groove_conformity=conformity, contact_angle_deg=angle,
             balls_per_row=integer("balls_per_row"), rows=rows, preload_per_ball_n=preload,
-            viscosity_pa_s=positive("oil_viscosity_pa_s"),
+            viscosity_pa_s=_oil_viscosity(params, positive("oil_viscosity_pa_s")),
             pressure_viscosity_pa_inv=positive("pressure_viscosity_pa_inv"),
             composite_rms_m=positive("roughness_rms_m"), youngs_modulus_pa=youngs, poisson=poisson,
             asperity_radius_m=positive("asperity_radius_m", WEAR_MONITOR_DEFAULTS["asperity_radius_m"]),
@@ -159,7 +164,15 @@ class RollingGuideContact:
             lambda_boundary=lam_b, lambda_full_film=lam_f,
             radius_x_m=r_x, radius_y_m=r_y, effective_modulus_pa=e_star,
             ball_stiffness=ball_stiffness_n_per_m15(r_x, r_y, e_star),
+            oil=_oil(params), oil_temperature_c=float(params.get("oil_temperature_c", math.nan)),
         )
+
+    def at_temperature(self, temperature_c: float) -> RollingGuideContact:
+        """The same contact with the Walther oil at ``temperature_c`` (unchanged without a catalogue oil)."""
+        if self.oil is None:
+            return self
+        return dataclasses.replace(self, viscosity_pa_s=self.oil.dynamic_viscosity_pa_s(temperature_c),
+                                   oil_temperature_c=float(temperature_c))
 
     def hertz(self, load_n: float) -> HertzPointContact:
         """Hertz contact at a ball load [N]."""
@@ -192,17 +205,33 @@ class RollingGuideContact:
                                           self.balls_per_row, self.ball_stiffness)
 
 
+def _oil(params: dict[str, Any]) -> WaltherOil | None:
+    try:
+        return oil_from_params(params)
+    except ValueError as exc:
+        raise ValueError(f"parameters oil_viscosity_*: {exc}") from None
+
+
+def _oil_viscosity(params: dict[str, Any], constant_pa_s: float) -> float:
+    return constant_pa_s if _oil(params) is None else oil_viscosity_pa_s(params)
+
+
 def rolling_contact_report(params: dict[str, Any], load_n: float | None, speed_m_s: float,
-                           carriage_load_n: float = 0.0) -> dict[str, Any]:
+                           carriage_load_n: float = 0.0, temperature_c: float | None = None) -> dict[str, Any]:
     """Contact, film, lambda and regime of one ball contact (INTERFACES.md ``contact rolling --json`` keys).
 
     ``load_n``: contact load per ball [N] (default: the most loaded ball under ``carriage_load_n``, i.e.
     ``preload_n`` at 0); ``speed_m_s``: carriage speed [m/s] (its sign is irrelevant); ``carriage_load_n``:
     external load on one carriage [N], > 0 downward, < 0 reverse (lift-off). Also reports the four-row ball
     loads and ``equivalent_fatigue_load_n``, the carriage load for the rating life with the preload in it.
+    ``temperature_c``: oil temperature for a catalogue (Walther) oil, default ``oil_temperature_c``.
     Raises ValueError on bad numbers.
     """
     guide = RollingGuideContact.from_params(params)
+    if temperature_c is not None:
+        if not math.isfinite(float(temperature_c)):
+            raise ValueError(f"temperature must be finite, got {temperature_c!r}")
+        guide = guide.at_temperature(float(temperature_c))
     carriage = float(carriage_load_n)
     if not math.isfinite(carriage):
         raise ValueError(f"carriage load must be finite, got {carriage!r}")
@@ -250,6 +279,8 @@ def rolling_contact_report(params: dict[str, Any], load_n: float | None, speed_m
         "lower_ball_load_n": distribution.lower_ball_load_n,
         "equivalent_fatigue_load_n": fatigue_load,
         "reverse_load_rating_factor": reverse_factor,
+        "oil_viscosity_pa_s": guide.viscosity_pa_s,
+        "oil_temperature_c": guide.oil_temperature_c if guide.oil is not None else math.nan,
         "message": (f"{regime} lubrication: lambda {lam:.3g}, central film {h_central * 1e9:.1f} nm, "
                     f"p_max {contact.p_max_pa * 1e-6:.0f} MPa at {load:.0f} N per ball"),
     }
@@ -309,6 +340,10 @@ class LubricationRegimeEstimator:
                                        guide.effective_modulus_pa, guide.viscosity_pa_s,
                                        guide.pressure_viscosity_pa_inv)
         self._lambda_coeff = h_ref / guide.composite_rms_m       # lambda = coeff u^0.67 w^-0.067
+        # Hamrock-Dowson: h_c ~ (eta_0 u)^0.67, so a new oil temperature only rescales the coefficient
+        self._lambda_coeff_per_eta = self._lambda_coeff / guide.viscosity_pa_s ** HD_CENTRAL_U_EXP
+        self.oil_temperature_c = guide.oil_temperature_c if guide.oil is not None else math.nan
+        self.viscosity_pa_s = guide.viscosity_pa_s
         self._lambda_boundary = guide.lambda_boundary
         self._lambda_full_film = guide.lambda_full_film
         # dimensionless equilibrium table q -> F_u/F_0 for q < 2^1.5 (x in [0, 1])
@@ -327,6 +362,15 @@ class LubricationRegimeEstimator:
         self._log_lambda_axis = self._LAMBDA_LOG_GRID.tolist()
         self._log_load_axis = log_w.tolist()
         self._share = share.tolist()
+
+    def set_oil_temperature(self, temperature_c: float) -> None:
+        """Walther viscosity at a new oil temperature [degC] (no effect without a catalogue oil)."""
+        oil = self.guide.oil
+        if oil is None or not _isfinite(temperature_c) or temperature_c == self.oil_temperature_c:
+            return
+        self.viscosity_pa_s = oil.dynamic_viscosity_pa_s(temperature_c)
+        self._lambda_coeff = self._lambda_coeff_per_eta * self.viscosity_pa_s ** HD_CENTRAL_U_EXP
+        self.oil_temperature_c = float(temperature_c)
 
     def ball_load(self, carriage_load_n: float) -> float:
         """Highest ball load [N] under a vertical carriage load [N] (table of the 4-row equilibrium)."""

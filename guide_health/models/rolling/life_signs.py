@@ -151,3 +151,42 @@ class LifeTestSigns:
                 "noise_rise_km": None if self.noise.rise_travel_m is None else self.noise.rise_travel_m / 1e3,
                 "noise_drop_km": None if self.noise.drop_travel_m is None else self.noise.drop_travel_m / 1e3,
                 "last_travel_km": self.last_travel_m / 1e3 if math.isfinite(self.last_travel_m) else 0.0}
+
+
+class StampedLifeTest:
+    """LifeTestSigns fed by header stamps, one object for the live node and the offline bag chain: the travel of a
+    sample is ``carriage_speed_m_s`` x (stamp - start) (a constant-speed test bench, seed 004), start = the first
+    stamp seen unless given. Blocks and sound levels are independent streams (their order between each other does
+    not change the state); each stream must come in stamp order. A bad block or level raises ValueError and
+    leaves the state unchanged (the caller counts it)."""
+
+    def __init__(self, signs: LifeTestSigns, carriage_speed_m_s: float, start_ns: int | None = None) -> None:
+        self.signs = signs
+        self.speed_m_s = float(carriage_speed_m_s)
+        self.start_ns = start_ns
+        self.rejected_blocks = 0
+        self.rejected_levels = 0
+        self.last_block: dict = {}
+
+    def travel_m(self, t_ns: int) -> float:
+        if self.start_ns is None:
+            self.start_ns = int(t_ns)
+        return self.speed_m_s * (int(t_ns) - self.start_ns) / 1e9
+
+    def on_block(self, t_ns: int, block: np.ndarray) -> dict | None:
+        """One accelerometer block; None when rejected (counted)."""
+        try:
+            self.last_block = self.signs.update_block(self.travel_m(t_ns), block)
+        except ValueError:
+            self.rejected_blocks += 1
+            return None
+        return self.last_block
+
+    def on_level(self, t_ns: int, level_db: float) -> bool:
+        """One sound level [dB]; False when rejected (counted)."""
+        try:
+            self.signs.update_level(self.travel_m(t_ns), level_db)
+        except ValueError:
+            self.rejected_levels += 1
+            return False
+        return True

@@ -15,6 +15,7 @@ accepted, the load already aligned by stamp):
 """
 from __future__ import annotations
 
+import bisect
 import math
 from typing import Any
 
@@ -54,9 +55,37 @@ class RollingGuideMonitor:
         self.last_lambda = math.nan
         self.last_asperity_share = math.nan
         self.last_speed_m_s = math.nan
+        self._temperatures: list[tuple[int, float]] = []   # guide/temperature readings not yet applied, by stamp
+
+    # --- oil temperature (Walther viscosity, issue 11 item 6): applied by stamp, live and offline alike -------
+    MAX_PENDING_TEMPERATURES = 100_000
+
+    def add_temperature(self, t_ns: int, temperature_c: float) -> None:
+        """A guide/temperature reading [degC] stamped ``t_ns``: the oil viscosity of every travel segment
+        ending at or after the stamp (no effect with a constant ``oil_viscosity_pa_s``)."""
+        if not math.isfinite(temperature_c) or self.regime_model.guide.oil is None:
+            return
+        bisect.insort(self._temperatures, (int(t_ns), float(temperature_c)))
+        if len(self._temperatures) > self.MAX_PENDING_TEMPERATURES:     # no motion for a long time
+            self.regime_model.set_oil_temperature(self._temperatures.pop(0)[1])
+
+    def add_temperatures(self, t_ns: np.ndarray, temperature_c: np.ndarray) -> None:
+        for t, c in zip(np.asarray(t_ns, dtype=np.int64).tolist(), np.asarray(temperature_c, float).tolist()):
+            self.add_temperature(t, c)
+
+    def _apply_temperatures(self, t_ns: int) -> None:
+        pending = self._temperatures
+        k = 0
+        while k < len(pending) and pending[k][0] <= t_ns:
+            k += 1
+        if k:
+            self.regime_model.set_oil_temperature(pending[k - 1][1])
+            del pending[:k]
 
     # --- samples (accepted by PrecisionMonitor, load = latest load stamped before) -----------------
     def advance(self, t_ns: int, position_m: float, load_n: float) -> None:
+        if self._temperatures:
+            self._apply_temperatures(t_ns)
         if self.last_t_ns is not None and math.isfinite(load_n):
             ds = abs(position_m - self.last_position_m)
             dt = (t_ns - self.last_t_ns) * 1e-9
@@ -81,8 +110,15 @@ class RollingGuideMonitor:
         move = (ds > 0) & (dt > 0) & np.isfinite(w)
         speed = np.divide(ds, dt, out=np.zeros_like(ds), where=dt > 0)
         segment = self._segment
-        for d, v, f in zip(ds[move].tolist(), speed[move].tolist(), w[move].tolist()):
-            segment(d, v, f)
+        if self._temperatures:
+            for ti, d, v, f in zip(t[move].tolist(), ds[move].tolist(), speed[move].tolist(), w[move].tolist()):
+                if self._temperatures and self._temperatures[0][0] <= ti:
+                    self._apply_temperatures(ti)
+                segment(d, v, f)
+            self._apply_temperatures(int(t[-1]))
+        else:
+            for d, v, f in zip(ds[move].tolist(), speed[move].tolist(), w[move].tolist()):
+                segment(d, v, f)
         self.last_t_ns = int(t[-1])
         self.last_position_m = float(x[-1])
 
@@ -119,6 +155,8 @@ class RollingGuideMonitor:
             "boundary_share_total": self.regime_travel_m["boundary"] / total if total > 0 else math.nan,
             "mixed_share_total": self.regime_travel_m["mixed"] / total if total > 0 else math.nan,
             "full_film_share_total": self.regime_travel_m["full_film"] / total if total > 0 else math.nan,
+            "oil_viscosity_pa_s": self.regime_model.viscosity_pa_s,
+            "oil_temperature_c": self.regime_model.oil_temperature_c,
         }
 
     def lubrication_level(self) -> tuple[Level, str]:
@@ -160,7 +198,8 @@ class RollingGuideMonitor:
                 "window_travel_m": self.window_travel_m, "regime_travel_m": dict(self.regime_travel_m),
                 "reverse_travel_m": self.reverse_travel_m,
                 "last_regime": self.last_regime, "last_lambda": self.last_lambda,
-                "last_asperity_share": self.last_asperity_share, "last_speed_m_s": self.last_speed_m_s}
+                "last_asperity_share": self.last_asperity_share, "last_speed_m_s": self.last_speed_m_s,
+                "oil_temperature_c": self.regime_model.oil_temperature_c}
 
     def restore(self, state: dict) -> None:
         if state.get("version") != self.STATE_VERSION:
@@ -175,3 +214,4 @@ class RollingGuideMonitor:
                     "last_lambda", "last_asperity_share", "last_speed_m_s"):
             setattr(self, key, state[key])
         self.regime_travel_m = {r: float(state["regime_travel_m"].get(r, 0.0)) for r in REGIMES}
+        self.regime_model.set_oil_temperature(float(state.get("oil_temperature_c", math.nan)))

@@ -120,6 +120,11 @@ class PrecisionMonitor:
         self.load_samples += 1
         return None
 
+    def on_temperature(self, t_ns: int, temperature_c: float) -> None:
+        """A guide/temperature reading: the rolling guide's oil viscosity from its stamp on (Walther oil)."""
+        if self.rolling is not None:
+            self.rolling.add_temperature(t_ns, temperature_c)
+
     def on_straightness(self, t_ns: int, straightness_m: float) -> str | None:
         """Straightness measurement [m]; returns the rejection reason or None when accepted. A measurement
         is identified by its stamp: one with the stamp of an applied measurement is not applied again."""
@@ -198,6 +203,8 @@ class PrecisionMonitor:
         found by binary search, and the integration is split at the measurement times so each
         measurement sees the wear state at its own time.
         """
+        if self.rolling is not None and getattr(run, "temperature_t_ns", np.zeros(0)).size:
+            self.rolling.add_temperatures(run.temperature_t_ns, run.temperature_c)   # applied by stamp
         accepted = accept_run(run, self.joint_base, self.load_base, self.load_n, self.limits)
         self.rejected.count_all(accepted.rejected)
         self.joint_base, self.load_base = accepted.joints.base, accepted.loads.base

@@ -1,0 +1,147 @@
+"""`vibration_monitor`: seed 004's failure signs of a rolling guide, live (issue 12).
+
+Subscribes `guide/acceleration` (sensor_msgs/LaserScan, one accelerometer block per message: ranges =
+acceleration [m/s^2], header stamp = first sample, time_increment = 1/fs) and `guide/sound_pressure`
+(sensor_msgs/FluidPressure, rms sound pressure [Pa]; dB = 20 log10(p / 20 uPa)); publishes `/diagnostics` task
+`<joint> vibration` every `status_period_s`: band energies, the abnormal-band statistic and its threshold, the
+named defect frequency, the noise level trend (rise, drop after the rise) and the level: WARN on a sustained
+abnormal band or a noise rise, ERROR on the seed's end-of-test pattern (abnormal band and the noise drop).
+
+A node of its own, not a task of wear_monitor: its inputs (25.6 kHz blocks) and cost have nothing in common with
+the joint/load integration, it can run on the computer the accelerometer is wired to, and wear_monitor is being
+restructured into a multi-axis machine node by another change. The model is the one the offline chain
+(`guide-health life test BAG`) uses: :class:`~guide_health.models.rolling.life_signs.StampedLifeTest` over
+:func:`~guide_health.analysis.life_signs.signs_from_params`; travel = carriage speed x (stamp - first stamp).
+Blocks are decoded from the raw CDR with numpy (no per-sample Python objects).
+"""
+from __future__ import annotations
+
+import math
+import struct
+import sys
+import time
+
+import numpy as np
+from rclpy.node import Node
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import FluidPressure, LaserScan
+
+from guide_health.analysis.life_signs import signs_from_params, vibration_status_values
+from guide_health.io.bag_writer import SOUND_LEVEL_REFERENCE_PA
+from guide_health.models.rolling.life_signs import StampedLifeTest
+from guide_health.models.rolling.vibration import persistence_false_alarm
+from guide_health.nodes.common import run_node
+from guide_health.nodes.status import RejectionLog, StatusTask, StatusUpdater
+from guide_health.params import VIBRATION_MONITOR_SCHEMA, declare_parameters
+
+# reliable keep_all: a block is never dropped silently (a lagging node pushes back on the writer)
+DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1, reliability=ReliabilityPolicy.RELIABLE)
+INPUTS = ("guide/acceleration", "guide/sound_pressure")
+VIBRATION_KEYS = ("blocks", "travel_km", "z_max", "z_threshold", "abnormal_band_hz", "defect",
+                  "defect_frequency_hz", "noise_level_db", "noise_rise_db", "noise_rise_km", "noise_drop_km",
+                  "failure_travel_km", "band_energies_m2_s4")
+EXTRA_KEYS = ("rejected_blocks", "rejected_levels", "false_alarm_per_block", "false_alarm_k_of_n",
+              "raceway_hz", "ball_defect_hz", "recirculation_hz", "callback_time_us", "block_model_time_us")
+
+
+def decode_laser_scan_block(data: bytes) -> tuple[int, float, np.ndarray]:
+    """(stamp [ns], time_increment [s], ranges as float64) of a CDR LaserScan without building the message.
+
+    CDR (little/big endian by the encapsulation header): stamp int32 sec, uint32 nanosec, frame_id string,
+    7 float32 (angle_min .. range_max; time_increment is the 4th), ranges: uint32 count + float32s (4-aligned).
+    ValueError on a malformed buffer."""
+    if len(data) < 12:
+        raise ValueError("LaserScan buffer too short")
+    endian = "<" if data[1] == 1 else ">"
+    body = memoryview(data)[4:]
+    try:
+        sec, nsec, slen = struct.unpack_from(endian + "iII", body, 0)
+        off = 12 + slen
+        off += (-off) % 4
+        floats = struct.unpack_from(endian + "7f", body, off)
+        off += 28
+        (count,) = struct.unpack_from(endian + "I", body, off)
+        off += 4
+        if off + 4 * count > len(body):
+            raise ValueError("LaserScan ranges run past the buffer")
+        ranges = np.frombuffer(body, dtype=np.dtype(np.float32).newbyteorder(endian), count=count, offset=off)
+    except struct.error as exc:
+        raise ValueError(f"malformed LaserScan: {exc}") from None
+    return sec * 1_000_000_000 + nsec, float(floats[3]), ranges.astype(np.float64)
+
+
+class VibrationMonitorNode(Node):
+    def __init__(self, **kwargs):
+        super().__init__("vibration_monitor", **kwargs)
+        params = declare_parameters(self, VIBRATION_MONITOR_SCHEMA)
+        self.params = params
+        self.feed = StampedLifeTest(signs_from_params(params), params["carriage_speed_m_s"])
+        self.rejections = RejectionLog(self.get_logger())
+        self._callback_s = 0.0
+        self._model_s = 0.0
+        self._blocks_in = 0
+        self.updater = StatusUpdater(self, params["machine_id"], params["input_timeout_s"])
+        self.task = f"{params['joint_name']} vibration"
+        self.updater.add(StatusTask(self.task, self.report, VIBRATION_KEYS, EXTRA_KEYS, stale_inputs=INPUTS))
+        self.diag_pub = self.updater.publisher
+        self.create_subscription(LaserScan, "guide/acceleration", self._on_block_raw, DATA_QOS, raw=True)
+        self.create_subscription(FluidPressure, "guide/sound_pressure", self._on_pressure, DATA_QOS)
+        self.create_timer(params["status_period_s"], self.publish_diagnostics)
+
+    # --- inputs --------------------------------------------------------------------------------------------
+    def _on_block_raw(self, data: bytes) -> None:
+        t0 = time.perf_counter()
+        self.updater.touch("guide/acceleration")
+        self._blocks_in += 1
+        try:
+            t_ns, dt_s, block = decode_laser_scan_block(data)
+        except ValueError as exc:
+            self.feed.rejected_blocks += 1
+            self.rejections.log(f"guide/acceleration: {exc}")
+            return
+        fs = self.params["sample_rate_hz"]
+        if not (dt_s > 0 and abs(1.0 / dt_s - fs) <= 1e-6 * fs):
+            self.feed.rejected_blocks += 1
+            self.rejections.log(f"guide/acceleration: block at {1.0 / dt_s if dt_s > 0 else 0.0:g} Hz, "
+                                f"sample_rate_hz is {fs:g}")
+            return
+        t1 = time.perf_counter()
+        if self.feed.on_block(t_ns, block) is None:
+            self.rejections.log("guide/acceleration: non-finite, too short or out-of-order block")
+        t2 = time.perf_counter()
+        self._model_s += t2 - t1
+        self._callback_s += t2 - t0
+
+    def _on_pressure(self, msg: FluidPressure) -> None:
+        self.updater.touch("guide/sound_pressure")
+        p = float(msg.fluid_pressure)
+        t_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        if not (math.isfinite(p) and p > 0):
+            self.feed.rejected_levels += 1
+            self.rejections.log("guide/sound_pressure: non-positive or non-finite sound pressure")
+        elif not self.feed.on_level(t_ns, 20.0 * math.log10(p / SOUND_LEVEL_REFERENCE_PA)):
+            self.rejections.log("guide/sound_pressure: out-of-order level")
+
+    # --- output ------------------------------------------------------------------------------------------------
+    def report(self) -> tuple[int, str, dict]:
+        signs = self.feed.signs
+        values = vibration_status_values(self.feed)
+        values["false_alarm_per_block"] = signs.bands.alpha_block
+        values["false_alarm_k_of_n"] = persistence_false_alarm(signs.bands.alpha_block, signs.bands.persist_k,
+                                                               signs.bands.persist_n)
+        n = self._blocks_in
+        values["callback_time_us"] = self._callback_s / n * 1e6 if n else math.nan
+        values["block_model_time_us"] = self._model_s / n * 1e6 if n else math.nan
+        level, message = signs.level()
+        return int(level), message, values
+
+    def publish_diagnostics(self) -> None:
+        self.updater.update()
+
+
+def main(argv: list[str] | None = None) -> int:
+    return run_node("vibration_monitor", VibrationMonitorNode, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

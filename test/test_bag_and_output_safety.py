@@ -1,0 +1,143 @@
+"""Issue 10 item 6 (files): metadata.yaml counts that disagree with the stored rows are reported (one
+warning line + `bag_count_mismatch` in the JSON), storage files outside the bag folder are refused with one
+line, report files are never written through a symbolic link and are 0640, a joint missing offline is an
+error naming the joint and the joints present (exit 2)."""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from guide_health.errors import InputError
+from guide_health.io import bag_reader, bag_writer
+from guide_health.io.output_files import REPORT_MODE, open_output, write_text
+from guide_health.runs import MachineRun
+
+ROOT = Path(__file__).resolve().parents[1]
+T0 = 1_700_000_000 * 10**9
+PARAMS = ROOT / "config" / "bench_000.yaml"
+
+
+def _run(n=2000, joint="x") -> MachineRun:
+    t = T0 + np.arange(n, dtype=np.int64) * 10_000_000            # 100 Hz
+    pos = 0.2 + 0.1 * np.sin(np.arange(n) / 50.0)
+    tl = t[::2]
+    ts = t[::500] + 1
+    return MachineRun(joint_name=joint, joint_t_ns=t, joint_position_m=pos, joint_velocity_m_s=np.zeros(0),
+                      load_t_ns=tl, load_n=np.full(tl.size, 2000.0), straightness_t_ns=ts,
+                      straightness_m=15e-6 + 1e-8 * np.arange(ts.size), temperature_t_ns=np.zeros(0, np.int64),
+                      temperature_c=np.zeros(0), metadata={})
+
+
+@pytest.fixture(scope="module")
+def bag(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("bags") / "b"
+    bag_writer.write_machine_bag(_run(), path)
+    return path
+
+
+def cli(*args):
+    return subprocess.run([sys.executable, "-m", "guide_health.cli", *map(str, args)], capture_output=True,
+                          text=True, timeout=120, env=dict(os.environ, PYTHONPATH=str(ROOT)))
+
+
+def _copy_with_count(bag: Path, dest: Path, old: int, new: int) -> Path:
+    shutil.copytree(bag, dest)
+    meta = dest / "metadata.yaml"
+    text = meta.read_text()
+    assert f"message_count: {old}\n" in text
+    meta.write_text(text.replace(f"message_count: {old}\n", f"message_count: {new}\n", 1))
+    return dest
+
+
+def test_metadata_counts_that_disagree_are_reported_with_the_stored_rows_used(bag, tmp_path):
+    """2000 joint_states stored; metadata.yaml claims 2500 (main: replayed without a word)."""
+    wrong = _copy_with_count(bag, tmp_path / "wrong", 2000, 2500)
+    stats = {}
+    with pytest.warns(UserWarning, match="2500 in metadata.yaml, 2000 stored"):
+        run = bag_reader.read_machine_bag(wrong, stats=stats)
+    assert run.joint_t_ns.size == 2000
+    assert stats["bag_count_mismatch"] == {"/joint_states": {"metadata": 2500, "rows": 2000}}
+    proc = cli("replay", wrong, "--params", PARAMS, "--json", "--no-plot", "--out", tmp_path / "r")
+    assert proc.returncode == 0, proc.stderr
+    report = json.loads(proc.stdout)
+    assert report["bag_count_mismatch"] == {"/joint_states": {"metadata": 2500, "rows": 2000}}
+    warning = [line for line in proc.stderr.splitlines() if "warning" in line]
+    assert len(warning) == 1 and "/joint_states 2500 in metadata.yaml, 2000 stored" in warning[0], proc.stderr
+    good = cli("replay", bag, "--params", PARAMS, "--json", "--no-plot", "--out", tmp_path / "g")
+    assert "bag_count_mismatch" not in json.loads(good.stdout) and "warning" not in good.stderr
+
+
+@pytest.mark.parametrize("how", ["dotdot", "absolute", "symlink"])
+def test_storage_files_outside_the_bag_folder_are_refused(bag, tmp_path, how):
+    evil = tmp_path / "evil"
+    evil.mkdir()
+    shutil.copy(bag / "metadata.yaml", evil / "metadata.yaml")
+    db = next(bag.glob("*.db3"))
+    if how == "dotdot":
+        name = os.path.relpath(db, evil)
+    elif how == "absolute":
+        name = str(db)
+    else:
+        (evil / "link.db3").symlink_to(db)
+        name = "link.db3"
+    meta = evil / "metadata.yaml"
+    meta.write_text(meta.read_text().replace(db.name, name))
+    with pytest.raises(InputError, match="outside the bag folder"):
+        bag_reader.read_machine_bag(evil)
+    proc = cli("replay", evil, "--params", PARAMS, "--json", "--no-plot", "--out", tmp_path / "r")
+    assert proc.returncode == 2 and proc.stdout == "", proc.stdout
+    assert proc.stderr.count("\n") == 1 and "outside the bag folder" in proc.stderr and repr(name) in proc.stderr
+
+
+def test_a_joint_missing_offline_is_an_error_naming_the_joints_present(bag, tmp_path):
+    """main: a stderr warning and JSON level WARN 'waiting for motion'."""
+    with pytest.raises(InputError, match=r"no joint_states message has joint 'y' \(joints present: x\)"):
+        bag_reader.read_machine_bag(bag, joint="y")
+    params = tmp_path / "y.yaml"
+    params.write_text(PARAMS.read_text().replace("joint: x", "joint: y"))
+    assert "joint: y" in params.read_text()
+    proc = cli("replay", bag, "--params", params, "--json", "--no-plot", "--out", tmp_path / "r")
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr.count("\n") == 1 and "joint 'y' (joints present: x)" in proc.stderr, proc.stderr
+
+
+def test_replay_never_writes_through_a_symlink_and_reports_are_0640(bag, tmp_path):
+    out = tmp_path / "r"
+    out.mkdir()
+    victim = tmp_path / "victim.txt"
+    victim.write_text("keep me")
+    (out / "report.json").symlink_to(victim)
+    proc = cli("replay", bag, "--params", PARAMS, "--json", "--out", out)
+    assert proc.returncode == 2 and victim.read_text() == "keep me"
+    assert proc.stderr.count("\n") == 1 and "symbolic link" in proc.stderr and "report.json" in proc.stderr
+    (out / "report.json").unlink()
+    (out / "straightness.csv").write_text("old")
+    os.chmod(out / "straightness.csv", 0o666)               # an older, wider file is narrowed
+    proc = cli("replay", bag, "--params", PARAMS, "--json", "--out", out)
+    assert proc.returncode == 0, proc.stderr
+    for name in ("report.json", "straightness.csv", "straightness.png"):
+        assert (out / name).stat().st_mode & 0o777 == REPORT_MODE == 0o640, name
+    assert (out / "straightness.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_open_output_refuses_links_and_special_files(tmp_path):
+    target = tmp_path / "t"
+    target.write_text("x")
+    (tmp_path / "l").symlink_to(target)
+    with pytest.raises(InputError, match="symbolic link"):
+        write_text(tmp_path / "l", "y")
+    os.mkfifo(tmp_path / "fifo")
+    with pytest.raises(InputError, match="not a regular file"):
+        write_text(tmp_path / "fifo", "y")
+    with pytest.raises(InputError, match="cannot be written"):
+        write_text(tmp_path / "nodir" / "f", "y")
+    with open_output(tmp_path / "f") as handle:
+        handle.write("a\n")
+    assert (tmp_path / "f").read_text() == "a\n" and target.read_text() == "x"

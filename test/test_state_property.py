@@ -1,0 +1,176 @@
+"""Property test (issue 10, state): an arbitrarily corrupted state row is either refused with one InputError
+line naming the file and what to do, or loaded exactly (the restored monitor's state equals the row, and its
+report works); never another exception, never half-loaded. Mutations: a field removed, replaced by any JSON
+value (huge integers, NaN/inf, strings, lists, mappings, null), a list lengthened or shortened, a field added,
+and the raw JSON text cut or overwritten."""
+from __future__ import annotations
+
+import json
+import math
+import tempfile
+from pathlib import Path
+
+import pytest
+
+from guide_health.errors import InputError
+from guide_health.io.state_store import StateStore, _encode, resume_monitor
+from guide_health.models.wear.precision import PrecisionMonitor
+from guide_health.models.wear.state_schema import state_fingerprint
+from guide_health.params import WEAR_MONITOR_DEFAULTS
+
+hypothesis = pytest.importorskip("hypothesis")
+st = hypothesis.strategies
+from test_input_rules import PARAMS as RULE_PARAMS  # noqa: E402 - arbitrary runs near the input limits
+from test_input_rules import bad_runs  # noqa: E402
+
+from guide_health.params import wear_monitor_params  # noqa: E402
+
+ROLLING_PARAMS = dict(wear_monitor_params(Path(__file__).resolve().parents[1] / "config" / "nsk_lh45.yaml"),
+                      joint="x")
+
+PARAMS = dict(WEAR_MONITOR_DEFAULTS, machine_id="m1", joint="x")
+KEY = "m1/x/precision"
+#: restore() takes these from the parameters, not from the state (a user may re-tune them)
+FROM_PARAMS = ("prior_wear_coefficient", "prior_rel_sd", "noise_sd_m", "straightness_initial_m")
+
+
+def populated_state() -> dict:
+    """A monitor after 40 s of 100 Hz strokes, 2 kN, 4 straightness measurements (fixed inputs)."""
+    monitor = PrecisionMonitor(PARAMS)
+    t0 = 1_700_000_000 * 10**9
+    for i in range(4000):
+        t = t0 + i * 10**7
+        monitor.on_load(t, 2000.0)
+        monitor.on_joint(t, 0.2 + 0.1 * math.sin(i / 50), 0.0)
+        if i % 1000 == 999:
+            monitor.on_straightness(t, 15.2e-6 + i * 1e-10)
+    return monitor.state()
+
+
+BASE = populated_state()
+
+
+def _paths(value, prefix=()):
+    """Every path (tuple of keys/indices) into the state, containers included."""
+    yield prefix
+    if isinstance(value, dict):
+        for k, v in value.items():
+            yield from _paths(v, prefix + (k,))
+    elif isinstance(value, list):
+        for i, v in enumerate(value[:3]):
+            yield from _paths(v, prefix + (i,))
+
+
+PATHS = [p for p in _paths(BASE) if p]
+json_leaf = st.one_of(st.none(), st.booleans(), st.integers(min_value=-(2**70), max_value=2**70),
+                      st.floats(allow_nan=True, allow_infinity=True), st.text(max_size=8),
+                      st.sampled_from([0, -1, 1e308, -0.0, 2**63, 2**63 - 1, "nan", "1e-5"]))
+json_value = st.recursive(json_leaf, lambda inner: st.one_of(st.lists(inner, max_size=4),
+                                                             st.dictionaries(st.text(max_size=5), inner, max_size=3)),
+                          max_leaves=8)
+
+
+def _parent(state, path):
+    node = state
+    for part in path[:-1]:
+        node = node[part]
+    return node
+
+
+@st.composite
+def corrupted_rows(draw) -> str:
+    state = json.loads(json.dumps(_encode(BASE)))
+    for _ in range(draw(st.integers(1, 3))):
+        path = draw(st.sampled_from(PATHS))
+        try:
+            parent = _parent(state, path)
+            current = parent[path[-1]]
+        except (KeyError, IndexError, TypeError):
+            continue
+        kind = draw(st.sampled_from(["replace", "delete", "grow", "shrink", "add"]))
+        if kind == "replace":
+            parent[path[-1]] = draw(json_value)
+        elif kind == "delete":
+            del parent[path[-1]]
+        elif kind == "grow" and isinstance(current, list):
+            current.append(draw(json_value) if draw(st.booleans()) else (current[-1] if current else 0.0))
+        elif kind == "shrink" and isinstance(current, list) and current:
+            current.pop()
+        elif kind == "add" and isinstance(current, dict):
+            current[draw(st.text(max_size=6))] = draw(json_value)
+    text = json.dumps(state)
+    raw = draw(st.sampled_from(["as is", "cut", "overwrite"]))
+    if raw == "cut":
+        text = text[:draw(st.integers(0, len(text)))]
+    elif raw == "overwrite":
+        at = draw(st.integers(0, len(text)))
+        text = text[:at] + draw(st.text(max_size=4)) + text[at + 4:]
+    return text
+
+
+def _comparable(state: dict) -> str:
+    state = json.loads(json.dumps(_encode(state)))
+    for name in FROM_PARAMS:
+        state["estimator"].pop(name, None)
+    return json.dumps(state, sort_keys=True)
+
+
+@pytest.fixture(scope="module")
+def store(tmp_path_factory):
+    store = StateStore(tmp_path_factory.mktemp("prop") / "state.db")
+    store.save({KEY: BASE}, state_fingerprint(PARAMS))
+    yield store
+    store.close()
+
+
+def test_the_uncorrupted_row_loads_exactly(store):
+    monitor = PrecisionMonitor(PARAMS)
+    assert resume_monitor(store, KEY, state_fingerprint(PARAMS), monitor)
+    assert _comparable(monitor.state()) == _comparable(BASE)
+    assert monitor.estimator.count == 4 and monitor.integrator.samples == 4000
+
+
+@hypothesis.settings(max_examples=400, deadline=None, derandomize=True,
+                     suppress_health_check=[hypothesis.HealthCheck.function_scoped_fixture])
+@hypothesis.given(corrupted_rows())
+def test_a_corrupted_row_is_refused_with_one_line_or_loaded_exactly(store, text):
+    store._db.execute("UPDATE monitor_state SET state_json = ? WHERE key = ?", (text, KEY))
+    monitor = PrecisionMonitor(PARAMS)
+    try:
+        resumed = resume_monitor(store, KEY, state_fingerprint(PARAMS), monitor)
+    except InputError as exc:
+        message = str(exc)
+        assert "\n" not in message and str(store.path) in message and "move the file away" in message, message
+        return
+    assert resumed
+    saved = json.loads(text)            # it loaded: the row was valid JSON and is now the monitor's state
+    assert _comparable(monitor.state()) == _comparable(_decode_like_store(saved))
+    report = monitor.report()
+    assert set(report) >= {"level", "message", "straightness_um"}
+
+
+def _decode_like_store(value):
+    from guide_health.io.state_store import _decode
+
+    return _decode(value)
+
+
+@hypothesis.settings(max_examples=150, deadline=None,
+                     suppress_health_check=[hypothesis.HealthCheck.too_slow, hypothesis.HealthCheck.data_too_large])
+@pytest.mark.parametrize("params", [RULE_PARAMS, ROLLING_PARAMS], ids=["sliding", "rolling"])
+@hypothesis.given(run=bad_runs())
+def test_every_state_a_monitor_reaches_is_accepted_and_round_trips(params, run):
+    """The other side: whatever inputs a monitor saw (test_input_rules' arbitrary runs: any floats, stamps
+    back and forth, jumps, straightness before any stroke), the state it saves is accepted by the schema and
+    restores to the same state (a legal state refused would stop a restarted node)."""
+    monitor = PrecisionMonitor(params)
+    monitor.process_run(run)
+    with tempfile.TemporaryDirectory() as tmp:
+        store = StateStore(Path(tmp) / "s.db")
+        try:
+            store.save({KEY: monitor.state()}, state_fingerprint(params))
+            again = PrecisionMonitor(params)
+            assert resume_monitor(store, KEY, state_fingerprint(params), again)
+            assert _comparable(again.state()) == _comparable(monitor.state())
+        finally:
+            store.close()

@@ -1,0 +1,182 @@
+"""Issue 12: the vibration_monitor node. Live (bag_player -> node over real DDS on an isolated domain) equals
+offline (`life test BAG`'s chain) on a simulated seed-004 ball-guide life test (spall onset 450 km at 0.3 C,
+seed 004 Sec. 4.1-4.2); bad blocks and levels are counted and never change the state."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+rclpy = pytest.importorskip("rclpy")
+
+from guide_health.analysis.life_signs import (  # noqa: E402
+    life_test_from_bag,
+    read_life_test_bag,
+    signs_from_params,
+    vibration_status_values,
+)
+from guide_health.io.bag_writer import write_life_test_bag  # noqa: E402
+from guide_health.models.rolling.life_signs import StampedLifeTest  # noqa: E402
+from guide_health.params import SCHEMAS  # noqa: E402
+from guide_health.sim.life_test import simulate_life_test  # noqa: E402
+
+SIM = {"failure_km": 450.0, "block_every_m": 5000.0}
+
+
+def vib_params(**over) -> dict:
+    return SCHEMAS["vibration_monitor"].defaults() | {"load_fraction": 0.3} | over
+
+
+def offline_values(bag) -> dict:
+    p = vib_params()
+    d = read_life_test_bag(bag)
+    feed = StampedLifeTest(signs_from_params(p), p["carriage_speed_m_s"])
+    for t, x in zip(d["block_t_ns"], d["blocks"]):
+        feed.on_block(t, x)
+    for t, db in zip(d["level_t_ns"], d["level_db"]):      # independent stream: order between them is free
+        feed.on_level(t, db)
+    return vibration_status_values(feed) | {"level": int(feed.signs.level()[0])}
+
+
+def write_bag(tmp_path):
+    rec = simulate_life_test(SCHEMAS["guide_health_life_test_simulation"].defaults() | vib_params() | SIM, seed=0)
+    bag = tmp_path / "life"
+    write_life_test_bag(rec, bag)
+    return rec, bag
+
+
+@pytest.mark.ros
+def test_live_node_equals_offline_chain_over_dds(tmp_path, monkeypatch):
+    from guide_health.nodes.session import (
+        DiagnosticsCollector,
+        clean_fastdds_shm,
+        isolated_ros_env,
+        play_bag,
+        start_node,
+        stop_node,
+    )
+
+    rec, bag = write_bag(tmp_path)
+    offline = offline_values(bag)
+    chain = life_test_from_bag(bag, vib_params())
+    assert offline["failure_travel_km"] == chain["failure_travel_km"] == pytest.approx(450.0, abs=5.0)
+    assert chain["c_ratio"] == pytest.approx(0.624, abs=0.003)            # seed 004 Sec. 4.2
+    assert offline["defect"] == "raceway" and offline["level"] == 2        # ERROR: abnormal band + noise drop
+    params = tmp_path / "vib.yaml"
+    params.write_text("vibration_monitor:\n  ros__parameters:\n    load_fraction: 0.3\n    machine_id: bench\n"
+                      "    status_period_s: 0.25\n    input_timeout_s: 600.0\n")
+    env = isolated_ros_env()
+    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID"):
+        monkeypatch.setenv(key, env[key])
+    collector = DiagnosticsCollector("vibration_collector")
+    node = start_node("guide_health.nodes.vibration_monitor", params, {}, env, tmp_path / "node.log")
+    name = "vibration_monitor: x vibration"
+    try:
+        assert collector.wait_for(name, timeout=90.0) is not None, (tmp_path / "node.log").read_text()
+        played = play_bag(bag, env, ["--wait-subscribers", "1", "--max-rate", "0"])
+        assert played.returncode == 0, played.stderr
+        live = collector.wait_for(name, lambda s: s["values"]["blocks"] == str(rec.travel_m.size), timeout=240.0)
+        live = collector.wait_settled(name, "noise_level_db", settle_s=1.5, timeout=60.0)
+    finally:
+        stop_node(node)
+        collector.close()
+        clean_fastdds_shm()
+    values = live["values"]
+    assert live["level"] == offline["level"] == 2 and "end of test" in live["message"]
+    assert int(values["blocks"]) == offline["blocks"] == rec.travel_m.size
+    for key in ("failure_travel_km", "noise_rise_km", "noise_drop_km", "travel_km", "z_max", "noise_level_db",
+                "defect_frequency_hz"):
+        assert float(values[key]) == pytest.approx(offline[key], rel=1e-9), key
+    assert values["defect"] == offline["defect"] == "raceway"
+    assert values["band_energies_m2_s4"] == offline["band_energies_m2_s4"]
+    assert len(values["band_energies_m2_s4"].split()) == 32
+    assert float(values["false_alarm_k_of_n"]) == pytest.approx(1e-8)       # C(5,3) (1e-3)^3
+    assert int(values["rejected_blocks"]) == 0
+
+
+def test_bad_blocks_and_levels_are_counted_and_change_nothing(ros_context, tmp_path):
+    from rclpy.parameter import Parameter
+    from rclpy.serialization import serialize_message
+    from sensor_msgs.msg import FluidPressure, LaserScan
+
+    from guide_health.nodes.vibration_monitor import VibrationMonitorNode, decode_laser_scan_block
+
+    rec = simulate_life_test(SCHEMAS["guide_health_life_test_simulation"].defaults() | vib_params() | SIM, seed=0)
+    node = VibrationMonitorNode(context=ros_context, parameter_overrides=[Parameter("status_period_s", value=60.0)])
+
+    def scan(t_ns, block, fs=25600.0):
+        m = LaserScan()
+        m.header.stamp.sec, m.header.stamp.nanosec = divmod(int(t_ns), 1_000_000_000)
+        m.time_increment = 1.0 / fs
+        m.ranges = np.asarray(block, dtype=np.float32).tolist()
+        return serialize_message(m)
+
+    def level(t_ns, pa):
+        m = FluidPressure()
+        m.header.stamp.sec, m.header.stamp.nanosec = divmod(int(t_ns), 1_000_000_000)
+        m.fluid_pressure = pa
+        return m
+
+    try:
+        t, dt, x = decode_laser_scan_block(scan(rec.t_ns[3], rec.blocks[3]))
+        assert t == rec.t_ns[3] and np.array_equal(x, rec.blocks[3].astype(np.float64))
+        assert dt == pytest.approx(1 / 25600.0, rel=1e-6)
+        for i in range(5):
+            node._on_block_raw(scan(rec.t_ns[i], rec.blocks[i]))
+            node._on_pressure(level(rec.level_t_ns[i], 0.0632))        # 70 dB
+        def kept(values):
+            return repr({k: v for k, v in values.items() if not k.startswith("rejected")})
+
+        before = kept(vibration_status_values(node.feed))
+        bad_block = rec.blocks[5].copy()
+        bad_block[9] = np.nan
+        for data in (scan(rec.t_ns[5], bad_block), scan(rec.t_ns[5], rec.blocks[5], fs=10000.0),
+                     scan(rec.t_ns[2], rec.blocks[5]), scan(rec.t_ns[5], rec.blocks[5][:10]), b"\x00\x01\x00"):
+            node._on_block_raw(data)
+        for pa in (0.0, -1.0, math.nan, math.inf):
+            node._on_pressure(level(rec.level_t_ns[5], pa))
+        node._on_pressure(level(rec.level_t_ns[0] - 10**9, 0.0632))      # before the first stamp: travel < 0
+        after = vibration_status_values(node.feed)
+        assert after["rejected_blocks"] == 5 and after["rejected_levels"] == 4
+        assert kept(after) == before and after["blocks"] == 5
+    finally:
+        node.destroy_node()
+
+
+def test_life_test_several_bags_weibull_and_png(tmp_path):
+    """Four specimens (spall onset 300 / 450 / 550 km, one clean to 600 km; blocks every 5 km) through
+    `life test BAG... --out DIR`: each failure interval is the 5 km block interval ending at the onset, the clean
+    run is suspended at its last block, the fit equals weibull_of_specimens of those intervals written here, and
+    one PNG per bag is written."""
+    import json
+    import subprocess
+    import sys
+
+    from guide_health.analysis.life_signs import weibull_of_specimens
+
+    sim = SCHEMAS["guide_health_life_test_simulation"].defaults() | vib_params()
+    bags = []
+    for k, (onset, spall) in enumerate(((300.0, True), (450.0, True), (550.0, True), (0.0, False))):
+        rec = simulate_life_test(sim | {"block_every_m": 5000.0, "failure_km": onset or 1.0}, seed=k, spall=spall)
+        bags.append(str(write_life_test_bag(rec, tmp_path / f"specimen{k}")))
+    cfg = tmp_path / "p.yaml"
+    cfg.write_text("vibration_monitor:\n  ros__parameters:\n    load_fraction: 0.3\n")
+    run = subprocess.run([sys.executable, "-m", "guide_health.cli", "life", "test", *bags, "--params", str(cfg),
+                          "--out", str(tmp_path / "png"), "--json"], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    out = json.loads(run.stdout)
+    truth = [(295.0, 300.0), (445.0, 450.0), (545.0, 550.0), (600.0, math.inf)]
+    assert out["intervals_km"] == [list(t) for t in truth]
+    want = weibull_of_specimens(truth, vib_params())
+    assert out["weibull"]["failures"] == 3 and out["weibull"]["n"] == 4
+    assert out["c_ratio"] == pytest.approx(want["c_ratio"], rel=1e-6)
+    assert out["weibull"]["shape"] == pytest.approx(want["shape"], rel=1e-6)
+    for s in out["specimens"]:
+        png = tmp_path / "png" / (s["bag"].rsplit("/", 1)[-1] + "_life_test.png")
+        assert s["png"] == str(png) and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 30_000
+    one = subprocess.run([sys.executable, "-m", "guide_health.cli", "life", "test", bags[1], "--params", str(cfg),
+                          "--json"], capture_output=True, text=True, timeout=300)
+    single = json.loads(one.stdout)
+    assert single["c_ratio"] == pytest.approx(0.3 * (450 / 50) ** (1 / 3), rel=1e-9)      # 0.624, Eq. 5
+    assert len(single["readings"]) == 8
