@@ -110,11 +110,18 @@ class AxisMonitor:
         reasons = [g.validate_joint(t_ns, position_m, velocity_m_s) for g in self.guides.values()]
         return reasons[0]
 
-    def integrate_joint(self, t_ns: int, position_m: float) -> None:
+    @property
+    def load_n(self) -> float:
+        """The latest accepted axis load [N] (the first guide's share of it, scaled back)."""
+        share = self.shares[self.primary_name]
+        return self.primary.load_n if share == 1.0 else self.primary.load_n / share
+
+    def integrate_joint(self, t_ns: int, position_m: float, load_n: float | None = None) -> None:
+        """An accepted sample; ``load_n``: the axis load [N] to integrate it with (None: the latest)."""
         if self.pending and self.pending[0].t_ns < t_ns:
             self.apply_due(t_ns)
-        for guide in self.guides.values():
-            guide.integrate_joint(t_ns, position_m)
+        for name, guide in self.guides.items():
+            guide.integrate_joint(t_ns, position_m, None if load_n is None else self._guide_load(name, load_n))
 
     def on_joint(self, t_ns: int, position_m: float, velocity_m_s: float = 0.0) -> str | None:
         reason = self.validate_joint(t_ns, position_m, velocity_m_s)

@@ -89,11 +89,14 @@ class PrecisionMonitor:
         reason, self.joint_base = check_joint_sample(t_ns, position_m, velocity_m_s, self.joint_base, self.limits)
         return self._record("joint_states", reason)
 
-    def integrate_joint(self, t_ns: int, position_m: float) -> None:
-        """Integrate an axis sample accepted by :meth:`validate_joint` (main-way load: a lifting load is 0)."""
-        self.integrator.advance(t_ns, position_m, main_way_load_n(self.load_n))
+    def integrate_joint(self, t_ns: int, position_m: float, load_n: float | None = None) -> None:
+        """Integrate an axis sample accepted by :meth:`validate_joint` with ``load_n`` [N] (None: the latest
+        accepted load; StampAlignedFeed passes the load in force at the sample's stamp; main-way load: a
+        lifting load is 0)."""
+        load = self.load_n if load_n is None else load_n
+        self.integrator.advance(t_ns, position_m, main_way_load_n(load))
         if self.rolling is not None:
-            self.rolling.advance(t_ns, position_m, self.load_n)
+            self.rolling.advance(t_ns, position_m, load)
 
     def on_joint(self, t_ns: int, position_m: float, velocity_m_s: float = 0.0) -> str | None:
         """Axis sample; returns the rejection reason or None when accepted."""
