@@ -43,6 +43,7 @@ from guide_health.models.wear.input_rules import (
     main_way_load_n,
     rejected_key,
 )
+from guide_health.models.wear.stream_gaps import StreamGaps
 
 STREAMS = ("joint_states", "guide/load")     # the inputs whose recent rejected share the status judges
 
@@ -76,6 +77,7 @@ class PrecisionMonitor:
         window = int(params["rejected_window_samples"])
         self.recent = {name: deque(maxlen=window) for name in STREAMS}
         self.load_samples = 0            # accepted load samples
+        self.stream_gaps = StreamGaps()  # samples missing by stamp gaps (not persisted: a count of this run)
         self.rolling = None
         if params.get("guide_type") == "rolling":
             from guide_health.models.rolling.rolling_guide import RollingGuideMonitor
@@ -87,6 +89,8 @@ class PrecisionMonitor:
         """Apply the joint rules to an axis sample (counted, the time base moves on when accepted) without
         integrating it; returns the rejection reason or None (the caller integrates it later)."""
         reason, self.joint_base = check_joint_sample(t_ns, position_m, velocity_m_s, self.joint_base, self.limits)
+        if reason is None:
+            self.stream_gaps.joint.add(t_ns)
         return self._record("joint_states", reason)
 
     def integrate_joint(self, t_ns: int, position_m: float, load_n: float | None = None) -> None:
@@ -115,6 +119,7 @@ class PrecisionMonitor:
         if reason is not None:
             return self._record("guide/load", reason)
         self._record("guide/load", None)
+        self.stream_gaps.load.add(t_ns)
         self.load_n = float(load_n)
         self.load_t_ns = int(t_ns)
         self.load_samples += 1
@@ -212,6 +217,8 @@ class PrecisionMonitor:
             window = self.recent[stream]
             window.extend(REASON_CODES[c] for c in codes[-window.maxlen:].tolist())
         self.load_samples += int(accepted.load_t_ns.size)
+        self.stream_gaps.joint.add_many(accepted.joint_t_ns)
+        self.stream_gaps.load.add_many(accepted.load_t_ns)
         jt, jx, load_at_joint = accepted.joint_t_ns, accepted.joint_position_m, accepted.load_at_joint_n
 
         st = np.asarray(run.straightness_t_ns, dtype=np.int64)
@@ -306,8 +313,12 @@ class PrecisionMonitor:
             "rejected_samples": self.rejected.total,
             "rejected_recent_share": self.recent_rejected_share()[0],
             **{rejected_key(reason): n for reason, n in self.rejected.items()},
+            **self.stream_gaps.values(),
         }
         result["level"], result["message"] = self._judge(result)
+        gaps = self.stream_gaps.message()
+        if gaps:
+            result["message"] = f"{result['message']}; {gaps}"
         # the level with every threshold moved by the clear margin (models/levels.py hysteresis_level)
         margin = float(self.params.get("alarm_clear_margin", 0.0))
         result["level_clear"] = self._judge_inputs(*self._judge_precision(result, margin))[0]

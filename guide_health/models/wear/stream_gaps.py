@@ -1,0 +1,163 @@
+"""Samples missing from a fixed-rate input stream, estimated from the gaps in its header stamps.
+
+A reliable KEEP_LAST writer overwrites the samples a slow reader has not taken yet; DDS reports no loss
+for that (no message_lost event, and the reader sees no sequence-number gap without message info), so
+the only trace left is a stamp gap in a stream whose driver stamps at a fixed rate (every joint_states
+and load driver). :class:`StampGaps` learns the nominal sample period of one stream and counts the
+samples that should have come between two accepted stamps (docs/ros.md "QoS").
+
+The rule, on the stamps of accepted samples only (bad, duplicate or backward stamps are the input rules'
+business, guide_health.models.wear.input_rules; a stamp <= the latest one is ignored here too):
+
+- the stamp differences dt are collected in blocks of ``block`` (odd) differences; the period estimate of
+  a block is its median (robust against the gaps themselves while fewer than half of a block's
+  differences are gaps);
+- a block is judged when the next one is complete, against the reference period
+  ``T = max(median of the block before, of the block, of the block after)``, so a rate change is learnt
+  without counting the slower samples of the new rate as loss; the first block is judged the same way
+  (warm-up: nothing is counted before ``2 x block`` differences, then retroactively);
+- a difference dt with ``gap_factor x T < dt <= pause_periods x T`` is a gap of ``round(dt / T) - 1``
+  missing samples (at least 1). The factor 1.75 tolerates stamp jitter up to +-37 % of the period
+  (dt < 1.75 T) and still sees a single missing sample without jitter (dt = 2 T);
+- a difference longer than ``pause_periods x T`` or than ``max_pause_s`` is a pause (the stream stopped:
+  a machine at rest, a restarted driver), not loss; a pause longer than ``max_pause_s`` is also left out
+  of the period estimate.
+
+:meth:`StampGaps.add` (live, per sample) and :meth:`StampGaps.add_many` (offline, an array) give the same
+state for the same stamps. ``missing`` adds a provisional count of the blocks not judged yet (each
+against the latest estimate), so it is complete at the end of a run.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+BLOCK = 31                 # stamp differences per period estimate (odd: the median is one of them)
+GAP_FACTOR = 1.75          # dt > GAP_FACTOR x period: samples missing
+PAUSE_PERIODS = 50.0       # dt > PAUSE_PERIODS x period: a pause, not loss
+MAX_PAUSE_S = 1.0          # dt > MAX_PAUSE_S: a pause, whatever the period
+
+
+def judge(dt_ns: np.ndarray, period_ns: int, gap_factor: float = GAP_FACTOR,
+          pause_periods: float = PAUSE_PERIODS) -> tuple[int, int]:
+    """(samples missing, gaps) in the stamp differences ``dt_ns`` of a stream of period ``period_ns``."""
+    if period_ns <= 0 or dt_ns.size == 0:
+        return 0, 0
+    ratio = dt_ns / float(period_ns)
+    gaps = ratio[(ratio > gap_factor) & (ratio <= pause_periods)]
+    return int(np.maximum(np.rint(gaps) - 1.0, 1.0).sum()), int(gaps.size)
+
+
+class StampGaps:
+    """The missing-sample estimate of one stream (module text)."""
+
+    def __init__(self, block: int = BLOCK, gap_factor: float = GAP_FACTOR, pause_periods: float = PAUSE_PERIODS,
+                 max_pause_s: float = MAX_PAUSE_S):
+        if block < 3 or block % 2 == 0:
+            raise ValueError("block must be odd and >= 3")
+        if not 1.5 <= gap_factor < pause_periods:
+            raise ValueError("need 1.5 <= gap_factor < pause_periods")
+        self.block, self.gap_factor, self.pause_periods = int(block), float(gap_factor), float(pause_periods)
+        self.max_pause_ns = int(max_pause_s * 1e9)
+        self.last_t_ns: int | None = None
+        self.open: list[int] = []                   # differences of the block being filled
+        self.waiting: np.ndarray | None = None      # the last complete block, judged when the next completes
+        self.waiting_period_ns = 0
+        self.before_period_ns = 0                   # median of the block before it (0: none)
+        self.judged_missing = 0
+        self.judged_gaps = 0
+        self.pauses = 0
+
+    @property
+    def period_ns(self) -> int:
+        """The latest period estimate [ns] (0 before the first ``block`` differences)."""
+        return self.waiting_period_ns
+
+    def add(self, t_ns: int) -> None:
+        """The stamp [ns] of an accepted sample."""
+        last = self.last_t_ns
+        if last is None or t_ns > last:
+            self.last_t_ns = int(t_ns)
+        if last is None or t_ns <= last:
+            return
+        dt = int(t_ns) - last
+        if dt > self.max_pause_ns:
+            self.pauses += 1
+            return
+        self.open.append(dt)
+        if len(self.open) == self.block:
+            self._close(np.asarray(self.open, dtype=np.int64))
+            self.open = []
+
+    def add_many(self, t_ns) -> None:
+        """The stamps [ns] of accepted samples, in arrival order: the state :meth:`add` of each would give."""
+        t = np.asarray(t_ns, dtype=np.int64)
+        if t.size == 0:
+            return
+        if self.last_t_ns is not None:
+            t = np.concatenate(([self.last_t_ns], t))
+        top = np.maximum.accumulate(t)             # the latest stamp before each sample (add's last_t_ns)
+        self.last_t_ns = int(top[-1])
+        dt = t[1:] - top[:-1]
+        dt = dt[dt > 0]
+        long = dt > self.max_pause_ns
+        self.pauses += int(long.sum())
+        dt = dt[~long]
+        need = self.block - len(self.open)
+        if dt.size < need:
+            self.open.extend(dt.tolist())
+            return
+        self._close(np.concatenate((np.asarray(self.open, dtype=np.int64), dt[:need])))
+        rest = dt[need:]
+        full = rest.size // self.block * self.block
+        for chunk in rest[:full].reshape(-1, self.block):
+            self._close(chunk)
+        self.open = rest[full:].tolist()
+
+    def _close(self, block_dt: np.ndarray) -> None:
+        period = int(np.median(block_dt))
+        if self.waiting is not None:
+            ref = max(self.before_period_ns, self.waiting_period_ns, period)
+            missing, gaps = judge(self.waiting, ref, self.gap_factor, self.pause_periods)
+            self.judged_missing += missing
+            self.judged_gaps += gaps
+            self.before_period_ns = self.waiting_period_ns
+        self.waiting, self.waiting_period_ns = block_dt, period
+
+    def _provisional(self) -> tuple[int, int]:
+        """(missing, gaps) of the blocks not judged yet, against the latest estimate."""
+        if self.waiting is None:
+            return 0, 0
+        ref = max(self.before_period_ns, self.waiting_period_ns)
+        m1, g1 = judge(self.waiting, ref, self.gap_factor, self.pause_periods)
+        m2, g2 = judge(np.asarray(self.open, dtype=np.int64), self.waiting_period_ns, self.gap_factor,
+                       self.pause_periods)
+        return m1 + m2, g1 + g2
+
+    @property
+    def missing(self) -> int:
+        """Samples missing so far (the judged blocks plus a provisional count of the rest)."""
+        return self.judged_missing + self._provisional()[0]
+
+    @property
+    def gaps(self) -> int:
+        return self.judged_gaps + self._provisional()[1]
+
+
+class StreamGaps:
+    """The estimates of the joint and load streams of one guide; ``values()`` its status keys."""
+
+    def __init__(self, **kwargs):
+        self.joint = StampGaps(**kwargs)
+        self.load = StampGaps(**kwargs)
+
+    def values(self) -> dict:
+        joint, load = self.joint.missing, self.load.missing
+        return {"samples_missing_estimate": joint + load, "joint_samples_missing_estimate": joint,
+                "load_samples_missing_estimate": load, "joint_period_estimate_us": self.joint.period_ns * 1e-3}
+
+    def message(self) -> str:
+        """'' or '37 samples missing (stamp gaps: joint_states 37, load 0)'."""
+        joint, load = self.joint.missing, self.load.missing
+        if joint + load == 0:
+            return ""
+        return f"{joint + load} samples missing (stamp gaps: joint_states {joint}, load {load})"
