@@ -63,10 +63,18 @@ def test_ten_second_pause_is_not_loss():
     assert (g.missing, g.pauses) == (0, 1)
 
 
-def test_pause_of_more_than_50_periods_below_max_pause_is_not_loss():
-    # 100 Hz stream stopping for 0.8 s (80 periods < 1 s): a pause
-    t = np.concatenate((T0 + np.arange(300) * 10 * MS, T0 + 2990 * MS + 800 * MS + np.arange(300) * 10 * MS))
-    assert count(t).missing == 0
+def test_slow_stream_gaps_count_until_50_periods():
+    # 1 Hz load stream: 2 samples missing (a 3 s gap, longer than max_pause_s) count, a 60 s stop is a pause
+    t = removed(300, [(100, 2)], 1000 * MS)
+    t = np.concatenate((t, t[-1] + 60_000 * MS + np.arange(100) * 1000 * MS))
+    g = count(t)
+    assert (g.missing, g.gaps, g.pauses) == (2, 1, 1)
+
+
+def test_a_long_stall_of_a_fast_stream_is_loss_not_a_pause():
+    # 10 kHz stream whose reader lost 0.5 s (5000 samples, 5000 periods but < max_pause_s) in one gap
+    g = count(removed(20000, [(8000, 5000)], 100_000))
+    assert (g.missing, g.gaps, g.pauses) == (5000, 1, 0)
 
 
 def test_rate_change_learns_the_new_period():

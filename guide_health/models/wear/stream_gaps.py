@@ -16,12 +16,13 @@ business, guide_health.models.wear.input_rules; a stamp <= the latest one is ign
   ``T = max(median of the block before, of the block, of the block after)``, so a rate change is learnt
   without counting the slower samples of the new rate as loss; the first block is judged the same way
   (warm-up: nothing is counted before ``2 x block`` differences, then retroactively);
-- a difference dt with ``gap_factor x T < dt <= pause_periods x T`` is a gap of ``round(dt / T) - 1``
-  missing samples (at least 1). The factor 1.75 tolerates stamp jitter up to +-37 % of the period
-  (dt < 1.75 T) and still sees a single missing sample without jitter (dt = 2 T);
-- a difference longer than ``pause_periods x T`` or than ``max_pause_s`` is a pause (the stream stopped:
-  a machine at rest, a restarted driver), not loss; a pause longer than ``max_pause_s`` is also left out
-  of the period estimate.
+- a difference dt longer than both ``max_pause_s`` and ``pause_periods x T`` is a pause (the stream
+  stopped: a machine at rest, a restarted driver), not loss. Both, because a reader that stalls for a
+  tenth of a second under KEEP_LAST loses a thousand samples of a 10 kHz stream in one gap, while a 1 Hz
+  load stream missing two samples has a 3 s gap;
+- any other difference with ``dt > gap_factor x T`` is a gap of ``round(dt / T) - 1`` missing samples (at
+  least 1). The factor 1.75 tolerates stamp jitter up to +-37 % of the period (dt < 1.75 T) and still
+  sees a single missing sample without jitter (dt = 2 T).
 
 :meth:`StampGaps.add` (live, per sample) and :meth:`StampGaps.add_many` (offline, an array) give the same
 state for the same stamps. ``missing`` adds a provisional count of the blocks not judged yet (each
@@ -33,18 +34,20 @@ import numpy as np
 
 BLOCK = 31                 # stamp differences per period estimate (odd: the median is one of them)
 GAP_FACTOR = 1.75          # dt > GAP_FACTOR x period: samples missing
-PAUSE_PERIODS = 50.0       # dt > PAUSE_PERIODS x period: a pause, not loss
-MAX_PAUSE_S = 1.0          # dt > MAX_PAUSE_S: a pause, whatever the period
+PAUSE_PERIODS = 50.0       # dt > PAUSE_PERIODS x period and dt > MAX_PAUSE_S: a pause, not loss
+MAX_PAUSE_S = 1.0
 
 
-def judge(dt_ns: np.ndarray, period_ns: int, gap_factor: float = GAP_FACTOR,
-          pause_periods: float = PAUSE_PERIODS) -> tuple[int, int]:
-    """(samples missing, gaps) in the stamp differences ``dt_ns`` of a stream of period ``period_ns``."""
+def judge(dt_ns: np.ndarray, period_ns: int, gap_factor: float = GAP_FACTOR, pause_periods: float = PAUSE_PERIODS,
+          max_pause_ns: int = int(MAX_PAUSE_S * 1e9)) -> np.ndarray:
+    """[samples missing, gaps, pauses] in the stamp differences ``dt_ns`` [ns] of a stream of period
+    ``period_ns`` (module text)."""
     if period_ns <= 0 or dt_ns.size == 0:
-        return 0, 0
+        return np.zeros(3, dtype=np.int64)
     ratio = dt_ns / float(period_ns)
-    gaps = ratio[(ratio > gap_factor) & (ratio <= pause_periods)]
-    return int(np.maximum(np.rint(gaps) - 1.0, 1.0).sum()), int(gaps.size)
+    pause = (ratio > pause_periods) & (dt_ns > max_pause_ns)
+    gaps = ratio[(ratio > gap_factor) & ~pause]
+    return np.array([np.maximum(np.rint(gaps) - 1.0, 1.0).sum(), gaps.size, pause.sum()], dtype=np.int64)
 
 
 class StampGaps:
@@ -63,9 +66,7 @@ class StampGaps:
         self.waiting: np.ndarray | None = None      # the last complete block, judged when the next completes
         self.waiting_period_ns = 0
         self.before_period_ns = 0                   # median of the block before it (0: none)
-        self.judged_missing = 0
-        self.judged_gaps = 0
-        self.pauses = 0
+        self.judged = np.zeros(3, dtype=np.int64)   # [missing, gaps, pauses] of the judged blocks
 
     @property
     def period_ns(self) -> int:
@@ -79,11 +80,7 @@ class StampGaps:
             self.last_t_ns = int(t_ns)
         if last is None or t_ns <= last:
             return
-        dt = int(t_ns) - last
-        if dt > self.max_pause_ns:
-            self.pauses += 1
-            return
-        self.open.append(dt)
+        self.open.append(int(t_ns) - last)
         if len(self.open) == self.block:
             self._close(np.asarray(self.open, dtype=np.int64))
             self.open = []
@@ -99,9 +96,6 @@ class StampGaps:
         self.last_t_ns = int(top[-1])
         dt = t[1:] - top[:-1]
         dt = dt[dt > 0]
-        long = dt > self.max_pause_ns
-        self.pauses += int(long.sum())
-        dt = dt[~long]
         need = self.block - len(self.open)
         if dt.size < need:
             self.open.extend(dt.tolist())
@@ -117,30 +111,38 @@ class StampGaps:
         period = int(np.median(block_dt))
         if self.waiting is not None:
             ref = max(self.before_period_ns, self.waiting_period_ns, period)
-            missing, gaps = judge(self.waiting, ref, self.gap_factor, self.pause_periods)
-            self.judged_missing += missing
-            self.judged_gaps += gaps
+            self.judged += self._judge(self.waiting, ref)
             self.before_period_ns = self.waiting_period_ns
         self.waiting, self.waiting_period_ns = block_dt, period
 
-    def _provisional(self) -> tuple[int, int]:
-        """(missing, gaps) of the blocks not judged yet, against the latest estimate."""
+    def _judge(self, dt_ns: np.ndarray, period_ns: int) -> np.ndarray:
+        return judge(dt_ns, period_ns, self.gap_factor, self.pause_periods, self.max_pause_ns)
+
+    def counts(self) -> np.ndarray:
+        """[missing, gaps, pauses] so far: the judged blocks plus a provisional judgement of the rest
+        (against the latest estimate)."""
         if self.waiting is None:
-            return 0, 0
+            return self.judged.copy()
         ref = max(self.before_period_ns, self.waiting_period_ns)
-        m1, g1 = judge(self.waiting, ref, self.gap_factor, self.pause_periods)
-        m2, g2 = judge(np.asarray(self.open, dtype=np.int64), self.waiting_period_ns, self.gap_factor,
-                       self.pause_periods)
-        return m1 + m2, g1 + g2
+        return (self.judged + self._judge(self.waiting, ref)
+                + self._judge(np.asarray(self.open, dtype=np.int64), self.waiting_period_ns))
+
+    @property
+    def judged_missing(self) -> int:
+        return int(self.judged[0])
 
     @property
     def missing(self) -> int:
-        """Samples missing so far (the judged blocks plus a provisional count of the rest)."""
-        return self.judged_missing + self._provisional()[0]
+        """Samples missing so far (:meth:`counts`)."""
+        return int(self.counts()[0])
 
     @property
     def gaps(self) -> int:
-        return self.judged_gaps + self._provisional()[1]
+        return int(self.counts()[1])
+
+    @property
+    def pauses(self) -> int:
+        return int(self.counts()[2])
 
 
 class StreamGaps:
