@@ -119,11 +119,12 @@ class RssSampler(threading.Thread):
             self.join(timeout=2)
 
 
-LOSS_WORDS = ("lost", "dropped", "gap")
+LOSS_WORDS = ("lost", "dropped", "gap", "missing")
 
 
 def node_reported_loss(values: dict) -> dict:
-    """The status keys that count lost samples (names with 'lost', 'dropped' or 'gap'), if the node has any."""
+    """The status keys that count lost samples (names with 'lost', 'dropped', 'gap' or 'missing', e.g.
+    messages_lost and samples_missing_estimate), if the node has any."""
     return {k: v for k, v in values.items() if any(w in k for w in LOSS_WORDS)}
 
 
