@@ -105,7 +105,8 @@ def test_stream_gaps_status_values_and_message():
     for t in removed(500, [(200, 2)], 10 * MS).tolist():
         gaps.load.add(t)
     assert gaps.values() == {"samples_missing_estimate": 39, "joint_samples_missing_estimate": 37,
-                             "load_samples_missing_estimate": 2, "joint_period_estimate_us": 1000.0}
+                             "load_samples_missing_estimate": 2, "joint_period_estimate_us": 1000.0,
+                             "joint_stamp_pauses": 0}
     assert gaps.message() == "39 samples missing (stamp gaps: joint_states 37, load 2)"
     assert StreamGaps().message() == ""
 

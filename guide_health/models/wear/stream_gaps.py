@@ -155,7 +155,8 @@ class StreamGaps:
     def values(self) -> dict:
         joint, load = self.joint.missing, self.load.missing
         return {"samples_missing_estimate": joint + load, "joint_samples_missing_estimate": joint,
-                "load_samples_missing_estimate": load, "joint_period_estimate_us": self.joint.period_ns * 1e-3}
+                "load_samples_missing_estimate": load, "joint_period_estimate_us": self.joint.period_ns * 1e-3,
+                "joint_stamp_pauses": self.joint.pauses}
 
     def message(self) -> str:
         """'' or '37 samples missing (stamp gaps: joint_states 37, load 0)'."""
