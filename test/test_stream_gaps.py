@@ -135,3 +135,27 @@ def test_arbitrary_stamps_never_raise_and_stay_bounded(stamps, cuts):
         assert live.missing <= (int(t[-1]) - int(t[0])) / dt.min()
     else:
         assert live.missing == 0
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.integers(min_value=0, max_value=2000), min_size=1, max_size=40),
+       st.integers(min_value=100, max_value=3000), st.integers(min_value=0, max_value=2**31),
+       st.lists(st.integers(min_value=0, max_value=3000), max_size=5))
+def test_fixed_rate_stream_with_holes_live_equals_offline_and_counts_the_holes(holes, n, seed, cuts):
+    # a 1 kHz stream with holes of 1..4 samples at arbitrary places: the count is exact
+    rng = np.random.default_rng(seed)
+    steps = np.ones(n, dtype=np.int64)
+    where = []
+    for h in sorted({h for h in holes if 1 <= h < n}):      # >= 3 apart: under half of any block are gaps
+        if not where or h - where[-1] >= 3:
+            where.append(h)
+    steps[where] += rng.integers(1, 5, len(where))
+    t = T0 + np.cumsum(steps) * MS
+    dense = sum(int(steps[i]) - 1 for i in where)
+    live = count(t)
+    offline = StampGaps()
+    for chunk in np.array_split(t, sorted(cuts)):
+        offline.add_many(chunk)
+    assert live.counts().tolist() == offline.counts().tolist()
+    assert (live.period_ns, live.judged_missing) == (offline.period_ns, offline.judged_missing)
+    assert live.missing == dense

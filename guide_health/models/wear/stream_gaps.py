@@ -44,7 +44,13 @@ def judge(dt_ns: np.ndarray, period_ns: int, gap_factor: float = GAP_FACTOR, pau
     ``period_ns`` (module text)."""
     if period_ns <= 0 or dt_ns.size == 0:
         return np.zeros(3, dtype=np.int64)
-    ratio = dt_ns / float(period_ns)
+    return judge_rows(dt_ns[None, :], np.array([period_ns]), gap_factor, pause_periods, max_pause_ns)
+
+
+def judge_rows(dt_ns: np.ndarray, period_ns: np.ndarray, gap_factor: float = GAP_FACTOR,
+               pause_periods: float = PAUSE_PERIODS, max_pause_ns: int = int(MAX_PAUSE_S * 1e9)) -> np.ndarray:
+    """:func:`judge` summed over the rows of ``dt_ns``, row i against ``period_ns[i]`` (> 0)."""
+    ratio = dt_ns / period_ns.astype(float)[:, None]
     pause = (ratio > pause_periods) & (dt_ns > max_pause_ns)
     gaps = ratio[(ratio > gap_factor) & ~pause]
     return np.array([np.maximum(np.rint(gaps) - 1.0, 1.0).sum(), gaps.size, pause.sum()], dtype=np.int64)
@@ -100,15 +106,26 @@ class StampGaps:
         if dt.size < need:
             self.open.extend(dt.tolist())
             return
-        self._close(np.concatenate((np.asarray(self.open, dtype=np.int64), dt[:need])))
-        rest = dt[need:]
-        full = rest.size // self.block * self.block
-        for chunk in rest[:full].reshape(-1, self.block):
-            self._close(chunk)
-        self.open = rest[full:].tolist()
+        full = (dt.size - need) // self.block * self.block
+        first = np.concatenate((np.asarray(self.open, dtype=np.int64), dt[:need]))
+        self._close_many(np.vstack((first, dt[need:need + full].reshape(-1, self.block))))
+        self.open = dt[need + full:].tolist()
+
+    def _close_many(self, blocks: np.ndarray) -> None:
+        """:meth:`_close` of each row of ``blocks`` in turn, vectorised (the same numbers)."""
+        medians = np.median(blocks, axis=1).astype(np.int64)
+        if self.waiting is not None:
+            blocks = np.vstack((self.waiting[None, :], blocks))
+            medians = np.concatenate(([self.waiting_period_ns], medians))
+        if medians.size > 1:            # every block but the last is judged (before the first: 0, none)
+            before = np.concatenate(([self.before_period_ns], medians[:-2]))
+            ref = np.maximum(np.maximum(before, medians[:-1]), medians[1:])
+            self.judged += judge_rows(blocks[:-1], ref, self.gap_factor, self.pause_periods, self.max_pause_ns)
+            self.before_period_ns = int(medians[-2])
+        self.waiting, self.waiting_period_ns = blocks[-1].copy(), int(medians[-1])
 
     def _close(self, block_dt: np.ndarray) -> None:
-        period = int(np.median(block_dt))
+        period = sorted(block_dt.tolist())[self.block // 2]        # the median (odd block)
         if self.waiting is not None:
             ref = max(self.before_period_ns, self.waiting_period_ns, period)
             self.judged += self._judge(self.waiting, ref)
