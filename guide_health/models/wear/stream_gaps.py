@@ -14,8 +14,8 @@ business, guide_health.models.wear.input_rules; a stamp <= the latest one is ign
   differences are gaps);
 - a block is judged when the next one is complete, against the reference period
   ``T = max(median of the block before, of the block, of the block after)``, so a rate change is learnt
-  without counting the slower samples of the new rate as loss; the first block is judged the same way
-  (warm-up: nothing is counted before ``2 x block`` differences, then retroactively);
+  without counting the slower samples of the new rate as loss. Warm-up: nothing is counted before the
+  first ``block`` differences; then their own gaps count too (after the fact);
 - a difference dt longer than both ``max_pause_s`` and ``pause_periods x T`` is a pause (the stream
   stopped: a machine at rest, a restarted driver), not loss. Both, because a reader that stalls for a
   tenth of a second under KEEP_LAST loses a thousand samples of a 10 kHz stream in one gap, while a 1 Hz
@@ -27,6 +27,11 @@ business, guide_health.models.wear.input_rules; a stamp <= the latest one is ign
 :meth:`StampGaps.add` (live, per sample) and :meth:`StampGaps.add_many` (offline, an array) give the same
 state for the same stamps. ``missing`` adds a provisional count of the blocks not judged yet (each
 against the latest estimate), so it is complete at the end of a run.
+
+Blind spots: samples lost at the end of a stream (no later stamp shows the gap), a gap of one sample under
+stamp jitter beyond +-25 %, one run of loss longer than ``max_pause_s`` and ``pause_periods`` periods (a
+pause), and loss of more than half of the samples spread evenly (the medians then are multiples of the
+period).
 """
 from __future__ import annotations
 
