@@ -28,10 +28,10 @@ business, guide_health.models.wear.input_rules; a stamp <= the latest one is ign
 state for the same stamps. ``missing`` adds a provisional count of the blocks not judged yet (each
 against the latest estimate), so it is complete at the end of a run.
 
-Blind spots: samples lost at the end of a stream (no later stamp shows the gap), a gap of one sample under
-stamp jitter beyond +-25 %, one run of loss longer than ``max_pause_s`` and ``pause_periods`` periods (a
-pause), and loss of more than half of the samples spread evenly (the medians then are multiples of the
-period).
+Blind spots: samples lost at the end of a stream (no later stamp shows the gap); a gap of one sample when
+the stamps jitter by more than +-12.5 % of the period (dt can fall below 1.75 T); one run of loss longer
+than ``max_pause_s`` and ``pause_periods`` periods (a pause); loss of more than half of the samples spread
+evenly (the medians then are multiples of the period).
 """
 from __future__ import annotations
 
