@@ -96,14 +96,7 @@ def run(args) -> dict:
     if params["axes"]:
         return run_machine_axes(args, params, sim)
     _check_axis_free(args, sim)
-    if args.hours is not None:
-        if not args.hours > 0:
-            raise InputError("--hours must be > 0")
-        sim["duration_h"] = args.hours
-    if args.rate is not None:
-        if not args.rate > 0:
-            raise InputError("--rate must be > 0")
-        sim["joint_state_rate_hz"] = args.rate
+    _override_duration(args, sim)
     effects = parse_effects(args.effect)
     if "thermal_drift" in effects and not sim["temperature_rate_hz"] > 0:
         print("guide-health simulate: thermal_drift needs a temperature record: guide/temperature at 0.1 Hz",
