@@ -217,3 +217,17 @@ def markdown_table(schema: NodeSchema) -> str:
                  "yes" if p.dynamic else "no", p.description)
         lines.append("| " + " | ".join(_markdown_cell(c) for c in cells) + " |")
     return "\n".join(lines) + "\n"
+
+
+def alarm_and_sensor_qos_params(topics: str) -> tuple[Param, ...]:
+    """The alarm hysteresis and sensor-QoS parameters every monitor node shares (one range each);
+    ``topics`` names the node's data topics in the descriptions."""
+    return (
+        Param("alarm_clear_margin", 0.05, "-", "[0, 0.5]",
+              "hysteresis: a raised level drops only once its value is back this fraction inside the threshold "
+              "(no toggling at a threshold); 0 = none", dynamic=True),
+        Param("sensor_qos", "auto", "", "", f"reader QoS of {topics}: auto (per topic: reliable KEEP_ALL while "
+              "every publisher is reliable, best effort once one is), reliable or best_effort (docs/ros.md)",
+              choices=("auto", "reliable", "best_effort")),
+        Param("sensor_queue_depth", 1000, "-", "[1, 1000000]", "best-effort subscriptions: reader queue depth"),
+    )

@@ -11,7 +11,7 @@ import math
 from typing import Any
 
 from guide_health.errors import InputError
-from guide_health.params.schema import NodeSchema, Param
+from guide_health.params.schema import NodeSchema, Param, alarm_and_sensor_qos_params
 
 #: ISO 76:2006 static load rating reference: 4000 MPa contact stress at the most heavily loaded
 #: roller/raceway contact of roller bearings (through-hardened bearing steel, >= 58 HRC).
@@ -50,13 +50,7 @@ SLEWING_MONITOR_PARAMS = (
     Param("numerical_table_loads", 16, "-", "[4, 10000]", "numerical model live: loads in the table"),
     Param("diagnostics_period_s", 1.0, "s", "[0.01, 3600]", "period of the /diagnostics status", dynamic=True),
     Param("input_timeout_s", 2.0, "s", "(0, 86400]", "STALE when slewing/load is silent longer", dynamic=True),
-    Param("alarm_clear_margin", 0.05, "-", "[0, 0.5]",
-          "hysteresis: a raised level drops only once its value is back this fraction inside the threshold "
-          "(no toggling at a threshold); 0 = none", dynamic=True),
-    Param("sensor_qos", "auto", "", "", "reader QoS of slewing/load: auto (reliable KEEP_ALL while every "
-          "publisher is reliable, best effort once one is), reliable or best_effort (docs/ros.md)",
-          choices=("auto", "reliable", "best_effort")),
-    Param("sensor_queue_depth", 1000, "-", "[1, 1000000]", "best-effort subscription: reader queue depth"),
+    *alarm_and_sensor_qos_params("slewing/load"),
 )
 
 

@@ -10,7 +10,7 @@ from typing import Any
 from guide_health.errors import InputError
 from guide_health.models.rolling.lubrication import LAMBDA_BOUNDARY, LAMBDA_FULL_FILM  # the one source
 from guide_health.params.machine import AXES_PARAM, MAINTENANCE_PARAMS
-from guide_health.params.schema import NodeSchema, Param
+from guide_health.params.schema import NodeSchema, Param, alarm_and_sensor_qos_params
 
 #: the wear profile's bins (rail_length_m / profile_bin_m) at most: 1e6 bins = 8 MB per profile array
 MAX_PROFILE_BINS = 1_000_000
@@ -110,13 +110,7 @@ SLIDING_GUIDE_PARAMS = (
     Param("executor", "auto", "", "", "events (rclpy EventsExecutor, raw CDR), single_threaded (message info: "
           "exact loss count of best-effort sensors) or auto (single_threaded when sensor_qos is best_effort, "
           "else events)", choices=("auto", "events", "single_threaded")),
-    Param("alarm_clear_margin", 0.05, "-", "[0, 0.5]",
-          "hysteresis: a raised level drops only once its value is back this fraction inside the threshold "
-          "(no toggling at a threshold); 0 = none", dynamic=True),
-    Param("sensor_qos", "auto", "", "", "reader QoS of the data topics: auto (per topic: reliable KEEP_ALL "
-          "while every publisher is reliable, best effort once one is), reliable or best_effort (docs/ros.md)",
-          choices=("auto", "reliable", "best_effort")),
-    Param("sensor_queue_depth", 1000, "-", "[1, 1000000]", "best-effort subscriptions: reader queue depth"),
+    *alarm_and_sensor_qos_params("the data topics"),
     Param("state_file", "auto", "", "",
           "SQLite state file; auto = $ROS_HOME/guide_health/<machine_id>/<node>.db (ROS_HOME: ~/.ros); "
           "'' or none = no persistence"),
