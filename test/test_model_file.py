@@ -11,6 +11,7 @@ linearly from its last 5 h (the running-in has decayed to e^-12 by then) to the 
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import subprocess
@@ -313,3 +314,65 @@ def test_forecast_reaches_the_limit_at_the_remaining_life_and_diagnose_agrees(tm
     assert Path(files["png"]).stat().st_size > 10_000
     files = write_report(result, tmp_path / "diag", bag="bench", with_plot=True)
     assert Path(files["png"]).stat().st_size > 10_000
+
+
+# --- a regrind: the new surface runs in again ---------------------------------------------------------------
+
+def _tail_from(run, t_ns: int):
+    """The run from its last joint sample at or before ``t_ns`` (the new guide's first sample), with the load
+    then in force; straightness measurements stamped after ``t_ns``."""
+    j = int(np.searchsorted(run.joint_t_ns, t_ns, side="right")) - 1
+    ld = int(np.searchsorted(run.load_t_ns, run.joint_t_ns[j], side="right")) - 1
+    st = int(np.searchsorted(run.straightness_t_ns, t_ns, side="right"))
+    return dataclasses.replace(
+        run, joint_t_ns=run.joint_t_ns[j:], joint_position_m=run.joint_position_m[j:],
+        joint_velocity_m_s=run.joint_velocity_m_s[j:], load_t_ns=run.load_t_ns[ld:], load_n=run.load_n[ld:],
+        straightness_t_ns=run.straightness_t_ns[st:], straightness_m=run.straightness_m[st:])
+
+
+def test_a_regrind_restarts_running_in_as_on_a_new_guide():
+    """Bench with running-in (3 h, 2 Hz), reground at 1.7 h to 20 um: after the regrind the effect-aware model
+    (AxisMonitor, the node's and replay's object, event from the bag) equals a new guide's model built
+    independently (prior K = the old surface's posterior, A0 = 20 um, fed from the regrind on) to 1e-9: the
+    running-in distance counts from the regrind. The per-sample path gives the same. Control: the new surface's
+    effective work is > 1.3x its Archard work (running-in is visible, so a kept counter would be seen)."""
+    from guide_health.models.wear.axis import AxisMonitor, split_run
+    from guide_health.models.wear.maintenance import MaintenanceEvent
+
+    params = wear_monitor_params(BENCH)
+    sim = dict(simulation_params(BENCH), duration_h=3.0, joint_state_rate_hz=2.0, load_rate_hz=1.0)
+    run = simulate_machine(params, sim, seed=5, effects={"running_in": 2.5})
+    live = {**params, "stroke_min_m": 0.1, "stroke_max_m": 0.3, "effects": "running_in", "running_in_ratio": 2.5,
+            "running_in_distance_m": 300.0,
+            "effect_covariance": np.diag([(0.01 * 4.42e-6) ** 2, 0.1 ** 2, 20.0 ** 2, 0, 0, 0]).ravel().tolist()}
+    t_regrind = int(run.joint_t_ns[0]) + int(1.7 * 3600e9) + 123_456_789
+    event = MaintenanceEvent(t_regrind, "regrind", params["joint"], straightness_m=20e-6)
+    axis = AxisMonitor(live)
+    axis.schedule(event)
+    axis.process_run(run)
+    reground = axis.primary
+    old = PrecisionMonitor(live)
+    old.process_run(split_run(run, t_regrind)[0])
+    k, k_sd, _ = old.estimator.posterior(old.measurement_losses_per_k_m())
+    new = PrecisionMonitor({**live, "wear_coefficient": k, "wear_coefficient_prior_rel_sd": k_sd / k,
+                            "straightness_initial_m": 20e-6})
+    new.process_run(_tail_from(run, t_regrind))
+    assert new.estimator.count == 3 and reground.estimator.count == 3
+    assert reground.effect_wear.effective_work_nm == pytest.approx(new.effect_wear.effective_work_nm, rel=1e-9)
+    assert new.effect_wear.effective_work_nm > 1.3 * new.integrator.archard_work_nm
+    a, b = reground.report(), new.report()
+    for key in ("straightness_um", "wear_volume_mm3", "remaining_life_h", "remaining_life_h_low",
+                "remaining_life_h_high", "wear_coefficient"):
+        assert a[key] == pytest.approx(b[key], rel=1e-9), key
+    # live: the node's per-sample path over the same bag and event
+    per_sample = AxisMonitor(live)
+    per_sample.schedule(event)
+    events = sorted([(int(t), 1, float(w)) for t, w in zip(run.load_t_ns, run.load_n)]
+                    + [(int(t), 0, float(x)) for t, x in zip(run.joint_t_ns, run.joint_position_m)]
+                    + [(int(t), 2, float(y)) for t, y in zip(run.straightness_t_ns, run.straightness_m)],
+                    key=lambda e: (e[0], (1, 0, 2)[e[1]]))
+    for t, kind, value in events:
+        (per_sample.on_joint, per_sample.on_load, per_sample.on_straightness)[kind](t, value)
+    c = per_sample.primary.report()
+    for key in ("straightness_um", "remaining_life_h", "remaining_life_h_low", "remaining_life_h_high"):
+        assert c[key] == pytest.approx(a[key], rel=1e-6), key

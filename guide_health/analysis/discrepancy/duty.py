@@ -214,7 +214,8 @@ class DutyCellAccumulator:
             return
         ends = np.concatenate((starts[1:], [done]))
         pass_len = np.add.reduceat(seg["ds"][:done], starts)
-        self._passes.append(pass_len)
+        # the record's last pass is cut by its end, not completed: not a stroke (as the live StrokeTracker)
+        self._passes.append(pass_len[:-1] if final else pass_len)
         seg_pass_len = np.repeat(pass_len, ends - starts)
         self._reduce({k: v[:done] for k, v in seg.items()}, seg_pass_len)
 
