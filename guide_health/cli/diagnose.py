@@ -33,7 +33,9 @@ def run(args) -> dict:
     from guide_health.analysis.discrepancy.report import write_report
     from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD
     from guide_health.analysis.discrepancy.workflow import diagnose_cells
+    from guide_health.io.maintenance_msgs import read_events
     from guide_health.io.progress import ProgressBar
+    from guide_health.models.wear.maintenance import relubrication_times_s
 
     if not 0.0 <= args.heldout_fraction < 0.9:
         raise InputError("--heldout-fraction must be in [0, 0.9)")
@@ -50,8 +52,11 @@ def run(args) -> dict:
     cells, messages = read_duty_cells(bag, params, args.namespace, bar)
     bar.close()
     t_read = time.perf_counter() - t0
+    # recorded relubrications (maintenance events in the bag): the lubrication_interval effect's time base
+    relube = relubrication_times_s(read_events(bag, args.namespace), params.get("axis", params["joint"]), cells.t0_ns)
     try:
-        result = diagnose_cells(cells, params, heldout_fraction=args.heldout_fraction, bic_threshold=threshold)
+        result = diagnose_cells(cells, params, heldout_fraction=args.heldout_fraction, bic_threshold=threshold,
+                                relubrication_t_s=relube)
     except ValueError as exc:
         raise InputError(f"{bag}: {exc}") from None
     result["messages"] = messages

@@ -124,11 +124,12 @@ def _steady_stage(problem: WearProblem, base: FitResult, final: FitResult) -> di
 
 
 def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: float = 0.25,
-                   bic_threshold: float = BIC_THRESHOLD) -> dict[str, Any]:
+                   bic_threshold: float = BIC_THRESHOLD, relubrication_t_s=None) -> dict[str, Any]:
     """The discrepancy workflow over duty cells (see ``duty.py``); returns the JSON-ready result with the
-    series for plots under ``series``."""
+    series for plots under ``series``. ``relubrication_t_s``: the recorded relubrications [s from the cells'
+    t0] (maintenance events; None: lubrication_interval fits an interval)."""
     t0 = time.perf_counter()
-    problem = WearProblem(cells, params, heldout_fraction=heldout_fraction)
+    problem = WearProblem(cells, params, heldout_fraction=heldout_fraction, relubrication_t_s=relubrication_t_s)
     selection = forward_selection(problem.fit, problem.available_effects(), bic_threshold=bic_threshold)
     base, final = selection.baseline, selection.final
     where = disagreement(problem, base.predicted_m)
@@ -184,6 +185,7 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
             "retract_direction": "+x" if problem.retract_sign > 0 else "-x",
             "load_reference_n": problem.load_reference_n,
             "temperature_recorded": problem.temperature_change_k is not None,
+            "relubrications_recorded": 0 if problem.relubrication_t_s is None else int(problem.relubrication_t_s.size),
             "straightness_initial_fitted": problem.a0_free,
         },
         "selection": {"criterion": "BIC on the fit span and held-out RMSE", "bic_threshold": bic_threshold,
@@ -192,7 +194,7 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
     if "running_in" in named:
         result.update(_steady_stage(problem, base, final))
     # the model file: the named effects refitted on every measurement (the held-out span scored the choice)
-    whole = WearProblem(cells, params, heldout_fraction=0.0)
+    whole = WearProblem(cells, params, heldout_fraction=0.0, relubrication_t_s=relubrication_t_s)
     whole_fit = whole.fit(tuple(named), warm=final)
     result["model_file"] = model_parameters(whole, whole_fit, named)
     result["forecast"] = fit_forecast(whole, whole_fit, float(params["straightness_limit_m"]))

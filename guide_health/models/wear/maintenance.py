@@ -68,6 +68,13 @@ class MaintenanceEvent:
                    float(d.get("straightness_um", math.nan)) * 1e-6, str(d.get("source", "")))
 
 
+def relubrication_times_s(events, axis: str, t0_ns: int) -> np.ndarray | None:
+    """The recorded relubrications of ``axis`` (of any of its guides) [s from ``t0_ns``], sorted; None when
+    there are none (the lubrication_interval effect of the discrepancy workflow then fits an interval)."""
+    times = sorted((e.t_ns - t0_ns) * 1e-9 for e in events if e.kind == "relubricate" and e.axis == axis)
+    return np.asarray(times, dtype=float) if times else None
+
+
 def check_event(event: MaintenanceEvent, guides, straightness_limit_m: float) -> str | None:
     """Why ``event`` cannot be applied to an axis with ``guides``, or None."""
     if event.kind not in KINDS:
