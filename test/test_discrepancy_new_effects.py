@@ -10,6 +10,10 @@ straightness integrated sample by sample over the bag's JointState and load samp
   measurement's: the fitted dT_ref recovers d, and no surrogate initial_offset is named.
 
 The total wear is scaled to the plain Archard wear of the run. Noise 0.3 um.
+
+And ``lubrication_interval`` with the relubrications recorded in the bag (``relubricate`` maintenance events
+at irregular times): the bag is written with them and ``guide-health diagnose`` must use them as the time
+base (m = 1 + b tau, tau the time since the last) and recover b.
 """
 from __future__ import annotations
 
@@ -219,7 +223,8 @@ def _relube_case_in(args):
 
 @pytest.mark.slow
 def test_lubrication_from_recorded_relubrications_9_of_10(tmp_path):
-    """Seeds 0-9: named with the recorded time base in >= 9/10, the law b to 15 % when named alone. ~3 min."""
+    """Seeds 0-9: named with the recorded time base in >= 9/10, the law b within 3 se and 20 % when named alone
+    (measured 2026-11-23: named alone 10/10, unflagged, b 0.91-1.14x the hidden one). ~4 min."""
     with mp.get_context("spawn").Pool(2) as pool:
         rows = pool.map(_relube_case_in, [(s, str(tmp_path)) for s in range(10)])
     for r in rows:

@@ -169,14 +169,53 @@ def test_running_in_remaining_life_with_the_model_file_default_seeds():
 
 @pytest.mark.slow
 def test_running_in_remaining_life_coverage_seeds_0_to_9():
-    """Seeds 0-9 (~40 s): point estimate within 10 % in every seed; the interval's coverage is printed
-    (measured 7/10 with the file, 0/10 without; see docs/discrepancy.md) and must beat the plain model's."""
+    """Seeds 0-9 (~40 s): point estimate within 10 % in every seed; coverage measured 7/10 with the file, 0/10
+    without (docs/model_file.md). The interval is calibrated (next test; seeds 100-159: 56/60); seeds 0, 8
+    and 9 miss because their last measurements' noise is extreme (last-ten means +0.39, -0.35, +0.31 um: 2.0 to
+    2.4 sigma), which moves the fitted present straightness by 0.3-0.5 um: errors of 2.0-2.6 predicted sd,
+    none beyond 3."""
     rows = coverage(range(10))
     hits = sum(covers(r["model"], r["truth_h"]) for r in rows)
     plain_hits = sum(covers(r["plain"], r["truth_h"]) for r in rows)
     print(f"coverage with the model file {hits}/10, without {plain_hits}/10")
     assert all(abs(r["model"][0] / r["truth_h"] - 1.0) < 0.10 for r in rows), rows
     assert hits >= 7 and plain_hits == 0
+    for r in rows:        # every error within 3 predicted sd (interval: life x exp(+-t sd), t_40 = 1.684)
+        life, _, high = r["model"]
+        assert abs(math.log(r["truth_h"] / life)) < 3.0 * math.log(high / life) / 1.684, r
+
+
+@pytest.mark.slow
+def test_running_in_life_interval_is_calibrated_on_noise_redraws():
+    """The interval's statistics without the luck of ten bags: seed 0's motion (5 Hz) with 120 fresh draws of
+    the 0.5 um measurement noise, each fitted with running_in on every measurement (the model file's fit) and
+    replayed with the file: the predicted sd of ln(life) (from the interval) equals the empirical spread of
+    ln(life / true life) to 20 %, and the 90 % interval covers the true life in 82-97 % of the draws (90 %
+    +- 2.5 binomial sd for 120). Measured (10 Hz, 400 draws, before the profiled-K fix): predicted 0.0243
+    against 0.0210 empirical (the online K spread was counted twice), 94 % covered; after it, seed 9's motion,
+    150 draws: 0.0215 against 0.0212, 88 % covered. ~90 s."""
+    from guide_health.analysis.discrepancy.model import WearProblem
+    from guide_health.analysis.discrepancy.model_file import model_parameters
+
+    params, run = bench_running_in(0, rate_hz=5.0)
+    truth_m = np.asarray(run.metadata["truth"]["straightness_m"])
+    truth_h = true_remaining_life_h(run, params["straightness_limit_m"])
+    cells = duty_cells_from_runs(run, params["slider_length_m"], limits=InputLimits.from_params(params),
+                                 sliding_deadband_m=params["sliding_deadband_m"])
+    rng = np.random.default_rng(2026)
+    errors, sds, hits = [], [], 0
+    for _ in range(120):
+        measured = truth_m + rng.normal(0.0, 0.5e-6, truth_m.size)
+        problem = WearProblem(dataclasses.replace(cells, measurement_m=measured), params, heldout_fraction=0.0)
+        model = model_parameters(problem, problem.fit(("running_in",)), ["running_in"])
+        life = replay_life({**params, **model}, dataclasses.replace(run, straightness_m=measured))
+        errors.append(math.log(truth_h / life[0]))
+        sds.append(math.log(life[2] / life[0]) / 1.684)
+        hits += covers(life, truth_h)
+    ratio = float(np.mean(sds)) / float(np.std(errors))
+    print(f"predicted sd {np.mean(sds):.4f}, empirical {np.std(errors):.4f}, covered {hits}/120")
+    assert 0.8 < ratio < 1.2, ratio
+    assert 98 <= hits <= 116, hits
 
 
 # --- the CLI ----------------------------------------------------------------------------------------
