@@ -243,16 +243,17 @@ def disagreement(problem: WearProblem, predicted_m: np.ndarray, alpha: float = 0
     return out
 
 
-def unexplained_structure(after: dict[str, Any], named: list[str],
-                          forecast: dict[str, Any] | None = None) -> dict[str, Any]:
+def unexplained_structure(after: dict[str, Any], named: list[str]) -> dict[str, Any]:
     """The verdict on the residuals after the final fit: ``present`` when they are still systematic in time
     (runs test, lag-1 autocorrelation or Ljung-Box, p < 0.01), follow an operating condition (Spearman,
-    Bonferroni) or the work done in some bins of one (binned work, Bonferroni); then ``where`` (time windows
+    Bonferroni), the work done in some bins of one (binned work, Bonferroni) or the held-out forecast drifts
+    away (``after["heldout_forecast"]``, :func:`forecast_check`); then ``where`` (time windows
     of one sign) and ``conditions`` (which, with rho or F) say where and under which condition, and
     ``message`` says it first: physics outside the effect library, the named effects (if any) are not an
     explanation."""
     binned = after.get("systematic_binned", [])
-    missed = bool(forecast and forecast["systematic"])
+    forecast = after.get("heldout_forecast") or {}
+    missed = bool(forecast.get("systematic"))
     present = bool(after["systematic_in_time"] or after["systematic_conditions"] or binned or missed)
     out: dict[str, Any] = {"present": present, "where": [], "conditions": [], "message": ""}
     if not present:
