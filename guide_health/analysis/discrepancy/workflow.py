@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from guide_health.analysis.discrepancy.analysis import disagreement, unexplained_structure
+from guide_health.analysis.discrepancy.analysis import disagreement, forecast_check, unexplained_structure
 from guide_health.analysis.discrepancy.duty import DutyCells
 from guide_health.analysis.discrepancy.model import FitResult, WearProblem, rel_errors
 from guide_health.analysis.discrepancy.model_file import model_parameters
@@ -47,6 +47,9 @@ SEPARATING_DUTY = {
     "load_along_rail": "jobs confined to different sections of the rail",
 }
 
+# what the JSON keeps of the residual analysis after the final fit
+RESIDUALS_AFTER_KEYS = ("residual_rms_um", "runs_test", "lag1_autocorrelation", "ljung_box", "systematic_in_time",
+                        "systematic_conditions", "binned_work", "systematic_binned", "heldout_forecast", "windows")
 STEADY_STAGE_DISTANCES = 3.0     # the running-in transient is over after 3 s0 (exp(-3) = 5 %)
 
 
@@ -135,6 +138,7 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
     where = disagreement(problem, base.predicted_m)
     after = disagreement(problem, final.predicted_m, mask=problem.fit_mask)     # the fit's own residuals
     named = list(selection.named)
+    after["heldout_forecast"] = forecast_check(problem, final)
     structure = unexplained_structure(after, named)
     candidates = []
     for round_index, rows in enumerate(selection.rounds):
@@ -170,8 +174,7 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
         },
         "candidates": candidates,
         "where_baseline_disagrees": where,
-        "residuals_after": {k: after[k] for k in ("residual_rms_um", "runs_test", "lag1_autocorrelation",
-                                                  "systematic_in_time", "systematic_conditions", "windows")},
+        "residuals_after": {k: after[k] for k in RESIDUALS_AFTER_KEYS},
         "data": {
             "measurements": int(problem.y_m.size), "fit_measurements": int(problem.fit_mask.sum()),
             "heldout_measurements": int(problem.heldout_mask.sum()),
