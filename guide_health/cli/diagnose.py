@@ -28,18 +28,12 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> dict:
-    from guide_health.analysis.discrepancy.duty import read_duty_cells
-    from guide_health.analysis.discrepancy.model_file import write_model_file
-    from guide_health.analysis.discrepancy.report import write_report
-    from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD
-    from guide_health.analysis.discrepancy.workflow import diagnose_cells
+    from guide_health.analysis.discrepancy.duty_process import start_duty_cells
     from guide_health.io.progress import ProgressBar
 
     if not 0.0 <= args.heldout_fraction < 0.9:
         raise InputError("--heldout-fraction must be in [0, 0.9)")
-    threshold = BIC_THRESHOLD if args.bic_threshold is None else args.bic_threshold
-    if not (math.isfinite(threshold) and threshold >= 0):
-        raise InputError("--bic-threshold must be a number >= 0")
+    threshold = _bic_threshold(args.bic_threshold)
     params = wear_monitor_params(args.params)
     if params["straightness_model"] != "eq7":
         print("guide-health diagnose: the effects are defined against Eq. 7; straightness_model "
@@ -47,7 +41,20 @@ def run(args) -> dict:
     bag = Path(args.bag)
     t0 = time.perf_counter()
     bar = ProgressBar("reading", force=args.progress)
-    cells, messages = read_duty_cells(bag, params, args.namespace, bar)
+    # a large bag is read in a child process while this one imports the fit and the plotting (about 1 s)
+    pending = start_duty_cells(bag, params, args.namespace, bar)
+    from guide_health.analysis.discrepancy.model_file import write_model_file
+    from guide_health.analysis.discrepancy.report import write_report
+    from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD
+    from guide_health.analysis.discrepancy.workflow import diagnose_cells
+
+    threshold = BIC_THRESHOLD if threshold is None else threshold
+
+    if pending.background and not args.no_plot:
+        from guide_health.analysis.discrepancy.report import preload_plotting
+
+        preload_plotting()
+    cells, messages = pending.result()
     bar.close()
     t_read = time.perf_counter() - t0
     try:
@@ -67,6 +74,13 @@ def run(args) -> dict:
     print(f"{messages} messages read in {t_read:.1f} s, fitted in {result['fit_s']:.1f} s; report in {out}",
           file=sys.stderr)
     return result
+
+
+def _bic_threshold(value: float | None) -> float | None:
+    """The --bic-threshold given (None: the default, known once the selection is imported), checked."""
+    if value is not None and not (math.isfinite(value) and value >= 0):
+        raise InputError("--bic-threshold must be a number >= 0")
+    return value
 
 
 def format_text(result: dict) -> str:
