@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -58,7 +59,8 @@ def run(args) -> dict:
     bar.close()
     t_read = time.perf_counter() - t0
     try:
-        result = diagnose_cells(cells, params, heldout_fraction=args.heldout_fraction, bic_threshold=threshold)
+        result = diagnose_cells(cells, params, heldout_fraction=args.heldout_fraction, bic_threshold=threshold,
+                                workers=_fit_workers())
     except ValueError as exc:
         raise InputError(f"{bag}: {exc}") from None
     result["messages"] = messages
@@ -74,6 +76,14 @@ def run(args) -> dict:
     print(f"{messages} messages read in {t_read:.1f} s, fitted in {result['fit_s']:.1f} s; report in {out}",
           file=sys.stderr)
     return result
+
+
+def _fit_workers() -> int:
+    """Processes for the candidate fits: 2 on a multi-core machine when nothing else runs in this process
+    (a fork copies only the calling thread), else 1."""
+    import threading
+
+    return 2 if (os.cpu_count() or 1) >= 2 and threading.active_count() == 1 else 1
 
 
 def _bic_threshold(value: float | None) -> float | None:

@@ -14,6 +14,7 @@ import numpy as np
 
 from guide_health.analysis.discrepancy.analysis import disagreement, unexplained_structure
 from guide_health.analysis.discrepancy.duty import DutyCells
+from guide_health.analysis.discrepancy.fit_pool import FitPool
 from guide_health.analysis.discrepancy.model import FitResult, WearProblem, rel_errors
 from guide_health.analysis.discrepancy.model_file import model_parameters
 from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD, forward_selection
@@ -124,12 +125,15 @@ def _steady_stage(problem: WearProblem, base: FitResult, final: FitResult) -> di
 
 
 def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: float = 0.25,
-                   bic_threshold: float = BIC_THRESHOLD) -> dict[str, Any]:
+                   bic_threshold: float = BIC_THRESHOLD, workers: int = 1) -> dict[str, Any]:
     """The discrepancy workflow over duty cells (see ``duty.py``); returns the JSON-ready result with the
-    series for plots under ``series``."""
+    series for plots under ``series``. ``workers`` > 1: the candidate fits of a round in that many processes
+    (fit_pool.py; the same result)."""
     t0 = time.perf_counter()
     problem = WearProblem(cells, params, heldout_fraction=heldout_fraction)
-    selection = forward_selection(problem.fit, problem.available_effects(), bic_threshold=bic_threshold)
+    with FitPool(problem, workers) as pool:
+        selection = forward_selection(problem.fit, problem.available_effects(), bic_threshold=bic_threshold,
+                                      fit_all=pool.fit_all if pool else None)
     base, final = selection.baseline, selection.final
     where = disagreement(problem, base.predicted_m)
     after = disagreement(problem, final.predicted_m, mask=problem.fit_mask)     # the fit's own residuals

@@ -1,13 +1,16 @@
-"""The fast paths of diagnose's duty cells give exactly the cells of the plain path (issue 14).
+"""The fast paths of diagnose give exactly the result of the plain path (issue 14).
 
 - the cell keys by a count over the chunk's key box (duty._cell_keys) = np.unique(keys, return_inverse=True),
   and whole duty cells with it = with np.unique, bit for bit;
 - the cells read in a child process (duty_process.start_duty_cells, background=True) = read_duty_cells in
-  the test process, bit for bit; an InputError in the child is the same one-line error in the caller.
+  the test process, bit for bit; an InputError in the child is the same one-line error in the caller;
+- the candidate fits of each selection round in 2 processes (fit_pool.FitPool) = in turn: the whole result
+  (every candidate's fit, the named effects, the model file, the forecast) identical.
 """
 from __future__ import annotations
 
 import dataclasses
+import json
 from pathlib import Path
 
 import numpy as np
@@ -15,13 +18,16 @@ import pytest
 
 from guide_health.analysis.discrepancy import duty
 from guide_health.analysis.discrepancy.duty_process import start_duty_cells
+from guide_health.analysis.discrepancy.workflow import diagnose_cells
 from guide_health.errors import InputError
 from guide_health.io.bag_writer import write_machine_bag
+from guide_health.models.wear.input_rules import InputLimits
 from guide_health.params import simulation_params, wear_monitor_params
 from guide_health.sim.machine import simulate_machine
 
 ROOT = Path(__file__).resolve().parents[1]
 JOBS = ROOT / "config" / "machine_jobs.yaml"
+BENCH = ROOT / "config" / "bench_000.yaml"
 
 
 def assert_cells_identical(a: duty.DutyCells, b: duty.DutyCells) -> None:
@@ -91,3 +97,25 @@ def test_error_in_the_child_is_the_callers_one_line_error(tmp_path, bag):
     with pytest.raises(InputError) as child:
         start_duty_cells(tmp_path / "missing", params, background=True).result()
     assert str(child.value) == str(serial.value) and "\n" not in str(child.value)
+
+
+def test_candidate_fits_in_two_processes_equal_the_fits_in_turn():
+    # seed 000's bench, 10 h at 5 Hz with running-in hidden: named, so the search runs a second round
+    params = wear_monitor_params(BENCH)
+    sim = simulation_params(BENCH)
+    sim.update(duration_h=10.0, joint_state_rate_hz=5.0)
+    run = simulate_machine(params, sim, seed=3, effects={"running_in": 2.5})
+    cells = duty.duty_cells_from_runs(run, params["slider_length_m"], limits=InputLimits.from_params(params),
+                                      sliding_deadband_m=params["sliding_deadband_m"])
+    serial = diagnose_cells(cells, params, workers=1)
+    pooled = diagnose_cells(cells, params, workers=2)
+    assert serial["named_effects"] == ["running_in"]
+    assert max(c["round"] for c in serial["candidates"]) == 2 and len(serial["candidates"]) >= 15
+
+    def body(result):
+        return json.dumps({k: v for k, v in result.items() if k not in ("fit_s", "series")}, default=float,
+                          sort_keys=True)
+
+    assert body(pooled) == body(serial)
+    for key, values in serial["series"].items():
+        assert np.array_equal(pooled["series"][key], values)
