@@ -61,8 +61,9 @@ def export_commit(commit: str, workdir: Path) -> Path:
     return dest
 
 
-def run_diagnose(cmd: list[str], cwd: Path, env: dict) -> tuple[float, dict, float]:
-    """(wall s, JSON result, peak RSS MiB) of one diagnose process."""
+def run_diagnose(cmd: list[str], cwd: Path, env: dict) -> tuple[float, dict, float, float]:
+    """(wall s, JSON result, peak RSS MiB, CPU s of the process and the children it waited for) of one
+    diagnose process."""
     t0 = time.perf_counter()
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, cwd=cwd, env=env)
     stdout = proc.stdout.read()
@@ -70,7 +71,7 @@ def run_diagnose(cmd: list[str], cwd: Path, env: dict) -> tuple[float, dict, flo
     wall = time.perf_counter() - t0
     if os.waitstatus_to_exitcode(status) != 0:
         raise SystemExit(f"failed: {' '.join(cmd)}")
-    return wall, json.loads(stdout), usage.ru_maxrss / 1024
+    return wall, json.loads(stdout), usage.ru_maxrss / 1024, usage.ru_utime + usage.ru_stime
 
 
 def variants(bag: Path, refs: list[str], workdir: Path) -> dict[str, tuple[list[str], Path, dict]]:
@@ -109,13 +110,15 @@ def main() -> int:
     todo = variants(bag, args.ref, workdir)
     times: dict[str, list[float]] = {"loop": [], **{k: [] for k in todo}}
     last: dict[str, tuple[dict, float]] = {}
+    cpu: dict[str, list[float]] = {k: [] for k in todo}
     n = what = None
     for _ in range(max(1, args.repeat)):
         n, t, what = loop_time(bag)
         times["loop"].append(t)
         for name, (cmd, cwd, env) in todo.items():
-            wall, res, rss = run_diagnose(cmd, cwd, env)
+            wall, res, rss, cpu_s = run_diagnose(cmd, cwd, env)
             times[name].append(wall)
+            cpu[name].append(cpu_s)
             last[name] = (res, rss)
     med = {k: statistics.median(v) for k, v in times.items()}
     print(f"bag: {n:,} messages, {args.hours:g} h at {args.rate:g} Hz, hidden {args.effect}; "
@@ -125,7 +128,8 @@ def main() -> int:
         res, rss = last[name]
         split = (f"read {res.get('read_s', float('nan')):.2f} + fit {res.get('fit_s', float('nan')):.2f} + "
                  f"report {res.get('report_s', float('nan')):.2f} s, {len(res.get('candidates', []))} candidate "
-                 f"fits, named {res.get('named_effects')}, peak RSS {rss:.0f} MiB")
+                 f"fits, named {res.get('named_effects')}, CPU {statistics.median(cpu[name]):.2f} s, "
+                 f"peak RSS {rss:.0f} MiB")
         print(f"  {name:34s} {med[name]:6.2f} s ({min(times[name]):.2f})   {split}")
     if args.rosbags:
         from bench_replay import raw_read_rate
