@@ -346,14 +346,24 @@ def duty_cells_from_runs(runs, slider_length_m: float, block_s: float = 30.0,
     return acc.finish()
 
 
-def read_duty_cells(bag, params: dict, namespace: str | None = None, progress=None) -> tuple[DutyCells, int]:
-    """Stream a machine bag into duty cells (memory bounded by one chunk); (cells, messages read)."""
+def bag_accumulator(params: dict) -> DutyCellAccumulator:
+    """The accumulator ``diagnose`` reads a bag with: slider length, input limits and deadband of ``params``."""
+    return DutyCellAccumulator(params["slider_length_m"], limits=InputLimits.from_params(params),
+                               sliding_deadband_m=params["sliding_deadband_m"])
+
+
+def iter_bag_chunks(bag, params: dict, namespace: str | None = None, progress=None):
+    """The MachineRun chunks of a machine bag that :func:`read_duty_cells` accumulates."""
     from guide_health.io.bag_reader import iter_machine_bag
 
-    acc = DutyCellAccumulator(params["slider_length_m"], limits=InputLimits.from_params(params),
-                              sliding_deadband_m=params["sliding_deadband_m"])
+    return iter_machine_bag(bag, joint=params["joint"], namespace=namespace, progress=progress)
+
+
+def read_duty_cells(bag, params: dict, namespace: str | None = None, progress=None) -> tuple[DutyCells, int]:
+    """Stream a machine bag into duty cells (memory bounded by one chunk); (cells, messages read)."""
+    acc = bag_accumulator(params)
     messages = 0
-    for chunk in iter_machine_bag(bag, joint=params["joint"], namespace=namespace, progress=progress):
+    for chunk in iter_bag_chunks(bag, params, namespace, progress):
         acc.add(chunk)
         messages += chunk.messages
     return acc.finish(), messages

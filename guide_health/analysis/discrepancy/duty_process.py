@@ -1,12 +1,14 @@
-"""Reading a bag into duty cells in a child process while the caller gets the fit and the report ready.
+"""Reading a bag into duty cells beside the rest of ``diagnose``: a pipeline of two processes.
 
 ``diagnose`` spends about a second importing scipy.stats, scipy.optimize and matplotlib, none of which the
-reading needs; on a 2-core machine that second can run beside the read. :func:`start_duty_cells` forks a
-child that runs :func:`~guide_health.analysis.discrepancy.duty.read_duty_cells` (the same function, so
-the same cells, bit for bit) and sends the cells back through a pipe; :meth:`PendingCells.result` waits
-for them. An error in the child (an InputError for a bad bag) is raised again in the caller.
+reading needs, and reading (sqlite3 queries, CDR decoding) is most of the rest. :func:`start_duty_cells`
+forks a child that reads and decodes the bag (``duty.iter_bag_chunks``) and sends each MachineRun chunk
+through a pipe; a thread of the caller receives them and adds them, in order, to the same accumulator
+``duty.read_duty_cells`` uses (``duty.bag_accumulator``), while the caller's main thread imports. The
+same chunks in the same order: the same cells, bit for bit (tested). An error in the child (an InputError
+for a bad bag) is raised again by :meth:`PendingCells.result`.
 
-The child is used only where it pays and is safe: a large bag (``BACKGROUND_MIN_BYTES`` of data files),
+The pipeline is used only where it pays and is safe: a large bag (``BACKGROUND_MIN_BYTES`` of data files),
 the ``fork`` start method available and no other Python thread running in the caller (a fork copies
 only the calling thread). Otherwise the read runs in the caller, when ``result()`` is called.
 """
@@ -18,6 +20,7 @@ import threading
 from pathlib import Path
 
 BACKGROUND_MIN_BYTES = 32 * 2**20       # below this the read takes well under the imports it would hide
+_CHUNK, _DONE, _ERROR = range(3)
 
 
 def _bag_bytes(bag) -> int:
@@ -35,40 +38,69 @@ def background_possible(bag, min_bytes: int = BACKGROUND_MIN_BYTES) -> bool:
 
 
 def _child(conn, bag, params: dict, namespace, progress) -> None:
-    from guide_health.analysis.discrepancy.duty import read_duty_cells
+    from guide_health.analysis.discrepancy.duty import iter_bag_chunks
 
     try:
-        out = (True, read_duty_cells(bag, params, namespace, progress))
+        for chunk in iter_bag_chunks(bag, params, namespace, progress):
+            conn.send((_CHUNK, chunk))
+        conn.send((_DONE, None))
     except BaseException as exc:  # noqa: BLE001 - handed to the parent, which raises it
-        out = (False, exc)
-    try:
-        conn.send(out)
-    except Exception as exc:  # noqa: BLE001 - an exception that does not pickle: its text
-        conn.send((False, RuntimeError(f"{type(exc).__name__}: {exc}")))
+        try:
+            conn.send((_ERROR, exc))
+        except Exception:  # noqa: BLE001 - an exception that does not pickle: its text
+            conn.send((_ERROR, RuntimeError(f"{type(exc).__name__}: {exc}")))
     finally:
         conn.close()
 
 
 class PendingCells:
-    """The duty cells of a bag, read in a child process or (``process`` None) on ``result()``."""
+    """The duty cells of a bag: read by a child and accumulated by a thread, or (``process`` None) read
+    here on ``result()``."""
 
     def __init__(self, bag, params: dict, namespace, progress, background: bool):
         self.args = (bag, params, namespace, progress)
-        self.process = self.conn = None
+        self.process = self.thread = None
+        self.out: tuple | None = None
         if background:
             import multiprocessing
 
             ctx = multiprocessing.get_context("fork")
-            self.conn, child_conn = ctx.Pipe(duplex=False)
+            conn, child_conn = ctx.Pipe(duplex=False)
             for stream in (sys.stdout, sys.stderr):     # a forked child must not flush the parent's buffers
                 stream.flush()
             self.process = ctx.Process(target=_child, args=(child_conn, *self.args), daemon=True)
             self.process.start()
             child_conn.close()
+            self.thread = threading.Thread(target=self._accumulate, args=(conn,), name="duty-cells", daemon=True)
+            self.thread.start()
 
     @property
     def background(self) -> bool:
         return self.process is not None
+
+    def _accumulate(self, conn) -> None:
+        from guide_health.analysis.discrepancy.duty import bag_accumulator
+
+        acc = bag_accumulator(self.args[1])
+        messages = 0
+        try:
+            while True:
+                kind, value = conn.recv()
+                if kind == _CHUNK:
+                    acc.add(value)
+                    messages += value.messages
+                elif kind == _DONE:
+                    self.out = (True, (acc.finish(), messages))
+                    return
+                else:
+                    self.out = (False, value)
+                    return
+        except EOFError:
+            self.out = (False, RuntimeError("the bag reader process ended without its result"))
+        except BaseException as exc:  # noqa: BLE001 - raised again by result()
+            self.out = (False, exc)
+        finally:
+            conn.close()
 
     def result(self):
         """(DutyCells, messages read), as read_duty_cells returns them."""
@@ -76,13 +108,10 @@ class PendingCells:
             from guide_health.analysis.discrepancy.duty import read_duty_cells
 
             return read_duty_cells(*self.args)
-        try:
-            ok, value = self.conn.recv()
-        except EOFError:
-            self.process.join()
-            raise RuntimeError(f"the duty-cell reader died (exit code {self.process.exitcode})") from None
-        finally:
-            self.conn.close()
+        self.thread.join()
+        ok, value = self.out
+        if not ok and self.process.is_alive():      # the accumulator failed: the reader may wait to send
+            self.process.terminate()
         self.process.join()
         if not ok:
             raise value
