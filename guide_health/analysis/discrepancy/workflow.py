@@ -124,6 +124,24 @@ def _steady_stage(problem: WearProblem, base: FitResult, final: FitResult) -> di
     }}
 
 
+def _candidates(selection) -> list[dict[str, Any]]:
+    """One row per candidate fit of every round of the forward search."""
+    candidates = []
+    for round_index, rows in enumerate(selection.rounds):
+        for r in rows:
+            f = r["fit"]
+            candidates.append({
+                "effect": r["effect"], "round": round_index + 1, "added_to": r["added_to"],
+                "meaning": EFFECT_MEANING[r["effect"]],
+                "delta_bic": r["delta_bic"], "score": -r["delta_bic"], "bic": f.bic,
+                "rmse_um": f.rmse_um, "heldout_rmse_um": f.heldout_rmse_um,
+                "heldout_improves": r["heldout_improves"], "earns_place": r["earns_place"],
+                "selected": r["selected"],
+                "parameters": f.parameter_table(),
+            })
+    return candidates
+
+
 def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: float = 0.25,
                    bic_threshold: float = BIC_THRESHOLD, workers: int = 1) -> dict[str, Any]:
     """The discrepancy workflow over duty cells (see ``duty.py``); returns the JSON-ready result with the
@@ -139,19 +157,7 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
     after = disagreement(problem, final.predicted_m, mask=problem.fit_mask)     # the fit's own residuals
     named = list(selection.named)
     structure = unexplained_structure(after, named)
-    candidates = []
-    for round_index, rows in enumerate(selection.rounds):
-        for r in rows:
-            f = r["fit"]
-            candidates.append({
-                "effect": r["effect"], "round": round_index + 1, "added_to": r["added_to"],
-                "meaning": EFFECT_MEANING[r["effect"]],
-                "delta_bic": r["delta_bic"], "score": -r["delta_bic"], "bic": f.bic,
-                "rmse_um": f.rmse_um, "heldout_rmse_um": f.heldout_rmse_um,
-                "heldout_improves": r["heldout_improves"], "earns_place": r["earns_place"],
-                "selected": r["selected"],
-                "parameters": f.parameter_table(),
-            })
+    candidates = _candidates(selection)
     final_gap = _gap(final)
     effects = {e: {"meaning": EFFECT_MEANING[e],
                    "parameters": {name: final_gap["parameters"][name] for name in _names(problem, e)
