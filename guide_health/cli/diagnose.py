@@ -79,11 +79,11 @@ def run(args) -> dict:
 
 
 def _fit_workers() -> int:
-    """Processes for the candidate fits: 2 on a multi-core machine when nothing else runs in this process
-    (a fork copies only the calling thread), else 1."""
+    """Processes for the candidate fits: 2 on a multi-core Linux machine when nothing else runs in this
+    process (a fork copies only the calling thread), else 1."""
     import threading
 
-    return 2 if (os.cpu_count() or 1) >= 2 and threading.active_count() == 1 else 1
+    return 2 if sys.platform.startswith("linux") and (os.cpu_count() or 1) >= 2 and threading.active_count() == 1 else 1
 
 
 def _bic_threshold(value: float | None) -> float | None:

@@ -9,8 +9,9 @@ same chunks in the same order: the same cells, bit for bit (tested). An error in
 for a bad bag) is raised again by :meth:`PendingCells.result`.
 
 The pipeline is used only where it pays and is safe: a large bag (``BACKGROUND_MIN_BYTES`` of data files),
-the ``fork`` start method available and no other Python thread running in the caller (a fork copies
-only the calling thread). Otherwise the read runs in the caller, when ``result()`` is called.
+Linux with the ``fork`` start method (forking is not safe with macOS system libraries) and no other
+Python thread running in the caller (a fork copies only the calling thread). Otherwise the read runs
+in the caller, when ``result()`` is called.
 """
 from __future__ import annotations
 
@@ -33,8 +34,8 @@ def background_possible(bag, min_bytes: int = BACKGROUND_MIN_BYTES) -> bool:
     """Whether :func:`start_duty_cells` reads in a child (module docstring)."""
     import multiprocessing
 
-    return ("fork" in multiprocessing.get_all_start_methods() and threading.active_count() == 1
-            and _bag_bytes(bag) >= min_bytes)
+    return (sys.platform.startswith("linux") and "fork" in multiprocessing.get_all_start_methods()
+            and threading.active_count() == 1 and _bag_bytes(bag) >= min_bytes)
 
 
 def _child(conn, bag, params: dict, namespace, progress) -> None:
