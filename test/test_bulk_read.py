@@ -109,6 +109,43 @@ def test_packed_sqlite_read_equals_ordered_read(tmp_path, monkeypatch):
     assert [c.messages for c in chunks[:-1]] == [700] * (len(chunks) - 1)     # all topics read: full chunks
 
 
+def _range_batches(db, where, args, flat, base_ns, step=700):
+    lo, hi = db.execute("SELECT MIN(rowid), MAX(rowid) FROM messages").fetchone()
+    return [packed._read_range(db, r, r + step, where, args, flat, base_ns) for r in range(lo, hi + 1, step)]
+
+
+def test_range_query_forms_give_the_same_batches(tmp_path):
+    """The flat range query (taken when the plan is a rowid range search) and log times read relative to a
+    base give the batches of the ordered sub-query with absolute times, bit for bit; near the int64 limits
+    no base is taken (a difference would overflow) and the times stay exact."""
+    bag = bag_writer.write_machine_bag(make_run(), tmp_path / "bag", "sqlite3")
+    with storage.open_storage(bag) as st:
+        db, ids = st._db, [c.id for c in st.connections]
+        where = f" AND topic_id IN ({','.join('?' * len(ids))})"
+        assert packed._plan_in_rowid_order(db, where, ids)
+        base = packed._time_base(db)
+        assert base == db.execute("SELECT MIN(timestamp) FROM messages").fetchone()[0] > 0
+        want = _range_batches(db, where, ids, False, 0)
+        for flat, base_ns in ((True, 0), (True, base), (False, base)):
+            for a, b in zip(_range_batches(db, where, ids, flat, base_ns), want, strict=True):
+                for x, y in zip(a, b, strict=True):
+                    assert x.dtype == y.dtype
+                    np.testing.assert_array_equal(x, y)
+    con = sqlite3.connect(tmp_path / "edge.db3")
+    con.execute("CREATE TABLE messages(id INTEGER PRIMARY KEY, topic_id INTEGER, timestamp INTEGER, data BLOB)")
+    times = [-(2**63), -5, 0, 2**63 - 1]
+    con.executemany("INSERT INTO messages VALUES (?, 1, ?, ?)", [(i + 1, t, bytes([i] * 3)) for i, t in
+                                                                 enumerate(times)])
+    con.commit()
+    assert packed._time_base(con) == 0
+    con.execute("DELETE FROM messages WHERE timestamp >= 0")
+    assert packed._time_base(con) == -(2**63)
+    for flat in (False, True):
+        got = packed._read_range(con, 1, 10, "", [], flat, -(2**63))
+        assert got.log_time_ns.tolist() == times[:2] and got.buf.tolist() == [0, 0, 0, 1, 1, 1]
+    con.close()
+
+
 def test_rows_not_in_time_order_fall_back(tmp_path, monkeypatch):
     """Rows stored in reverse and in a seeded random order: the check of the first range fails and the
     reader gives the ORDER BY timestamp result (= the original run, = rosbags' Reader)."""
