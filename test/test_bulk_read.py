@@ -103,6 +103,12 @@ def test_packed_sqlite_read_equals_ordered_read(tmp_path, monkeypatch):
         got, fallback = _read_watching_fallback(bag, chunk, monkeypatch)
         assert_runs_equal(got, run)
         assert fallback == []
+    try:                                        # without the read-ahead thread (fleet workers on full cores)
+        packed.set_read_ahead(False)
+        for chunk in (1, 700):
+            assert_runs_equal(bag_reader.read_machine_bag(bag, chunk_messages=chunk), run)
+    finally:
+        packed.set_read_ahead(True)
     assert_runs_equal(bag_reader.read_machine_bag(bag, chunk_messages=700),
                       _ordered_read(bag, monkeypatch, chunk_messages=700))
     chunks = list(bag_reader.iter_machine_bag(bag, chunk_messages=700))
@@ -198,9 +204,11 @@ def test_late_disorder_falls_back_from_that_range(tmp_path, monkeypatch):
         perm[[1999, 2000]] = perm[[2000, 1999]]
         return perm
     _renumber(bag, swap_late)
-    got, fallback = _read_watching_fallback(bag, 1000, monkeypatch)
-    assert fallback == [1001]
-    assert_runs_equal(got, run)
+    for ahead in (True, False):                 # with and without the read-ahead thread
+        monkeypatch.setattr(packed, "_READ_AHEAD", [ahead])
+        got, fallback = _read_watching_fallback(bag, 1000, monkeypatch)
+        assert fallback == [1001]
+        assert_runs_equal(got, run)
     with sqlite3.connect(_db(bag)) as con:
         con.execute("DROP INDEX timestamp_idx")
     assert not _uses_packed(bag, 1000) and _uses_packed(bag, 5000)       # 2000/2001 inside [1, 5001)

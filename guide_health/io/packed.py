@@ -228,9 +228,24 @@ class _RangeReader:
             raise InputError(f"corrupt bag {self.path}: {one_line(exc)}") from None
 
 
+#: read the next rowid range in a thread while this one is decoded (set_read_ahead)
+_READ_AHEAD = [True]
+
+
+def set_read_ahead(on: bool) -> None:
+    """Whether bulk sqlite3 reads query the next range in a thread while the caller decodes this one. On by
+    default (one bag on a multi-core machine: the query overlaps the decoding). A fleet worker switches it off
+    when every core already runs a bag: the thread then only adds switching (same results either way)."""
+    _READ_AHEAD[0] = bool(on)
+
+
 def _iter_ranges(reader: _RangeReader, ranges, step: int) -> Iterator[list[PackedBatch]]:
     """Read the ranges one ahead in a worker thread (apsw releases the GIL while sqlite works, so the
-    query of the next range runs while the caller decodes this one); at most two ranges in memory."""
+    query of the next range runs while the caller decodes this one); at most two ranges in memory.
+    Without read-ahead (set_read_ahead), one range after the other in this thread."""
+    if not _READ_AHEAD[0]:
+        yield from _iter_ranges_inline(reader, ranges, step)
+        return
     from concurrent.futures import ThreadPoolExecutor
 
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="bag-read") as pool:
@@ -245,3 +260,14 @@ def _iter_ranges(reader: _RangeReader, ranges, step: int) -> Iterator[list[Packe
             if batch.lengths.size:
                 yield [batch]
             del batch
+
+
+def _iter_ranges_inline(reader: _RangeReader, ranges, step: int) -> Iterator[list[PackedBatch]]:
+    for lo, hi in ranges:
+        batch = reader.read((lo, hi))
+        if batch is None:                       # out of order from here on
+            yield from reader.ordered_from(lo, step)
+            return
+        if batch.lengths.size:
+            yield [batch]
+        del batch
