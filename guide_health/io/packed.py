@@ -25,6 +25,11 @@ import numpy as np
 from ..errors import InputError
 from .bag_metadata import one_line
 
+#: first and last rowid / log time of the messages table: one index search each. (MIN and MAX in one SELECT
+#: scan the whole timestamp index: 22-25 ms for 0.5 M rows, against 0.02 ms.)
+ROWID_SPAN = "SELECT (SELECT MIN(rowid) FROM messages), (SELECT MAX(rowid) FROM messages)"
+TIME_SPAN = "SELECT (SELECT MIN(timestamp) FROM messages), (SELECT MAX(timestamp) FROM messages)"
+
 
 class PackedBatch(NamedTuple):
     """Consecutive messages in log-time order, their bytes packed in one buffer."""
@@ -66,7 +71,7 @@ def time_sorted(batch: PackedBatch) -> PackedBatch:
 def _range_ranges(db, step: int) -> list[tuple[int, int]] | None:
     """Rowid ranges [lo, hi) of `step` rowids whose log times do not overlap (each ends no later than
     the next begins); None if they do (then the rowid order is not the log-time order)."""
-    lo, hi = db.execute("SELECT MIN(rowid), MAX(rowid) FROM messages").fetchone()
+    lo, hi = db.execute(ROWID_SPAN).fetchone()
     if lo is None:
         return []
     ranges = []
@@ -115,7 +120,7 @@ def _plan_in_rowid_order(db, where: str, args: list) -> bool:
 
 def _time_base(db) -> int:
     """The smallest log time when every log time minus it fits int64 (integer times); else 0 (none)."""
-    lo, hi = db.execute("SELECT MIN(timestamp), MAX(timestamp) FROM messages").fetchone()
+    lo, hi = db.execute(TIME_SPAN).fetchone()
     if isinstance(lo, int) and isinstance(hi, int) and hi - lo < 2**63:
         return lo
     return 0
@@ -170,7 +175,7 @@ def iter_sqlite_packed(db, path, topic_ids: tuple, chunk_messages: int) -> Itera
         if db.execute("PRAGMA encoding").fetchone()[0] != "UTF-8":
             return None
         if _has_time_index(db):
-            lo, hi = db.execute("SELECT MIN(rowid), MAX(rowid) FROM messages").fetchone()
+            lo, hi = db.execute(ROWID_SPAN).fetchone()
             ranges = [] if lo is None else [(r, r + step) for r in range(int(lo), int(hi) + 1, step)]
             checked = False
         else:
