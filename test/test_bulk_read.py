@@ -152,6 +152,32 @@ def test_range_query_forms_give_the_same_batches(tmp_path):
     con.close()
 
 
+def test_unwanted_topics_and_rows_of_no_topic(tmp_path, monkeypatch):
+    """Every topic of the bag wanted: ranges are read without the topic filter and a row of no known topic
+    (an orphan, topic id 99) is dropped; equal to the run and to the ORDER BY read. One topic wanted of
+    several: the filter stays, and the batches hold exactly that topic's rows in time order."""
+    run = make_run()
+    bag = bag_writer.write_machine_bag(run, tmp_path / "orphan", "sqlite3")
+    with sqlite3.connect(_db(bag)) as con:
+        con.execute("INSERT INTO messages (topic_id, timestamp, data) VALUES "
+                    "(99, (SELECT MAX(timestamp) FROM messages), x'00010000')")
+        n_rows = con.execute("SELECT COUNT(*) FROM messages").fetchone()[0]
+        first = con.execute("SELECT topic_id FROM messages ORDER BY rowid LIMIT 1").fetchone()[0]
+        want = con.execute("SELECT timestamp, data FROM messages WHERE topic_id = ? ORDER BY timestamp, rowid",
+                           (first,)).fetchall()
+    for chunk in (700, n_rows):
+        assert_runs_equal(bag_reader.read_machine_bag(bag, chunk_messages=chunk), run)
+    assert_runs_equal(bag_reader.read_machine_bag(bag, chunk_messages=700),
+                      _ordered_read(bag, monkeypatch, chunk_messages=700))
+    with storage.open_storage(bag) as st:
+        assert packed._every_topic(st._db, tuple(c.id for c in st.connections))
+        assert not packed._every_topic(st._db, (first,))
+        batches = [b for group in iter_sqlite_packed(st._db, bag, (first,), 700) for b in group]
+    assert {int(i) for b in batches for i in b.connection_ids} == {first}
+    assert [int(t) for b in batches for t in b.log_time_ns] == [t for t, _ in want]
+    assert b"".join(b.buf.tobytes() for b in batches) == b"".join(d for _, d in want)
+
+
 def test_rows_not_in_time_order_fall_back(tmp_path, monkeypatch):
     """Rows stored in reverse and in a seeded random order: the check of the first range fails and the
     reader gives the ORDER BY timestamp result (= the original run, = rosbags' Reader)."""

@@ -187,27 +187,51 @@ def iter_sqlite_packed(db, path, topic_ids: tuple, chunk_messages: int) -> Itera
     where = f" AND topic_id IN ({','.join('?' * len(topic_ids))})"
     try:
         db.execute(f"PRAGMA mmap_size={MMAP_BYTES}")       # one copy of each page fewer (read-only use)
-        flat, base_ns = _plan_in_rowid_order(db, where, list(topic_ids)), _time_base(db)
+        every = _every_topic(db, topic_ids)
+        flat = _plan_in_rowid_order(db, "" if every else where, [] if every else list(topic_ids))
+        base_ns = _time_base(db)
     except Exception as exc:  # noqa: BLE001 - a damaged database: one-line error
         raise InputError(f"corrupt bag {path}: {one_line(exc)}") from None
-    reader = _RangeReader(db, path, where, list(topic_ids), checked, flat, base_ns)
+    reader = _RangeReader(db, path, where, list(topic_ids), checked, flat, base_ns, unfiltered=every)
     return _iter_ranges(reader, ranges, step)
+
+
+def _every_topic(db, topic_ids) -> bool:
+    """Whether the wanted topics are all the topics of the bag: the ranges are then read without the
+    per-row topic filter (12 ms per 0.5 M rows), and rows of no known topic are dropped in numpy."""
+    return {int(row[0]) for row in db.execute("SELECT id FROM topics").fetchall()} == {int(t) for t in topic_ids}
+
+
+def _only(batch: PackedBatch, topic_ids: np.ndarray) -> PackedBatch:
+    """The batch's rows of `topic_ids` (itself when all are)."""
+    ok = np.isin(batch.connection_ids, topic_ids)
+    if ok.all():
+        return batch
+    k = np.flatnonzero(ok)
+    return PackedBatch(batch.connection_ids[k], batch.log_time_ns[k], batch.buf, batch.offsets[k], batch.lengths[k])
 
 
 class _RangeReader:
     """Reads rowid ranges in order (in one worker thread), checking the log-time order as it goes."""
 
-    def __init__(self, db, path, where: str, args: list, checked: bool, flat: bool = False, base_ns: int = 0):
+    def __init__(self, db, path, where: str, args: list, checked: bool, flat: bool = False, base_ns: int = 0,
+                 unfiltered: bool = False):
         self.db, self.path, self.where, self.args = db, path, where, args
         self.checked = checked
         self.flat, self.base_ns = flat, base_ns         # see _read_range
+        # every topic wanted: ranges read without the topic filter, rows of unknown topics dropped (_only)
+        self.unfiltered = np.asarray(sorted(args), np.int64) if unfiltered else None
         self.latest_ns: int | None = None      # max log time of the wanted rows read so far
 
     def read(self, bounds: tuple[int, int]) -> PackedBatch | None:
         """The range's wanted rows sorted by (time, rowid); None if a later row is earlier than them."""
         try:
-            batch = time_sorted(_read_range(self.db, bounds[0], bounds[1], self.where, self.args, self.flat,
-                                            self.base_ns))
+            if self.unfiltered is None:
+                batch = _read_range(self.db, bounds[0], bounds[1], self.where, self.args, self.flat, self.base_ns)
+            else:
+                batch = _only(_read_range(self.db, bounds[0], bounds[1], "", [], self.flat, self.base_ns),
+                              self.unfiltered)
+            batch = time_sorted(batch)
             if self.checked or not batch.lengths.size:
                 return batch
             low = -(2**63) if self.latest_ns is None else self.latest_ns
