@@ -59,11 +59,11 @@ from guide_health.params.wear_monitor import hardness_units_warning
 EVENT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
 EVENT_READ_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1, reliability=ReliabilityPolicy.RELIABLE)
-INPUTS = ("joint_states", "guide/load")
+INPUTS = ("joint_states", "guide/load")     # single joint: silent for input_timeout_s: every status STALE
 # events executor: the raw joint/load callbacks copy; the messages are handled in batches of this many (and
 # before a status, a straightness message, a temperature, a maintenance event, a checkpoint, a parameter change,
 # shutdown), with the same result as one by one (StampAlignedFeed.process, test_live_batch.py)
-INPUT_BATCH_MESSAGES = 256     # single joint: silent for input_timeout_s: every status STALE
+INPUT_BATCH_MESSAGES = 2048
 
 
 class WearMonitorNode(Node):
