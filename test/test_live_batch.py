@@ -116,6 +116,7 @@ def run(params, events, batch: int, resumed: bool):
             model.on_temperature(*value)
     flush()
     reasons.extend(feed.flush_all())
+    model.batches = feed.batches          # [without, with the event loop] (StampAlignedFeed._align_fast)
     return model, reasons
 
 
@@ -158,6 +159,7 @@ def test_batches_equal_sample_by_sample_two_guides(batch, resumed):
     one, r1 = run(params, events, 0, resumed)
     many, rn = run(params, events, batch, resumed)
     assert_same(one, many, r1, rn, 6000)
+    assert one.batches == [0, 0] and min(many.batches) >= (1 if batch < 10**5 else 0)   # both ways taken
     assert one.primary.rejected["load above the plausible maximum"] == 6        # 3 huge + 3 for its share
     assert one.guides["rear"].rejected["load above the plausible maximum"] == 3
 
@@ -174,3 +176,75 @@ def test_batches_equal_sample_by_sample_profile_and_rolling(variant):
     one, r1 = run(params, events, 0, False)
     many, rn = run(params, events, 50, False)
     assert_same(one, many, r1, rn, 4000)
+
+
+# --- the node: raw callbacks copy, batches handled at process_inputs ------------------------------------
+def test_node_batches_equal_the_per_message_path_with_bad_messages_inside(ros_context, tmp_path):
+    """Two wear_monitor nodes in-process, fed the same messages in the same order: one through the
+    deserialised callbacks (every message on arrival), one through the raw callbacks (copied, decoded and
+    integrated in batches of 50, split at the messages the batch decoder does not take: a JointState
+    without the joint, empty arrays, positions shorter than names, an invalid nanosec, and at straightness
+    messages). Loads arrive 50 ms late or 30 ms early. Same state to 1e-12, same rejection counts and
+    recent windows."""
+    pytest.importorskip("rclpy")
+    from rclpy.serialization import serialize_message
+    from std_msgs.msg import Float64
+    from test_wear_monitor_node import assert_same_state, joint, load, make_node
+
+    nodes = [make_node(ros_context, tmp_path / name, input_align_window_s=60.0) for name in ("a", "b")]
+    per_message, batched = nodes
+    batched.batch_messages = 50
+    rng = np.random.default_rng(4)
+    messages = []                                   # ("joint" | "load" | "straightness", message)
+    x, direction = 0.0, 1.0
+    for k in range(1500):
+        t = T0_NS * 1e-9 + 0.02 * k
+        x += direction * 0.001
+        if not 0.0 < x < 0.3:
+            direction = -direction
+        messages.append(("joint", joint(t, [x], velocity=[0.05 * direction])))
+        if k % 5 == 0:
+            lag = 0.05 if (k // 5) % 2 else -0.03
+            messages.append(("load", load(t - lag, float(rng.uniform(2000.0, 9000.0)))))
+        if k in (300, 900, 1400):
+            messages.append(("straightness", Float64(data=6e-6 + k * 1e-9)))
+    bad_joint = [joint(0, [0.1], names=("y",)), joint(0, [], names=()), joint(0, [], names=("x",)),
+                 joint(0, [0.1, 0.2], names=("z", "x"))]
+    for at, msg in zip((101, 102, 555, 556), bad_joint):
+        t = messages[at][1].header.stamp
+        msg.header.stamp.sec, msg.header.stamp.nanosec = t.sec, t.nanosec + 1000
+        messages.insert(at + 1, ("joint", msg))
+    late = joint(T0_NS * 1e-9 + 0.02 * 700 + 0.001, [0.1])
+    late.header.stamp.nanosec = 4_000_000_000
+    messages.insert(800, ("joint", late))
+    bad_load = load(T0_NS * 1e-9 + 10.0, 5000.0)
+    bad_load.header.stamp.nanosec = 4_000_000_000
+    messages.insert(1200, ("load", bad_load))
+    messages.insert(1300, ("load", load(T0_NS * 1e-9 + 9.0, math.nan)))
+    try:
+        for kind, msg in messages:
+            if kind == "straightness":
+                for node in nodes:
+                    node._on_straightness(msg)
+            elif kind == "joint":
+                per_message._on_joint(msg)
+                batched._on_joint_raw(serialize_message(msg))
+            else:
+                per_message._on_load(msg)
+                batched._on_load_raw(serialize_message(msg))
+        for node in nodes:
+            node.process_inputs()
+            node.rejections.log_all(node.feed.flush_all())
+        a, b = per_message.monitor, batched.monitor
+        assert_same_state(a.state(), b.state())
+        assert dict(a.rejected) == dict(b.rejected) and a.rejected.total == 6
+        assert {k: list(v) for k, v in a.recent.items()} == {k: list(v) for k, v in b.recent.items()}
+        ra, rb = a.report(), b.report()
+        for key in COMPARED:
+            assert rb[key] == pytest.approx(ra[key], rel=REL, nan_ok=True), key
+        assert ra["measurements"] == 3 and ra["samples"] == 1501 and ra["load_samples"] == 300
+        assert batched.feed.batches[0] >= 20 and batched._callbacks == len(messages) - 3
+    finally:
+        for node in nodes:
+            node.close()
+            node.destroy_node()
