@@ -10,10 +10,11 @@ SQLite (`state_file`), one key per guide.
 
 Executor (parameter `executor`; `auto`, the default, is `events` unless `sensor_qos` is `best_effort` or
 the node runs on /clock, guide_health/nodes/qos.py): `events` spins rclpy's EventsExecutor with raw
-subscriptions for joint_states and guide/load, decoded at fixed CDR offsets
-(guide_health.io.cdr.RawMessageDecoder, a few us) instead of rclpy deserialisation; it handles messages in
-arrival order across topics, so a header-less straightness message is dated by the joint samples published
-before it. `single_threaded` is rclpy's SingleThreadedExecutor with deserialised messages (the reference; it
+subscriptions for joint_states and guide/load, whose callbacks only copy the message and its arrival time;
+batches are decoded at fixed CDR offsets with numpy (guide_health.io.cdr.RawBatchDecoder) instead of rclpy
+deserialisation and integrated through the model's batch path (:meth:`WearMonitorNode.process_inputs`,
+the same numbers as one by one); it handles messages in arrival order across topics, so a header-less
+straightness message is dated by the joint samples published before it. `single_threaded` is rclpy's SingleThreadedExecutor with deserialised messages (the reference; it
 takes one message per subscription per wait, so under a backlog a straightness message overtakes queued joint
 samples).
 """
