@@ -4,7 +4,8 @@ sample-by-sample feed (joint()/load() on arrival), on seeded streams with everyt
 matter: loads overtaking joint samples and arriving late, arrival gaps longer than the window (aged
 samples), bad samples of every input rule (one load rejected by one guide's share only), a regrind and a
 measure event stamped in the middle of a batch, straightness measurements between batches, a resumed load
-state, two guides with unequal shares, the profile model and a rolling guide with temperatures."""
+state, two guides with unequal shares, the profile model, a rolling guide with temperatures and the live wear
+effects."""
 import math
 from pathlib import Path
 
@@ -164,10 +165,13 @@ def test_batches_equal_sample_by_sample_two_guides(batch, resumed):
     assert one.guides["rear"].rejected["load above the plausible maximum"] == 3
 
 
-@pytest.mark.parametrize("variant", ["profile", "rolling"])
-def test_batches_equal_sample_by_sample_profile_and_rolling(variant):
+@pytest.mark.parametrize("variant", ["profile", "rolling", "effects"])
+def test_batches_equal_sample_by_sample_profile_rolling_effects(variant):
     if variant == "profile":
         params = axis_params(straightness_model="profile")
+    elif variant == "effects":            # the effect-aware live model (segments to EffectWear)
+        params = axis_params(effects="running_in,retract_asymmetry,load_exponent", running_in_ratio=2.0,
+                             retract_wear_factor=0.5, load_exponent=1.3)
     else:
         nsk = machine_axes_params(ROOT / "config" / "nsk_lh45.yaml")
         params = dict(next(iter(nsk.values())), axis="y", guides=["front", "rear"],
@@ -176,6 +180,7 @@ def test_batches_equal_sample_by_sample_profile_and_rolling(variant):
     one, r1 = run(params, events, 0, False)
     many, rn = run(params, events, 50, False)
     assert_same(one, many, r1, rn, 4000)
+    assert (many.primary.effect_wear is not None) == (variant == "effects")
 
 
 # --- the node: raw callbacks copy, batches handled at process_inputs ------------------------------------

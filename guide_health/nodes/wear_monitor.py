@@ -14,7 +14,8 @@ subscriptions for joint_states and guide/load, whose callbacks only copy the mes
 batches are decoded at fixed CDR offsets with numpy (guide_health.io.cdr.RawBatchDecoder) instead of rclpy
 deserialisation and integrated through the model's batch path (:meth:`WearMonitorNode.process_inputs`,
 the same numbers as one by one); it handles messages in arrival order across topics, so a header-less
-straightness message is dated by the joint samples published before it. `single_threaded` is rclpy's SingleThreadedExecutor with deserialised messages (the reference; it
+straightness message is dated by the joint samples published before it. `single_threaded` is rclpy's
+SingleThreadedExecutor with deserialised messages (the reference; it
 takes one message per subscription per wait, so under a backlog a straightness message overtakes queued joint
 samples).
 """
