@@ -49,7 +49,8 @@ node = rclpy.create_node("bench_feeder")
 qos = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1, reliability=ReliabilityPolicy.RELIABLE)
 pj = node.create_publisher(JointState, "/joint_states", qos)
 pl = node.create_publisher(WrenchStamped, "/guide/load", qos)
-while pj.get_subscription_count() < 1 or pl.get_subscription_count() < 1:
+subscribers = int(sys.argv[3]) if len(sys.argv) > 3 else 1     # readers to wait for
+while pj.get_subscription_count() < subscribers or pl.get_subscription_count() < subscribers:
     time.sleep(0.01)
 time.sleep(0.5)
 print("start", flush=True)
