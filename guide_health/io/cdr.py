@@ -278,6 +278,62 @@ class RawMessageDecoder:
         return tuple(self.absent if r is None else r[0].unpack_from(raw, r[1])[0] for r in readers)
 
 
+class RawBatchDecoder:
+    """:class:`RawMessageDecoder` over a list of messages at once (the live node's batches): the same
+    layouts (parsed once per message length, up to _MAX_TEMPLATES each), each message checked against a
+    layout's structural bytes and its numbers read at the layout's offsets with numpy.
+
+    decode(raws) -> ({name: array}, status): status 0 decoded (``absent`` for an absent optional number),
+    1 valid but without the wanted joint (MISSING), 2 not decoded here (no layout fits: the caller takes
+    the per-message path, which gives the exact reason). Stamps: "sec" and "nsec" as int64 arrays."""
+
+    def __init__(self, msgtype: str, names: tuple, joint: str = "x", absent: float = math.nan):
+        self.layout_fn = codec_for(msgtype, joint).layout
+        self.names = tuple(names)
+        self.absent = absent
+        self._layouts: dict[int, list] = {}
+
+    def decode(self, raws: list) -> tuple[dict, np.ndarray]:
+        n = len(raws)
+        out = {k: np.zeros(n, np.int64) if k in ("sec", "nsec") else np.full(n, self.absent) for k in self.names}
+        status = np.full(n, 2, np.int8)
+        if n:
+            for idx, rows in _list_groups(raws):
+                self._decode_rows(rows, idx, out, status)
+        return out, status
+
+    def _decode_rows(self, rows: np.ndarray, idx: np.ndarray, out: dict, status: np.ndarray) -> None:
+        size = rows.shape[1]
+        layouts = self._layouts.setdefault(size, [])
+        rem = np.arange(idx.size)
+        k = 0
+        while rem.size:
+            if k == len(layouts):
+                if k == _MAX_TEMPLATES:
+                    return
+                layout = self.layout_fn(rows[rem[0]].tobytes())
+                if layout is None:
+                    return                     # the per-message path for the rest
+                layouts.append((layout, *_field_mask(layout)))
+            layout, cols, expect = layouts[k]
+            k += 1
+            if cols.size and cols.max() >= size:
+                continue
+            match = (rows[rem[:, None], cols] == expect).all(axis=1) if cols.size else np.ones(rem.size, bool)
+            hit = rem[match]
+            if not hit.size:
+                continue
+            target = idx[hit]
+            status[target] = 1 if layout.missing else 0
+            if not layout.missing:
+                for name in self.names:
+                    if name in layout.values:
+                        off, dtype = layout.values[name]
+                        col = np.ndarray((idx.size,), dtype=dtype, buffer=rows, offset=off, strides=(size,))
+                        out[name][target] = col[hit]
+            rem = rem[~match]
+
+
 # ---------------------------------------------------------------------------------------------
 # chunk decoding (bag reader side): numpy over all messages of one topic in a chunk
 # ---------------------------------------------------------------------------------------------
