@@ -30,9 +30,7 @@ def add_arguments(parser) -> None:
 
 def run(args) -> dict:
     from guide_health.analysis.discrepancy.duty_process import start_duty_cells
-    from guide_health.io.maintenance_msgs import read_events
     from guide_health.io.progress import ProgressBar
-    from guide_health.models.wear.maintenance import relubrication_times_s
 
     if not 0.0 <= args.heldout_fraction < 0.9:
         raise InputError("--heldout-fraction must be in [0, 0.9)")
@@ -50,18 +48,23 @@ def run(args) -> dict:
     from guide_health.analysis.discrepancy.report import write_report
     from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD
     from guide_health.analysis.discrepancy.workflow import diagnose_cells
+    from guide_health.io.maintenance_msgs import read_events
+    from guide_health.models.wear.maintenance import relubrication_times_s
 
     threshold = BIC_THRESHOLD if threshold is None else threshold
+    events = None
+    if pending.background:                  # while the child reads: the plotting and the maintenance events
+        if not args.no_plot:
+            from guide_health.analysis.discrepancy.report import preload_plotting
 
-    if pending.background and not args.no_plot:
-        from guide_health.analysis.discrepancy.report import preload_plotting
-
-        preload_plotting()
+            preload_plotting()
+        events = read_events(bag, args.namespace)
     cells, messages = pending.result()
     bar.close()
     t_read = time.perf_counter() - t0
     # recorded relubrications (maintenance events in the bag): the lubrication_interval effect's time base
-    relube = relubrication_times_s(read_events(bag, args.namespace), params.get("axis", params["joint"]), cells.t0_ns)
+    events = read_events(bag, args.namespace) if events is None else events
+    relube = relubrication_times_s(events, params.get("axis", params["joint"]), cells.t0_ns)
     try:
         result = diagnose_cells(cells, params, heldout_fraction=args.heldout_fraction, bic_threshold=threshold,
                                 relubrication_t_s=relube, workers=_fit_workers())
