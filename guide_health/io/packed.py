@@ -97,8 +97,6 @@ _RANGE = "FROM messages WHERE rowid >= ? AND rowid < ?"
 #: query plan, _plan_in_rowid_order), else over a sub-query ordered by rowid (materialised: 15 % slower)
 _RANGE_SQL = (f"SELECT {_COLUMNS} {_RANGE}{{where}}",
               f"SELECT {_COLUMNS} FROM (SELECT data, topic_id, timestamp {_RANGE}{{where}} ORDER BY rowid)")
-#: bytes of the database file sqlite may map instead of copying pages through read() (address space only)
-MMAP_BYTES = 1 << 30
 
 
 def _range_sql(flat: bool, where: str, base_ns: int) -> str:
@@ -186,7 +184,6 @@ def iter_sqlite_packed(db, path, topic_ids: tuple, chunk_messages: int) -> Itera
         return None
     where = f" AND topic_id IN ({','.join('?' * len(topic_ids))})"
     try:
-        db.execute(f"PRAGMA mmap_size={MMAP_BYTES}")       # one copy of each page fewer (read-only use)
         every = _every_topic(db, topic_ids)
         flat = _plan_in_rowid_order(db, "" if every else where, [] if every else list(topic_ids))
         base_ns = _time_base(db)
