@@ -42,23 +42,39 @@ def run(args) -> dict:
     bag = Path(args.bag)
     t0 = time.perf_counter()
     bar = ProgressBar("reading", force=args.progress)
-    # a large bag is read in a child process while this one imports the fit and the plotting (about 1 s)
-    pending = start_duty_cells(bag, params, args.namespace, bar)
+    # a large bag is read in a child process while this one imports the fit (about 1 s); the child then
+    # imports matplotlib while this one fits, and draws the PNG
+    pending = start_duty_cells(bag, params, args.namespace, bar, plot=not args.no_plot)
     from guide_health.analysis.discrepancy.model_file import write_model_file
     from guide_health.analysis.discrepancy.report import write_report
+
+    try:
+        result, out, t1 = _diagnose(args, params, bag, pending, bar, threshold, t0)
+        result["files"] = write_report(result, out, bag=str(bag), with_plot=not args.no_plot,
+                                       plot_with=pending.plot)
+    finally:
+        pending.close()
+    result["files"]["model"] = str(out / "model.yaml")
+    write_model_file(out / "model.yaml", params, result["model_file"], result["named_effects"], source=str(bag))
+    result["report_s"] = time.perf_counter() - t1
+    result["total_s"] = time.perf_counter() - t0
+    result.pop("series")
+    print(f"{result['messages']} messages read in {result['read_s']:.1f} s, fitted in {result['fit_s']:.1f} s; "
+          f"report in {out}",
+          file=sys.stderr)
+    return result
+
+
+def _diagnose(args, params: dict, bag: Path, pending, bar, threshold, t0: float):
+    """The cells (from ``pending``) through the workflow: (result, report directory, time the report starts)."""
     from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD
     from guide_health.analysis.discrepancy.workflow import diagnose_cells
     from guide_health.io.maintenance_msgs import read_events
     from guide_health.models.wear.maintenance import relubrication_times_s
 
     threshold = BIC_THRESHOLD if threshold is None else threshold
-    events = None
-    if pending.background:                  # while the child reads: the plotting and the maintenance events
-        if not args.no_plot:
-            from guide_health.analysis.discrepancy.report import preload_plotting
-
-            preload_plotting()
-        events = read_events(bag, args.namespace)
+    # while the child reads: the maintenance events
+    events = read_events(bag, args.namespace) if pending.background else None
     cells, messages = pending.result()
     bar.close()
     t_read = time.perf_counter() - t0
@@ -73,16 +89,7 @@ def run(args) -> dict:
     result["messages"] = messages
     result["read_s"] = t_read
     out = Path(args.out) if args.out else bag.with_name(bag.name + ".diagnose")
-    t1 = time.perf_counter()
-    result["files"] = write_report(result, out, bag=str(bag), with_plot=not args.no_plot)
-    result["files"]["model"] = str(out / "model.yaml")
-    write_model_file(out / "model.yaml", params, result["model_file"], result["named_effects"], source=str(bag))
-    result["report_s"] = time.perf_counter() - t1
-    result["total_s"] = time.perf_counter() - t0
-    result.pop("series")
-    print(f"{messages} messages read in {t_read:.1f} s, fitted in {result['fit_s']:.1f} s; report in {out}",
-          file=sys.stderr)
-    return result
+    return result, out, time.perf_counter()
 
 
 def _fit_workers() -> int:

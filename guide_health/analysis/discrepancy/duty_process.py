@@ -6,7 +6,9 @@ forks a child that reads and decodes the bag (``duty.iter_bag_chunks``) and send
 through a pipe; a thread of the caller receives them and adds them, in order, to the same accumulator
 ``duty.read_duty_cells`` uses (``duty.bag_accumulator``), while the caller's main thread imports. The
 same chunks in the same order: the same cells, bit for bit (tested). An error in the child (an InputError
-for a bad bag) is raised again by :meth:`PendingCells.result`.
+for a bad bag) is raised again by :meth:`PendingCells.result`. With ``plot``, the child then imports
+matplotlib while the parent fits and draws the PNG when asked (:meth:`PendingCells.plot`), so neither
+the import nor the drawing competes with the parent's imports during the read.
 
 The pipeline is used only where it pays and is safe: a large bag (``BACKGROUND_MIN_BYTES`` of data files),
 Linux with the ``fork`` start method (forking is not safe with macOS system libraries) and no other
@@ -21,7 +23,7 @@ import threading
 from pathlib import Path
 
 BACKGROUND_MIN_BYTES = 32 * 2**20       # below this the read takes well under the imports it would hide
-_CHUNK, _DONE, _ERROR = range(3)
+_CHUNK, _DONE, _ERROR, _PLOTTED = range(4)
 
 
 def _bag_bytes(bag) -> int:
@@ -38,7 +40,7 @@ def background_possible(bag, min_bytes: int = BACKGROUND_MIN_BYTES) -> bool:
             and threading.active_count() == 1 and _bag_bytes(bag) >= min_bytes)
 
 
-def _child(conn, bag, params: dict, namespace, progress) -> None:
+def _child(conn, requests, bag, params: dict, namespace, progress, plot: bool) -> None:
     from guide_health.analysis.discrepancy.duty import iter_bag_chunks
 
     try:
@@ -46,33 +48,61 @@ def _child(conn, bag, params: dict, namespace, progress) -> None:
             conn.send((_CHUNK, chunk))
         conn.send((_DONE, None))
     except BaseException as exc:  # noqa: BLE001 - handed to the parent, which raises it
+        _send_error(conn, exc)
+        return
+    if plot:
+        _plot_server(conn, requests)
+
+
+def _send_error(conn, exc: BaseException) -> None:
+    try:
+        conn.send((_ERROR, exc))
+    except Exception:  # noqa: BLE001 - an exception that does not pickle: its text
+        conn.send((_ERROR, RuntimeError(f"{type(exc).__name__}: {exc}")))
+
+
+def _plot_server(conn, requests) -> None:
+    """After the read: import matplotlib while the parent fits, then draw the PNG it asks for."""
+    from guide_health.analysis.discrepancy.report import plot, preload_plotting
+
+    preload_plotting()
+    while True:
         try:
-            conn.send((_ERROR, exc))
-        except Exception:  # noqa: BLE001 - an exception that does not pickle: its text
-            conn.send((_ERROR, RuntimeError(f"{type(exc).__name__}: {exc}")))
-    finally:
-        conn.close()
+            request = requests.recv()
+        except EOFError:
+            return
+        if request is None:
+            return
+        try:
+            plot(*request)
+            conn.send((_PLOTTED, None))
+        except BaseException as exc:  # noqa: BLE001 - handed to the parent, which raises it
+            _send_error(conn, exc)
 
 
 class PendingCells:
     """The duty cells of a bag: read by a child and accumulated by a thread, or (``process`` None) read
     here on ``result()``."""
 
-    def __init__(self, bag, params: dict, namespace, progress, background: bool):
+    def __init__(self, bag, params: dict, namespace, progress, background: bool, plot: bool = False):
         self.args = (bag, params, namespace, progress)
-        self.process = self.thread = None
+        self.process = self.thread = self.conn = self.requests = None
         self.out: tuple | None = None
         if background:
             import multiprocessing
 
             ctx = multiprocessing.get_context("fork")
-            conn, child_conn = ctx.Pipe(duplex=False)
+            self.conn, child_conn = ctx.Pipe(duplex=False)
+            child_requests, self.requests = ctx.Pipe(duplex=False)
             for stream in (sys.stdout, sys.stderr):     # a forked child must not flush the parent's buffers
                 stream.flush()
-            self.process = ctx.Process(target=_child, args=(child_conn, *self.args), daemon=True)
+            self.process = ctx.Process(target=_child, args=(child_conn, child_requests, *self.args, plot),
+                                       daemon=True)
             self.process.start()
             child_conn.close()
-            self.thread = threading.Thread(target=self._accumulate, args=(conn,), name="duty-cells", daemon=True)
+            child_requests.close()
+            self.thread = threading.Thread(target=self._accumulate, args=(self.conn,), name="duty-cells",
+                                           daemon=True)
             self.thread.start()
 
     @property
@@ -100,8 +130,6 @@ class PendingCells:
             self.out = (False, RuntimeError("the bag reader process ended without its result"))
         except BaseException as exc:  # noqa: BLE001 - raised again by result()
             self.out = (False, exc)
-        finally:
-            conn.close()
 
     def result(self):
         """(DutyCells, messages read), as read_duty_cells returns them."""
@@ -111,17 +139,48 @@ class PendingCells:
             return read_duty_cells(*self.args)
         self.thread.join()
         ok, value = self.out
-        if not ok and self.process.is_alive():      # the accumulator failed: the reader may wait to send
-            self.process.terminate()
-        self.process.join()
         if not ok:
+            self.close()
             raise value
         return value
 
+    def plot(self, result: dict, path) -> None:
+        """report.plot(result, path): by the child when it stayed to plot (it imported matplotlib while
+        this process fitted), else here."""
+        from guide_health.analysis.discrepancy.report import plot
+
+        if self.process is None or not self.process.is_alive():
+            plot(result, path)
+            return
+        self.requests.send((result, path))
+        try:
+            kind, value = self.conn.recv()
+        except EOFError:
+            raise RuntimeError("the plotting process ended without drawing the PNG") from None
+        if kind == _ERROR:
+            raise value
+
+    def close(self) -> None:
+        """Let the child go (it may wait for a plot request) and wait for it."""
+        if self.process is None:
+            return
+        try:
+            self.requests.send(None)
+        except OSError:
+            pass
+        self.process.join(timeout=5.0)
+        if self.process.is_alive():
+            self.process.terminate()
+            self.process.join()
+        for conn in (self.conn, self.requests):
+            conn.close()
+        self.process = None
+
 
 def start_duty_cells(bag, params: dict, namespace: str | None = None, progress=None,
-                     background: bool | None = None) -> PendingCells:
-    """Start reading `bag` into duty cells; ``background`` None: in a child when that pays (module docstring)."""
+                     background: bool | None = None, plot: bool = False) -> PendingCells:
+    """Start reading `bag` into duty cells; ``background`` None: in a child when that pays (module docstring).
+    ``plot``: the child then stays to draw the PNG (:meth:`PendingCells.plot`; call ``close()`` at the end)."""
     if background is None:
         background = background_possible(bag)
-    return PendingCells(bag, params, namespace, progress, bool(background and os.name == "posix"))
+    return PendingCells(bag, params, namespace, progress, bool(background and os.name == "posix"), plot)

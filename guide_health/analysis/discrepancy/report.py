@@ -148,8 +148,10 @@ def plot(result: dict[str, Any], path: Path) -> None:
         plt.close(fig)
 
 
-def write_report(result: dict[str, Any], out: Path, bag: str = "", with_plot: bool = True) -> dict[str, str]:
-    """Write the report files; returns their paths. ``result['series']`` is written to CSV, not JSON."""
+def write_report(result: dict[str, Any], out: Path, bag: str = "", with_plot: bool = True,
+                 plot_with=None) -> dict[str, str]:
+    """Write the report files; returns their paths. ``result['series']`` is written to CSV, not JSON.
+    ``plot_with(result, path)``: draws the PNG instead of :func:`plot` (e.g. in another process)."""
     out.mkdir(parents=True, exist_ok=True)
     files = {"json": str(out / "report.json"), "markdown": str(out / "report.md"), "csv": str(out / "residuals.csv")}
     s = result["series"]
@@ -160,7 +162,7 @@ def write_report(result: dict[str, Any], out: Path, bag: str = "", with_plot: bo
             w.writerow([f"{row[0]:.6f}", f"{row[1]:.6f}", f"{row[2]:.6f}", f"{row[3]:.6f}", int(row[4])])
     if with_plot:
         files["png"] = str(out / "diagnose.png")
-        plot(result, Path(files["png"]))
+        (plot_with or plot)(result, Path(files["png"]))
     write_text(files["markdown"], markdown(result, bag))
     body = {k: v for k, v in result.items() if k != "series"}
     body["files"] = files
