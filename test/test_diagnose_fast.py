@@ -4,6 +4,7 @@
   and whole duty cells with it = with np.unique, bit for bit;
 - the cells read in a child process (duty_process.start_duty_cells, background=True) = read_duty_cells in
   the test process, bit for bit; an InputError in the child is the same one-line error in the caller;
+- the PNG drawn by the reader child after the read (PendingCells.plot) = the PNG drawn here, byte for byte;
 - the candidate fits of each selection round in 2 processes (fit_pool.FitPool) = in turn: the whole result
   (every candidate's fit, the named effects, the model file, the forecast) identical.
 """
@@ -119,3 +120,19 @@ def test_candidate_fits_in_two_processes_equal_the_fits_in_turn():
     assert body(pooled) == body(serial)
     for key, values in serial["series"].items():
         assert np.array_equal(pooled["series"][key], values)
+
+
+def test_png_drawn_by_the_reader_child_equals_the_png_drawn_here(bag, tmp_path):
+    path, params = bag
+    pending = start_duty_cells(path, params, background=True, plot=True)
+    try:
+        cells, _ = pending.result()
+        result = diagnose_cells(cells, params)
+        pending.plot(result, tmp_path / "child.png")
+    finally:
+        pending.close()
+    from guide_health.analysis.discrepancy.report import plot
+
+    plot(result, tmp_path / "here.png")
+    assert (tmp_path / "child.png").read_bytes() == (tmp_path / "here.png").read_bytes()
+    assert (tmp_path / "here.png").stat().st_size > 10_000
