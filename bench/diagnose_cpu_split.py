@@ -5,7 +5,8 @@ the host is loaded: wall time then depends on the other processes, CPU time much
 
 Prints the CPU seconds of: the parent's start-up and parameters; the child that reads and decodes the bag;
 the parent's imports and duty-cell accumulation (which run beside the child); the fit in the parent and in
-the 2 pool workers; the report. On an idle 2-core machine the wall time is about start-up + the longer of
+the 2 pool workers; the report with matplotlib's import (diagnose imports and draws in the reader child
+after the read, beside the fit). On an idle 2-core machine the wall time is about start-up + the longer of
 child and parent + half the pool workers' CPU + the report.
 """
 from __future__ import annotations
@@ -37,17 +38,18 @@ def main() -> int:
 
     params = wear_monitor_params([args.params])
     c1 = time.process_time()
-    pending = start_duty_cells(args.bag, params, background=True)
+    pending = start_duty_cells(args.bag, params, background=True)      # the child only reads (no plot)
     from guide_health.analysis.discrepancy.report import preload_plotting, write_report
     from guide_health.analysis.discrepancy.workflow import diagnose_cells
 
-    preload_plotting()
     cells, _ = pending.result()
+    pending.close()                                                      # waited for: its CPU is counted
     child = children_cpu()
     c2 = time.process_time()
     result = diagnose_cells(cells, params, workers=2)
     c3 = time.process_time()
     pool = children_cpu() - child
+    preload_plotting()
     write_report(result, Path(args.bag + ".cpu_split"))
     c4 = time.process_time()
     print(f"CPU s: parent start-up + parameters {c1 - c0:.2f} (plus the interpreter), child read {child:.2f}, "
