@@ -123,6 +123,27 @@ def _steady_stage(problem: WearProblem, base: FitResult, final: FitResult) -> di
     }}
 
 
+def _data_summary(problem: WearProblem, cells: DutyCells) -> dict[str, Any]:
+    """The ``data`` section of the result: what the bag held and what the fit used."""
+    relube = problem.relubrication_t_s
+    return {
+        "measurements": int(problem.y_m.size), "fit_measurements": int(problem.fit_mask.sum()),
+        "heldout_measurements": int(problem.heldout_mask.sum()),
+        "heldout_from_h": (float(problem.t_s[problem.heldout_mask][0] / 3600.0)
+                           if problem.heldout_mask.any() else math.nan),
+        "duration_h": cells.duration_s / 3600.0, "sliding_distance_m": cells.total_distance_m,
+        "segments": cells.segments, "rejected_segments": cells.rejected_segments, "cells": cells.cells,
+        "rejected_samples": dict(cells.rejected_samples),
+        "stroke_sum_m": problem.stroke_sum_m, "feed_speed_m_s": problem.feed_speed_m_s,
+        "retract_speed_m_s": problem.retract_speed_m_s,
+        "retract_direction": "+x" if problem.retract_sign > 0 else "-x",
+        "load_reference_n": problem.load_reference_n,
+        "temperature_recorded": problem.temperature_change_k is not None,
+        "relubrications_recorded": 0 if relube is None else int(relube.size),
+        "straightness_initial_fitted": problem.a0_free,
+    }
+
+
 def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: float = 0.25,
                    bic_threshold: float = BIC_THRESHOLD, relubrication_t_s=None) -> dict[str, Any]:
     """The discrepancy workflow over duty cells (see ``duty.py``); returns the JSON-ready result with the
@@ -172,22 +193,7 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
         "where_baseline_disagrees": where,
         "residuals_after": {k: after[k] for k in ("residual_rms_um", "runs_test", "lag1_autocorrelation",
                                                   "systematic_in_time", "systematic_conditions", "windows")},
-        "data": {
-            "measurements": int(problem.y_m.size), "fit_measurements": int(problem.fit_mask.sum()),
-            "heldout_measurements": int(problem.heldout_mask.sum()),
-            "heldout_from_h": (float(problem.t_s[problem.heldout_mask][0] / 3600.0)
-                               if problem.heldout_mask.any() else math.nan),
-            "duration_h": cells.duration_s / 3600.0, "sliding_distance_m": cells.total_distance_m,
-            "segments": cells.segments, "rejected_segments": cells.rejected_segments, "cells": cells.cells,
-            "rejected_samples": dict(cells.rejected_samples),
-            "stroke_sum_m": problem.stroke_sum_m, "feed_speed_m_s": problem.feed_speed_m_s,
-            "retract_speed_m_s": problem.retract_speed_m_s,
-            "retract_direction": "+x" if problem.retract_sign > 0 else "-x",
-            "load_reference_n": problem.load_reference_n,
-            "temperature_recorded": problem.temperature_change_k is not None,
-            "relubrications_recorded": 0 if problem.relubrication_t_s is None else int(problem.relubrication_t_s.size),
-            "straightness_initial_fitted": problem.a0_free,
-        },
+        "data": _data_summary(problem, cells),
         "selection": {"criterion": "BIC on the fit span and held-out RMSE", "bic_threshold": bic_threshold,
                       "heldout_fraction": heldout_fraction},
     }
