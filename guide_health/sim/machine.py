@@ -8,6 +8,7 @@ Gaussian noise, every ``measurement_interval_h``.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -17,6 +18,7 @@ from guide_health.models.wear.archard import WearGeometry, WearIntegrator, strai
 from guide_health.models.wear.effects import (
     EFFECT_IDS,
     WearEffects,
+    asperity_load_share,
     measured_straightness_m,
     pass_weight_per_m,
     running_in_factor_mean,
@@ -24,7 +26,14 @@ from guide_health.models.wear.effects import (
     wear_rate_multiplier,
 )
 from guide_health.runs import MachineRun
-from guide_health.sim.motion import MachineKnots, cycle_knots
+from guide_health.sim.motion import (
+    MachineKnots,
+    cycle_knots,
+    jerk_limited_knots,
+    position_at,
+    s_curve_mean,
+    share_of_move_at,
+)
 from guide_health.sim.thermal import temperature_records
 
 EFFECTS = EFFECT_IDS
@@ -57,6 +66,10 @@ def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
     effects = checked_effects(effects)
     rng = np.random.default_rng(seed)
     knots = cycle_knots(rng, sim)
+    if sim["motion_profile"] == "jerk_limited":
+        knots = jerk_limited_knots(knots, sim)
+    # encoder noise and the load clock's jitter come from streams of their own: a twin without them is the same run
+    encoder_rng, load_clock_rng = np.random.default_rng([seed, 1]), np.random.default_rng([seed, 2])
     geometry = WearGeometry.from_params(params)
     if effects and geometry.straightness_model != "eq7":
         raise InputError("--effect needs straightness_model: eq7 (the baseline the effects are defined against)")
@@ -64,7 +77,9 @@ def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
                                            load_reference_n=sim["load_reference_n"])
     # the random draws come in this order: strokes (above), load noise, temperature, straightness noise
     joint_t_s, position_m, velocity_m_s = joint_samples(knots, sim["joint_state_rate_hz"])
-    load_t_s, load_n = load_samples(knots, sim, rng)
+    if sim["encoder_noise_m"] > 0:
+        position_m = position_m + encoder_rng.normal(0.0, sim["encoder_noise_m"], position_m.size)
+    load_t_s, load_n = load_samples(knots, sim, rng, load_clock_rng)
     measurement_t_s = np.arange(0.0, knots.t_s[-1] + 1e-9, sim["measurement_interval_h"] * 3600.0)
     temperature_t_s, temperature_c, temperature_at_measurements_c = temperature_records(
         knots, sim, "thermal_drift" in effects, measurement_t_s, rng)
@@ -120,19 +135,27 @@ def stamps_ns(t_s) -> np.ndarray:
 
 def joint_samples(knots: MachineKnots, rate_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """JointState samples of the exact motion: times [s] from 0 at ``rate_hz``, position [m] and
-    velocity [m/s] (the speed of the segment each sample is in)."""
+    velocity [m/s] (sim/motion.py :func:`position_at`: the segment's speed, or the double-S profile's)."""
     ts = np.arange(0.0, knots.t_s[-1], 1.0 / rate_hz)
-    position = np.interp(ts, knots.t_s, knots.x_m)
-    seg = np.clip(np.searchsorted(knots.t_s, ts, side="right"), 1, knots.t_s.size - 1)
-    seg_speed = np.diff(knots.x_m) / np.diff(knots.t_s)
-    return ts, position, seg_speed[seg - 1]
+    position, velocity = position_at(knots, ts)
+    return ts, position, velocity
 
 
-def load_samples(knots: MachineKnots, sim: dict[str, Any], rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """Guide load samples at ``load_rate_hz``: times [s], offset by half a period from the joint samples
-    (no equal stamps across topics), and the load of the enclosing segment [N] plus Gaussian noise."""
+def load_samples(knots: MachineKnots, sim: dict[str, Any], rng: np.random.Generator,
+                 sensor_rng: np.random.Generator | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Guide load samples at ``load_rate_hz`` on the sensor's own clock: times [s] offset by half a
+    period (plus ``load_clock_offset_s``) from the joint samples, the period stretched by
+    ``load_clock_drift_ppm``, each instant jittered by ``load_stamp_jitter_s`` (kept increasing, moved 1 us
+    off a joint stamp); the load of the enclosing segment at that instant [N] plus Gaussian noise."""
     rate = sim["load_rate_hz"]
-    lt = np.arange(0.5 / rate, knots.t_s[-1], 1.0 / rate)
+    period = (1.0 + sim["load_clock_drift_ppm"] * 1e-6) / rate
+    lt = (0.5 / rate + sim["load_clock_offset_s"]) + period * np.arange(int(knots.t_s[-1] * rate) + 2)
+    if sim["load_stamp_jitter_s"] > 0 and sensor_rng is not None:
+        jitter = np.clip(sensor_rng.normal(0.0, sim["load_stamp_jitter_s"], lt.size), -0.45 * period, 0.45 * period)
+        lt = lt + jitter
+        grid = lt * sim["joint_state_rate_hz"]           # no load stamp on a joint stamp (to the ns)
+        lt = np.where(np.abs(grid - np.round(grid)) * 1e9 < 2.0 * sim["joint_state_rate_hz"], lt + 1e-6, lt)
+    lt = lt[lt < knots.t_s[-1]]
     lseg = np.clip(np.searchsorted(knots.t_s, lt, side="right"), 1, knots.t_s.size - 1)
     load = knots.load_n[lseg].astype(float)
     if sim["load_noise_n"] > 0:
@@ -218,12 +241,20 @@ def effective_work_at(knots: MachineKnots, at_s: np.ndarray, effects: WearEffect
     start = np.where(last >= 0, reset_s[np.clip(last, 0, None)], 0.0)
     running_in = running_in_factor_mean(s[:-1] - start, s[1:] - start, effects.running_in_ratio,
                                         effects.running_in_distance_m)
-    m = wear_rate_multiplier(effects, speed, load, knots.retract[1:], running_in)
+    if knots.curve is not None and math.isfinite(effects.lift_speed_m_s):
+        # the asperity share varies along a double-S move: its distance-weighted mean (Gauss-Legendre, 1e-9)
+        share = s_curve_mean(knots.curve, lambda v: asperity_load_share(v, effects.lift_speed_m_s))[1:]
+        m = share * wear_rate_multiplier(replace(effects, lift_speed_m_s=math.inf), speed, load,
+                                         knots.retract[1:], running_in)
+    else:
+        m = wear_rate_multiplier(effects, speed, load, knots.retract[1:], running_in)
     work = load * ds * m
     pass_work = work * pass_weight_per_m(knots.pass_length_m[1:], slider_length_m)
     g = np.concatenate(([0.0], np.cumsum(work)))
     p = np.concatenate(([0.0], np.cumsum(pass_work)))
-    return np.interp(at_s, knots.t_s, g), np.interp(at_s, knots.t_s, p)
+    seg, share_of_move = share_of_move_at(knots, at_s)        # within a move: its share of the distance
+    return (g[seg - 1] + (g[seg] - g[seg - 1]) * share_of_move,
+            p[seg - 1] + (p[seg] - p[seg - 1]) * share_of_move)
 
 
 def simulate_axes(axes: dict[str, dict[str, Any]], sims: dict[str, dict[str, Any]],
