@@ -8,12 +8,19 @@ candidate models:
 - ``speed_squared``: wear rate proportional to W ds (v / v_ref)^2 (a wear rate growing with the square of
   the sliding speed, e.g. frictional heating), v_ref the run's median sample speed;
 - ``position_sine``: wear rate proportional to W ds (1 + a sin(2 pi x / lambda)), a = 0.8, lambda = 0.2 m
-  (a foundation whose stiffness varies along the rail).
+  (a foundation whose stiffness varies along the rail);
+- ``k_drift``: K rising linearly in time, by 80 % over the record (a lubricant slowly degrading).
 
-Both are scaled so that the run's total wear equals the plain Archard wear (the same straightness range).
+All are scaled so that the run's total wear equals the plain Archard wear (the same straightness range).
 Whiteness of the residuals after the fit is judged here by a Ljung-Box test over lags 1-3 (chi-square,
-p < 0.01), not by the package's runs test / lag-1 statistic: whenever it is not white, a named effect must
-come with the ``unexplained_structure`` flag; clean runs raise the flag in at most 1 of 10.
+p < 0.01), written here: whenever it is not white, a named effect must come with the
+``unexplained_structure`` flag; clean runs raise the flag in at most 1 of 10.
+
+Measured 2026-11-23 (seeds 0-9, named / flagged / both): speed_squared 10 / 9 / 9 (the unflagged run has
+Ljung-Box p = 0.053); position_sine 8 / 7 / 6 (before the held-out forecast check: 8 / 1 / 1; the two named
+and unflagged have white residuals, Ljung-Box p 0.035 and 0.74, and forecast p 0.055 and 0.056: the wrong
+effect absorbs the sine within the noise); k_drift 10 / 5 / 5 (before: 10 / 0 / 0; the unflagged have
+Ljung-Box p >= 0.11); clean 0 / 0 / 0.
 """
 from __future__ import annotations
 
@@ -63,6 +70,9 @@ def outside_truth(run, law: str, params: dict, stroke_sum_m: float) -> np.ndarra
     elif law == "position_sine":
         mid = 0.5 * (x[1:] + x[:-1])
         work = plain * (1.0 + 0.8 * np.sin(2.0 * math.pi * mid / 0.2))
+    elif law == "k_drift":
+        t_mid = 0.5 * (t[1:] + t[:-1]) - t[0]
+        work = plain * (1.0 + 0.8 * t_mid / (t[-1] - t[0]))
     else:
         work = plain
     work = work * plain.sum() / work.sum()
@@ -88,17 +98,22 @@ def outside_case(args):
     residual = (np.asarray(s["measured_um"]) - np.asarray(s["final_um"]))
     return {"law": law, "seed": seed, "named": result["named_effects"],
             "flag": result["unexplained_structure"]["present"], "explained": result["explained"],
+            "forecast_p": result["residuals_after"]["heldout_forecast"].get("p_value", math.nan),
             "white_p": ljung_box_p(residual[fit]), "result": {k: v for k, v in result.items() if k != "series"}
             if seed == 0 else None}
 
 
-def run_cases(laws, seeds):
-    cases = [(law, seed) for law in laws for seed in seeds]
+def run_cases(cases):
     with mp.get_context("spawn").Pool(2) as pool:
         rows = pool.map(outside_case, cases)
     for r in rows:
         print(f"{r['law'] or 'clean'} seed {r['seed']}: named {r['named']}, flag {r['flag']}, "
-              f"Ljung-Box p {r['white_p']:.2g}")
+              f"Ljung-Box p {r['white_p']:.2g}, held-out forecast p {r['forecast_p']:.2g}")
+    for law in dict.fromkeys(r["law"] for r in rows):
+        mine = [r for r in rows if r["law"] == law]
+        print(f"{law or 'clean'}: named {sum(bool(r['named']) for r in mine)} / flagged "
+              f"{sum(r['flag'] for r in mine)} / both {sum(bool(r['named']) and r['flag'] for r in mine)} "
+              f"of {len(mine)}")
     return rows
 
 
@@ -111,20 +126,26 @@ def check_honesty(rows):
 
 
 def test_outside_the_library_default():
-    """Default suite (seed 1 of each law and a clean run, ~20 s): no named effect without the flag when the
-    residuals are not white (Ljung-Box here); the clean run is not flagged."""
-    rows = run_cases(["speed_squared", "position_sine", ""], [1])
+    """Default suite (~20 s): no named effect without the flag when the residuals are not white (Ljung-Box
+    here). Speed squared seed 1: a wrong name, flagged by the time-order tests; position sine seed 3: a wrong
+    name with white residuals (Ljung-Box p 0.11), flagged only by the held-out forecast's drift (p ~ 1e-17);
+    the clean run (seed 1, whose held-out noise happens to be 1.6x the fit span's: no drift) is not flagged."""
+    rows = run_cases([("speed_squared", 1), ("position_sine", 3), ("", 1)])
     check_honesty([r for r in rows if r["law"]])
-    assert rows[0]["named"] and rows[0]["flag"]            # speed squared: a wrong name, flagged (measured)
+    assert rows[0]["named"] and rows[0]["flag"]
+    assert rows[1]["named"] and rows[1]["flag"] and rows[1]["white_p"] > 0.01 and rows[1]["forecast_p"] < 1e-6
     assert not rows[2]["flag"]
 
 
 @pytest.mark.slow
 def test_outside_the_library_and_clean_controls_10_seeds():
-    rows = run_cases(["speed_squared", "position_sine", ""], range(10))
+    laws = ["speed_squared", "position_sine", "k_drift", ""]
+    rows = run_cases([(law, seed) for law in laws for seed in range(10)])
     check_honesty([r for r in rows if r["law"]])
     clean = [r for r in rows if not r["law"]]
     assert sum(r["flag"] for r in clean) <= 1
+    # the held-out forecast check flags the wrong names that absorb the sine on the fit span (measured 7/10)
+    assert sum(r["flag"] for r in rows if r["law"] == "position_sine") >= 6
 
 
 def test_flag_comes_first_in_every_output(tmp_path):

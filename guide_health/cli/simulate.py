@@ -8,7 +8,14 @@ from pathlib import Path
 from guide_health.cli.command import Command
 from guide_health.errors import InputError
 from guide_health.params import simulation_params, wear_monitor_params
-from guide_health.sim.machine import apply_maintenance_truth, parse_effects, parse_maintenance, simulate_machine
+from guide_health.params.simulation import REALISTIC_MOTION
+from guide_health.sim.machine import (
+    START_TIME_NS,
+    apply_maintenance_truth,
+    parse_effects,
+    parse_maintenance,
+    simulate_machine,
+)
 
 
 def add_arguments(parser) -> None:
@@ -24,6 +31,11 @@ def add_arguments(parser) -> None:
     parser.add_argument("--hours", type=float, help="duration [h] (default: duration_h of the params file)")
     parser.add_argument("--rate", type=float, help="JointState rate [Hz] (default: joint_state_rate_hz)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (strokes, noise)")
+    parser.add_argument("--motion", choices=("file", "realistic"), default="file",
+                        help="file: the params file's motion (constant-speed moves unless motion_profile says "
+                             "otherwise); realistic: jerk-limited moves, joint_states at 250 Hz with 1 um encoder "
+                             "noise, guide/load at 100 Hz on its own clock (params/simulation.py REALISTIC_MOTION, "
+                             "applied before --rate and --hours)")
     parser.add_argument("--namespace", default="", help="topic namespace, e.g. /m1")
     parser.add_argument("--effect", action="append", metavar="NAME=VALUE",
                         help="physics the baseline model lacks, hidden in the truth (models/wear/effects.py), "
@@ -93,6 +105,8 @@ def run(args) -> dict:
 
     params = wear_monitor_params(args.params)
     sim = simulation_params(args.params)
+    if args.motion == "realistic":
+        sim.update(REALISTIC_MOTION)
     if params["axes"]:
         return run_machine_axes(args, params, sim)
     _check_axis_free(args, sim)
@@ -104,7 +118,8 @@ def run(args) -> dict:
     out = new_bag_path(args.out)
     t0 = time.perf_counter()
     events = parse_maintenance(args.maintenance, {params["joint"]: params})
-    machine = simulate_machine(params, sim, seed=args.seed, effects=effects)
+    resets = [(e.t_ns - START_TIME_NS) * 1e-9 for e in events if e.kind in ("regrind", "replace_rail")]
+    machine = simulate_machine(params, sim, seed=args.seed, effects=effects, new_surface_t_s=resets)
     apply_maintenance_truth(machine, events, params)
     write_machine_bag(machine, out, storage=args.storage, namespace=args.namespace,
                       extra=event_series(events, params["machine_id"]))
@@ -118,6 +133,7 @@ def run(args) -> dict:
         "messages": machine.messages,
         "duration_h": sim["duration_h"],
         "joint_state_rate_hz": sim["joint_state_rate_hz"],
+        "motion_profile": sim["motion_profile"],
         "effects": effects,
         "true_wear_coefficient": truth["wear_coefficient"],
         "true_straightness_final_um": truth["straightness_m"][-1] * 1e6,

@@ -383,7 +383,8 @@ def _decode_rows(rows: np.ndarray, idx: np.ndarray, codec: MessageCodec, out: di
             got = rows[:, cols] if whole else rows[rem[:, None], cols]
             match = (got == expect).all(axis=1)
         hit = rem[match]
-        target = idx[hit]
+        # every message of the chunk, all fitting this template (the usual case): slices, not index arrays
+        target = slice(None) if whole and hit.size == idx.size == status.size else idx[hit]
         if layout.missing:
             status[target] = 1
         else:
@@ -421,6 +422,8 @@ def _decode(n: int, groups, raw_of: Callable[[int], bytes], codec: MessageCodec)
                 out[name][i] = value
                 present[name][i] = True
     keep = np.flatnonzero(status == 0)
+    if keep.size == n:                  # every message kept: the arrays as they are
+        return DecodedChunk(out, present, keep, 0, 0, n_fast, n_fallback)
     return DecodedChunk({k: v[keep] for k, v in out.items()}, {k: v[keep] for k, v in present.items()},
                         keep, int((status == 1).sum()), int((status == 2).sum()), n_fast, n_fallback)
 
@@ -428,7 +431,7 @@ def _decode(n: int, groups, raw_of: Callable[[int], bytes], codec: MessageCodec)
 def _list_groups(raws: list):
     n = len(raws)
     lengths = np.fromiter(map(len, raws), dtype=np.int64, count=n)
-    sizes = np.unique(lengths)
+    sizes = _sizes(lengths)
     for size in sizes.tolist():
         if sizes.size == 1:
             idx = np.arange(n)
@@ -448,8 +451,15 @@ def decode_chunk(raws: list, codec: MessageCodec, fast: bool = True) -> DecodedC
     return _decode(len(raws), groups, raws.__getitem__, codec)
 
 
+def _sizes(lengths: np.ndarray) -> np.ndarray:
+    """The distinct message lengths, ascending (np.unique); one min/max pass when all are equal."""
+    if lengths.size and lengths.min() == lengths.max():
+        return lengths[:1].copy()
+    return np.unique(lengths)
+
+
 def _packed_groups(buf: np.ndarray, offsets: np.ndarray, lengths: np.ndarray):
-    sizes = np.unique(lengths)
+    sizes = _sizes(lengths)
     for size in sizes.tolist():
         idx = np.arange(lengths.size) if sizes.size == 1 else np.flatnonzero(lengths == size)
         if size == 0:

@@ -44,7 +44,25 @@ MACHINE_SIMULATION_PARAMS = (
     Param("thermal_resistance_k_per_w", 0.15, "K/W", "(0, inf)", "guide temperature rise per heating power"),
     Param("thermal_time_constant_s", 1800.0, "s", "(0, inf)", "thermal time constant of the guide"),
     Param("temperature_noise_k", 0.05, "K", "[0, inf)", "1-sigma noise of the temperature sensor"),
+    Param("motion_profile", "constant_speed", "", "", "constant_speed: each move at its speed from knot to knot; "
+          "jerk_limited: double-S moves under max_acceleration_m_s2 and max_jerk_m_s3, stopping at every knot",
+          choices=("constant_speed", "jerk_limited")),
+    Param("max_acceleration_m_s2", 2.0, "m/s^2", "(0, 1000]", "acceleration limit of a jerk-limited move"),
+    Param("max_jerk_m_s3", 40.0, "m/s^3", "(0, 1e6]", "jerk limit of a jerk-limited move"),
+    Param("encoder_noise_m", 0.0, "m", "[0, 0.001]", "1-sigma noise of the joint_states position (encoder)"),
+    Param("load_clock_offset_s", 0.0, "s", "[0, 1]", "guide/load stamps: offset of the sensor's clock after "
+          "the half-period phase"),
+    Param("load_clock_drift_ppm", 0.0, "ppm", "[-1000, 1000]", "guide/load stamps: the sensor's period is "
+          "1 / load_rate_hz x (1 + this x 1e-6)"),
+    Param("load_stamp_jitter_s", 0.0, "s", "[0, 0.01]", "guide/load stamps: 1-sigma jitter of each sample "
+          "instant (stamps stay increasing)"),
 )
+
+#: ``simulate --motion realistic``: a machine-tool axis as a controller records it (jerk-limited moves,
+#: joint_states at 250 Hz with 1 um encoder noise, a 100 Hz load sensor on its own drifting, jittery clock)
+REALISTIC_MOTION = {"motion_profile": "jerk_limited", "joint_state_rate_hz": 250.0, "load_rate_hz": 100.0,
+                    "encoder_noise_m": 1.0e-6, "load_clock_offset_s": 1.3e-3, "load_clock_drift_ppm": 50.0,
+                    "load_stamp_jitter_s": 1.0e-4}
 
 
 def _machine_simulation_cross_checks(p: dict[str, Any]) -> None:

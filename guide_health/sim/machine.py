@@ -8,6 +8,7 @@ Gaussian noise, every ``measurement_interval_h``.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -17,6 +18,7 @@ from guide_health.models.wear.archard import WearGeometry, WearIntegrator, strai
 from guide_health.models.wear.effects import (
     EFFECT_IDS,
     WearEffects,
+    asperity_load_share,
     measured_straightness_m,
     pass_weight_per_m,
     running_in_factor_mean,
@@ -24,7 +26,14 @@ from guide_health.models.wear.effects import (
     wear_rate_multiplier,
 )
 from guide_health.runs import MachineRun
-from guide_health.sim.motion import MachineKnots, cycle_knots
+from guide_health.sim.motion import (
+    MachineKnots,
+    cycle_knots,
+    jerk_limited_knots,
+    position_at,
+    s_curve_mean,
+    share_of_move_at,
+)
 from guide_health.sim.thermal import temperature_records
 
 EFFECTS = EFFECT_IDS
@@ -50,11 +59,17 @@ def parse_effects(items: list[str] | None) -> dict[str, float]:
 
 
 def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
-                     effects: dict[str, float] | None = None) -> MachineRun:
-    """A :class:`MachineRun` of the scenario ``sim`` for a guide with wear parameters ``params``."""
+                     effects: dict[str, float] | None = None, new_surface_t_s=()) -> MachineRun:
+    """A :class:`MachineRun` of the scenario ``sim`` for a guide with wear parameters ``params``.
+    ``new_surface_t_s``: times [s from the start] of wear resets (regrind, new rail; see
+    :func:`apply_maintenance_truth`), from which the new surface runs in again (the running_in effect)."""
     effects = checked_effects(effects)
     rng = np.random.default_rng(seed)
     knots = cycle_knots(rng, sim)
+    if sim["motion_profile"] == "jerk_limited":
+        knots = jerk_limited_knots(knots, sim)
+    # encoder noise and the load clock's jitter come from streams of their own: a twin without them is the same run
+    encoder_rng, load_clock_rng = np.random.default_rng([seed, 1]), np.random.default_rng([seed, 2])
     geometry = WearGeometry.from_params(params)
     if effects and geometry.straightness_model != "eq7":
         raise InputError("--effect needs straightness_model: eq7 (the baseline the effects are defined against)")
@@ -62,17 +77,25 @@ def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
                                            load_reference_n=sim["load_reference_n"])
     # the random draws come in this order: strokes (above), load noise, temperature, straightness noise
     joint_t_s, position_m, velocity_m_s = joint_samples(knots, sim["joint_state_rate_hz"])
-    load_t_s, load_n = load_samples(knots, sim, rng)
+    if sim["encoder_noise_m"] > 0:
+        position_m = position_m + encoder_rng.normal(0.0, sim["encoder_noise_m"], position_m.size)
+    load_t_s, load_n = load_samples(knots, sim, rng, load_clock_rng)
     measurement_t_s = np.arange(0.0, knots.t_s[-1] + 1e-9, sim["measurement_interval_h"] * 3600.0)
     temperature_t_s, temperature_c, temperature_at_measurements_c = temperature_records(
         knots, sim, "thermal_drift" in effects, measurement_t_s, rng)
     truth_k = params["wear_coefficient"] * sim["wear_coefficient_factor"]
-    wear_m = true_straightness_wear_m(params, geometry, knots, wear_effects, truth_k, measurement_t_s)
+    resets = np.sort(np.asarray(new_surface_t_s, dtype=float))
+    wear_all = true_straightness_wear_m(params, geometry, knots, wear_effects, truth_k,
+                                        np.concatenate((measurement_t_s, resets)), resets)
+    wear_m = wear_all[:measurement_t_s.size]
     d_temp = (None if temperature_at_measurements_c is None
               else temperature_at_measurements_c - temperature_at_measurements_c[0])
     truth_m = measured_straightness_m(wear_m, params["straightness_initial_m"], d_temp, wear_effects)
     measured_m = truth_m + rng.normal(0.0, sim["straightness_noise_m"], measurement_t_s.size)
     truth = true_run_values(knots, geometry, truth_k, truth_m, measurement_t_s)
+    if resets.size:     # the noise-free straightness at each wear reset (apply_maintenance_truth's start)
+        truth["straightness_at_resets"] = [[float(t), float(params["straightness_initial_m"] + w)]
+                                           for t, w in zip(resets, wear_all[measurement_t_s.size:])]
     return MachineRun(
         joint_name=params["joint"],
         joint_t_ns=stamps_ns(joint_t_s),
@@ -112,19 +135,27 @@ def stamps_ns(t_s) -> np.ndarray:
 
 def joint_samples(knots: MachineKnots, rate_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """JointState samples of the exact motion: times [s] from 0 at ``rate_hz``, position [m] and
-    velocity [m/s] (the speed of the segment each sample is in)."""
+    velocity [m/s] (sim/motion.py :func:`position_at`: the segment's speed, or the double-S profile's)."""
     ts = np.arange(0.0, knots.t_s[-1], 1.0 / rate_hz)
-    position = np.interp(ts, knots.t_s, knots.x_m)
-    seg = np.clip(np.searchsorted(knots.t_s, ts, side="right"), 1, knots.t_s.size - 1)
-    seg_speed = np.diff(knots.x_m) / np.diff(knots.t_s)
-    return ts, position, seg_speed[seg - 1]
+    position, velocity = position_at(knots, ts)
+    return ts, position, velocity
 
 
-def load_samples(knots: MachineKnots, sim: dict[str, Any], rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """Guide load samples at ``load_rate_hz``: times [s], offset by half a period from the joint samples
-    (no equal stamps across topics), and the load of the enclosing segment [N] plus Gaussian noise."""
+def load_samples(knots: MachineKnots, sim: dict[str, Any], rng: np.random.Generator,
+                 sensor_rng: np.random.Generator | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Guide load samples at ``load_rate_hz`` on the sensor's own clock: times [s] offset by half a
+    period (plus ``load_clock_offset_s``) from the joint samples, the period stretched by
+    ``load_clock_drift_ppm``, each instant jittered by ``load_stamp_jitter_s`` (kept increasing, moved 1 us
+    off a joint stamp); the load of the enclosing segment at that instant [N] plus Gaussian noise."""
     rate = sim["load_rate_hz"]
-    lt = np.arange(0.5 / rate, knots.t_s[-1], 1.0 / rate)
+    period = (1.0 + sim["load_clock_drift_ppm"] * 1e-6) / rate
+    lt = (0.5 / rate + sim["load_clock_offset_s"]) + period * np.arange(int(knots.t_s[-1] * rate) + 2)
+    if sim["load_stamp_jitter_s"] > 0 and sensor_rng is not None:
+        jitter = np.clip(sensor_rng.normal(0.0, sim["load_stamp_jitter_s"], lt.size), -0.45 * period, 0.45 * period)
+        lt = lt + jitter
+        grid = lt * sim["joint_state_rate_hz"]           # no load stamp on a joint stamp (to the ns)
+        lt = np.where(np.abs(grid - np.round(grid)) * 1e9 < 2.0 * sim["joint_state_rate_hz"], lt + 1e-6, lt)
+    lt = lt[lt < knots.t_s[-1]]
     lseg = np.clip(np.searchsorted(knots.t_s, lt, side="right"), 1, knots.t_s.size - 1)
     load = knots.load_n[lseg].astype(float)
     if sim["load_noise_n"] > 0:
@@ -133,11 +164,12 @@ def load_samples(knots: MachineKnots, sim: dict[str, Any], rng: np.random.Genera
 
 
 def true_straightness_wear_m(params: dict[str, Any], geometry: WearGeometry, knots: MachineKnots,
-                             effects: WearEffects, truth_k: float, at_s: np.ndarray) -> np.ndarray:
+                             effects: WearEffects, truth_k: float, at_s: np.ndarray,
+                             new_surface_t_s=()) -> np.ndarray:
     """True straightness loss by wear [m] at times ``at_s``: Eq. 7 with the effects' work, or (other
     straightness models, no effects) the true K times the monitor's loss per unit K of the exact motion."""
     if geometry.straightness_model == "eq7":
-        work, pass_work = effective_work_at(knots, at_s, effects, geometry.slider_length_m)
+        work, pass_work = effective_work_at(knots, at_s, effects, geometry.slider_length_m, new_surface_t_s)
         return straightness_wear_m(truth_k, geometry.hardness_pa, geometry.contact_width_m, work, pass_work,
                                    float(knots.strokes_m.min() + knots.strokes_m.max()),
                                    effects.stroke_distribution_weight)
@@ -193,21 +225,36 @@ def true_straightness_loss_per_k_m(params: dict[str, Any], knot_t: np.ndarray, k
 
 
 def effective_work_at(knots: MachineKnots, at_s: np.ndarray, effects: WearEffects,
-                      slider_length_m: float) -> tuple[np.ndarray, np.ndarray]:
+                      slider_length_m: float, new_surface_t_s=()) -> tuple[np.ndarray, np.ndarray]:
     """Effective Archard work G = sum W ds m [N m] and pass work P = sum W ds m / max(L, L_s) [N] of the
-    exact motion at times ``at_s`` (models/wear/effects.py; m = 1 without effects)."""
+    exact motion at times ``at_s`` (models/wear/effects.py; m = 1 without effects). Running-in counts the
+    sliding distance from the last of ``new_surface_t_s`` [s] before each segment (a reground surface runs
+    in again)."""
     ds = np.abs(np.diff(knots.x_m))
     dt = np.diff(knots.t_s)
     s = np.concatenate(([0.0], np.cumsum(ds)))
     load = knots.load_n[1:]
     speed = np.divide(ds, dt, out=np.zeros_like(ds), where=dt > 0)
-    running_in = running_in_factor_mean(s[:-1], s[1:], effects.running_in_ratio, effects.running_in_distance_m)
-    m = wear_rate_multiplier(effects, speed, load, knots.retract[1:], running_in)
+    resets = np.sort(np.asarray(new_surface_t_s, dtype=float))
+    last = np.searchsorted(resets, knots.t_s[:-1], side="right") - 1
+    reset_s = np.interp(resets, knots.t_s, s) if resets.size else np.zeros(1)     # sliding distance at each
+    start = np.where(last >= 0, reset_s[np.clip(last, 0, None)], 0.0)
+    running_in = running_in_factor_mean(s[:-1] - start, s[1:] - start, effects.running_in_ratio,
+                                        effects.running_in_distance_m)
+    if knots.curve is not None and math.isfinite(effects.lift_speed_m_s):
+        # the asperity share varies along a double-S move: its distance-weighted mean (Gauss-Legendre, 1e-9)
+        share = s_curve_mean(knots.curve, lambda v: asperity_load_share(v, effects.lift_speed_m_s))[1:]
+        m = share * wear_rate_multiplier(replace(effects, lift_speed_m_s=math.inf), speed, load,
+                                         knots.retract[1:], running_in)
+    else:
+        m = wear_rate_multiplier(effects, speed, load, knots.retract[1:], running_in)
     work = load * ds * m
     pass_work = work * pass_weight_per_m(knots.pass_length_m[1:], slider_length_m)
     g = np.concatenate(([0.0], np.cumsum(work)))
     p = np.concatenate(([0.0], np.cumsum(pass_work)))
-    return np.interp(at_s, knots.t_s, g), np.interp(at_s, knots.t_s, p)
+    seg, share_of_move = share_of_move_at(knots, at_s)        # within a move: its share of the distance
+    return (g[seg - 1] + (g[seg] - g[seg - 1]) * share_of_move,
+            p[seg - 1] + (p[seg] - p[seg - 1]) * share_of_move)
 
 
 def simulate_axes(axes: dict[str, dict[str, Any]], sims: dict[str, dict[str, Any]],
@@ -302,17 +349,22 @@ def _straightness_m(item: str, text: str) -> float:
 def apply_maintenance_truth(run: MachineRun, events: list, params: dict[str, Any]) -> None:
     """The measured straightness of ``run`` after each wear reset (regrind, rail replacement) of its axis:
     from then on the truth grows from the straightness after the event (given, else A0) by the wear since
-    it, the truth at the event interpolated between the truth's measurement times (wear grows smoothly)."""
+    it. The truth at the event: simulate_machine's value when the event was among its ``new_surface_t_s``
+    (then the new surface also runs in again), else interpolated between the truth's measurement times."""
     truth = run.metadata["truth"]
     t_s = np.asarray(truth["straightness_t_s"], dtype=float)
     true_m = np.asarray(truth["straightness_m"], dtype=float)
     measured_t_s = (run.straightness_t_ns - START_TIME_NS) * 1e-9
-    for event in events:
+    exact = {round(t, 6): a for t, a in truth.get("straightness_at_resets", [])}   # simulate_machine's new_surface_t_s
+    shifted = 0.0
+    for event in sorted(events, key=lambda e: e.t_ns):
         if event.kind not in ("regrind", "replace_rail"):
             continue
         t_e = (event.t_ns - START_TIME_NS) * 1e-9
         after = event.straightness_m if math.isfinite(event.straightness_m) else params["straightness_initial_m"]
-        shift = after - float(np.interp(t_e, t_s, true_m))
+        at_event = exact[round(t_e, 6)] + shifted if round(t_e, 6) in exact else float(np.interp(t_e, t_s, true_m))
+        shift = after - at_event
+        shifted += shift
         true_m = np.where(t_s > t_e, true_m + shift, true_m)
         run.straightness_m = np.where(measured_t_s > t_e, run.straightness_m + shift, run.straightness_m)
     truth["straightness_m"] = true_m.tolist()

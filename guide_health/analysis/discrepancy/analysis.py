@@ -6,10 +6,21 @@ Statistics (scipy.stats), each with the number that says whether a pattern is re
 - time windows: maximal runs of same-sign residuals (>= 3 measurements) whose mean is significant
   against the noise (t = mean / (sigma / sqrt(m)), sigma from successive differences, von Neumann),
   reported when |t| > 3;
+- Ljung-Box Q over lags 1..3 of the residuals in time order (a slow wander that lag 1 alone misses);
 - operating conditions: for every measurement interval, the residual increment (measured minus model
   straightness gained over the interval) against the interval's work-weighted mean feed speed, load,
   stroke length, stroke position, retract share of the work and temperature change; Spearman rank
-  correlation, 'systematic' when p < 0.01 / (number of conditions) (Bonferroni).
+  correlation, 'systematic' when p < 0.01 / (number of conditions) (Bonferroni);
+- binned work (any shape, not only monotonic): the cells' work split into ``WORK_BINS`` work-weighted
+  quantile bins of one condition (sliding speed, load, pass length, position on the rail; feed/retract),
+  the residual regressed on the cumulative work of each bin (an F-test against a constant; white residuals
+  of a complete model follow no such combination): a wear rate that depends on the condition in a way the
+  model lacks leaves a residual that does, e.g. a rate varying as a sine along the rail. Bonferroni over
+  the conditions, p < 0.01 / (number of binned conditions);
+- the held-out forecast (:func:`forecast_check`): the bias and drift of the later measurements the fit
+  never saw against the fitted model's forecast, tested under the forecast covariance (noise plus the
+  parameters' uncertainty carried through the model): a wrong mechanism that absorbs the structure of the
+  fit span, leaving white residuals there, drifts away from the data outside its own uncertainty.
 """
 from __future__ import annotations
 
@@ -42,6 +53,94 @@ def lag1_autocorrelation(residuals: np.ndarray) -> dict[str, float]:
     rho = float(r[1:] @ r[:-1]) / denom if denom > 0 else 0.0
     z = rho * math.sqrt(r.size)
     return {"r": rho, "z": z, "p_value": float(2 * stats.norm.sf(abs(z)))}
+
+
+def ljung_box(residuals: np.ndarray, lags: int = 3) -> dict[str, float]:
+    """Ljung-Box Q = n (n + 2) sum_k r_k^2 / (n - k) over lags 1..``lags``, chi-square with ``lags`` dof."""
+    r = residuals - residuals.mean()
+    n = r.size
+    denom = float(r @ r)
+    if denom <= 0 or n <= lags + 1:
+        return {"q": 0.0, "lags": lags, "p_value": 1.0}
+    q = n * (n + 2) * sum((float(r[k:] @ r[:-k]) / denom) ** 2 / (n - k) for k in range(1, lags + 1))
+    return {"q": q, "lags": lags, "p_value": float(stats.chi2.sf(q, lags))}
+
+
+WORK_BINS = 4
+
+
+def binned_work_tests(problem: WearProblem, residual_um: np.ndarray, mask: np.ndarray,
+                      bins: int = WORK_BINS) -> list[dict[str, Any]]:
+    """For each cell condition: does the residual follow the cumulative work done in some of its bins?
+    F-test of the residual on the per-bin cumulative work (plus a constant) against the constant alone."""
+    c = problem.cells
+    n = problem.y_m.size
+    y = residual_um[mask]
+    conditions = {"sliding_speed_m_s": np.log(c.speed_m_s), "load_n": np.log(c.load_n),
+                  "pass_length_m": c.pass_length_m, "position_m": c.position_m,
+                  "retract": problem.retract.astype(float)}
+    rows = []
+    for name, values in conditions.items():
+        if name == "retract":
+            b = values.astype(int)
+        else:
+            order = np.argsort(values, kind="stable")
+            cum = np.cumsum(c.work_nm[order])
+            b = np.empty(values.size, dtype=int)
+            b[order] = np.minimum((bins * cum / max(cum[-1], 1e-300)).astype(int), bins - 1)
+        nb = int(b.max()) + 1 if b.size else 0
+        work = np.bincount(np.clip(c.interval, 0, n) * nb + b, weights=c.work_nm, minlength=(n + 1) * nb)
+        g = np.cumsum(work.reshape(n + 1, nb)[:n], axis=0)[mask]
+        g = g[:, g.std(axis=0) > 0]
+        if g.shape[1] == 0 or y.size < g.shape[1] + 4:
+            continue
+        x = np.column_stack((np.ones(y.size), (g - g.mean(axis=0)) / g.std(axis=0)))
+        coef, *_ = np.linalg.lstsq(x, y, rcond=None)
+        rank = int(np.linalg.matrix_rank(x)) - 1
+        rss1 = float(np.sum((y - x @ coef) ** 2))
+        rss0 = float(np.sum((y - y.mean()) ** 2))
+        dof = y.size - rank - 1
+        f = ((rss0 - rss1) / max(rank, 1)) / (rss1 / dof) if rss1 > 0 and dof > 0 else 0.0
+        rows.append({"condition": name, "statistic": "binned_work_f", "bins": nb, "f": f,
+                     "p_value": float(stats.f.sf(f, max(rank, 1), dof)) if dof > 0 else 1.0,
+                     "against": "residual"})
+    return rows
+
+
+def forecast_check(problem: WearProblem, fit: Any, alpha: float = 0.01) -> dict[str, Any]:
+    """Do the held-out measurements drift away from the fit's forecast? The forecast error e of the m later
+    measurements has, if the model is right, the covariance S = s^2 I + J C J' (s^2 the fit's residual
+    variance, C its parameter covariance, J = d prediction / d parameter by finite differences). Its bias
+    and drift in time are estimated by generalised least squares on [1, t] under S and tested together:
+    F = b' (X' S^-1 X)^-1 b / 2 against F(2, n_fit - k) (s^2 is estimated). Only a bias or a drift counts: a
+    held-out span that is merely noisier than the fit span is no structure. {} without held-out data."""
+    held = problem.heldout_mask
+    cov = fit.extra.get("covariance")
+    m = int(held.sum())
+    dof = fit.n_fit - fit.n_params
+    if m < 4 or not cov or dof <= 0:
+        return {}
+    base = problem.predict_m(fit.values)[held]
+    names, c = cov["names"], np.asarray(cov["matrix"], dtype=float)
+    jac = np.zeros((m, len(names)))
+    for i, name in enumerate(names):
+        step = 1e-3 * math.sqrt(max(c[i, i], 0.0)) or 1e-6 * max(abs(fit.values[name]), 1e-12)
+        jac[:, i] = (problem.predict_m({**fit.values, name: fit.values[name] + step})[held] - base) / step
+    s2 = fit.rss_um2 * 1e-12 / dof
+    e = problem.y_m[held] - base
+    sigma = s2 * np.eye(m) + jac @ c @ jac.T
+    t_h = problem.t_s[held] / 3600.0
+    x = np.column_stack((np.ones(m), t_h - t_h.mean()))
+    si_x = np.linalg.solve(sigma, x)
+    a = x.T @ si_x
+    coef = np.linalg.solve(a, si_x.T @ e)
+    f = float(coef @ a @ coef) / 2.0
+    p = float(stats.f.sf(f, 2, dof))
+    return {"f": f, "dof": [2, dof], "p_value": p, "bias_um": float(coef[0] * 1e6),
+            "drift_um_per_h": float(coef[1] * 1e6), "rmse_um": float(np.sqrt(np.mean(e * e)) * 1e6),
+            "expected_rmse_um": float(np.sqrt(np.trace(sigma) / m) * 1e6),
+            "from_h": float(t_h[0]), "to_h": float(t_h[-1]), "mean_error_um": float(e.mean() * 1e6),
+            "systematic": bool(p < alpha)}
 
 
 def noise_sd_von_neumann(values: np.ndarray) -> float:
@@ -111,10 +210,12 @@ def disagreement(problem: WearProblem, predicted_m: np.ndarray, alpha: float = 0
         "noise_sd_um": sigma,
         "runs_test": runs_test(res_um),
         "lag1_autocorrelation": lag1_autocorrelation(res_um),
+        "ljung_box": ljung_box(res_um),
         "windows": systematic_windows(t_h, res_um, sigma),
     }
     out["systematic_in_time"] = bool(out["runs_test"]["p_value"] < alpha
-                                     or out["lag1_autocorrelation"]["p_value"] < alpha)
+                                     or out["lag1_autocorrelation"]["p_value"] < alpha
+                                     or out["ljung_box"]["p_value"] < alpha)
     increment = np.concatenate(([np.nan], np.diff(res_um)))
     cond = {k: v[mask] for k, v in interval_conditions(problem).items()}
     rows = []
@@ -131,19 +232,29 @@ def disagreement(problem: WearProblem, predicted_m: np.ndarray, alpha: float = 0
                      "against": "residual" if name == "temperature_k" else "residual_increment",
                      "range": [float(np.nanmin(values[ok])), float(np.nanmax(values[ok]))],
                      "systematic": bool(p < alpha / max(n_tests, 1))})
+    binned = binned_work_tests(problem, (problem.y_m - predicted_m) * 1e6, mask)
+    for r in binned:
+        r["systematic"] = bool(r["p_value"] < alpha / max(len(binned), 1))
     rows.sort(key=lambda r: r["p_value"])
     out["conditions"] = rows
+    out["binned_work"] = sorted(binned, key=lambda r: r["p_value"])
     out["systematic_conditions"] = [r["condition"] for r in rows if r["systematic"]]
+    out["systematic_binned"] = [r["condition"] for r in binned if r["systematic"]]
     return out
 
 
 def unexplained_structure(after: dict[str, Any], named: list[str]) -> dict[str, Any]:
     """The verdict on the residuals after the final fit: ``present`` when they are still systematic in time
-    (runs test or lag-1 autocorrelation, p < 0.01) or follow an operating condition (Bonferroni); then
-    ``where`` (time windows of one sign) and ``conditions`` (which, with rho) say where and under which
-    condition, and ``message`` says it first: physics outside the effect library, the named effects (if
-    any) are not an explanation."""
-    present = bool(after["systematic_in_time"] or after["systematic_conditions"])
+    (runs test, lag-1 autocorrelation or Ljung-Box, p < 0.01), follow an operating condition (Spearman,
+    Bonferroni), the work done in some bins of one (binned work, Bonferroni) or the held-out forecast drifts
+    away (``after["heldout_forecast"]``, :func:`forecast_check`); then ``where`` (time windows
+    of one sign) and ``conditions`` (which, with rho or F) say where and under which condition, and
+    ``message`` says it first: physics outside the effect library, the named effects (if any) are not an
+    explanation."""
+    binned = after.get("systematic_binned", [])
+    forecast = after.get("heldout_forecast") or {}
+    missed = bool(forecast.get("systematic"))
+    present = bool(after["systematic_in_time"] or after["systematic_conditions"] or binned or missed)
     out: dict[str, Any] = {"present": present, "where": [], "conditions": [], "message": ""}
     if not present:
         return out
@@ -151,13 +262,27 @@ def unexplained_structure(after: dict[str, Any], named: list[str]) -> dict[str, 
                     for w in after["windows"]]
     out["conditions"] = [{"condition": c["condition"], "rho": c["rho"], "p_value": c["p_value"]}
                          for c in after["conditions"] if c["systematic"]]
+    out["conditions"] += [{"condition": c["condition"], "test": "binned_work", "f": c["f"], "bins": c["bins"],
+                           "p_value": c["p_value"]} for c in after.get("binned_work", []) if c["systematic"]]
     rt, ac = after["runs_test"], after["lag1_autocorrelation"]
-    parts = [f"runs test p = {rt['p_value']:.2g}, lag-1 autocorrelation {ac['r']:+.2f} (p = {ac['p_value']:.2g})"]
+    lb = after.get("ljung_box", {"p_value": float("nan")})
+    parts = [f"runs test p = {rt['p_value']:.2g}, lag-1 autocorrelation {ac['r']:+.2f} (p = {ac['p_value']:.2g}), "
+             f"Ljung-Box p = {lb['p_value']:.2g}"]
     if out["where"]:
         parts.append("in " + ", ".join(f"{w['start_h']:.1f}..{w['end_h']:.1f} h ({w['mean_residual_um']:+.2f} um)"
                                        for w in out["where"][:4]))
+    if missed:
+        out["where"].append({"start_h": forecast["from_h"], "end_h": forecast["to_h"],
+                             "mean_residual_um": forecast["mean_error_um"], "t_statistic": math.nan,
+                             "heldout_forecast": True})
+        parts.append(f"the held-out forecast {forecast['from_h']:.1f}..{forecast['to_h']:.1f} h drifts away: bias "
+                     f"{forecast['bias_um']:+.2f} um, drift {forecast['drift_um_per_h']:+.3f} um/h beyond its "
+                     f"uncertainty (F = {forecast['f']:.1f}, p = {forecast['p_value']:.1g})")
     if out["conditions"]:
-        parts.append("following " + ", ".join(f"{c['condition']} (rho {c['rho']:+.2f})" for c in out["conditions"]))
+        parts.append("following " + ", ".join(
+            f"{c['condition']} (rho {c['rho']:+.2f})" if "rho" in c
+            else f"the work per {c['condition']} bin (F = {c['f']:.1f}, p = {c['p_value']:.1g})"
+            for c in out["conditions"]))
     verdict = (f"the named effects ({', '.join(named)}) reduce the gap but do not explain it" if named
                else "no library effect explains it")
     out["message"] = ("UNEXPLAINED STRUCTURE: the residuals after the fit are not noise (" + "; ".join(parts)

@@ -86,6 +86,16 @@ def markdown(result: dict[str, Any], bag: str = "") -> str:
     return "\n".join(lines)
 
 
+def preload_plotting() -> None:
+    """Import what :func:`plot` needs (matplotlib with the Agg backend), e.g. while a child reads the bag."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot  # noqa: F401
+
+    from guide_health.analysis import report_plots  # noqa: F401
+
+
 def plot(result: dict[str, Any], path: Path) -> None:
     import matplotlib
 
