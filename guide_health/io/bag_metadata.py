@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from .json_text import json_text
 
 #: key of the run metadata (a JSON string) in the bag's metadata.yaml custom_data
 METADATA_KEY = "guide_health.metadata"
@@ -92,7 +93,7 @@ def _json_default(value):
 def run_metadata_json(metadata: dict | None) -> str:
     """The run metadata as the JSON string stored in the bag (numpy values as numbers and lists)."""
     try:
-        return json.dumps(metadata or {}, default=_json_default, allow_nan=True, sort_keys=True)
+        return json_text(metadata or {}, default=_json_default, sort_keys=True)
     except (TypeError, ValueError) as exc:
         raise InputError(f"run metadata is not JSON serialisable: {one_line(exc)}") from None
 

@@ -79,7 +79,9 @@ class AxisChannel:
         self.joint_batch = RawBatchDecoder(JOINT_STATE, ("sec", "nsec", "position", "velocity"), self.joint,
                                            absent=0.0)
         self.load_batch = RawBatchDecoder(WRENCH_STAMPED, ("sec", "nsec", "fz"))
-        self.loads: list = []             # (raw, arrival monotonic s, joint messages buffered before it)
+        self.loads: list = []             # raw messages copied by on_load_raw, their arrival (monotonic s)
+        self.load_arrivals: list = []     # and how many joint messages were copied before each
+        self.load_after: list = []
         if node.raw:
             qos.subscribe(WrenchStamped, self.load_input, self.on_load_raw, raw=True)
         else:
@@ -170,29 +172,29 @@ class AxisChannel:
 
     def on_load_raw(self, raw: bytes) -> None:
         """The raw guide/load callback (events executor): a copy, handled with the node's batch."""
-        self.loads.append((raw, time.monotonic(), len(self.node.joints)))
+        self.loads.append(raw)
+        self.load_arrivals.append(time.monotonic())
+        self.load_after.append(len(self.node.joints))
         if len(self.loads) >= self.node.batch_messages:
             self.node.process_inputs()
 
-    def process(self, joints: list, decoded, bad: dict) -> float:
-        """The batch of this axis: the node's joint messages ``joints`` [(raw, arrival)] (``decoded``: this
-        axis's RawBatchDecoder result; ``bad``: {index: deserialised message, None if malformed} of those
+    def process(self, jnow: list, decoded, bad: dict) -> float:
+        """The batch of this axis: the node's joint messages arrived at ``jnow`` (monotonic s; ``decoded``:
+        this axis's RawBatchDecoder result; ``bad``: {index: deserialised message, None if malformed} of those
         the batch path does not take) and the loads copied since the last batch, handled as the callbacks
         did one by one: runs of good messages through StampAlignedFeed.process, the others on the
         per-message path at their place. Returns the model's time [s]."""
-        loads, self.loads = self.loads, []
+        loads, lnow, after = self.loads, self.load_arrivals, np.array(self.load_after, dtype=np.int64)
+        self.loads, self.load_arrivals, self.load_after = [], [], []
         if loads:
-            self.node.updater.touch(self.load_input, loads[-1][1])
-        lvalues, lstatus = self.load_batch.decode([r for r, _, _ in loads])
-        lnow = [a for _, a, _ in loads]
-        after = np.array([k for _, _, k in loads], dtype=np.int64)
+            self.node.updater.touch(self.load_input, lnow[-1])
+        lvalues, lstatus = self.load_batch.decode(loads)
         lbad = np.flatnonzero((lstatus != 0) | (lvalues["nsec"] >= NS_PER_S)).tolist()
         jt = decoded[0]["sec"] * NS_PER_S + decoded[0]["nsec"]
         lt = lvalues["sec"] * NS_PER_S + lvalues["nsec"]
-        jnow = [a for _, a in joints]
         breaks = sorted([(j, 1, j) for j in bad] + [(int(after[i]), 0, i) for i in lbad])
         model_s, j0, i0 = 0.0, 0, 0
-        for pos, is_joint, k in breaks + [(len(joints), 1, None)]:
+        for pos, is_joint, k in breaks + [(len(jnow), 1, None)]:
             j1, i1 = (pos, int(np.searchsorted(after, pos, side="right"))) if is_joint else (pos, k)
             if j1 > j0 or i1 > i0:
                 t1 = time.perf_counter()
@@ -207,7 +209,7 @@ class AxisChannel:
                 self._bad_joint(bad[k], jnow[k])
                 j0, i0 = k + 1, i1
             else:
-                self._bad_load(loads[k][0], lnow[k])
+                self._bad_load(loads[k], lnow[k])
                 j0, i0 = j1, k + 1
         return model_s
 

@@ -85,7 +85,9 @@ class WearMonitorNode(Node):
         self._model_s = 0.0
         self._callbacks = 0
         # raw joint_states messages copied by the callback, (raw, arrival monotonic s), handled in batches
+        # (separate lists of untracked objects: no garbage-collector work per message, unlike tuples)
         self.joints: list = []
+        self.joint_arrivals: list = []
         self.batch_messages = INPUT_BATCH_MESSAGES
         self.updater = StatusUpdater(self, params["machine_id"], params["input_timeout_s"], alarms=True)
         self.diag_pub = self.updater.publisher
@@ -145,7 +147,8 @@ class WearMonitorNode(Node):
     def _on_joint_raw(self, raw: bytes) -> None:
         """The raw joint_states callback (events executor): a copy; every ``batch_messages`` messages (and
         before anything that reads or changes the model) :meth:`process_inputs` handles them."""
-        self.joints.append((raw, time.monotonic()))
+        self.joints.append(raw)
+        self.joint_arrivals.append(time.monotonic())
         if len(self.joints) >= self.batch_messages:
             self.process_inputs()
 
@@ -153,22 +156,21 @@ class WearMonitorNode(Node):
         """Handle the joint and load messages copied since the last batch, as their callbacks did one by one
         (each axis: AxisChannel.process; a message the batch decoder does not take goes the per-message way,
         deserialised, at its place)."""
-        joints = self.joints
-        if not joints and not any(channel.loads for channel in self.channels):
+        raws, arrivals = self.joints, self.joint_arrivals
+        if not raws and not any(channel.loads for channel in self.channels):
             return
         t0 = time.perf_counter()
-        self.joints = []
-        count = len(joints) + sum(len(channel.loads) for channel in self.channels)
-        raws = [raw for raw, _ in joints]
+        self.joints, self.joint_arrivals = [], []
+        count = len(raws) + sum(len(channel.loads) for channel in self.channels)
         bad = {}
         decoded = [channel.joint_batch.decode(raws) for channel in self.channels]
-        if joints:
-            self.updater.touch("joint_states", joints[-1][1])
+        if raws:
+            self.updater.touch("joint_states", arrivals[-1])
             worse = np.zeros(len(raws), dtype=bool)
             for values, status in decoded:
                 worse |= (status != 0) | (values["nsec"] >= 1_000_000_000)
             bad = {j: _deserialise(raws[j]) for j in np.flatnonzero(worse).tolist()}
-        model_s = sum(channel.process(joints, d, bad) for channel, d in zip(self.channels, decoded))
+        model_s = sum(channel.process(arrivals, d, bad) for channel, d in zip(self.channels, decoded))
         self._callback_s += time.perf_counter() - t0
         self._model_s += model_s
         self._callbacks += count
