@@ -3,9 +3,11 @@
 ``diagnose`` spends about a second importing scipy.stats, scipy.optimize and matplotlib, none of which the
 reading needs, and reading (sqlite3 queries, CDR decoding) is most of the rest. :func:`start_duty_cells`
 forks a child that reads and decodes the bag (``duty.iter_bag_chunks``) and sends each MachineRun chunk
-through a pipe; a thread of the caller receives them and adds them, in order, to the same accumulator
-``duty.read_duty_cells`` uses (``duty.bag_accumulator``), while the caller's main thread imports. The
-same chunks in the same order: the same cells, bit for bit (tested). An error in the child (an InputError
+through a pipe (from a sending thread and a queue, so the reading never waits for the caller); the caller
+imports meanwhile, and :meth:`PendingCells.result` adds the chunks, in order, to the same accumulator
+``duty.read_duty_cells`` uses (``duty.bag_accumulator``). (A receiving thread in the caller, beside its
+imports, was slower: the two threads take turns at the GIL.) The same chunks in the same order: the same
+cells, bit for bit (tested). An error in the child (an InputError
 for a bad bag) is raised again by :meth:`PendingCells.result`. With ``plot``, the child then imports
 matplotlib while the parent fits and draws the PNG when asked (:meth:`PendingCells.plot`), so neither
 the import nor the drawing competes with the parent's imports during the read.
@@ -41,16 +43,35 @@ def background_possible(bag, min_bytes: int = BACKGROUND_MIN_BYTES) -> bool:
 
 
 def _child(conn, requests, bag, params: dict, namespace, progress, plot: bool) -> None:
+    """Read and decode the bag; a sending thread writes the pickled chunks to the pipe, so the reading goes on
+    while the parent is still importing (the queue holds what the pipe cannot take yet)."""
+    import queue
+    from multiprocessing.reduction import ForkingPickler
+
     from guide_health.analysis.discrepancy.duty import iter_bag_chunks
 
+    pending: queue.SimpleQueue = queue.SimpleQueue()
+
+    def send() -> None:
+        while (item := pending.get()) is not None:
+            conn.send_bytes(item)
+
+    sender = threading.Thread(target=send, name="duty-cells-send", daemon=True)
+    sender.start()
+    failed = False
     try:
         for chunk in iter_bag_chunks(bag, params, namespace, progress):
-            conn.send((_CHUNK, chunk))
-        conn.send((_DONE, None))
+            pending.put(ForkingPickler.dumps((_CHUNK, chunk)))
+        pending.put(ForkingPickler.dumps((_DONE, None)))
     except BaseException as exc:  # noqa: BLE001 - handed to the parent, which raises it
-        _send_error(conn, exc)
-        return
-    if plot:
+        failed = True
+        try:
+            pending.put(ForkingPickler.dumps((_ERROR, exc)))
+        except Exception:  # noqa: BLE001 - an exception that does not pickle: its text
+            pending.put(ForkingPickler.dumps((_ERROR, RuntimeError(f"{type(exc).__name__}: {exc}"))))
+    pending.put(None)
+    sender.join()
+    if plot and not failed:
         _plot_server(conn, requests)
 
 
@@ -81,12 +102,12 @@ def _plot_server(conn, requests) -> None:
 
 
 class PendingCells:
-    """The duty cells of a bag: read by a child and accumulated by a thread, or (``process`` None) read
-    here on ``result()``."""
+    """The duty cells of a bag: read by a child and accumulated here on ``result()``, or (``process`` None)
+    read here on ``result()``."""
 
     def __init__(self, bag, params: dict, namespace, progress, background: bool, plot: bool = False):
         self.args = (bag, params, namespace, progress)
-        self.process = self.thread = self.conn = self.requests = None
+        self.process = self.conn = self.requests = None
         self.out: tuple | None = None
         if background:
             import multiprocessing
@@ -101,9 +122,6 @@ class PendingCells:
             self.process.start()
             child_conn.close()
             child_requests.close()
-            self.thread = threading.Thread(target=self._accumulate, args=(self.conn,), name="duty-cells",
-                                           daemon=True)
-            self.thread.start()
 
     @property
     def background(self) -> bool:
@@ -137,7 +155,7 @@ class PendingCells:
             from guide_health.analysis.discrepancy.duty import read_duty_cells
 
             return read_duty_cells(*self.args)
-        self.thread.join()
+        self._accumulate(self.conn)
         ok, value = self.out
         if not ok:
             self.close()
