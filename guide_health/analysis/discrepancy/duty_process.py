@@ -179,17 +179,13 @@ class PendingCells:
             raise value
 
     def close(self) -> None:
-        """Let the child go (it may wait for a plot request) and wait for it."""
+        """End the child: it has sent everything asked of it and at most waits for a plot request, so it
+        is stopped rather than left to tear down its interpreter (matplotlib, numpy) before this one exits."""
         if self.process is None:
             return
-        try:
-            self.requests.send(None)
-        except OSError:
-            pass
-        self.process.join(timeout=5.0)
         if self.process.is_alive():
             self.process.terminate()
-            self.process.join()
+        self.process.join()
         for conn in (self.conn, self.requests):
             conn.close()
         self.process = None
