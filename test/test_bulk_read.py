@@ -103,10 +103,79 @@ def test_packed_sqlite_read_equals_ordered_read(tmp_path, monkeypatch):
         got, fallback = _read_watching_fallback(bag, chunk, monkeypatch)
         assert_runs_equal(got, run)
         assert fallback == []
+    try:                                        # without the read-ahead thread (fleet workers on full cores)
+        packed.set_read_ahead(False)
+        for chunk in (1, 700):
+            assert_runs_equal(bag_reader.read_machine_bag(bag, chunk_messages=chunk), run)
+    finally:
+        packed.set_read_ahead(True)
     assert_runs_equal(bag_reader.read_machine_bag(bag, chunk_messages=700),
                       _ordered_read(bag, monkeypatch, chunk_messages=700))
     chunks = list(bag_reader.iter_machine_bag(bag, chunk_messages=700))
     assert [c.messages for c in chunks[:-1]] == [700] * (len(chunks) - 1)     # all topics read: full chunks
+
+
+def _range_batches(db, where, args, flat, base_ns, step=700):
+    lo, hi = db.execute("SELECT MIN(rowid), MAX(rowid) FROM messages").fetchone()
+    return [packed._read_range(db, r, r + step, where, args, flat, base_ns) for r in range(lo, hi + 1, step)]
+
+
+def test_range_query_forms_give_the_same_batches(tmp_path):
+    """The flat range query (taken when the plan is a rowid range search) and log times read relative to a
+    base give the batches of the ordered sub-query with absolute times, bit for bit; near the int64 limits
+    no base is taken (a difference would overflow) and the times stay exact."""
+    bag = bag_writer.write_machine_bag(make_run(), tmp_path / "bag", "sqlite3")
+    with storage.open_storage(bag) as st:
+        db, ids = st._db, [c.id for c in st.connections]
+        where = f" AND topic_id IN ({','.join('?' * len(ids))})"
+        assert packed._plan_in_rowid_order(db, where, ids)
+        base = packed._time_base(db)
+        assert base == db.execute("SELECT MIN(timestamp) FROM messages").fetchone()[0] > 0
+        want = _range_batches(db, where, ids, False, 0)
+        for flat, base_ns in ((True, 0), (True, base), (False, base)):
+            for a, b in zip(_range_batches(db, where, ids, flat, base_ns), want, strict=True):
+                for x, y in zip(a, b, strict=True):
+                    assert x.dtype == y.dtype
+                    np.testing.assert_array_equal(x, y)
+    con = sqlite3.connect(tmp_path / "edge.db3")
+    con.execute("CREATE TABLE messages(id INTEGER PRIMARY KEY, topic_id INTEGER, timestamp INTEGER, data BLOB)")
+    times = [-(2**63), -5, 0, 2**63 - 1]
+    con.executemany("INSERT INTO messages VALUES (?, 1, ?, ?)", [(i + 1, t, bytes([i] * 3)) for i, t in
+                                                                 enumerate(times)])
+    con.commit()
+    assert packed._time_base(con) == 0
+    con.execute("DELETE FROM messages WHERE timestamp >= 0")
+    assert packed._time_base(con) == -(2**63)
+    for flat in (False, True):
+        got = packed._read_range(con, 1, 10, "", [], flat, -(2**63))
+        assert got.log_time_ns.tolist() == times[:2] and got.buf.tolist() == [0, 0, 0, 1, 1, 1]
+    con.close()
+
+
+def test_unwanted_topics_and_rows_of_no_topic(tmp_path, monkeypatch):
+    """Every topic of the bag wanted: ranges are read without the topic filter and a row of no known topic
+    (an orphan, topic id 99) is dropped; equal to the run and to the ORDER BY read. One topic wanted of
+    several: the filter stays, and the batches hold exactly that topic's rows in time order."""
+    run = make_run()
+    bag = bag_writer.write_machine_bag(run, tmp_path / "orphan", "sqlite3")
+    with sqlite3.connect(_db(bag)) as con:
+        con.execute("INSERT INTO messages (topic_id, timestamp, data) VALUES "
+                    "(99, (SELECT MAX(timestamp) FROM messages), x'00010000')")
+        n_rows = con.execute("SELECT COUNT(*) FROM messages").fetchone()[0]
+        first = con.execute("SELECT topic_id FROM messages ORDER BY rowid LIMIT 1").fetchone()[0]
+        want = con.execute("SELECT timestamp, data FROM messages WHERE topic_id = ? ORDER BY timestamp, rowid",
+                           (first,)).fetchall()
+    for chunk in (700, n_rows):
+        assert_runs_equal(bag_reader.read_machine_bag(bag, chunk_messages=chunk), run)
+    assert_runs_equal(bag_reader.read_machine_bag(bag, chunk_messages=700),
+                      _ordered_read(bag, monkeypatch, chunk_messages=700))
+    with storage.open_storage(bag) as st:
+        assert packed._every_topic(st._db, tuple(c.id for c in st.connections))
+        assert not packed._every_topic(st._db, (first,))
+        batches = [b for group in iter_sqlite_packed(st._db, bag, (first,), 700) for b in group]
+    assert {int(i) for b in batches for i in b.connection_ids} == {first}
+    assert [int(t) for b in batches for t in b.log_time_ns] == [t for t, _ in want]
+    assert b"".join(b.buf.tobytes() for b in batches) == b"".join(d for _, d in want)
 
 
 def test_rows_not_in_time_order_fall_back(tmp_path, monkeypatch):
@@ -161,9 +230,11 @@ def test_late_disorder_falls_back_from_that_range(tmp_path, monkeypatch):
         perm[[1999, 2000]] = perm[[2000, 1999]]
         return perm
     _renumber(bag, swap_late)
-    got, fallback = _read_watching_fallback(bag, 1000, monkeypatch)
-    assert fallback == [1001]
-    assert_runs_equal(got, run)
+    for ahead in (True, False):                 # with and without the read-ahead thread
+        monkeypatch.setattr(packed, "_READ_AHEAD", [ahead])
+        got, fallback = _read_watching_fallback(bag, 1000, monkeypatch)
+        assert fallback == [1001]
+        assert_runs_equal(got, run)
     with sqlite3.connect(_db(bag)) as con:
         con.execute("DROP INDEX timestamp_idx")
     assert not _uses_packed(bag, 1000) and _uses_packed(bag, 5000)       # 2000/2001 inside [1, 5001)

@@ -10,6 +10,10 @@ straightness integrated sample by sample over the bag's JointState and load samp
   measurement's: the fitted dT_ref recovers d, and no surrogate initial_offset is named.
 
 The total wear is scaled to the plain Archard wear of the run. Noise 0.3 um.
+
+And ``lubrication_interval`` with the relubrications recorded in the bag (``relubricate`` maintenance events
+at irregular times): the bag is written with them and ``guide-health diagnose`` must use them as the time
+base (m = 1 + b tau, tau the time since the last) and recover b.
 """
 from __future__ import annotations
 
@@ -139,3 +143,94 @@ def test_new_effects_named_in_9_of_10():
         for r in named:
             if r["named"] == [effect] and not r["flag"]:     # explained by the effect alone
                 check_parameters(r)
+
+
+# --- lubrication_interval with the relubrications recorded in the bag (maintenance events) -----------------
+
+def relube_case(seed: int, tmp: Path) -> dict:
+    """machine_jobs (30 h, 5 Hz) relubricated at irregular times (gaps 2.5..8 h, drawn), wear K (1 + b tau),
+    tau the time since the last relubrication (the record's start before the first), b 0.12..0.3 per hour;
+    the times go into the bag as `relubricate` maintenance events; `guide-health diagnose` reads the bag."""
+    import json
+    import subprocess
+    import sys
+
+    from guide_health.cli.simulate import event_series
+    from guide_health.io.bag_writer import write_machine_bag
+    from guide_health.models.wear.maintenance import MaintenanceEvent
+
+    params = wear_monitor_params(JOBS)
+    sim = dict(simulation_params(JOBS), duration_h=HOURS, joint_state_rate_hz=5.0, load_rate_hz=5.0)
+    run = simulate_machine(params, sim, seed=seed)
+    rng = np.random.default_rng(800 + seed)
+    relube_h = np.cumsum(rng.uniform(2.5, 8.0, 12))
+    relube_h = relube_h[relube_h < HOURS - 1.0]
+    growth_per_h = float(rng.uniform(0.12, 0.3))
+    t_ns = np.asarray(run.joint_t_ns, dtype=np.int64)
+    t_h = (t_ns - t_ns[0]) * 1e-9 / 3600.0
+    ds = np.abs(np.diff(np.asarray(run.joint_position_m, dtype=float)))
+    held = np.searchsorted(run.load_t_ns, t_ns[1:], side="right") - 1
+    load = np.where(held >= 0, np.asarray(run.load_n)[np.clip(held, 0, None)], 0.0)
+    t_mid = 0.5 * (t_h[1:] + t_h[:-1])
+    last = np.array([max([0.0] + [r for r in relube_h if r <= t]) for t in t_mid[::50]])   # every 50th: cheap
+    tau_h = t_mid - np.repeat(last, 50)[:t_mid.size]
+    work = load * ds * (1.0 + growth_per_h * tau_h)
+    work = work * (load * ds).sum() / work.sum()
+    g = np.concatenate(([0.0], np.cumsum(work)))
+    stroke = run.metadata["truth"]["stroke_min_m"] + run.metadata["truth"]["stroke_max_m"]
+    at_h = (np.asarray(run.straightness_t_ns, dtype=np.int64) - t_ns[0]) * 1e-9 / 3600.0
+    y = params["straightness_initial_m"] + params["wear_coefficient"] / (
+        params["hardness_pa"] * params["contact_width_m"]) * 2.0 * np.interp(at_h, t_h, g) / stroke
+    run.straightness_m = y + np.random.default_rng(900 + seed).normal(0.0, NOISE_M, y.size)
+    events = [MaintenanceEvent(int(t_ns[0] + round(h * 3600e9)), "relubricate", params["joint"], source="test")
+              for h in relube_h]
+    bag = tmp / f"relube_{seed}"
+    write_machine_bag(run, bag, extra=event_series(events, params["machine_id"]))
+    proc = subprocess.run([sys.executable, "-m", "guide_health.cli", "diagnose", str(bag), "--params", str(JOBS),
+                           "--out", str(tmp / f"diag_{seed}"), "--no-plot"], capture_output=True, text=True,
+                          cwd=JOBS.parents[1], timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    result = json.loads((tmp / f"diag_{seed}" / "report.json").read_text())
+    values = {k: p["value"] for e in result["named_effects"] for k, p in result["effects"][e]["parameters"].items()}
+    se = {k: p["std_error"] for e in result["named_effects"] for k, p in result["effects"][e]["parameters"].items()}
+    return {"seed": seed, "relube_h": relube_h.round(2).tolist(), "growth_per_h": growth_per_h, "se": se,
+            "named": result["named_effects"], "values": values, "recorded": result["data"]["relubrications_recorded"],
+            "flag": result["unexplained_structure"]["present"]}
+
+
+def check_relube(r: dict) -> None:
+    """Named, with the recorded events as its time base, and the hidden law b recovered: within 3 of its
+    standard errors and 20 % (measured over seeds 0-9: 0.91..1.14 x the hidden b, mean 1.02)."""
+    assert r["recorded"] == len(r["relube_h"]), r
+    assert "lubrication_interval" in r["named"], r
+    assert "lubrication_interval_s" not in r["values"], r          # no interval fitted: the events are the times
+    b_h = r["values"]["lubrication_wear_growth_per_s"] * 3600.0
+    assert abs(b_h - r["growth_per_h"]) < 3.0 * r["se"]["lubrication_wear_growth_per_s"] * 3600.0, r
+    assert b_h == pytest.approx(r["growth_per_h"], rel=0.20), r
+
+
+def test_lubrication_from_recorded_relubrications(tmp_path):
+    """Default suite: seed 0 (irregular relubrications at the drawn times) is named with its law."""
+    r = relube_case(0, tmp_path)
+    print(r)
+    check_relube(r)
+
+
+def _relube_case_in(args):
+    seed, tmp = args
+    return relube_case(seed, Path(tmp))
+
+
+@pytest.mark.slow
+def test_lubrication_from_recorded_relubrications_9_of_10(tmp_path):
+    """Seeds 0-9: named with the recorded time base in >= 9/10, the law b within 3 se and 20 % when named alone
+    (measured 2026-11-23: named alone 10/10, unflagged, b 0.91-1.14x the hidden one). ~4 min."""
+    with mp.get_context("spawn").Pool(2) as pool:
+        rows = pool.map(_relube_case_in, [(s, str(tmp_path)) for s in range(10)])
+    for r in rows:
+        print(r)
+    named = [r for r in rows if "lubrication_interval" in r["named"]]
+    assert len(named) >= 9, rows
+    for r in named:
+        if r["named"] == ["lubrication_interval"] and not r["flag"]:
+            check_relube(r)

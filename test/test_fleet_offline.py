@@ -142,3 +142,28 @@ def test_dask_malloc_trim_is_undone_only_in_dask_workers():
     worker = subprocess.run([sys.executable, "-c", code], env={**env, "MALLOC_TRIM_THRESHOLD_": "65536"},
                             capture_output=True, text=True, check=True)
     assert (plain.stdout.strip(), worker.stdout.strip()) == ("False", "True" if sys.platform == "linux" else "False")
+
+
+def test_read_ahead_is_switched_off_only_where_the_workers_fill_the_cores():
+    """share_cores: a host whose worker threads fill its cores gets no read-ahead thread, a host with cores
+    left over keeps it (a fake client: two hosts, 2 threads on 2 cores and 1 thread on 4 cores)."""
+    from guide_health.analysis import fleet
+    from guide_health.io import packed
+
+    class Client:
+        calls: list = []
+
+        def scheduler_info(self):
+            return {"workers": {"a1": {"host": "a", "nthreads": 1}, "a2": {"host": "a", "nthreads": 1},
+                                "b1": {"host": "b", "nthreads": 1}}}
+
+        def run(self, func, *args, workers=None):
+            if func is fleet.usable_cores:
+                return {"a1": 2, "a2": 2, "b1": 4}
+            self.calls.append((func, args, sorted(workers)))
+            return {}
+
+    client = Client()
+    assert fleet.share_cores(client) == {"a1": False, "a2": False, "b1": True}
+    assert sorted(client.calls, key=str) == sorted([(packed.set_read_ahead, (True,), ["b1"]),
+                                                    (packed.set_read_ahead, (False,), ["a1", "a2"])], key=str)

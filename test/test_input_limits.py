@@ -259,14 +259,13 @@ def test_header_stamp_rule():
 @pytest.mark.parametrize("path", ["message", "raw"])
 def test_nan_velocity_and_nanosec_beyond_a_second_are_rejected_on_both_paths(ros_context, tmp_path, path):
     pytest.importorskip("rclpy")
-    from rclpy.serialization import serialize_message
-    from test_wear_monitor_node import T0, feed_cycle, joint, load, make_node, snapshot
+    from test_wear_monitor_node import T0, feed_cycle, joint, load, make_node, raw_then_batch, snapshot
 
     node = make_node(ros_context, tmp_path)
     on_joint, on_load = node._on_joint, node._on_load
     if path == "raw":
-        on_joint = lambda m: node._on_joint_raw(serialize_message(m))  # noqa: E731
-        on_load = lambda m: node._on_load_raw(serialize_message(m))  # noqa: E731
+        on_joint = lambda m: raw_then_batch(node, node._on_joint_raw, m)  # noqa: E731
+        on_load = lambda m: raw_then_batch(node, node._on_load_raw, m)  # noqa: E731
     try:
         t = feed_cycle(node, T0 + 1.0)
         before = snapshot(node)

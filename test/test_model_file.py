@@ -11,6 +11,7 @@ linearly from its last 5 h (the running-in has decayed to e^-12 by then) to the 
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import subprocess
@@ -168,14 +169,53 @@ def test_running_in_remaining_life_with_the_model_file_default_seeds():
 
 @pytest.mark.slow
 def test_running_in_remaining_life_coverage_seeds_0_to_9():
-    """Seeds 0-9 (~40 s): point estimate within 10 % in every seed; the interval's coverage is printed
-    (measured 7/10 with the file, 0/10 without; see docs/discrepancy.md) and must beat the plain model's."""
+    """Seeds 0-9 (~40 s): point estimate within 10 % in every seed; coverage measured 7/10 with the file, 0/10
+    without (docs/model_file.md). The interval is calibrated (next test; seeds 100-159: 56/60); seeds 0, 8
+    and 9 miss because their last measurements' noise is extreme (last-ten means +0.39, -0.35, +0.31 um: 2.0 to
+    2.4 sigma), which moves the fitted present straightness by 0.3-0.5 um: errors of 2.0-2.6 predicted sd,
+    none beyond 3."""
     rows = coverage(range(10))
     hits = sum(covers(r["model"], r["truth_h"]) for r in rows)
     plain_hits = sum(covers(r["plain"], r["truth_h"]) for r in rows)
     print(f"coverage with the model file {hits}/10, without {plain_hits}/10")
     assert all(abs(r["model"][0] / r["truth_h"] - 1.0) < 0.10 for r in rows), rows
     assert hits >= 7 and plain_hits == 0
+    for r in rows:        # every error within 3 predicted sd (interval: life x exp(+-t sd), t_40 = 1.684)
+        life, _, high = r["model"]
+        assert abs(math.log(r["truth_h"] / life)) < 3.0 * math.log(high / life) / 1.684, r
+
+
+@pytest.mark.slow
+def test_running_in_life_interval_is_calibrated_on_noise_redraws():
+    """The interval's statistics without the luck of ten bags: seed 0's motion (5 Hz) with 120 fresh draws of
+    the 0.5 um measurement noise, each fitted with running_in on every measurement (the model file's fit) and
+    replayed with the file: the predicted sd of ln(life) (from the interval) equals the empirical spread of
+    ln(life / true life) to 20 %, and the 90 % interval covers the true life in 82-97 % of the draws (90 %
+    +- 2.5 binomial sd for 120). Measured (10 Hz, 400 draws, before the profiled-K fix): predicted 0.0243
+    against 0.0210 empirical (the online K spread was counted twice), 94 % covered; after it, seed 9's motion,
+    150 draws: 0.0215 against 0.0212, 88 % covered. ~90 s."""
+    from guide_health.analysis.discrepancy.model import WearProblem
+    from guide_health.analysis.discrepancy.model_file import model_parameters
+
+    params, run = bench_running_in(0, rate_hz=5.0)
+    truth_m = np.asarray(run.metadata["truth"]["straightness_m"])
+    truth_h = true_remaining_life_h(run, params["straightness_limit_m"])
+    cells = duty_cells_from_runs(run, params["slider_length_m"], limits=InputLimits.from_params(params),
+                                 sliding_deadband_m=params["sliding_deadband_m"])
+    rng = np.random.default_rng(2026)
+    errors, sds, hits = [], [], 0
+    for _ in range(120):
+        measured = truth_m + rng.normal(0.0, 0.5e-6, truth_m.size)
+        problem = WearProblem(dataclasses.replace(cells, measurement_m=measured), params, heldout_fraction=0.0)
+        model = model_parameters(problem, problem.fit(("running_in",)), ["running_in"])
+        life = replay_life({**params, **model}, dataclasses.replace(run, straightness_m=measured))
+        errors.append(math.log(truth_h / life[0]))
+        sds.append(math.log(life[2] / life[0]) / 1.684)
+        hits += covers(life, truth_h)
+    ratio = float(np.mean(sds)) / float(np.std(errors))
+    print(f"predicted sd {np.mean(sds):.4f}, empirical {np.std(errors):.4f}, covered {hits}/120")
+    assert 0.8 < ratio < 1.2, ratio
+    assert 98 <= hits <= 116, hits
 
 
 # --- the CLI ----------------------------------------------------------------------------------------
@@ -313,3 +353,101 @@ def test_forecast_reaches_the_limit_at_the_remaining_life_and_diagnose_agrees(tm
     assert Path(files["png"]).stat().st_size > 10_000
     files = write_report(result, tmp_path / "diag", bag="bench", with_plot=True)
     assert Path(files["png"]).stat().st_size > 10_000
+
+
+# --- a regrind: the new surface runs in again ---------------------------------------------------------------
+
+def _tail_from(run, t_ns: int):
+    """The run from its last joint sample at or before ``t_ns`` (the new guide's first sample), with the load
+    then in force; straightness measurements stamped after ``t_ns``."""
+    j = int(np.searchsorted(run.joint_t_ns, t_ns, side="right")) - 1
+    ld = int(np.searchsorted(run.load_t_ns, run.joint_t_ns[j], side="right")) - 1
+    st = int(np.searchsorted(run.straightness_t_ns, t_ns, side="right"))
+    return dataclasses.replace(
+        run, joint_t_ns=run.joint_t_ns[j:], joint_position_m=run.joint_position_m[j:],
+        joint_velocity_m_s=run.joint_velocity_m_s[j:], load_t_ns=run.load_t_ns[ld:], load_n=run.load_n[ld:],
+        straightness_t_ns=run.straightness_t_ns[st:], straightness_m=run.straightness_m[st:])
+
+
+def test_a_regrind_restarts_running_in_as_on_a_new_guide():
+    """Bench with running-in (3 h, 2 Hz), reground at 1.7 h to 20 um: after the regrind the effect-aware model
+    (AxisMonitor, the node's and replay's object, event from the bag) equals a new guide's model built
+    independently (prior K = the old surface's posterior, A0 = 20 um, fed from the regrind on) to 1e-9: the
+    running-in distance counts from the regrind. The per-sample path gives the same. Control: the new surface's
+    effective work is > 1.3x its Archard work (running-in is visible, so a kept counter would be seen)."""
+    from guide_health.models.wear.axis import AxisMonitor, split_run
+    from guide_health.models.wear.maintenance import MaintenanceEvent
+
+    params = wear_monitor_params(BENCH)
+    sim = dict(simulation_params(BENCH), duration_h=3.0, joint_state_rate_hz=2.0, load_rate_hz=1.0)
+    run = simulate_machine(params, sim, seed=5, effects={"running_in": 2.5})
+    live = {**params, "stroke_min_m": 0.1, "stroke_max_m": 0.3, "effects": "running_in", "running_in_ratio": 2.5,
+            "running_in_distance_m": 300.0,
+            "effect_covariance": np.diag([(0.01 * 4.42e-6) ** 2, 0.1 ** 2, 20.0 ** 2, 0, 0, 0]).ravel().tolist()}
+    t_regrind = int(run.joint_t_ns[0]) + int(1.7 * 3600e9) + 123_456_789
+    event = MaintenanceEvent(t_regrind, "regrind", params["joint"], straightness_m=20e-6)
+    axis = AxisMonitor(live)
+    axis.schedule(event)
+    axis.process_run(run)
+    reground = axis.primary
+    old = PrecisionMonitor(live)
+    old.process_run(split_run(run, t_regrind)[0])
+    k, k_sd, _ = old.estimator.posterior(old.measurement_losses_per_k_m())
+    new = PrecisionMonitor({**live, "wear_coefficient": k, "wear_coefficient_prior_rel_sd": k_sd / k,
+                            "straightness_initial_m": 20e-6})
+    new.process_run(_tail_from(run, t_regrind))
+    assert new.estimator.count == 3 and reground.estimator.count == 3
+    assert reground.effect_wear.effective_work_nm == pytest.approx(new.effect_wear.effective_work_nm, rel=1e-9)
+    assert new.effect_wear.effective_work_nm > 1.3 * new.integrator.archard_work_nm
+    a, b = reground.report(), new.report()
+    for key in ("straightness_um", "wear_volume_mm3", "remaining_life_h", "remaining_life_h_low",
+                "remaining_life_h_high", "wear_coefficient"):
+        assert a[key] == pytest.approx(b[key], rel=1e-9), key
+    # live: the node's per-sample path over the same bag and event
+    per_sample = AxisMonitor(live)
+    per_sample.schedule(event)
+    events = sorted([(int(t), 1, float(w)) for t, w in zip(run.load_t_ns, run.load_n)]
+                    + [(int(t), 0, float(x)) for t, x in zip(run.joint_t_ns, run.joint_position_m)]
+                    + [(int(t), 2, float(y)) for t, y in zip(run.straightness_t_ns, run.straightness_m)],
+                    key=lambda e: (e[0], (1, 0, 2)[e[1]]))
+    for t, kind, value in events:
+        (per_sample.on_joint, per_sample.on_load, per_sample.on_straightness)[kind](t, value)
+    c = per_sample.primary.report()
+    for key in ("straightness_um", "remaining_life_h", "remaining_life_h_low", "remaining_life_h_high"):
+        assert c[key] == pytest.approx(a[key], rel=1e-6), key
+
+
+def test_simulated_regrind_runs_in_again_as_the_live_model():
+    """The simulator's truth after a regrind (simulate_machine new_surface_t_s + apply_maintenance_truth, as
+    `simulate --effect running_in=2.5 --maintenance regrind:x@2.3h=15um`) and the live model with the true K
+    and effect, reground by the same event, agree at every measurement after it to 0.3 % of the wear since
+    (the exact motion against 50 Hz samples: measured 0.16 %); a truth whose running-in went on (no new
+    surface) does not (measured 103 %)."""
+    from guide_health.models.wear.axis import AxisMonitor
+    from guide_health.models.wear.maintenance import MaintenanceEvent
+    from guide_health.sim.machine import START_TIME_NS, apply_maintenance_truth
+
+    params = wear_monitor_params(BENCH)
+    sim = dict(simulation_params(BENCH), duration_h=4.0, joint_state_rate_hz=50.0, load_rate_hz=1.0,
+               straightness_noise_m=0.0)
+    t_regrind = START_TIME_NS + int(2.3 * 3600e9)
+    event = MaintenanceEvent(t_regrind, "regrind", params["joint"], straightness_m=15e-6)
+    k = params["wear_coefficient"] * sim["wear_coefficient_factor"]
+    errors = {}
+    for restart in (True, False):
+        run = simulate_machine(params, sim, seed=2, effects={"running_in": 2.5},
+                               new_surface_t_s=[2.3 * 3600.0] if restart else ())
+        apply_maintenance_truth(run, [event], params)
+        truth = run.metadata["truth"]
+        live = {**params, "stroke_min_m": truth["stroke_min_m"], "stroke_max_m": truth["stroke_max_m"],
+                "sliding_deadband_m": 0.0, "effects": "running_in", "running_in_ratio": 2.5,
+                "running_in_distance_m": sim["running_in_distance_m"]}
+        axis = AxisMonitor(live)
+        axis.schedule(event)
+        axis.process_run(run)
+        monitor = axis.primary
+        got = monitor.straightness_m(k, monitor.measurement_losses_per_k_m())
+        after = np.asarray(truth["straightness_m"])[-got.size:]
+        assert got.size == 4
+        errors[restart] = float(np.max(np.abs(got - after) / (after - 15e-6)))
+    assert errors[True] < 3e-3 < errors[False], errors

@@ -2,6 +2,7 @@
 what to do; a state that does not validate, or belongs to another machine/guide, is refused whole; two
 processes on one state file: the second is refused; the file is 0600 and never written through a symlink."""
 import json
+import math
 import os
 import subprocess
 import sys
@@ -314,3 +315,42 @@ def test_a_failed_checkpoint_write_is_one_line_and_the_node_keeps_running(ros_co
     finally:
         node.close()
         node.destroy_node()
+
+
+def test_a_state_saved_before_the_effect_fields_were_added_is_accepted_and_restores():
+    """A state with effects saved before stop 10 has no measurement_gradients / surface_start_m
+    (ADDED_FIELDS): accepted, restored to the same straightness and life as the full state, and a missing
+    field that is not an added one is still refused."""
+    params = {**WEAR_MONITOR_DEFAULTS, "effects": "running_in", "running_in_ratio": 2.0,
+              "running_in_distance_m": 300.0}
+    monitor = PrecisionMonitor(dict(params))
+    t = 0
+    for i in range(4000):
+        t += 50_000_000
+        monitor.on_load(t, 2000.0)
+        monitor.on_joint(t, 0.1 + 0.1 * abs(((i % 80) - 40) / 40.0), 0.2)
+        if i % 1000 == 999:
+            monitor.on_straightness(t, 5e-6 + 1e-9 * i)
+    full = monitor.state()
+    assert len(full["effects"]["buckets"]) > 0 and len(full["effects"]["measurement_gradients"]) == 4
+    check_precision_state(full, PrecisionMonitor(dict(params)).state())       # its own state (was refused)
+    bad = json.loads(json.dumps(full))
+    bad["effects"]["buckets"][0][1] = "x"
+    with pytest.raises(InputError, match="buckets"):
+        check_precision_state(bad, PrecisionMonitor(dict(params)).state())
+    old = json.loads(json.dumps(full))
+    for name in ("measurement_gradients", "surface_start_m"):
+        assert name in old["effects"]
+        del old["effects"][name]
+    check_precision_state(old, PrecisionMonitor(dict(params)).state())
+    again = PrecisionMonitor(dict(params))
+    again.restore(old)
+    assert again.effect_wear.surface_start_m == 0.0 and again.effect_wear.measurement_gradients == []
+    before, after = monitor.report(), again.report()
+    for key in ("straightness_um", "wear_volume_mm3", "wear_coefficient", "remaining_life_h"):
+        assert after[key] == pytest.approx(before[key], rel=1e-12), key
+    assert before["measurements"] == 4 and math.isfinite(after["remaining_life_h"])
+    assert after["remaining_life_h_low"] <= after["remaining_life_h"] <= after["remaining_life_h_high"]
+    del old["effects"]["effective_work_nm"]
+    with pytest.raises(InputError):
+        check_precision_state(old, PrecisionMonitor(dict(params)).state())

@@ -168,7 +168,7 @@ def test_life_test_several_bags_weibull_and_png(tmp_path):
     assert run.returncode == 0, run.stderr
     out = json.loads(run.stdout)
     truth = [(295.0, 300.0), (445.0, 450.0), (545.0, 550.0), (600.0, math.inf)]
-    assert out["intervals_km"] == [list(t) for t in truth]
+    assert out["intervals_km"] == [[lo, hi if math.isfinite(hi) else None] for lo, hi in truth]   # JSON: inf -> null
     want = weibull_of_specimens(truth, vib_params())
     assert out["weibull"]["failures"] == 3 and out["weibull"]["n"] == 4
     assert out["c_ratio"] == pytest.approx(want["c_ratio"], rel=1e-6)
@@ -181,3 +181,70 @@ def test_life_test_several_bags_weibull_and_png(tmp_path):
     single = json.loads(one.stdout)
     assert single["c_ratio"] == pytest.approx(0.3 * (450 / 50) ** (1 / 3), rel=1e-9)      # 0.624, Eq. 5
     assert len(single["readings"]) == 8
+
+
+def test_dynamic_parameters_reach_the_running_model(ros_context):
+    """`ros2 param set` of the dynamic parameters (rclpy's set_parameters: the schema's check, then the node's
+    post-set callback) before the data == the offline chain built with those values; a change after the
+    running-in keeps the learnt state; a refused change (k > n) leaves the model as it was."""
+    from rclpy.parameter import Parameter
+    from rclpy.serialization import serialize_message
+    from scipy import stats
+    from sensor_msgs.msg import FluidPressure, LaserScan
+
+    from guide_health.nodes.vibration_monitor import VibrationMonitorNode
+
+    change = {"false_alarm_per_block": 0.02, "persist_k": 2, "persist_n": 3, "noise_rise_allowance_db": 1.0,
+              "noise_rise_cusum_db": 2.0, "noise_drop_db": 1.0, "status_period_s": 5.0}
+    rec = simulate_life_test(SCHEMAS["guide_health_life_test_simulation"].defaults() | vib_params() | SIM, seed=0)
+    node = VibrationMonitorNode(context=ros_context, parameter_overrides=[Parameter("load_fraction", value=0.3)])
+
+    def feed(i0, i1):
+        for i in range(i0, i1):
+            m = LaserScan()
+            m.header.stamp.sec, m.header.stamp.nanosec = divmod(int(rec.t_ns[i]), 1_000_000_000)
+            m.time_increment = 1.0 / 25600.0
+            m.ranges = np.asarray(rec.blocks[i], dtype=np.float32).tolist()
+            node._on_block_raw(serialize_message(m))
+        for t, db in zip(rec.level_t_ns, rec.level_db):
+            if rec.t_ns[i0] <= t < (rec.t_ns[i1] if i1 < len(rec.t_ns) else math.inf):
+                p = FluidPressure()
+                p.header.stamp.sec, p.header.stamp.nanosec = divmod(int(t), 1_000_000_000)
+                p.fluid_pressure = 20e-6 * 10 ** (db / 20.0)
+                node._on_pressure(p)
+
+    def offline(p):
+        f = StampedLifeTest(signs_from_params(p), p["carriage_speed_m_s"])
+        for t, x in zip(rec.t_ns, rec.blocks):
+            f.on_block(t, np.asarray(x, dtype=np.float32).astype(np.float64))
+        for t, db in zip(rec.level_t_ns, rec.level_db):
+            f.on_level(t, 20.0 * math.log10(20e-6 * 10 ** (db / 20.0) / 20e-6))        # as the node decodes
+        return vibration_status_values(f) | {"level": int(f.signs.level()[0])}
+
+    def live():
+        level, _, values = node.report()
+        return {k: v for k, v in values.items() if k in offline_keys} | {"level": level}
+
+    try:
+        results = node.set_parameters([Parameter(k, value=v) for k, v in change.items()])
+        assert all(r.successful for r in results), [r.reason for r in results]
+        bands = node.feed.signs.bands
+        assert bands.threshold == pytest.approx(stats.norm.isf(0.02 / 32), rel=1e-12)     # Bonferroni, 32 bands
+        assert node.periodic.timers["status_period_s"].timer_period_ns == 5_000_000_000
+        want, default = offline(vib_params(**change)), offline(vib_params())
+        offline_keys = set(want) - {"level"}
+        # on this run the change matters: noise rise at 268.75 km instead of 455 km (CUSUM k, h 1, 2 dB instead of 4, 6)
+        assert want["noise_rise_km"] < 0.7 * default["noise_rise_km"] and want["z_threshold"] < default["z_threshold"]
+        feed(0, len(rec.t_ns))
+        assert repr(live()) == repr(want)
+        assert int(node.report()[2]["rejected_blocks"]) == 0
+        # a refused change (persist_k > persist_n, the schema's cross-check) changes nothing
+        refused = node.set_parameters([Parameter("persist_k", value=4)])[0]
+        assert not refused.successful and "persist_k" in refused.reason and bands.persist_k == 2
+        # a change after the running-in keeps the learnt baseline and the block count
+        baseline, blocks = bands.baseline, node.feed.signs.blocks
+        assert node.set_parameters([Parameter("false_alarm_per_block", value=1e-4)])[0].successful
+        assert bands.baseline is baseline and node.feed.signs.blocks == blocks
+        assert float(node.report()[2]["z_threshold"]) == pytest.approx(stats.norm.isf(1e-4 / 32), rel=1e-12)
+    finally:
+        node.destroy_node()

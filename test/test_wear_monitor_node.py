@@ -64,6 +64,12 @@ def feed_cycle(node, t_start: float, strokes=(0.1, 0.3, 0.2), dt=0.02, speed=0.0
     return t
 
 
+def raw_then_batch(node, callback, msg):
+    """The events-executor path for one message: the raw callback copies it, the batch handles it."""
+    callback(msg if isinstance(msg, bytes) else serialize_message(msg))
+    node.process_inputs()
+
+
 def snapshot(node):
     state = node.monitor.state()
     state["integrator"] = {k: (list(v) if isinstance(v, list) else v) for k, v in state["integrator"].items()}
@@ -74,8 +80,8 @@ def snapshot(node):
 def test_bad_input_is_rejected_and_never_changes_state(ros_context, tmp_path, path):
     node = make_node(ros_context, tmp_path)
     if path == "raw":        # the events-executor path: raw CDR decoded at fixed offsets
-        on_joint = lambda m: node._on_joint_raw(serialize_message(m))  # noqa: E731
-        on_load = lambda m: node._on_load_raw(serialize_message(m))  # noqa: E731
+        on_joint = lambda m: raw_then_batch(node, node._on_joint_raw, m)  # noqa: E731
+        on_load = lambda m: raw_then_batch(node, node._on_load_raw, m)  # noqa: E731
     else:
         on_joint, on_load = node._on_joint, node._on_load
     try:
@@ -94,8 +100,8 @@ def test_bad_input_is_rejected_and_never_changes_state(ros_context, tmp_path, pa
             ("nan straightness", lambda: node._on_straightness(Float64(data=math.nan))),
             ("negative straightness", lambda: node._on_straightness(Float64(data=-1e-6))),
         ] + ([
-            ("malformed joint bytes", lambda: node._on_joint_raw(b"\x00\x01\x00\x00garbage")),
-            ("malformed load bytes", lambda: node._on_load_raw(b"\x00\x01")),
+            ("malformed joint bytes", lambda: raw_then_batch(node, node._on_joint_raw, b"\x00\x01\x00\x00garbage")),
+            ("malformed load bytes", lambda: raw_then_batch(node, node._on_load_raw, b"\x00\x01")),
         ] if path == "raw" else []) + [
         ]
         rejected_before = sum(node.monitor.rejected.values())
@@ -115,17 +121,35 @@ def test_bad_input_is_rejected_and_never_changes_state(ros_context, tmp_path, pa
         node.destroy_node()
 
 
+def assert_same_state(a, b, path="state"):
+    """Equal saved states, floats to 1e-12 relative (sums taken in another order)."""
+    if isinstance(a, dict):
+        assert a.keys() == b.keys(), path
+        for key in a:
+            assert_same_state(a[key], b[key], f"{path}.{key}")
+    elif isinstance(a, (list, tuple)):
+        assert len(a) == len(b), path
+        for k, (x, y) in enumerate(zip(a, b)):
+            assert_same_state(x, y, f"{path}[{k}]")
+    elif isinstance(a, float):
+        assert b == pytest.approx(a, rel=1e-12, abs=1e-9, nan_ok=True), path
+    else:
+        assert a == b, path
+
+
 def test_raw_and_deserialised_paths_give_the_same_state(ros_context, tmp_path):
     nodes = [make_node(ros_context, tmp_path / "a"), make_node(ros_context, tmp_path / "b")]
     raw = nodes[1]
-    raw._on_joint = lambda m: raw._on_joint_raw(serialize_message(m))
+    raw._on_joint = lambda m: raw._on_joint_raw(serialize_message(m))      # copied; handled in batches
     raw._on_load = lambda m: raw._on_load_raw(serialize_message(m))
     try:
         for node in nodes:
             t = feed_cycle(node, T0 + 1.0, strokes=(0.1, 0.25, 0.18))
             node._on_joint(joint(t + 0.02, [0.001, 0.5], names=("x", "z"), velocity=[0.05, 0.0]))  # 2 joints
             node._on_joint(joint(t + 0.04, [0.2, 0.002], names=("z", "x")))                   # reordered
-        assert snapshot(nodes[0]) == snapshot(nodes[1])
+        raw.process_inputs()
+        # the raw path integrates in batches (the model's batch path): the same state to rounding
+        assert_same_state(nodes[0].monitor.state(), nodes[1].monitor.state())
         assert nodes[1].monitor.integrator.samples == nodes[0].monitor.integrator.samples > 100
         assert nodes[1]._callbacks > 100 and nodes[1]._model_s <= nodes[1]._callback_s
     finally:

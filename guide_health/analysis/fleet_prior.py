@@ -22,6 +22,7 @@ from scipy.special import stdtrit
 
 from guide_health.errors import InputError
 from guide_health.io.bag_metadata import one_line
+from guide_health.io.json_text import number
 from guide_health.io.output_files import write_text
 from guide_health.models.fleet import (
     combine_estimates,
@@ -33,7 +34,8 @@ from guide_health.models.wear.calibration import Z90
 
 
 def load_fleet_results(paths: list[str]) -> list[dict[str, Any]]:
-    """The bag entries of ``fleet.json`` files (or their directories), each with the run's summary."""
+    """The bag entries of ``fleet.json`` files (or their directories), each with the run's summary. The
+    files are strict JSON: a null number is read with io/json_text.number (inf for a bound or standard error)."""
     entries = []
     for text in paths:
         path = Path(text)
@@ -57,15 +59,15 @@ def bag_log_k(entry: dict[str, Any]) -> tuple[float, float]:
     """(log K, its standard error) of one bag from its data alone; (nan, inf) without information."""
     r = entry["result"]
     if entry["summary"]["command"] == "diagnose":
-        k, se = r["final"]["wear_coefficient"], r["final"]["wear_coefficient_std_error"]
+        k, se = number(r["final"]["wear_coefficient"]), number(r["final"]["wear_coefficient_std_error"], math.inf)
     else:
         n = int(r["measurements"])
         if n == 0:
             return math.nan, math.inf
         z = float(stdtrit(n - 1, 0.95)) if n >= 3 else Z90           # as WearCoefficientEstimator.interval90
-        sd_post = (r["wear_coefficient_high"] - r["wear_coefficient_low"]) / (2.0 * z)
+        sd_post = (number(r["wear_coefficient_high"], math.inf) - number(r["wear_coefficient_low"])) / (2.0 * z)
         prior = entry["summary"]["prior"]
-        k, se = likelihood_from_posterior(r["wear_coefficient"], sd_post, prior["wear_coefficient"],
+        k, se = likelihood_from_posterior(number(r["wear_coefficient"]), sd_post, prior["wear_coefficient"],
                                           prior["wear_coefficient_prior_rel_sd"] * prior["wear_coefficient"])
     if not (math.isfinite(k) and k > 0 and math.isfinite(se)):
         return math.nan, math.inf
@@ -107,7 +109,7 @@ def effect_populations(entries: list[dict[str, Any]]) -> dict[str, dict[str, Any
     for e in diagnosed:
         for effect, spec in e["result"].get("effects", {}).items():
             for name, p in spec["parameters"].items():
-                values[f"{effect}.{name}"].append((p["value"], p["std_error"]))
+                values[f"{effect}.{name}"].append((number(p["value"]), number(p["std_error"], math.inf)))
     out = {}
     for key, pairs in values.items():
         try:

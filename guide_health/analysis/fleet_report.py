@@ -2,11 +2,11 @@
 from __future__ import annotations
 
 import csv
-import json
 import math
 from pathlib import Path
 from typing import Any
 
+from guide_health.io.json_text import json_text
 from guide_health.io.output_files import open_output, write_text
 
 #: table columns of each command, in order (after machine, bag, status); missing values are blank
@@ -61,8 +61,7 @@ def write_tables(out: Path, rows: list[dict[str, Any]], entries: list[dict[str, 
     for row in rows:
         lines.append("| " + " | ".join(_cell(row[c]).replace("|", "/") for c in columns) + " |")
     write_text(files["md"], "\n".join(lines) + "\n")
-    write_text(files["json"], json.dumps({"summary": summary, "bags": entries}, indent=1,
-                                              allow_nan=True) + "\n")
+    write_text(files["json"], json_text({"summary": summary, "bags": entries}, indent=1) + "\n")
     return files
 
 

@@ -3,11 +3,11 @@ object per axis), the report ``{"axes": {axis: <axis precision status values>}, 
 from __future__ import annotations
 
 import csv
-import json
 import math
 import time
 from pathlib import Path
 
+from guide_health.io.json_text import json_text
 from guide_health.io.output_files import open_output, write_text
 from guide_health.models.levels import LEVEL_NAMES
 from guide_health.models.wear.axis import PRECISION_KEYS, AxisMonitor
@@ -98,5 +98,5 @@ def write_machine_outputs(out: Path, models: dict[str, AxisMonitor], report: dic
             files[f"png_{axis}"] = str(out / f"straightness_{axis}.png")
             plot_straightness_report(Path(files[f"png_{axis}"]), guide, report["axes"][axis], t_h, measured, fitted)
     report["files"] = files
-    write_text(files["json"], json.dumps(report, indent=2, allow_nan=True, default=float) + "\n")
+    write_text(files["json"], json_text(report, indent=2, default=float) + "\n")
     return files

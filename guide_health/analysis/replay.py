@@ -7,13 +7,13 @@ directory holds report.json, the series as CSV and a PNG (analysis/report_plots.
 from __future__ import annotations
 
 import csv
-import json
 import time
 from pathlib import Path
 
 import numpy as np
 
 from guide_health.analysis.report_plots import plot_slewing_contact_series, plot_straightness_report
+from guide_health.io.json_text import json_text
 from guide_health.io.output_files import open_output, write_text
 from guide_health.models.wear.precision import PrecisionMonitor
 
@@ -101,7 +101,7 @@ def write_outputs(out: Path, monitor: PrecisionMonitor, report: dict, plot: bool
     straightness.png in ``out``; returns the files written {json, csv[, png]}."""
     out.mkdir(parents=True, exist_ok=True)
     files = {"json": str(out / "report.json"), "csv": str(out / "straightness.csv")}
-    write_text(files["json"], json.dumps(report, indent=2, allow_nan=True) + "\n")
+    write_text(files["json"], json_text(report, indent=2) + "\n")
     t_h, measured, model = model_curve(monitor)
     with open_output(files["csv"]) as handle:
         writer = csv.writer(handle)
@@ -142,5 +142,5 @@ def write_slewing_outputs(out: Path, run, params: dict, report: dict, series: np
         files["png"] = str(out / "contact.png")
         plot_slewing_contact_series(Path(files["png"]), t_s, series, params, report)
     report["files"] = files
-    write_text(files["json"], json.dumps(report, indent=2, allow_nan=True, default=float) + "\n")
+    write_text(files["json"], json_text(report, indent=2, default=float) + "\n")
     return files

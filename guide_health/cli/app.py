@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import json
 import os
 import sys
 import warnings
@@ -18,6 +17,7 @@ import warnings
 from guide_health.cli.command import Command
 from guide_health.cli.text import format_key_values, jsonable
 from guide_health.errors import InputError
+from guide_health.io.json_text import json_text
 
 # (command path, "module:Command" in guide_health.cli, help)
 COMMANDS: list[tuple[tuple[str, ...], str, str]] = [
@@ -123,8 +123,7 @@ def print_result(command: Command, result: dict, as_json: bool) -> None:
     """One JSON object, or the command's text (an indented key/value listing when it has none)."""
     try:
         if as_json:
-            json.dump(jsonable(result), sys.stdout, allow_nan=True)
-            sys.stdout.write("\n")
+            sys.stdout.write(json_text(result) + "\n")
         else:
             text = command.format_text(result) if command.format_text else format_key_values(jsonable(result))
             print(text)

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -28,18 +29,14 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> dict:
-    from guide_health.analysis.discrepancy.duty import read_duty_cells
-    from guide_health.analysis.discrepancy.model_file import write_model_file
-    from guide_health.analysis.discrepancy.report import write_report
-    from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD
-    from guide_health.analysis.discrepancy.workflow import diagnose_cells
+    from guide_health.analysis.discrepancy.duty_process import start_duty_cells
+    from guide_health.io.maintenance_msgs import read_events
     from guide_health.io.progress import ProgressBar
+    from guide_health.models.wear.maintenance import relubrication_times_s
 
     if not 0.0 <= args.heldout_fraction < 0.9:
         raise InputError("--heldout-fraction must be in [0, 0.9)")
-    threshold = BIC_THRESHOLD if args.bic_threshold is None else args.bic_threshold
-    if not (math.isfinite(threshold) and threshold >= 0):
-        raise InputError("--bic-threshold must be a number >= 0")
+    threshold = _bic_threshold(args.bic_threshold)
     params = wear_monitor_params(args.params)
     if params["straightness_model"] != "eq7":
         print("guide-health diagnose: the effects are defined against Eq. 7; straightness_model "
@@ -47,11 +44,27 @@ def run(args) -> dict:
     bag = Path(args.bag)
     t0 = time.perf_counter()
     bar = ProgressBar("reading", force=args.progress)
-    cells, messages = read_duty_cells(bag, params, args.namespace, bar)
+    # a large bag is read in a child process while this one imports the fit and the plotting (about 1 s)
+    pending = start_duty_cells(bag, params, args.namespace, bar)
+    from guide_health.analysis.discrepancy.model_file import write_model_file
+    from guide_health.analysis.discrepancy.report import write_report
+    from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD
+    from guide_health.analysis.discrepancy.workflow import diagnose_cells
+
+    threshold = BIC_THRESHOLD if threshold is None else threshold
+
+    if pending.background and not args.no_plot:
+        from guide_health.analysis.discrepancy.report import preload_plotting
+
+        preload_plotting()
+    cells, messages = pending.result()
     bar.close()
     t_read = time.perf_counter() - t0
+    # recorded relubrications (maintenance events in the bag): the lubrication_interval effect's time base
+    relube = relubrication_times_s(read_events(bag, args.namespace), params.get("axis", params["joint"]), cells.t0_ns)
     try:
-        result = diagnose_cells(cells, params, heldout_fraction=args.heldout_fraction, bic_threshold=threshold)
+        result = diagnose_cells(cells, params, heldout_fraction=args.heldout_fraction, bic_threshold=threshold,
+                                relubrication_t_s=relube, workers=_fit_workers())
     except ValueError as exc:
         raise InputError(f"{bag}: {exc}") from None
     result["messages"] = messages
@@ -67,6 +80,21 @@ def run(args) -> dict:
     print(f"{messages} messages read in {t_read:.1f} s, fitted in {result['fit_s']:.1f} s; report in {out}",
           file=sys.stderr)
     return result
+
+
+def _fit_workers() -> int:
+    """Processes for the candidate fits: 2 on a multi-core Linux machine when nothing else runs in this
+    process (a fork copies only the calling thread), else 1."""
+    import threading
+
+    return 2 if sys.platform.startswith("linux") and (os.cpu_count() or 1) >= 2 and threading.active_count() == 1 else 1
+
+
+def _bic_threshold(value: float | None) -> float | None:
+    """The --bic-threshold given (None: the default, known once the selection is imported), checked."""
+    if value is not None and not (math.isfinite(value) and value >= 0):
+        raise InputError("--bic-threshold must be a number >= 0")
+    return value
 
 
 def format_text(result: dict) -> str:

@@ -9,13 +9,13 @@
 """
 from __future__ import annotations
 
-import json
 import os
 import sys
 from pathlib import Path
 
 from guide_health.cli.command import Command
 from guide_health.errors import InputError
+from guide_health.io.json_text import json_text
 from guide_health.io.output_files import write_text
 
 #: exit status of a fleet run in which some bags failed (the others completed and are reported)
@@ -188,7 +188,7 @@ def run_prior(args) -> dict:
     out = Path(args.out)
     write_prior_params(out, prior, args.params)
     wear_monitor_params(out)                        # the file a wear_monitor will read: checked now
-    write_text(out.with_suffix(".json"), json.dumps(prior, indent=1, allow_nan=True) + "\n")
+    write_text(out.with_suffix(".json"), json_text(prior, indent=1) + "\n")
     return {**prior, "files": {"params": str(out), "json": str(out.with_suffix(".json"))}}
 
 

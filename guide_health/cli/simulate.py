@@ -9,7 +9,13 @@ from guide_health.cli.command import Command
 from guide_health.errors import InputError
 from guide_health.params import simulation_params, wear_monitor_params
 from guide_health.params.simulation import REALISTIC_MOTION
-from guide_health.sim.machine import apply_maintenance_truth, parse_effects, parse_maintenance, simulate_machine
+from guide_health.sim.machine import (
+    START_TIME_NS,
+    apply_maintenance_truth,
+    parse_effects,
+    parse_maintenance,
+    simulate_machine,
+)
 
 
 def add_arguments(parser) -> None:
@@ -112,7 +118,8 @@ def run(args) -> dict:
     out = new_bag_path(args.out)
     t0 = time.perf_counter()
     events = parse_maintenance(args.maintenance, {params["joint"]: params})
-    machine = simulate_machine(params, sim, seed=args.seed, effects=effects)
+    resets = [(e.t_ns - START_TIME_NS) * 1e-9 for e in events if e.kind in ("regrind", "replace_rail")]
+    machine = simulate_machine(params, sim, seed=args.seed, effects=effects, new_surface_t_s=resets)
     apply_maintenance_truth(machine, events, params)
     write_machine_bag(machine, out, storage=args.storage, namespace=args.namespace,
                       extra=event_series(events, params["machine_id"]))

@@ -3,23 +3,13 @@ from __future__ import annotations
 
 from typing import Any
 
+from guide_health.io.json_text import plain
+
 
 def jsonable(value):
-    """numpy scalars/arrays to plain Python for json (NaN/inf stay floats: json writes NaN/Infinity)."""
-    try:
-        import numpy as np
-    except ImportError:  # pragma: no cover
-        np = None
-    if isinstance(value, dict):
-        return {str(k): jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [jsonable(v) for v in value]
-    if np is not None:
-        if isinstance(value, np.ndarray):
-            return jsonable(value.tolist())
-        if isinstance(value, np.generic):
-            return value.item()
-    return value
+    """numpy scalars/arrays to plain Python, non-finite floats kept (for text; JSON output goes through
+    io/json_text.json_text, which writes them as null)."""
+    return plain(value, finite_only=False)
 
 
 def format_key_values(result: dict[str, Any], indent: str = "", compact_lists: bool = False) -> str:

@@ -278,6 +278,62 @@ class RawMessageDecoder:
         return tuple(self.absent if r is None else r[0].unpack_from(raw, r[1])[0] for r in readers)
 
 
+class RawBatchDecoder:
+    """:class:`RawMessageDecoder` over a list of messages at once (the live node's batches): the same
+    layouts (parsed once per message length, up to _MAX_TEMPLATES each), each message checked against a
+    layout's structural bytes and its numbers read at the layout's offsets with numpy.
+
+    decode(raws) -> ({name: array}, status): status 0 decoded (``absent`` for an absent optional number),
+    1 valid but without the wanted joint (MISSING), 2 not decoded here (no layout fits: the caller takes
+    the per-message path, which gives the exact reason). Stamps: "sec" and "nsec" as int64 arrays."""
+
+    def __init__(self, msgtype: str, names: tuple, joint: str = "x", absent: float = math.nan):
+        self.layout_fn = codec_for(msgtype, joint).layout
+        self.names = tuple(names)
+        self.absent = absent
+        self._layouts: dict[int, list] = {}
+
+    def decode(self, raws: list) -> tuple[dict, np.ndarray]:
+        n = len(raws)
+        out = {k: np.zeros(n, np.int64) if k in ("sec", "nsec") else np.full(n, self.absent) for k in self.names}
+        status = np.full(n, 2, np.int8)
+        if n:
+            for idx, rows in _list_groups(raws):
+                self._decode_rows(rows, idx, out, status)
+        return out, status
+
+    def _decode_rows(self, rows: np.ndarray, idx: np.ndarray, out: dict, status: np.ndarray) -> None:
+        size = rows.shape[1]
+        layouts = self._layouts.setdefault(size, [])
+        rem = np.arange(idx.size)
+        k = 0
+        while rem.size:
+            if k == len(layouts):
+                if k == _MAX_TEMPLATES:
+                    return
+                layout = self.layout_fn(rows[rem[0]].tobytes())
+                if layout is None:
+                    return                     # the per-message path for the rest
+                layouts.append((layout, *_field_mask(layout)))
+            layout, cols, expect = layouts[k]
+            k += 1
+            if cols.size and cols.max() >= size:
+                continue
+            match = (rows[rem[:, None], cols] == expect).all(axis=1) if cols.size else np.ones(rem.size, bool)
+            hit = rem[match]
+            if not hit.size:
+                continue
+            target = idx[hit]
+            status[target] = 1 if layout.missing else 0
+            if not layout.missing:
+                for name in self.names:
+                    if name in layout.values:
+                        off, dtype = layout.values[name]
+                        col = np.ndarray((idx.size,), dtype=dtype, buffer=rows, offset=off, strides=(size,))
+                        out[name][target] = col[hit]
+            rem = rem[~match]
+
+
 # ---------------------------------------------------------------------------------------------
 # chunk decoding (bag reader side): numpy over all messages of one topic in a chunk
 # ---------------------------------------------------------------------------------------------
@@ -327,7 +383,8 @@ def _decode_rows(rows: np.ndarray, idx: np.ndarray, codec: MessageCodec, out: di
             got = rows[:, cols] if whole else rows[rem[:, None], cols]
             match = (got == expect).all(axis=1)
         hit = rem[match]
-        target = idx[hit]
+        # every message of the chunk, all fitting this template (the usual case): slices, not index arrays
+        target = slice(None) if whole and hit.size == idx.size == status.size else idx[hit]
         if layout.missing:
             status[target] = 1
         else:
@@ -365,6 +422,8 @@ def _decode(n: int, groups, raw_of: Callable[[int], bytes], codec: MessageCodec)
                 out[name][i] = value
                 present[name][i] = True
     keep = np.flatnonzero(status == 0)
+    if keep.size == n:                  # every message kept: the arrays as they are
+        return DecodedChunk(out, present, keep, 0, 0, n_fast, n_fallback)
     return DecodedChunk({k: v[keep] for k, v in out.items()}, {k: v[keep] for k, v in present.items()},
                         keep, int((status == 1).sum()), int((status == 2).sum()), n_fast, n_fallback)
 
@@ -372,7 +431,7 @@ def _decode(n: int, groups, raw_of: Callable[[int], bytes], codec: MessageCodec)
 def _list_groups(raws: list):
     n = len(raws)
     lengths = np.fromiter(map(len, raws), dtype=np.int64, count=n)
-    sizes = np.unique(lengths)
+    sizes = _sizes(lengths)
     for size in sizes.tolist():
         if sizes.size == 1:
             idx = np.arange(n)
@@ -392,8 +451,15 @@ def decode_chunk(raws: list, codec: MessageCodec, fast: bool = True) -> DecodedC
     return _decode(len(raws), groups, raws.__getitem__, codec)
 
 
+def _sizes(lengths: np.ndarray) -> np.ndarray:
+    """The distinct message lengths, ascending (np.unique); one min/max pass when all are equal."""
+    if lengths.size and lengths.min() == lengths.max():
+        return lengths[:1].copy()
+    return np.unique(lengths)
+
+
 def _packed_groups(buf: np.ndarray, offsets: np.ndarray, lengths: np.ndarray):
-    sizes = np.unique(lengths)
+    sizes = _sizes(lengths)
     for size in sizes.tolist():
         idx = np.arange(lengths.size) if sizes.size == 1 else np.flatnonzero(lengths == size)
         if size == 0:

@@ -4,12 +4,12 @@ most once an hour); the file is created 0600, never through a symbolic link; an 
 InputError line naming it."""
 from __future__ import annotations
 
-import json
 import os
 import sqlite3
 from pathlib import Path
 
 from guide_health.errors import InputError
+from guide_health.io.json_text import json_text
 
 PRUNE_PERIOD_S = 3600.0         # how often old rows are deleted
 
@@ -73,7 +73,7 @@ class FleetHistory:
             return
         self._last[key] = t_unix_s
         self._last_level[key] = level
-        self._pending.append((t_unix_s, hardware_id, name, level, message, json.dumps(values)))
+        self._pending.append((t_unix_s, hardware_id, name, level, message, json_text(values)))
 
     def commit(self, now_unix_s: float | None = None) -> None:
         """Write the pending rows; with `now_unix_s`, prune at most every PRUNE_PERIOD_S."""

@@ -257,8 +257,9 @@ class SqliteDirectStorage:
     def _log_time_range(self) -> tuple[int, int]:
         if self._time_range is None:
             try:
-                sql = "SELECT MIN(timestamp), MAX(timestamp) FROM messages"
-                first, last = self._db.execute(sql).fetchone()
+                from .packed import TIME_SPAN  # two index searches, not a scan of the index
+
+                first, last = self._db.execute(TIME_SPAN).fetchone()
             except _READ_ERRORS as exc:
                 raise InputError(f"corrupt bag {self.path}: {one_line(exc)}") from None
             self._time_range = ((int(first), int(last) + 1) if self.message_count and first is not None

@@ -10,13 +10,14 @@ from __future__ import annotations
 import math
 import time
 
+import numpy as np
 from geometry_msgs.msg import WrenchStamped
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 
-from guide_health.io.cdr import RawMessageDecoder
+from guide_health.io.cdr import RawBatchDecoder, RawMessageDecoder
 from guide_health.io.interfaces import JOINT_STATE, WRENCH_STAMPED
 from guide_health.models.wear.axis import PRECISION_KEYS, AxisMonitor
 from guide_health.models.wear.feed import StampAlignedFeed
@@ -24,7 +25,9 @@ from guide_health.models.wear.input_rules import (
     EMPTY_JOINT_STATES,
     INVALID_STAMP,
     JOINT_POSITION_MISSING,
+    MALFORMED_JOINT_STATES,
     MALFORMED_LOAD,
+    NS_PER_S,
     STRAIGHTNESS_WITHOUT_TIME_BASE,
     header_stamp_ns,
     joint_missing,
@@ -72,6 +75,11 @@ class AxisChannel:
         self.joint_decoder = RawMessageDecoder(JOINT_STATE, ("sec", "nsec", "position", "velocity"),
                                                self.joint, absent=0.0)   # no velocity array: 0
         self.load_decoder = RawMessageDecoder(WRENCH_STAMPED, ("sec", "nsec", "fz"))
+        # batches (events executor): the callbacks copy, AxisChannel.process decodes and feeds
+        self.joint_batch = RawBatchDecoder(JOINT_STATE, ("sec", "nsec", "position", "velocity"), self.joint,
+                                           absent=0.0)
+        self.load_batch = RawBatchDecoder(WRENCH_STAMPED, ("sec", "nsec", "fz"))
+        self.loads: list = []             # (raw, arrival monotonic s, joint messages buffered before it)
         if node.raw:
             qos.subscribe(WrenchStamped, self.load_input, self.on_load_raw, raw=True)
         else:
@@ -112,19 +120,21 @@ class AxisChannel:
     def reject(self, stream: str, reason: str) -> None:
         self.rejections.log(self.model.reject_input(stream, reason))
 
-    def joint_values(self, sec: int, nsec: int, position: float, velocity: float) -> tuple[float, float]:
-        """A decoded JointState sample of this axis; returns the (start, end) perf_counter of the model."""
+    def joint_values(self, sec: int, nsec: int, position: float, velocity: float,
+                     now: float | None = None) -> tuple[float, float]:
+        """A decoded JointState sample of this axis (``now``: its arrival, monotonic s; None: now); returns
+        the (start, end) perf_counter of the model."""
         t_ns = header_stamp_ns(sec, nsec)
         if t_ns is None:
             self.reject("joint_states", INVALID_STAMP)
             return 0.0, 0.0
         t1 = time.perf_counter()
-        reasons = self.feed.joint(t_ns, position, velocity, time.monotonic())
+        reasons = self.feed.joint(t_ns, position, velocity, time.monotonic() if now is None else now)
         t2 = time.perf_counter()
         self.rejections.log_all(reasons)
         return t1, t2
 
-    def joint_message(self, msg: JointState) -> tuple[float, float]:
+    def joint_message(self, msg: JointState, now: float | None = None) -> tuple[float, float]:
         """A deserialised JointState: this axis's joint picked out, or the message rejected for it."""
         if not msg.name or len(msg.position) == 0:
             self.reject("joint_states", EMPTY_JOINT_STATES)
@@ -139,41 +149,88 @@ class AxisChannel:
             return 0.0, 0.0
         velocity = msg.velocity[i] if i < len(msg.velocity) else 0.0
         stamp = msg.header.stamp
-        return self.joint_values(stamp.sec, stamp.nanosec, float(msg.position[i]), float(velocity))
-
-    def on_load_raw(self, raw: bytes) -> None:
-        t0 = time.perf_counter()
-        values = self.load_decoder.decode(raw)
-        if values is None:
-            try:
-                msg = deserialize_message(raw, WrenchStamped)
-            except Exception:  # noqa: BLE001 - anything undecodable is malformed input
-                self.node.updater.touch(self.load_input)
-                self.reject(self.load_input, MALFORMED_LOAD)
-                return
-            self.on_load(msg)
-            return
-        self.node.updater.touch(self.load_input)
-        t1, t2 = self._load(*values)
-        self.node.account(t0, t1, t2)
+        return self.joint_values(stamp.sec, stamp.nanosec, float(msg.position[i]), float(velocity), now)
 
     def on_load(self, msg: WrenchStamped) -> None:
+        self.node.process_inputs()        # the batch before it (when a raw message fell back to this path)
         self.node.updater.touch(self.load_input)
         t1, t2 = self._load(msg.header.stamp.sec, msg.header.stamp.nanosec, float(msg.wrench.force.z))
         self.node.account(t1, t1, t2)   # deserialisation happened before the callback: not measurable here
 
-    def _load(self, sec: int, nsec: int, force_z: float) -> tuple[float, float]:
+    def _load(self, sec: int, nsec: int, force_z: float, now: float | None = None) -> tuple[float, float]:
         t_ns = header_stamp_ns(sec, nsec)
         if t_ns is None:
             self.reject(self.load_input, INVALID_STAMP)
             return 0.0, 0.0
         t1 = time.perf_counter()
-        reasons = self.feed.load(t_ns, force_z, time.monotonic())
+        reasons = self.feed.load(t_ns, force_z, time.monotonic() if now is None else now)
         t2 = time.perf_counter()
         self.rejections.log_all(reasons)
         return t1, t2
 
+    def on_load_raw(self, raw: bytes) -> None:
+        """The raw guide/load callback (events executor): a copy, handled with the node's batch."""
+        self.loads.append((raw, time.monotonic(), len(self.node.joints)))
+        if len(self.loads) >= self.node.batch_messages:
+            self.node.process_inputs()
+
+    def process(self, joints: list, decoded, bad: dict) -> float:
+        """The batch of this axis: the node's joint messages ``joints`` [(raw, arrival)] (``decoded``: this
+        axis's RawBatchDecoder result; ``bad``: {index: deserialised message, None if malformed} of those
+        the batch path does not take) and the loads copied since the last batch, handled as the callbacks
+        did one by one: runs of good messages through StampAlignedFeed.process, the others on the
+        per-message path at their place. Returns the model's time [s]."""
+        loads, self.loads = self.loads, []
+        if loads:
+            self.node.updater.touch(self.load_input, loads[-1][1])
+        lvalues, lstatus = self.load_batch.decode([r for r, _, _ in loads])
+        lnow = [a for _, a, _ in loads]
+        after = np.array([k for _, _, k in loads], dtype=np.int64)
+        lbad = np.flatnonzero((lstatus != 0) | (lvalues["nsec"] >= NS_PER_S)).tolist()
+        jt = decoded[0]["sec"] * NS_PER_S + decoded[0]["nsec"]
+        lt = lvalues["sec"] * NS_PER_S + lvalues["nsec"]
+        jnow = [a for _, a in joints]
+        breaks = sorted([(j, 1, j) for j in bad] + [(int(after[i]), 0, i) for i in lbad])
+        model_s, j0, i0 = 0.0, 0, 0
+        for pos, is_joint, k in breaks + [(len(joints), 1, None)]:
+            j1, i1 = (pos, int(np.searchsorted(after, pos, side="right"))) if is_joint else (pos, k)
+            if j1 > j0 or i1 > i0:
+                t1 = time.perf_counter()
+                reasons = self.feed.process(jt[j0:j1], decoded[0]["position"][j0:j1], decoded[0]["velocity"][j0:j1],
+                                            jnow[j0:j1], lt[i0:i1], lvalues["fz"][i0:i1], lnow[i0:i1],
+                                            (after[i0:i1] - j0).tolist())
+                model_s += time.perf_counter() - t1
+                self.rejections.log_all(reasons)
+            if k is None:
+                break
+            if is_joint:
+                self._bad_joint(bad[k], jnow[k])
+                j0, i0 = k + 1, i1
+            else:
+                self._bad_load(loads[k][0], lnow[k])
+                j0, i0 = j1, k + 1
+        return model_s
+
+    def _bad_joint(self, msg, now: float) -> None:
+        if msg is None:
+            self.reject("joint_states", MALFORMED_JOINT_STATES)
+        else:
+            self.joint_message(msg, now)
+
+    def _bad_load(self, raw: bytes, now: float) -> None:
+        """A load message the batch decoder did not take: the per-message path of on_load_raw."""
+        values = self.load_decoder.decode(raw)
+        if values is None:
+            try:
+                msg = deserialize_message(raw, WrenchStamped)
+            except Exception:  # noqa: BLE001 - anything undecodable is malformed input
+                self.reject(self.load_input, MALFORMED_LOAD)
+                return
+            values = (msg.header.stamp.sec, msg.header.stamp.nanosec, float(msg.wrench.force.z))
+        self._load(*values, now)
+
     def on_straightness(self, msg: Float64) -> None:
+        self.node.process_inputs()
         self.rejections.log_all(self.feed.flush_all())    # the joint samples that came before it count
         t = self.model.last_t_ns
         if t is None:
@@ -182,6 +239,7 @@ class AxisChannel:
         self.rejections.log(self.model.on_straightness(t, float(msg.data)))
 
     def on_temperature(self, msg: Temperature) -> None:
+        self.node.process_inputs()
         if math.isfinite(msg.temperature):
             self.temperature_c = float(msg.temperature)
             t = stamp_ns(msg.header)
@@ -191,6 +249,7 @@ class AxisChannel:
     # --- maintenance ---------------------------------------------------------------------------------
     def maintenance_event(self, kind: str, values: dict) -> MaintenanceEvent | str:
         """The event a service call records (values: the node's maintenance_* parameters), or why none."""
+        self.node.process_inputs()
         self.rejections.log_all(self.feed.flush_all())     # the present = every joint sample received
         now = self.model.last_t_ns
         if now is None:
@@ -221,6 +280,7 @@ class AxisChannel:
 
     def on_event(self, event: MaintenanceEvent) -> None:
         """An event from the maintenance/events topic (a bag, an HMI, this node's own)."""
+        self.node.process_inputs()
         self.rejections.log(self.model.schedule(event))
 
     # --- outputs ---------------------------------------------------------------------------------

@@ -127,9 +127,10 @@ class StatusUpdater:
         for name in task.stale_inputs:
             self.last_arrival.setdefault(name, None)
 
-    def touch(self, input_name: str) -> None:
-        """A message arrived on `input_name` (valid or not: the input is alive)."""
-        self.last_arrival[input_name] = time.monotonic()
+    def touch(self, input_name: str, now: float | None = None) -> None:
+        """A message arrived on `input_name` (valid or not: the input is alive) now, or at ``now``
+        (time.monotonic() of its arrival)."""
+        self.last_arrival[input_name] = time.monotonic() if now is None else now
 
     def silent_inputs(self, names: Iterable[str], now: float) -> list[str]:
         timeout = self.input_timeout_s

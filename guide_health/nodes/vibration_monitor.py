@@ -29,8 +29,9 @@ from sensor_msgs.msg import FluidPressure, LaserScan
 from guide_health.analysis.life_signs import signs_from_params, vibration_status_values
 from guide_health.io.bag_writer import SOUND_LEVEL_REFERENCE_PA
 from guide_health.models.rolling.life_signs import StampedLifeTest
-from guide_health.models.rolling.vibration import persistence_false_alarm
+from guide_health.models.rolling.vibration import persistence_false_alarm, z_threshold
 from guide_health.nodes.common import run_node
+from guide_health.nodes.live_params import PeriodicTimers, apply_common
 from guide_health.nodes.status import RejectionLog, StatusTask, StatusUpdater
 from guide_health.params import VIBRATION_MONITOR_SCHEMA, declare_parameters
 
@@ -70,11 +71,32 @@ def decode_laser_scan_block(data: bytes) -> tuple[int, float, np.ndarray]:
     return sec * 1_000_000_000 + nsec, float(floats[3]), ranges.astype(np.float64)
 
 
+def apply_vibration_changes(changed: dict, signs) -> None:
+    """The dynamic parameters into a running LifeTestSigns, its state (baseline, flags, CUSUM) kept: the
+    abnormal-band threshold from the new false-alarm probability, the k-of-n persistence (the flags kept to the
+    newest n), the noise CUSUM allowance/decision interval and the drop after the rise."""
+    bands, noise = signs.bands, signs.noise
+    if "false_alarm_per_block" in changed:
+        bands.alpha_block = float(changed["false_alarm_per_block"])
+        bands.threshold = z_threshold(bands.alpha_block, bands.n_bands)
+    if "persist_k" in changed:
+        bands.persist_k = int(changed["persist_k"])
+    if "persist_n" in changed:
+        bands.persist_n = int(changed["persist_n"])
+        bands.flags = bands.flags[-bands.persist_n:]
+        signs.abnormal_travels = signs.abnormal_travels[-bands.persist_n:]
+    for name, attr in (("noise_rise_allowance_db", "rise_allowance_db"), ("noise_rise_cusum_db", "rise_cusum_db"),
+                       ("noise_drop_db", "drop_db")):
+        if name in changed:
+            setattr(noise, attr, float(changed[name]))
+
+
 class VibrationMonitorNode(Node):
     def __init__(self, **kwargs):
         super().__init__("vibration_monitor", **kwargs)
-        params = declare_parameters(self, VIBRATION_MONITOR_SCHEMA)
+        params = declare_parameters(self, VIBRATION_MONITOR_SCHEMA, on_applied=self._apply_params)
         self.params = params
+        self.periodic = PeriodicTimers(self)
         self.feed = StampedLifeTest(signs_from_params(params), params["carriage_speed_m_s"])
         self.rejections = RejectionLog(self.get_logger())
         self._callback_s = 0.0
@@ -86,7 +108,12 @@ class VibrationMonitorNode(Node):
         self.diag_pub = self.updater.publisher
         self.create_subscription(LaserScan, "guide/acceleration", self._on_block_raw, DATA_QOS, raw=True)
         self.create_subscription(FluidPressure, "guide/sound_pressure", self._on_pressure, DATA_QOS)
-        self.create_timer(params["status_period_s"], self.publish_diagnostics)
+        self.periodic.create("status_period_s", params["status_period_s"], self.publish_diagnostics)
+
+    def _apply_params(self, changed: dict) -> None:
+        """An accepted ``ros2 param set`` (validated by the schema) reaches the running model: next block/level."""
+        apply_vibration_changes(changed, self.feed.signs)
+        apply_common(changed, self.updater, self.periodic)
 
     # --- inputs --------------------------------------------------------------------------------------------
     def _on_block_raw(self, data: bytes) -> None:

@@ -10,10 +10,12 @@ SQLite (`state_file`), one key per guide.
 
 Executor (parameter `executor`; `auto`, the default, is `events` unless `sensor_qos` is `best_effort` or
 the node runs on /clock, guide_health/nodes/qos.py): `events` spins rclpy's EventsExecutor with raw
-subscriptions for joint_states and guide/load, decoded at fixed CDR offsets
-(guide_health.io.cdr.RawMessageDecoder, a few us) instead of rclpy deserialisation; it handles messages in
-arrival order across topics, so a header-less straightness message is dated by the joint samples published
-before it. `single_threaded` is rclpy's SingleThreadedExecutor with deserialised messages (the reference; it
+subscriptions for joint_states and guide/load, whose callbacks only copy the message and its arrival time;
+batches are decoded at fixed CDR offsets with numpy (guide_health.io.cdr.RawBatchDecoder) instead of rclpy
+deserialisation and integrated through the model's batch path (:meth:`WearMonitorNode.process_inputs`,
+the same numbers as one by one); it handles messages in arrival order across topics, so a header-less
+straightness message is dated by the joint samples published before it. `single_threaded` is rclpy's
+SingleThreadedExecutor with deserialised messages (the reference; it
 takes one message per subscription per wait, so under a backlog a straightness message overtakes queued joint
 samples).
 """
@@ -23,6 +25,7 @@ import math
 import sys
 import time
 
+import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -31,10 +34,8 @@ from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
 from guide_health.errors import InputError
-from guide_health.io.cdr import MISSING
 from guide_health.io.maintenance_msgs import MAINTENANCE_TOPIC, event_from_status, event_values
 from guide_health.io.state_store import StateStore, resolve_state_path, resume_monitor, resume_with
-from guide_health.models.wear.input_rules import MALFORMED_JOINT_STATES
 from guide_health.models.wear.state_schema import state_fingerprint
 from guide_health.nodes.axis_channel import (  # noqa: F401 - the status keys are part of this module's API
     EXTRA_FATIGUE_KEYS,
@@ -61,6 +62,10 @@ EVENT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=R
                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
 EVENT_READ_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1, reliability=ReliabilityPolicy.RELIABLE)
 INPUTS = ("joint_states", "guide/load")     # single joint: silent for input_timeout_s: every status STALE
+# events executor: the raw joint/load callbacks copy; the messages are handled in batches of this many (and
+# before a status, a straightness message, a temperature, a maintenance event, a checkpoint, a parameter change,
+# shutdown), with the same result as one by one (StampAlignedFeed.process, test_live_batch.py)
+INPUT_BATCH_MESSAGES = 2048
 
 
 class WearMonitorNode(Node):
@@ -79,6 +84,9 @@ class WearMonitorNode(Node):
         self._callback_s = 0.0
         self._model_s = 0.0
         self._callbacks = 0
+        # raw joint_states messages copied by the callback, (raw, arrival monotonic s), handled in batches
+        self.joints: list = []
+        self.batch_messages = INPUT_BATCH_MESSAGES
         self.updater = StatusUpdater(self, params["machine_id"], params["input_timeout_s"], alarms=True)
         self.diag_pub = self.updater.publisher
         self.sensors = SensorSubscriptions(self, params["sensor_qos"], params["sensor_queue_depth"],
@@ -115,6 +123,7 @@ class WearMonitorNode(Node):
         the per-axis parameters calls this too, before the axes exist, with nothing changed.)"""
         if not changed or not hasattr(self, "channels"):
             return
+        self.process_inputs()
         monitors = [guide for channel in self.channels for guide in channel.model.guides.values()]
         apply_wear_changes(changed, monitors, [channel.feed for channel in self.channels], self.updater,
                            self.periodic)
@@ -134,26 +143,38 @@ class WearMonitorNode(Node):
 
     # --- inputs ----------------------------------------------------------------------------------
     def _on_joint_raw(self, raw: bytes) -> None:
-        t0 = time.perf_counter()
-        decoded = [channel.joint_decoder.decode(raw) for channel in self.channels]
-        if any(values is None or values is MISSING for values in decoded):
-            # not the fixed layout, or a joint is absent: the message class gives the exact reason
-            try:
-                msg = deserialize_message(raw, JointState)
-            except Exception:  # noqa: BLE001 - anything undecodable is malformed input
-                self.updater.touch("joint_states")
-                for channel in self.channels:
-                    channel.reject("joint_states", MALFORMED_JOINT_STATES)
-                return
-            self._on_joint(msg)
+        """The raw joint_states callback (events executor): a copy; every ``batch_messages`` messages (and
+        before anything that reads or changes the model) :meth:`process_inputs` handles them."""
+        self.joints.append((raw, time.monotonic()))
+        if len(self.joints) >= self.batch_messages:
+            self.process_inputs()
+
+    def process_inputs(self) -> None:
+        """Handle the joint and load messages copied since the last batch, as their callbacks did one by one
+        (each axis: AxisChannel.process; a message the batch decoder does not take goes the per-message way,
+        deserialised, at its place)."""
+        joints = self.joints
+        if not joints and not any(channel.loads for channel in self.channels):
             return
-        self.updater.touch("joint_states")
-        for channel, values in zip(self.channels, decoded):
-            t1, t2 = channel.joint_values(*values)
-            self.account(t0, t1, t2)
-            t0 = time.perf_counter()
+        t0 = time.perf_counter()
+        self.joints = []
+        count = len(joints) + sum(len(channel.loads) for channel in self.channels)
+        raws = [raw for raw, _ in joints]
+        bad = {}
+        decoded = [channel.joint_batch.decode(raws) for channel in self.channels]
+        if joints:
+            self.updater.touch("joint_states", joints[-1][1])
+            worse = np.zeros(len(raws), dtype=bool)
+            for values, status in decoded:
+                worse |= (status != 0) | (values["nsec"] >= 1_000_000_000)
+            bad = {j: _deserialise(raws[j]) for j in np.flatnonzero(worse).tolist()}
+        model_s = sum(channel.process(joints, d, bad) for channel, d in zip(self.channels, decoded))
+        self._callback_s += time.perf_counter() - t0
+        self._model_s += model_s
+        self._callbacks += count
 
     def _on_joint(self, msg: JointState) -> None:
+        self.process_inputs()             # (a node fed both ways: the copied messages came first)
         self.updater.touch("joint_states")
         for channel in self.channels:
             t1, t2 = channel.joint_message(msg)
@@ -213,6 +234,7 @@ class WearMonitorNode(Node):
         report["message"] += self.sensors.message_suffix()
 
     def publish_diagnostics(self) -> None:
+        self.process_inputs()
         now = time.monotonic()
         for channel in self.channels:
             channel.rejections.log_all(channel.feed.flush_aged(now))
@@ -223,6 +245,7 @@ class WearMonitorNode(Node):
     def checkpoint(self) -> None:
         if self.store is None:
             return
+        self.process_inputs()
         for channel in self.channels:    # one transaction per axis (each axis has its own fingerprint)
             try:
                 self.store.save(channel.states(self.params["machine_id"]), state_fingerprint(channel.params))
@@ -230,12 +253,21 @@ class WearMonitorNode(Node):
                 self.get_logger().error(str(exc), throttle_duration_sec=60.0)
 
     def close(self) -> None:
+        self.process_inputs()
         for channel in self.channels:
             channel.rejections.log_all(channel.feed.flush_all())
         if self.store is not None:
             self.checkpoint()
             self.store.close()
             self.store = None
+
+
+def _deserialise(raw: bytes) -> JointState | None:
+    """The JointState of a raw message, None when it is not one (malformed)."""
+    try:
+        return deserialize_message(raw, JointState)
+    except Exception:  # noqa: BLE001 - anything undecodable is malformed input
+        return None
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -59,8 +59,10 @@ def parse_effects(items: list[str] | None) -> dict[str, float]:
 
 
 def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
-                     effects: dict[str, float] | None = None) -> MachineRun:
-    """A :class:`MachineRun` of the scenario ``sim`` for a guide with wear parameters ``params``."""
+                     effects: dict[str, float] | None = None, new_surface_t_s=()) -> MachineRun:
+    """A :class:`MachineRun` of the scenario ``sim`` for a guide with wear parameters ``params``.
+    ``new_surface_t_s``: times [s from the start] of wear resets (regrind, new rail; see
+    :func:`apply_maintenance_truth`), from which the new surface runs in again (the running_in effect)."""
     effects = checked_effects(effects)
     rng = np.random.default_rng(seed)
     knots = cycle_knots(rng, sim)
@@ -82,12 +84,18 @@ def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
     temperature_t_s, temperature_c, temperature_at_measurements_c = temperature_records(
         knots, sim, "thermal_drift" in effects, measurement_t_s, rng)
     truth_k = params["wear_coefficient"] * sim["wear_coefficient_factor"]
-    wear_m = true_straightness_wear_m(params, geometry, knots, wear_effects, truth_k, measurement_t_s)
+    resets = np.sort(np.asarray(new_surface_t_s, dtype=float))
+    wear_all = true_straightness_wear_m(params, geometry, knots, wear_effects, truth_k,
+                                        np.concatenate((measurement_t_s, resets)), resets)
+    wear_m = wear_all[:measurement_t_s.size]
     d_temp = (None if temperature_at_measurements_c is None
               else temperature_at_measurements_c - temperature_at_measurements_c[0])
     truth_m = measured_straightness_m(wear_m, params["straightness_initial_m"], d_temp, wear_effects)
     measured_m = truth_m + rng.normal(0.0, sim["straightness_noise_m"], measurement_t_s.size)
     truth = true_run_values(knots, geometry, truth_k, truth_m, measurement_t_s)
+    if resets.size:     # the noise-free straightness at each wear reset (apply_maintenance_truth's start)
+        truth["straightness_at_resets"] = [[float(t), float(params["straightness_initial_m"] + w)]
+                                           for t, w in zip(resets, wear_all[measurement_t_s.size:])]
     return MachineRun(
         joint_name=params["joint"],
         joint_t_ns=stamps_ns(joint_t_s),
@@ -156,11 +164,12 @@ def load_samples(knots: MachineKnots, sim: dict[str, Any], rng: np.random.Genera
 
 
 def true_straightness_wear_m(params: dict[str, Any], geometry: WearGeometry, knots: MachineKnots,
-                             effects: WearEffects, truth_k: float, at_s: np.ndarray) -> np.ndarray:
+                             effects: WearEffects, truth_k: float, at_s: np.ndarray,
+                             new_surface_t_s=()) -> np.ndarray:
     """True straightness loss by wear [m] at times ``at_s``: Eq. 7 with the effects' work, or (other
     straightness models, no effects) the true K times the monitor's loss per unit K of the exact motion."""
     if geometry.straightness_model == "eq7":
-        work, pass_work = effective_work_at(knots, at_s, effects, geometry.slider_length_m)
+        work, pass_work = effective_work_at(knots, at_s, effects, geometry.slider_length_m, new_surface_t_s)
         return straightness_wear_m(truth_k, geometry.hardness_pa, geometry.contact_width_m, work, pass_work,
                                    float(knots.strokes_m.min() + knots.strokes_m.max()),
                                    effects.stroke_distribution_weight)
@@ -216,15 +225,22 @@ def true_straightness_loss_per_k_m(params: dict[str, Any], knot_t: np.ndarray, k
 
 
 def effective_work_at(knots: MachineKnots, at_s: np.ndarray, effects: WearEffects,
-                      slider_length_m: float) -> tuple[np.ndarray, np.ndarray]:
+                      slider_length_m: float, new_surface_t_s=()) -> tuple[np.ndarray, np.ndarray]:
     """Effective Archard work G = sum W ds m [N m] and pass work P = sum W ds m / max(L, L_s) [N] of the
-    exact motion at times ``at_s`` (models/wear/effects.py; m = 1 without effects)."""
+    exact motion at times ``at_s`` (models/wear/effects.py; m = 1 without effects). Running-in counts the
+    sliding distance from the last of ``new_surface_t_s`` [s] before each segment (a reground surface runs
+    in again)."""
     ds = np.abs(np.diff(knots.x_m))
     dt = np.diff(knots.t_s)
     s = np.concatenate(([0.0], np.cumsum(ds)))
     load = knots.load_n[1:]
     speed = np.divide(ds, dt, out=np.zeros_like(ds), where=dt > 0)
-    running_in = running_in_factor_mean(s[:-1], s[1:], effects.running_in_ratio, effects.running_in_distance_m)
+    resets = np.sort(np.asarray(new_surface_t_s, dtype=float))
+    last = np.searchsorted(resets, knots.t_s[:-1], side="right") - 1
+    reset_s = np.interp(resets, knots.t_s, s) if resets.size else np.zeros(1)     # sliding distance at each
+    start = np.where(last >= 0, reset_s[np.clip(last, 0, None)], 0.0)
+    running_in = running_in_factor_mean(s[:-1] - start, s[1:] - start, effects.running_in_ratio,
+                                        effects.running_in_distance_m)
     if knots.curve is not None and math.isfinite(effects.lift_speed_m_s):
         # the asperity share varies along a double-S move: its distance-weighted mean (Gauss-Legendre, 1e-9)
         share = s_curve_mean(knots.curve, lambda v: asperity_load_share(v, effects.lift_speed_m_s))[1:]
@@ -333,17 +349,22 @@ def _straightness_m(item: str, text: str) -> float:
 def apply_maintenance_truth(run: MachineRun, events: list, params: dict[str, Any]) -> None:
     """The measured straightness of ``run`` after each wear reset (regrind, rail replacement) of its axis:
     from then on the truth grows from the straightness after the event (given, else A0) by the wear since
-    it, the truth at the event interpolated between the truth's measurement times (wear grows smoothly)."""
+    it. The truth at the event: simulate_machine's value when the event was among its ``new_surface_t_s``
+    (then the new surface also runs in again), else interpolated between the truth's measurement times."""
     truth = run.metadata["truth"]
     t_s = np.asarray(truth["straightness_t_s"], dtype=float)
     true_m = np.asarray(truth["straightness_m"], dtype=float)
     measured_t_s = (run.straightness_t_ns - START_TIME_NS) * 1e-9
-    for event in events:
+    exact = {round(t, 6): a for t, a in truth.get("straightness_at_resets", [])}   # simulate_machine's new_surface_t_s
+    shifted = 0.0
+    for event in sorted(events, key=lambda e: e.t_ns):
         if event.kind not in ("regrind", "replace_rail"):
             continue
         t_e = (event.t_ns - START_TIME_NS) * 1e-9
         after = event.straightness_m if math.isfinite(event.straightness_m) else params["straightness_initial_m"]
-        shift = after - float(np.interp(t_e, t_s, true_m))
+        at_event = exact[round(t_e, 6)] + shifted if round(t_e, 6) in exact else float(np.interp(t_e, t_s, true_m))
+        shift = after - at_event
+        shifted += shift
         true_m = np.where(t_s > t_e, true_m + shift, true_m)
         run.straightness_m = np.where(measured_t_s > t_e, run.straightness_m + shift, run.straightness_m)
     truth["straightness_m"] = true_m.tolist()

@@ -49,6 +49,31 @@ _BLOCK_STRIDE = 2 * _BINS ** 2
 _SUMS = ("work_nm", "distance_m", "pass_work_n", "t_w", "s_w", "s2_w", "ln_v_w", "ln_load_w", "x_w", "pass_len_w")
 
 
+def _cell_keys(block: np.ndarray, retract: np.ndarray, v_bin: np.ndarray,
+               w_bin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(sorted unique keys, index of each segment's key) of the keys ((block * 2 + retract) * _BINS + v_bin)
+    * _BINS + w_bin: what ``np.unique(keys, return_inverse=True)`` gives, without its sort of every
+    segment when the keys of a chunk span a small box (a chunk covers a few hundred blocks and a few dozen
+    speed and load bins): a count per box position instead (the same keys, in the same order, so the
+    per-cell sums are the same numbers)."""
+    n = block.size
+    lo = [int(a.min()) for a in (block, v_bin, w_bin)]
+    nb, nv, nw = (int(a.max()) - m + 1 for a, m in zip((block, v_bin, w_bin), lo))
+    size = nb * 2 * nv * nw
+    if size > 8 * n + 65536:
+        keys = ((block * 2 + retract) * _BINS + v_bin) * _BINS + w_bin
+        return np.unique(keys, return_inverse=True)
+    box = (((block - lo[0]) * 2 + retract) * nv + (v_bin - lo[1])) * nw + (w_bin - lo[2])
+    used = np.flatnonzero(np.bincount(box, minlength=size))
+    rank = np.zeros(size, np.int64)
+    rank[used] = np.arange(used.size)
+    b, rest = np.divmod(used, 2 * nv * nw)
+    r, rest = np.divmod(rest, nv * nw)
+    v, w = np.divmod(rest, nw)
+    uniq = (((b + lo[0]) * 2 + r) * _BINS + v + lo[1]) * _BINS + w + lo[2]
+    return uniq, rank[box]
+
+
 @dataclass
 class DutyCells:
     """Cells and measurements of one run. Times are seconds from ``t0_ns``."""
@@ -214,7 +239,8 @@ class DutyCellAccumulator:
             return
         ends = np.concatenate((starts[1:], [done]))
         pass_len = np.add.reduceat(seg["ds"][:done], starts)
-        self._passes.append(pass_len)
+        # the record's last pass is cut by its end, not completed: not a stroke (as the live StrokeTracker)
+        self._passes.append(pass_len[:-1] if final else pass_len)
         seg_pass_len = np.repeat(pass_len, ends - starts)
         self._reduce({k: v[:done] for k, v in seg.items()}, seg_pass_len)
 
@@ -229,8 +255,7 @@ class DutyCellAccumulator:
         block = np.floor(seg["t_s"] / self.block_s).astype(np.int64)
         v_bin = np.clip(np.floor(ln_v / self.log_bin).astype(np.int64) + _BIN_OFFSET, 0, _BINS - 1)
         w_bin = np.clip(np.floor(ln_w / self.log_bin).astype(np.int64) + _BIN_OFFSET, 0, _BINS - 1)
-        keys = (((block * 2 + (seg["dir"] < 0)) * _BINS + v_bin) * _BINS + w_bin)
-        uniq, inverse = np.unique(keys, return_inverse=True)
+        uniq, inverse = _cell_keys(block, seg["dir"] < 0, v_bin, w_bin)
         values = {
             "work_nm": work, "distance_m": seg["ds"],
             "pass_work_n": work * pass_weight_per_m(pass_len, self.slider_length_m),
@@ -322,14 +347,24 @@ def duty_cells_from_runs(runs, slider_length_m: float, block_s: float = 30.0,
     return acc.finish()
 
 
-def read_duty_cells(bag, params: dict, namespace: str | None = None, progress=None) -> tuple[DutyCells, int]:
-    """Stream a machine bag into duty cells (memory bounded by one chunk); (cells, messages read)."""
+def bag_accumulator(params: dict) -> DutyCellAccumulator:
+    """The accumulator ``diagnose`` reads a bag with: slider length, input limits and deadband of ``params``."""
+    return DutyCellAccumulator(params["slider_length_m"], limits=InputLimits.from_params(params),
+                               sliding_deadband_m=params["sliding_deadband_m"])
+
+
+def iter_bag_chunks(bag, params: dict, namespace: str | None = None, progress=None):
+    """The MachineRun chunks of a machine bag that :func:`read_duty_cells` accumulates."""
     from guide_health.io.bag_reader import iter_machine_bag
 
-    acc = DutyCellAccumulator(params["slider_length_m"], limits=InputLimits.from_params(params),
-                              sliding_deadband_m=params["sliding_deadband_m"])
+    return iter_machine_bag(bag, joint=params["joint"], namespace=namespace, progress=progress)
+
+
+def read_duty_cells(bag, params: dict, namespace: str | None = None, progress=None) -> tuple[DutyCells, int]:
+    """Stream a machine bag into duty cells (memory bounded by one chunk); (cells, messages read)."""
+    acc = bag_accumulator(params)
     messages = 0
-    for chunk in iter_machine_bag(bag, joint=params["joint"], namespace=namespace, progress=progress):
+    for chunk in iter_bag_chunks(bag, params, namespace, progress):
         acc.add(chunk)
         messages += chunk.messages
     return acc.finish(), messages

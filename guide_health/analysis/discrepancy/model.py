@@ -26,6 +26,7 @@ from guide_health.models.wear.effects import (
     load_along_rail_factor,
     lubrication_interval_factor,
     measured_straightness_m,
+    relubrication_growth_factor,
     running_in_factor_spread,
     straightness_wear_m,
     wear_rate_change_factor,
@@ -54,6 +55,14 @@ def _effect_specs(problem: WearProblem) -> dict[str, list[ParamSpec]]:
     t_fit = float(problem.t_s[problem.fit_mask][-1])
     spread = float(np.max(np.abs(problem.cells.position_m - problem.position_ref_m))) if problem.cells.cells else 0.0
     g_max = 1.0 / max(spread, 1e-3)
+    if problem.relubrication_t_s is not None:   # recorded relubrications: b of m = 1 + b tau (m >= 0.1 over the gap)
+        gap = problem.relubrication_gap_s
+        lube = [ParamSpec("lubrication_wear_growth_per_s", "1/s", -0.9 / gap, 20.0 / gap, False, (0.5 / gap,))]
+    else:                                       # an interval T from the record's start, and a
+        lube = [ParamSpec("lubrication_interval_s", "s", 1800.0, max(t_fit, 3600.0), True,
+                          tuple(h * 3600.0 for h in (1.5, 2.0, 3.0, 4.0, 5.5, 7.0, 9.0, 12.0, 16.0)
+                                if h * 3600.0 < t_fit) or (t_fit / 2,)),
+                ParamSpec("lubrication_wear_growth", "-", -0.9, 20.0, False, (1.0,))]
     return {
         "running_in": [ParamSpec("running_in_ratio", "-", 0.0, 100.0, False, (1.0,)),
                        ParamSpec("running_in_distance_m", "m", dist * 1e-3, dist, True,
@@ -69,11 +78,7 @@ def _effect_specs(problem: WearProblem) -> dict[str, list[ParamSpec]]:
         "wear_rate_change": [ParamSpec("wear_rate_change_time_s", "s", 0.0, t_fit, False,
                                        tuple(t_fit * f for f in (0.2, 0.4, 0.6, 0.8))),
                              ParamSpec("wear_rate_change_factor", "-", 0.05, 20.0, True, (0.5, 2.0))],
-        "lubrication_interval": [ParamSpec("lubrication_interval_s", "s", 1800.0, max(t_fit, 3600.0), True,
-                                           tuple(h * 3600.0 for h in (1.5, 2.0, 3.0, 4.0, 5.5, 7.0, 9.0, 12.0, 16.0)
-                                                 if h * 3600.0 < t_fit)
-                                           or (t_fit / 2,)),
-                                 ParamSpec("lubrication_wear_growth", "-", -0.9, 20.0, False, (1.0,))],
+        "lubrication_interval": lube,
         "load_along_rail": [ParamSpec("load_gradient_per_m", "1/m", -g_max, g_max, False, (0.0,))],
     }
 
@@ -144,7 +149,8 @@ def rel_errors(pred: np.ndarray, meas: np.ndarray) -> np.ndarray:
 class WearProblem:
     """Measurements, duty cells and wear parameters of one machine; fits models with any effect set."""
 
-    def __init__(self, cells: DutyCells, params: dict[str, Any], heldout_fraction: float = 0.25):
+    def __init__(self, cells: DutyCells, params: dict[str, Any], heldout_fraction: float = 0.25,
+                 relubrication_t_s: np.ndarray | None = None):
         if cells.measurement_m.size < 6:
             raise ValueError(f"the discrepancy workflow needs at least 6 straightness measurements, "
                              f"the bag has {cells.measurement_m.size}")
@@ -196,6 +202,11 @@ class WearProblem:
         edges = np.concatenate(([0.0], self.t_s, [max(cells.duration_s, float(self.t_s[-1]))]))
         k = np.clip(cells.interval, 0, n)
         self.cell_start_s, self.cell_end_s = edges[k], edges[k + 1]
+        # recorded relubrications [s from t0] (maintenance events): lubrication_interval's time since the last
+        relube = np.sort(np.asarray(relubrication_t_s if relubrication_t_s is not None else [], dtype=float))
+        self.relubrication_t_s = relube if relube.size else None
+        gaps = np.diff(np.concatenate(([0.0], relube, [max(cells.duration_s, 1.0)]))) if relube.size else [1.0]
+        self.relubrication_gap_s = float(max(np.max(gaps), 1.0))     # the longest time without relubrication
         self.position_ref_m = float(np.sum(cells.work_nm * cells.position_m) / max(cells.work_nm.sum(), 1e-300))
         self.specs = _effect_specs(self)
 
@@ -234,6 +245,8 @@ class WearProblem:
             return self.k0
         if spec.unit == "s":
             return 3600.0                        # times in hours inside the fit
+        if spec.unit == "1/s":
+            return 1.0 / 3600.0                  # rates per hour inside the fit
         return 1e-6 if spec.unit in MICRO_UNITS else 1.0
 
     def _physical(self, specs: list[ParamSpec], x: np.ndarray) -> dict[str, float]:
@@ -279,6 +292,9 @@ class WearProblem:
             m = m * wear_rate_change_factor(0.5 * (self.cell_start_s + self.cell_end_s),
                                             self.cell_end_s - self.cell_start_s, values["wear_rate_change_time_s"],
                                             values["wear_rate_change_factor"])
+        if "lubrication_wear_growth_per_s" in values:
+            m = m * relubrication_growth_factor(c.time_s, self.relubrication_t_s,
+                                                values["lubrication_wear_growth_per_s"])
         if "lubrication_interval_s" in values:
             m = m * lubrication_interval_factor(c.time_s, values["lubrication_interval_s"],
                                                 values["lubrication_wear_growth"])

@@ -2,13 +2,13 @@
 from __future__ import annotations
 
 import csv
-import json
 import math
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from guide_health.io.json_text import json_text
 from guide_health.io.output_files import open_output, save_figure, write_text
 
 
@@ -86,6 +86,16 @@ def markdown(result: dict[str, Any], bag: str = "") -> str:
     return "\n".join(lines)
 
 
+def preload_plotting() -> None:
+    """Import what :func:`plot` needs (matplotlib with the Agg backend), e.g. while a child reads the bag."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot  # noqa: F401
+
+    from guide_health.analysis import report_plots  # noqa: F401
+
+
 def plot(result: dict[str, Any], path: Path) -> None:
     import matplotlib
 
@@ -154,5 +164,5 @@ def write_report(result: dict[str, Any], out: Path, bag: str = "", with_plot: bo
     write_text(files["markdown"], markdown(result, bag))
     body = {k: v for k, v in result.items() if k != "series"}
     body["files"] = files
-    write_text(files["json"], json.dumps(body, indent=2, allow_nan=True, default=float) + "\n")
+    write_text(files["json"], json_text(body, indent=2, default=float) + "\n")
     return files

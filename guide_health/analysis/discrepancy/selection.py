@@ -38,9 +38,11 @@ class SelectionResult:
 
 
 def forward_selection(fit: Callable[..., Any], candidates: list[str],
-                      bic_threshold: float = BIC_THRESHOLD, max_effects: int = 3) -> SelectionResult:
+                      bic_threshold: float = BIC_THRESHOLD, max_effects: int = 3,
+                      fit_all: Callable[[list], list] | None = None) -> SelectionResult:
     """``fit(effects[, warm=fit_of_the_current_model])`` returns an object with ``bic`` and
-    ``heldout_rmse_um`` (NaN = no held-out data)."""
+    ``heldout_rmse_um`` (NaN = no held-out data). ``fit_all([(effects, warm or None), ...])``, when given,
+    returns the same fits as ``fit`` would, in order (e.g. computed in several processes)."""
     current: tuple[str, ...] = ()
     base = fit(current)
     cur_fit = base
@@ -48,8 +50,9 @@ def forward_selection(fit: Callable[..., Any], candidates: list[str],
     remaining = list(candidates)
     while remaining and len(current) < max_effects:
         rows = []
-        for name in remaining:
-            f = fit(current + (name,), warm=cur_fit) if current else fit(current + (name,))
+        jobs = [(current + (name,), cur_fit if current else None) for name in remaining]
+        fitted = fit_all(jobs) if fit_all else [fit(e, warm=w) if w is not None else fit(e) for e, w in jobs]
+        for name, f in zip(remaining, fitted):
             result.fits[current + (name,)] = f
             d_bic = f.bic - cur_fit.bic
             held_ok = (math.isnan(f.heldout_rmse_um) or math.isnan(cur_fit.heldout_rmse_um)

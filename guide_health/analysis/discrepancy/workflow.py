@@ -14,6 +14,7 @@ import numpy as np
 
 from guide_health.analysis.discrepancy.analysis import disagreement, forecast_check, unexplained_structure
 from guide_health.analysis.discrepancy.duty import DutyCells
+from guide_health.analysis.discrepancy.fit_pool import FitPool
 from guide_health.analysis.discrepancy.model import FitResult, WearProblem, rel_errors
 from guide_health.analysis.discrepancy.model_file import model_parameters
 from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD, forward_selection
@@ -126,19 +127,8 @@ def _steady_stage(problem: WearProblem, base: FitResult, final: FitResult) -> di
     }}
 
 
-def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: float = 0.25,
-                   bic_threshold: float = BIC_THRESHOLD) -> dict[str, Any]:
-    """The discrepancy workflow over duty cells (see ``duty.py``); returns the JSON-ready result with the
-    series for plots under ``series``."""
-    t0 = time.perf_counter()
-    problem = WearProblem(cells, params, heldout_fraction=heldout_fraction)
-    selection = forward_selection(problem.fit, problem.available_effects(), bic_threshold=bic_threshold)
-    base, final = selection.baseline, selection.final
-    where = disagreement(problem, base.predicted_m)
-    after = disagreement(problem, final.predicted_m, mask=problem.fit_mask)     # the fit's own residuals
-    named = list(selection.named)
-    after["heldout_forecast"] = forecast_check(problem, final)
-    structure = unexplained_structure(after, named)
+def _candidates(selection) -> list[dict[str, Any]]:
+    """One row per candidate fit of every round of the forward search."""
     candidates = []
     for round_index, rows in enumerate(selection.rounds):
         for r in rows:
@@ -152,6 +142,27 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
                 "selected": r["selected"],
                 "parameters": f.parameter_table(),
             })
+    return candidates
+
+
+def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: float = 0.25,
+                   bic_threshold: float = BIC_THRESHOLD, relubrication_t_s=None, workers: int = 1) -> dict[str, Any]:
+    """The discrepancy workflow over duty cells (see ``duty.py``); returns the JSON-ready result with the
+    series for plots under ``series``. ``relubrication_t_s``: the recorded relubrications [s from the cells'
+    t0] (maintenance events; None: lubrication_interval fits an interval). ``workers`` > 1: the candidate fits
+    of a round in that many processes (fit_pool.py; the same result)."""
+    t0 = time.perf_counter()
+    problem = WearProblem(cells, params, heldout_fraction=heldout_fraction, relubrication_t_s=relubrication_t_s)
+    with FitPool(problem, workers) as pool:
+        selection = forward_selection(problem.fit, problem.available_effects(), bic_threshold=bic_threshold,
+                                      fit_all=pool.fit_all if pool else None)
+    base, final = selection.baseline, selection.final
+    where = disagreement(problem, base.predicted_m)
+    after = disagreement(problem, final.predicted_m, mask=problem.fit_mask)     # the fit's own residuals
+    named = list(selection.named)
+    after["heldout_forecast"] = forecast_check(problem, final)
+    structure = unexplained_structure(after, named)
+    candidates = _candidates(selection)
     final_gap = _gap(final)
     effects = {e: {"meaning": EFFECT_MEANING[e],
                    "parameters": {name: final_gap["parameters"][name] for name in _names(problem, e)
@@ -187,6 +198,7 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
             "retract_direction": "+x" if problem.retract_sign > 0 else "-x",
             "load_reference_n": problem.load_reference_n,
             "temperature_recorded": problem.temperature_change_k is not None,
+            "relubrications_recorded": 0 if problem.relubrication_t_s is None else int(problem.relubrication_t_s.size),
             "straightness_initial_fitted": problem.a0_free,
         },
         "selection": {"criterion": "BIC on the fit span and held-out RMSE", "bic_threshold": bic_threshold,
@@ -195,7 +207,7 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
     if "running_in" in named:
         result.update(_steady_stage(problem, base, final))
     # the model file: the named effects refitted on every measurement (the held-out span scored the choice)
-    whole = WearProblem(cells, params, heldout_fraction=0.0)
+    whole = WearProblem(cells, params, heldout_fraction=0.0, relubrication_t_s=relubrication_t_s)
     whole_fit = whole.fit(tuple(named), warm=final)
     result["model_file"] = model_parameters(whole, whole_fit, named)
     result["forecast"] = fit_forecast(whole, whole_fit, float(params["straightness_limit_m"]))

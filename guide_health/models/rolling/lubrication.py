@@ -117,8 +117,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import quad
-from scipy.optimize import brentq
 
 # --- Hamrock & Dowson (1977) point-contact film fits (dimensionless exponents/coefficients) ---
 HD_CENTRAL_COEFF = 2.69
@@ -195,6 +193,8 @@ def greenwood_tripp_integral(order: float, separation_ratio: float) -> float:
 
     scipy.integrate.quad over x = s - t in [0, inf), split at the density peak for t < 0.
     """
+    from scipy.integrate import quad  # here, not at import: the parameter schema imports this module
+
     t = separation_ratio
 
     def integrand(x: float) -> float:
@@ -252,6 +252,8 @@ def jgp_greenwood_tripp(smooth_central_film_m: float, mean_contact_pressure_pa: 
 
     def share(t: float) -> float:
         return scale * f52(t)
+
+    from scipy.optimize import brentq
 
     lo = -4.0
     while share(lo) < 1.0:

@@ -175,13 +175,21 @@ DUTY_BUCKETS = 60
 
 def _ramp_sum(points: np.ndarray, starts: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """sum_i w_i * max(p - s_i, 0) for every p in ``points`` (sorted-prefix sums, O((n+m) log n))."""
+    return _ramp_sums(starts, weights, points)[0]
+
+
+def _ramp_sums(starts: np.ndarray, weights: np.ndarray, *point_sets: np.ndarray) -> list[np.ndarray]:
+    """:func:`_ramp_sum` at several point sets, sorting the starts once (the same arithmetic)."""
     order = np.argsort(starts, kind="stable")
     s = starts[order]
     w = weights[order]
     cw = np.concatenate(([0.0], np.cumsum(w)))
     cws = np.concatenate(([0.0], np.cumsum(w * s)))
-    k = np.searchsorted(s, points, side="right")
-    return cw[k] * points - cws[k]
+    out = []
+    for points in point_sets:
+        k = np.searchsorted(s, points, side="right")
+        out.append(cw[k] * points - cws[k])
+    return out
 
 
 @dataclass
@@ -320,8 +328,9 @@ class WearIntegrator:
             half = 0.5 * self.geometry.slider_length_m
             up, down = self._bins + half, self._bins - half
             # |[a,b] ∩ (-inf, p]| summed with weights = ramp(p - a) - ramp(p - b)
-            cover_up = _ramp_sum(up, a, wl) - _ramp_sum(up, b, wl)
-            cover_down = _ramp_sum(down, a, wl) - _ramp_sum(down, b, wl)
+            (a_up, a_down), (b_up, b_down) = _ramp_sums(a, wl, up, down), _ramp_sums(b, wl, up, down)
+            cover_up = a_up - b_up
+            cover_down = a_down - b_down
             self.profile_work_n += (cover_up - cover_down) / self.geometry.slider_length_m
             # w(u) >= 0: the ramp-sum differences leave rounding residues of either sign (-4e-10 N seen
             # where nothing was added), which a saved state must not carry

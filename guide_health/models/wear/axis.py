@@ -123,6 +123,35 @@ class AxisMonitor:
         for name, guide in self.guides.items():
             guide.integrate_joint(t_ns, position_m, None if load_n is None else self._guide_load(name, load_n))
 
+    def integrate_many(self, t_ns, position_m, load_n, own=None) -> None:
+        """:meth:`integrate_joint` of accepted samples in stamp order, through the guides' batch path
+        (PrecisionMonitor._advance_many), split at the pending maintenance events as sample by sample.
+        ``load_n``: the axis load [N] of each sample; ``own``: None or (indices, [loads per guide]) of
+        samples each guide integrates with its own latest load (``integrate_joint(..., None)``)."""
+        t_ns = np.asarray(t_ns, dtype=np.int64)
+        lo, n = 0, int(t_ns.size)
+        while self.pending and lo < n:
+            hi = int(np.searchsorted(t_ns, self.pending[0].t_ns, side="right"))   # stamped <= the event
+            if hi >= n:
+                break
+            self._integrate_guides(t_ns, position_m, load_n, own, lo, hi)
+            self.apply_due(int(t_ns[hi]))
+            lo = hi
+        self._integrate_guides(t_ns, position_m, load_n, own, lo, n)
+
+    def _integrate_guides(self, t_ns, position_m, load_n, own, lo: int, hi: int) -> None:
+        if hi <= lo:
+            return
+        for k, (name, guide) in enumerate(self.guides.items()):
+            share = self.shares[name]
+            w = load_n[lo:hi] if share == 1.0 else load_n[lo:hi] * share
+            if own is not None:
+                sel = (own[0] >= lo) & (own[0] < hi)
+                if sel.any():
+                    w = w.copy()
+                    w[own[0][sel] - lo] = own[1][k][sel]
+            guide._advance_many(t_ns[lo:hi], position_m[lo:hi], w)
+
     def on_joint(self, t_ns: int, position_m: float, velocity_m_s: float = 0.0) -> str | None:
         reason = self.validate_joint(t_ns, position_m, velocity_m_s)
         if reason is None:

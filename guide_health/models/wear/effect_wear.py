@@ -13,8 +13,14 @@ the vectorised offline path alike) and keeps
 The remaining life (seed 000 Eq. 12 from the present state) integrates the running-in decay forward:
 A(t_now + T) - A(t_now) = K c [T + r s0 / v_s e^(-s/s0) (1 - e^(-v_s T / s0))], c = dA/dt per K at steady
 wear of the present duty, v_s the present sliding speed (closed-form integral of K(s) = K (1 + r e^(-s/s0))).
-Its interval widens by the effect parameters' covariance (delta method on ln life, K held at its value:
-conservative, the fit's K-effect correlation is not used).
+Its interval (:func:`life_interval_s`) profiles K out, as the live model does: the effect parameters phi are
+held at the model file's values and K is the online estimate K(phi) from the measurements. A change of phi
+moves K(phi) (d K / d phi from the measurements' effective-work gradients, :func:`online_k_sensitivity`),
+the straightness now and the rate; the life's variance is grad_phi' Sigma_phi grad_phi (Sigma_phi: the file's
+marginal covariance of phi) plus (d life / d K)^2 var(K | phi) (the online update's posterior). With the
+same measurements this equals the offline fit's joint delta method (the regression of K on phi is the
+fit's Sigma_K,phi Sigma_phi^-1); unlike a fixed joint covariance it stays right when K is recalibrated on
+later measurements and whatever stroke range maps the work to straightness (K's scale).
 """
 from __future__ import annotations
 
@@ -91,6 +97,11 @@ class EffectWear:
     buckets: dict = field(default_factory=dict)       # bucket index -> [_SUMS sums]
     # d(effective work)/d(r, s0, rho, v_lift, n) over the whole history [N m per unit]
     work_gradient: list = field(default_factory=lambda: [0.0] * 5)
+    # work_gradient at each straightness measurement (parallel to the estimator's measurements)
+    measurement_gradients: list = field(default_factory=list)
+    # the guide's sliding distance when the present surface was made (0, or at the last regrind / new rail):
+    # running-in counts the distance slid on this surface [m]
+    surface_start_m: float = 0.0
 
     def add_segments(self, t_start_ns, t_end_ns, xa_m, xb_m, load_n, s_start_m) -> None:
         """Sliding segments from xa to xb between the stamps, under load_n (NaN / 0: no wear), starting at
@@ -104,7 +115,7 @@ class EffectWear:
         speed = np.divide(ds, dt, out=np.zeros_like(ds), where=dt > 0)
         e = self.effects
         retract = np.sign(xb - xa) == e.retract_sign
-        s_a = np.asarray(s_start_m, dtype=float)
+        s_a = np.maximum(np.asarray(s_start_m, dtype=float) - self.surface_start_m, 0.0)   # on this surface
         m = wear_rate_multiplier(e.wear_effects(), speed, np.maximum(w, 1e-12), retract)
         work = w * ds
         eff = work * m
@@ -140,14 +151,31 @@ class EffectWear:
         rows = [v for b, v in self.buckets.items() if b > now - self.duty_buckets]
         return np.sum(rows, axis=0) if rows else np.zeros(_SUMS)
 
+    def new_surface(self, sliding_distance_m: float) -> None:
+        """The worn surface made new at the guide's sliding distance (regrind, new rail): its effective work
+        and gradients restart and so does running-in (a fresh scraped or ground surface runs in again); the
+        duty buckets are kept (they describe the machine's use)."""
+        self.surface_start_m = float(sliding_distance_m)
+        self.effective_work_nm = 0.0
+        self.work_gradient = [0.0] * len(self.work_gradient)
+        self.measurement_gradients = []
+
+    def on_measurement(self) -> None:
+        """A straightness measurement was taken now: keep the work gradient it saw."""
+        self.measurement_gradients.append(list(self.work_gradient))
+
     def state(self) -> dict:
         return {"effective_work_nm": self.effective_work_nm, "work_gradient": list(self.work_gradient),
-                "buckets": [[b, *v] for b, v in sorted(self.buckets.items())]}
+                "buckets": [[b, *v] for b, v in sorted(self.buckets.items())],
+                "measurement_gradients": [list(g) for g in self.measurement_gradients],
+                "surface_start_m": self.surface_start_m}
 
     def restore(self, state: dict) -> None:
         self.effective_work_nm = float(state["effective_work_nm"])
         self.work_gradient = [float(v) for v in state.get("work_gradient", [0.0] * 5)]
         self.buckets = {int(row[0]): [float(v) for v in row[1:]] for row in state["buckets"]}
+        self.measurement_gradients = [[float(v) for v in g] for g in state.get("measurement_gradients", [])]
+        self.surface_start_m = float(state.get("surface_start_m", 0.0))
 
 
 def running_in_extra_m_per_rate(horizon_s, ratio: float, distance_m: float, s_now_m: float,
@@ -192,35 +220,58 @@ def forecast_straightness_m(horizon_s: np.ndarray, straightness_now_m: float, st
                                                                                     sliding_speed_m_s))
 
 
+def online_k_sensitivity(loss_per_k_m: np.ndarray, rise_m: np.ndarray, loss_gradient_m: np.ndarray, k: float,
+                         k_sd: float, sigma_m: float) -> np.ndarray:
+    """d K(phi) / d phi of the online K update (calibration.WearCoefficientEstimator: K = (K0 / v0 + sum g y /
+    sigma^2) / P, P = 1 / v0 + sum g^2 / sigma^2 = 1 / k_sd^2) when the effect parameters phi change the
+    measurements' losses per unit K g_j by dg_j / dphi (``loss_gradient_m``, one row per measurement):
+    dK = k_sd^2 / sigma^2 sum_j dg_j (y_j - 2 K g_j), y_j the measured rise over A0 [m]."""
+    g = np.asarray(loss_per_k_m, dtype=float)
+    dg = np.asarray(loss_gradient_m, dtype=float).reshape(g.size, -1)
+    y = np.asarray(rise_m, dtype=float)
+    ok = np.isfinite(g) & np.isfinite(y) & np.all(np.isfinite(dg), axis=1)
+    if not ok.any() or not sigma_m > 0:
+        return np.zeros(dg.shape[1])
+    return k_sd ** 2 / sigma_m ** 2 * (dg[ok].T @ (y[ok] - 2.0 * k * g[ok]))
+
+
 def life_interval_s(k: float, k_sd: float, e: LiveEffects, now: dict, z: float) -> tuple[float, float, float]:
     """(life, low, high) [s] of remaining life with the effects, and its interval: the delta method on ln life
-    over K and the effect parameters with the model file's covariance, plus the online K update's sd.
+    with K profiled (module text): the effect parameters phi = (r, s0, rho, v_lift, n) vary with the model
+    file's marginal covariance, K follows as the online update would (``now["k_sensitivity"]`` = dK / dphi),
+    and K's own spread given phi is the online posterior sd ``k_sd``.
 
     ``now``: margin0 = A_max - A0 [m], c = straightness per unit K and effective work [m / (N m)], work =
-    effective work [N m], work_gradient (d work / d(r, s0, rho, v_lift, n)), rate_per_k (steady dA/dt per K
-    [m/s]), dln_rate (d ln rate / d(rho, v_lift, n) at the present duty), s_now [m], v_s [m/s].
-    A change of a parameter moves the straightness now (through the past effective work) and the rate."""
-    theta0 = np.array([k, e.running_in_ratio, e.running_in_distance_m, e.retract_wear_factor,
-                       e.lift_speed_m_s if math.isfinite(e.lift_speed_m_s) else 0.0, e.load_exponent])
+    effective work [N m], work_gradient (d work / d phi), k_sensitivity (d K / d phi), rate_per_k (steady
+    dA/dt per K [m/s]), dln_rate (d ln rate / d(rho, v_lift, n) at the present duty), s_now (sliding distance
+    of the present surface [m]), v_s [m/s]. A change of phi moves the straightness now (through the past
+    effective work and K) and the rate."""
+    phi0 = np.array([e.running_in_ratio, e.running_in_distance_m, e.retract_wear_factor,
+                     e.lift_speed_m_s if math.isfinite(e.lift_speed_m_s) else 0.0, e.load_exponent])
+    dk = np.asarray(now.get("k_sensitivity", np.zeros(phi0.size)), dtype=float)
 
-    def life(theta: np.ndarray) -> float:
-        d = theta - theta0
-        work = now["work"] + float(np.dot(now["work_gradient"], d[1:]))
-        rate = theta[0] * now["rate_per_k"] * (1.0 + float(np.dot(now["dln_rate"], d[3:])))
-        return remaining_life_with_running_in_s(now["margin0"] - theta[0] * now["c"] * work, rate, theta[1],
-                                                max(theta[2], 1e-9), now["s_now"], now["v_s"])
+    def life(k_: float, phi: np.ndarray) -> float:
+        d = phi - phi0
+        kk = k_ + float(np.dot(dk, d))
+        work = now["work"] + float(np.dot(now["work_gradient"], d))
+        rate = kk * now["rate_per_k"] * (1.0 + float(np.dot(now["dln_rate"], d[2:])))
+        return remaining_life_with_running_in_s(now["margin0"] - kk * now["c"] * work, rate, phi[0],
+                                                max(phi[1], 1e-9), now["s_now"], now["v_s"])
 
-    centre = life(theta0)
+    centre = life(k, phi0)
     if not (math.isfinite(centre) and centre > 0):
         return centre, centre, centre
-    cov = e.covariance_matrix().copy()
-    cov[0, 0] += k_sd ** 2                            # the online update's K spread (conservative: added)
-    grad = np.zeros(theta0.size)
-    for i in range(theta0.size):
-        h = 1e-2 * math.sqrt(cov[i, i])
-        if h > 0:
-            step = theta0.copy()
-            step[i] += h
-            grad[i] = (math.log(max(life(step), 1e-30)) - math.log(centre)) / h
-    sd = math.sqrt(max(float(grad @ cov @ grad), 0.0))
+    cov = e.covariance_matrix()[1:, 1:]
+
+    def dln(h: float, i: int | None) -> float:
+        phi = phi0.copy()
+        if i is not None:
+            phi[i] += h
+        return (math.log(max(life(k + (h if i is None else 0.0), phi), 1e-30)) - math.log(centre)) / h
+
+    grad = np.array([dln(1e-2 * math.sqrt(cov[i, i]), i) if cov[i, i] > 0 else 0.0 for i in range(phi0.size)])
+    var = float(grad @ cov @ grad)
+    if k_sd > 0:
+        var += (dln(1e-2 * k_sd, None) * k_sd) ** 2
+    sd = math.sqrt(max(var, 0.0))
     return centre, centre * math.exp(-z * sd), centre * math.exp(z * sd)

@@ -32,10 +32,12 @@ Wear-rate multipliers m_i (dV_i = K W_i ds_i m_i / H):
     The wear coefficient changes by the factor f at an unknown time t_c (contamination, a chipped wiper, a
     new lubricant batch): m = 1 before, f after. Over a cell of duration d centred at t the share of the
     work after t_c is clip((t + d/2 - t_c) / d, 0, 1) (uniform work within the cell).
-``lubrication_interval`` (T [s], a [-])
-    Wear grows with the time since the last relubrication, reset every interval T from the start of the
-    record (relubricated at t = 0, T, 2T, ...): m = 1 + a tau / T, tau = t mod T (the lubricant film
-    thins and is contaminated between services).
+``lubrication_interval`` (T [s], a [-]; or b [1/s] with recorded relubrications)
+    Wear grows with the time since the last relubrication (the lubricant film thins and is contaminated
+    between services). When the bag records the relubrications (``relubricate`` maintenance events,
+    models/wear/maintenance.py) tau is the time since the last recorded one (the record's start before the
+    first) and m = 1 + b tau; else they are assumed every interval T from the start of the record
+    (relubricated at t = 0, T, 2T, ...): m = 1 + a tau / T, tau = t mod T.
 ``load_along_rail`` (g [1/m])
     The load varies along the rail (a misaligned rail or a non-uniform foundation): W(x) = W (1 + g (x -
     x_ref)), x_ref the work-weighted mean position of the run (so K stays the mean): m = max(1 + g (x -
@@ -212,6 +214,20 @@ def lubrication_interval_factor(time_s: np.ndarray, interval_s: float, growth: f
     """m of ``lubrication_interval``: 1 + a (t mod T) / T [-] (relubricated at t = 0, T, 2T, ...)."""
     t = np.asarray(time_s, dtype=float)
     return 1.0 + growth * np.mod(t, interval_s) / interval_s
+
+
+def time_since_relubrication_s(time_s: np.ndarray, relubrication_t_s: np.ndarray) -> np.ndarray:
+    """tau = t - (the last relubrication at or before t; the record's start t = 0 before the first) [s]."""
+    t = np.asarray(time_s, dtype=float)
+    events = np.sort(np.asarray(relubrication_t_s, dtype=float))
+    i = np.searchsorted(events, t, side="right") - 1
+    last = np.where(i >= 0, events[np.clip(i, 0, None)] if events.size else 0.0, 0.0)
+    return t - np.minimum(last, t)
+
+
+def relubrication_growth_factor(time_s: np.ndarray, relubrication_t_s: np.ndarray, growth_per_s: float) -> np.ndarray:
+    """m of ``lubrication_interval`` with recorded relubrications: 1 + b tau [-] (tau: time since the last)."""
+    return 1.0 + growth_per_s * time_since_relubrication_s(time_s, relubrication_t_s)
 
 
 def load_along_rail_factor(position_m: np.ndarray, gradient_per_m: float, reference_m: float) -> np.ndarray:

@@ -4,6 +4,9 @@ from __future__ import annotations
 import math
 from collections import deque
 
+import numpy as np
+
+from guide_health.models.wear.input_rules import REASON_CODES, accept_joint_samples, accept_load_samples
 from guide_health.models.wear.precision import PrecisionMonitor
 
 
@@ -28,6 +31,15 @@ class StampAlignedFeed:
     Validation (:mod:`guide_health.models.wear.input_rules`) happens on arrival,
     so bad samples are rejected at once and counted in the monitor's ``rejected``.
     Every method returns the rejection reasons of the samples it handled.
+
+    Batches (issue 14, :meth:`process`): the live node only copies messages in its callbacks and hands
+    the feed the joint and load samples that arrived since the last batch, in arrays, with their arrival
+    times and their interleaving. The feed validates them with the vectorised input rules (every guide its
+    own counters, recent windows, time bases and stamp gaps, as on arrival), replays the decisions above
+    event by event in arrival order (which samples wait, which are integrated when, with which load in
+    force at their stamp) and integrates the result with the model's batch path (AxisMonitor.integrate_many:
+    split at pending maintenance events, each guide its share of the load). The numbers equal those of
+    :meth:`joint` / :meth:`load` one by one (test_live_batch.py).
     """
 
     def __init__(self, monitor: PrecisionMonitor, window_s: float = 0.5):
@@ -39,6 +51,7 @@ class StampAlignedFeed:
         # (t_ns, load_n): the accepted loads not yet behind the joint stream (bounded: with no joint
         # samples at all, the oldest go first; a sample older than every kept load would get NaN)
         self.loads = deque(maxlen=4096)
+        self.batches = [0, 0]               # batches aligned without / with the event loop (_align_fast)
 
     def joint(self, t_ns: int, position_m: float, velocity_m_s: float, now_s: float) -> list[str]:
         reason = self.monitor.validate_joint(t_ns, position_m, velocity_m_s)
@@ -94,6 +107,202 @@ class StampAlignedFeed:
         return loads[0][1] if loads[0][0] <= t_ns else math.nan
 
     def _integrate(self, samples) -> list[str]:
+        if len(samples) > 1:
+            t = np.array([s[0] for s in samples], dtype=np.int64)
+            x = np.array([s[1] for s in samples], dtype=float)
+            loads = [self.load_at(int(s[0])) for s in samples]
+            if None not in loads:        # (None: no load through the feed yet, each guide its latest)
+                _integrate_many(self.monitor, t, x, np.array(loads, dtype=float))
+                return []
+            for ti, xi, w in zip(t.tolist(), x.tolist(), loads):
+                self.monitor.integrate_joint(ti, xi, w)
+            return []
         for t_ns, x, _ in samples:
             self.monitor.integrate_joint(t_ns, x, self.load_at(t_ns))   # validated on arrival
         return []
+
+    # --- batches -------------------------------------------------------------------------------------
+    def process(self, joint_t_ns, position_m, velocity_m_s, joint_now_s, load_t_ns, load_n, load_now_s,
+                load_after) -> list[str]:
+        """The joint samples (stamps [ns], positions [m], velocities [m/s], arrival times [s]) and load
+        samples (stamps, axis loads [N], arrival times) that arrived since the last call, each in arrival
+        order; ``load_after[i]``: how many of the joint samples arrived before load i (non-decreasing).
+        Exactly what joint() and load() in that arrival order do; returns the rejection reasons."""
+        jt = np.asarray(joint_t_ns, dtype=np.int64)
+        lt = np.asarray(load_t_ns, dtype=np.int64)
+        lw = np.asarray(load_n, dtype=float)
+        guides = _guides(self.monitor)
+        primary = guides[0][0]
+        start_t, start_n = primary.load_t_ns, primary.load_n       # the primary's load before the batch
+        joints = [_accept_joints(g, jt, position_m, velocity_m_s) for g, _ in guides][0]
+        loads = [_accept_loads(g, share, lt, lw) for g, share in guides]
+        fast = self._align_fast(joints.accepted, jt, np.asarray(position_m, dtype=float),
+                                np.asarray(joint_now_s, dtype=float), loads[0][0].accepted, lt, lw,
+                                np.asarray(load_now_s, dtype=float), start_t)
+        if fast is not None:
+            self.batches[0] += 1
+            if fast[0].size:
+                _integrate_many(self.monitor, *fast)
+            return _reasons(joints.codes, loads[0][0].codes, load_after)
+        self.batches[1] += 1
+        out_t, out_x, out_w, own = self._align(
+            joints.accepted.tolist(), jt.tolist(), np.asarray(position_m, dtype=float).tolist(),
+            list(joint_now_s), loads[0][0].accepted.tolist(), lt.tolist(), lw.tolist(), list(load_now_s),
+            list(load_after), start_t, start_n, guides[0][1])
+        if out_t:
+            t, x, w = np.array(out_t, dtype=np.int64), np.array(out_x, dtype=float), np.array(out_w, dtype=float)
+            own_loads = None
+            if own:
+                at, counts = np.array([a for a, _ in own]), np.array([c for _, c in own])
+                own_loads = (at, [_latest_after(acc.accepted, scaled, before, counts)
+                                  for acc, scaled, before in loads])
+            _integrate_many(self.monitor, t, x, w, own_loads)
+        return _reasons(joints.codes, loads[0][0].codes, load_after)
+
+    def _align_fast(self, ok_j, jt, jx, jnow, ok_l, lt, lw, lnow, load_t):
+        """What :meth:`_align` gives, without the event loop, in the steady state: the feed keeps a load,
+        no sample ages in the batch (the latest arrival minus the earliest one that can wait is within the
+        window; rounding is monotone, so then no event's test `now - first waiting > window` holds) and
+        the kept loads stay under the deque's bound. None when that does not hold.
+
+        Then a sample is integrated in the batch iff it is stamped before the latest accepted load (it
+        waits for a load stamped after it, or is integrated on arrival when one came already), in stamp
+        order, and every load stamped at or before it has arrived by then (loads are accepted in stamp
+        order), so :meth:`load_at` gives the latest of all kept and new loads stamped <= it, and leaves the
+        kept loads from that one on."""
+        pending, loads, window = self.pending, self.loads, self.window_s
+        ja, la = np.flatnonzero(ok_j), np.flatnonzero(ok_l)
+        if window == 0 or not loads or len(loads) + la.size > loads.maxlen:
+            return None
+        first = pending[0][3] if pending else (float(jnow[ja[0]]) if ja.size else None)
+        last = max(float(jnow[ja[-1]]) if ja.size else -math.inf, float(lnow[la[-1]]) if la.size else -math.inf)
+        if first is not None and last - first > window:
+            return None
+        end_t = int(lt[la[-1]]) if la.size else load_t
+        st = np.array([e[0] for e in loads] + lt[la].tolist(), dtype=np.int64)
+        sw = np.array([e[1] for e in loads] + lw[la].tolist(), dtype=float)
+        t = np.concatenate((np.array([p[0] for p in pending], dtype=np.int64), jt[ja]))
+        x = np.concatenate((np.array([p[1] for p in pending], dtype=float), jx[ja]))
+        now = [p[3] for p in pending] + jnow[ja].tolist()
+        k = int(np.searchsorted(t, end_t, side="left"))          # stamped before the latest load
+        idx = np.searchsorted(st, t[:k], side="right") - 1
+        w = np.where(idx >= 0, sw[np.maximum(idx, 0)], math.nan)
+        keep = int(idx[-1]) if k and idx[-1] > 0 else 0
+        self.loads = deque(zip(st[keep:].tolist(), sw[keep:].tolist()), maxlen=loads.maxlen)
+        self.pending = deque(zip(t[k:].tolist(), x[k:].tolist(), [0.0] * (t.size - k), now[k:]))
+        return t[:k], x[:k], w
+
+    def _align(self, ok_j, jt, jx, jnow, ok_l, lt, lw, lnow, lpos, load_t, prim_n, share):
+        """joint()/load()/flush_aged() decisions in arrival order, the integration deferred: the samples
+        in integration order with the axis load at their stamp (NaN when it is the guides' own latest:
+        ``own`` lists (index, loads handled before) of those)."""
+        pending, loads, window = self.pending, self.loads, self.window_s
+        out_t, out_x, out_w, own = [], [], [], []
+        load_at = self.load_at
+
+        def emit(t, x, count):
+            w = load_at(t)
+            if w is None:
+                own.append((len(out_t), count))
+                w = math.nan
+            out_t.append(t)
+            out_x.append(x)
+            out_w.append(w)
+
+        def aged(now, count):
+            cutoff = now - window
+            while pending and pending[0][3] < cutoff:
+                t, x = pending.popleft()[:2]
+                emit(t, x, count)
+
+        j, n_j = 0, len(jt)
+        for i in range(len(lt) + 1):
+            stop = lpos[i] if i < len(lt) else n_j
+            while j < stop:
+                if ok_j[j]:
+                    t, now = jt[j], jnow[j]
+                    if window == 0 or (not pending and load_t is not None and t < load_t):
+                        emit(t, jx[j], i)
+                    else:
+                        pending.append((t, jx[j], 0.0, now))
+                    if pending and now - pending[0][3] > window:
+                        aged(now, i)
+                j += 1
+            if i < len(lt) and ok_l[i]:
+                t, now = lt[i], lnow[i]
+                while pending and pending[0][0] < t:
+                    pt, px = pending.popleft()[:2]
+                    emit(pt, px, i)
+                if not loads and load_t is not None:
+                    loads.append((load_t, prim_n if share == 1.0 else prim_n / share))   # AxisMonitor.load_n
+                loads.append((t, lw[i]))
+                load_t, prim_n = t, (lw[i] if share == 1.0 else lw[i] * share)
+                if pending and now - pending[0][3] > window:
+                    aged(now, i + 1)
+        return out_t, out_x, out_w, own
+
+
+def _guides(monitor) -> list:
+    """[(guide PrecisionMonitor, load share)] of a monitor, the primary (whose verdicts count) first."""
+    if isinstance(monitor, PrecisionMonitor):
+        return [(monitor, 1.0)]
+    return [(guide, monitor.shares[name]) for name, guide in monitor.guides.items()]
+
+
+def _record(guide: PrecisionMonitor, stream: str, acceptance) -> None:
+    """What PrecisionMonitor._record does sample by sample: the counts and the recent window."""
+    guide.rejected.count_all(acceptance.rejected)
+    window = guide.recent.get(stream)
+    if window is not None:
+        window.extend(REASON_CODES[c] for c in acceptance.codes[-window.maxlen:].tolist())
+
+
+def _accept_joints(guide: PrecisionMonitor, t_ns, position_m, velocity_m_s):
+    """PrecisionMonitor.validate_joint of every sample in turn (vectorised)."""
+    acc = accept_joint_samples(t_ns, position_m, velocity_m_s, guide.joint_base, guide.limits)
+    guide.joint_base = acc.base
+    _record(guide, "joint_states", acc)
+    guide.stream_gaps.joint.add_many(t_ns[acc.accepted])
+    return acc
+
+
+def _accept_loads(guide: PrecisionMonitor, share: float, t_ns, load_n):
+    """PrecisionMonitor.on_load of every sample in turn with the guide's share (vectorised); (acceptance,
+    the guide's loads, its latest load before them)."""
+    scaled = load_n if share == 1.0 else load_n * share
+    before = guide.load_n
+    acc = accept_load_samples(t_ns, scaled, guide.load_base, guide.limits)
+    guide.load_base = acc.base
+    _record(guide, "guide/load", acc)
+    ok = np.flatnonzero(acc.accepted)
+    if ok.size:
+        guide.stream_gaps.load.add_many(t_ns[ok])
+        guide.load_n, guide.load_t_ns = float(scaled[ok[-1]]), int(t_ns[ok[-1]])
+        guide.load_samples += int(ok.size)
+    return acc, scaled, before
+
+
+def _latest_after(accepted, scaled, before: float, counts):
+    """A guide's latest accepted load once the first ``counts`` loads of the batch were handled."""
+    ok = np.flatnonzero(accepted)
+    k = np.searchsorted(ok, counts, side="left") - 1
+    return np.where(k >= 0, scaled[ok[np.maximum(k, 0)]] if ok.size else math.nan, before)
+
+
+def _integrate_many(monitor, t_ns, position_m, load_n, own=None) -> None:
+    if isinstance(monitor, PrecisionMonitor):
+        if own is not None:
+            load_n = load_n.copy()
+            load_n[own[0]] = own[1][0]
+        monitor._advance_many(t_ns, position_m, load_n)
+    else:
+        monitor.integrate_many(t_ns, position_m, load_n, own)
+
+
+def _reasons(joint_codes, load_codes, load_after) -> list[str]:
+    """The rejection reasons of a batch in arrival order (the primary's, as joint()/load() return)."""
+    bad = [(j, 1, REASON_CODES[c]) for j, c in zip(np.flatnonzero(joint_codes).tolist(),
+                                                     joint_codes[joint_codes != 0].tolist())]
+    bad += [(load_after[i], 0, REASON_CODES[c]) for i, c in zip(np.flatnonzero(load_codes).tolist(),
+                                                                load_codes[load_codes != 0].tolist())]
+    return [reason for *_, reason in sorted(bad, key=lambda b: b[:2])]

@@ -9,7 +9,9 @@ axis, or the one it names):
   and the lubrication are unchanged, so the posterior of K (mean and sd from every measurement so far)
   becomes the prior of the new surface; the measurements of the old surface are folded into it. Keeps the
   sliding distance, the strokes and the duty (they describe the machine's use, not the surface) and the
-  rolling fatigue (a regrind does not touch the raceways' subsurface).
+  rolling fatigue (a regrind does not touch the raceways' subsurface). With the running_in effect (model
+  file) the new surface runs in again: the running-in distance counts from the regrind (a fresh scraped or
+  ground surface), the effect model is then that of a new guide.
 * ``replace_rail``: a new rail (way). Resets the wear as a regrind does (straightness: the measured value
   of the new rail or A0) and, for rolling guides, the fatigue life used (new raceways). Keeps K (same
   material pair and lubrication).
@@ -66,6 +68,13 @@ class MaintenanceEvent:
                    float(d.get("straightness_um", math.nan)) * 1e-6, str(d.get("source", "")))
 
 
+def relubrication_times_s(events, axis: str, t0_ns: int) -> np.ndarray | None:
+    """The recorded relubrications of ``axis`` (of any of its guides) [s from ``t0_ns``], sorted; None when
+    there are none (the lubrication_interval effect of the discrepancy workflow then fits an interval)."""
+    times = sorted((e.t_ns - t0_ns) * 1e-9 for e in events if e.kind == "relubricate" and e.axis == axis)
+    return np.asarray(times, dtype=float) if times else None
+
+
 def check_event(event: MaintenanceEvent, guides, straightness_limit_m: float) -> str | None:
     """Why ``event`` cannot be applied to an axis with ``guides``, or None."""
     if event.kind not in KINDS:
@@ -109,9 +118,8 @@ def reset_wear(monitor, straightness_after_m: float) -> None:
     integ = monitor.integrator
     integ.archard_work_nm = 0.0
     integ.profile_work_n = np.zeros_like(integ.profile_work_n)
-    if getattr(monitor, "effect_wear", None) is not None:
-        monitor.effect_wear.effective_work_nm = 0.0
-        monitor.effect_wear.work_gradient = [0.0] * len(monitor.effect_wear.work_gradient)
+    if getattr(monitor, "effect_wear", None) is not None:     # running-in restarts on the new surface
+        monitor.effect_wear.new_surface(integ.sliding_distance_m)
     old = monitor.estimator
     monitor.estimator = WearCoefficientEstimator(prior_wear_coefficient=k, prior_rel_sd=k_sd / k if k > 0 else
                                                  old.prior_rel_sd, noise_sd_m=old.noise_sd_m,

@@ -29,6 +29,7 @@ from guide_health.models.wear.effect_wear import (
     LiveEffects,
     forecast_straightness_m,
     life_interval_s,
+    online_k_sensitivity,
 )
 from guide_health.models.wear.input_rules import (
     REASON_CODES,
@@ -140,6 +141,8 @@ class PrecisionMonitor:
         if reason is not None:
             return self.rejected.reject(reason)
         self.estimator.add(t_ns, straightness_m, self.loss_per_k_m(), self.work_nm())
+        if self.effect_wear is not None:
+            self.effect_wear.on_measurement()
         return None
 
     # --- the wear effects (models/wear/effect_wear.py) ---------------------------------------------
@@ -164,7 +167,8 @@ class PrecisionMonitor:
 
     def effect_forecast(self) -> dict[str, float]:
         """Present duty with the effects: steady dA/dt per K [m/s] (running-in over), sliding speed [m/s],
-        sliding distance [m], the d ln(rate)/d(parameter) of rho, v_lift and n."""
+        sliding distance on the present surface [m] (since the last regrind), the d ln(rate)/d(parameter) of
+        rho, v_lift and n."""
         sums = self.effect_wear.window_sums(self.integrator.last_t_ns)
         rate_plain = self.integrator.straightness_rate_per_k_m_s()      # Archard work rate, Eq. 7
         work, eff, dist = sums[0], sums[1], sums[2]
@@ -172,7 +176,7 @@ class PrecisionMonitor:
         duty = self.integrator.duty_work_rate_w()
         return {"steady_rate_per_k_m_s": rate_plain * ratio,
                 "sliding_speed_m_s": duty * dist / work if work > 0 and math.isfinite(duty) else math.nan,
-                "sliding_distance_m": self.integrator.sliding_distance_m,
+                "sliding_distance_m": self.integrator.sliding_distance_m - self.effect_wear.surface_start_m,
                 "dln_rate": [sums[j] / eff if eff > 0 else 0.0 for j in (3, 4, 5)]}
 
     def effect_life_interval_s(self, k: float, loss_per_k: float):
@@ -180,12 +184,23 @@ class PrecisionMonitor:
         and the model file's covariance of K and the effect parameters."""
         f = self.effect_forecast()
         work = self.work_nm()
-        _, k_sd, _ = self.estimator.posterior(self.measurement_losses_per_k_m())
-        n = self.estimator.count
+        est = self.estimator
+        g = self.measurement_losses_per_k_m()
+        _, k_sd, sigma = est.posterior(g)
+        n = est.count
+        grads = np.asarray(self.effect_wear.measurement_gradients, dtype=float).reshape(-1, 5)
+        if grads.shape[0] == n:         # dg_j / dphi = g_j / G_j dG_j / dphi (Eq. 7: g proportional to the work)
+            work_j = np.asarray(est.measurement_work_nm, dtype=float)
+            per_work = np.divide(g, work_j, out=np.zeros(n), where=work_j > 0)
+            k_sens = online_k_sensitivity(g, np.asarray(est.measurement_m) - est.straightness_initial_m,
+                                          per_work[:, None] * grads, k, k_sd, sigma)
+        else:                           # a state saved before the gradients were kept
+            k_sens = np.zeros(5)
         now = {"margin0": self.params["straightness_limit_m"] - self.params["straightness_initial_m"],
                "c": loss_per_k / work if work > 0 else 0.0, "work": work,
-               "work_gradient": np.asarray(self.effect_wear.work_gradient), "rate_per_k": f["steady_rate_per_k_m_s"],
-               "dln_rate": np.asarray(f["dln_rate"]), "s_now": f["sliding_distance_m"], "v_s": f["sliding_speed_m_s"]}
+               "work_gradient": np.asarray(self.effect_wear.work_gradient), "k_sensitivity": k_sens,
+               "rate_per_k": f["steady_rate_per_k_m_s"], "dln_rate": np.asarray(f["dln_rate"]),
+               "s_now": f["sliding_distance_m"], "v_s": f["sliding_speed_m_s"]}
         z = float(stdtrit(n - 1, 0.95)) if n >= 3 else Z90
         return life_interval_s(k, k_sd, self.effects, now, z)
 

@@ -49,7 +49,14 @@ NON_NEGATIVE = frozenset({
     "boundary", "mixed", "full_film", "reverse_travel_m"})
 #: element kind of lists that are empty in a fresh monitor (the template cannot show it)
 #: (a NaN element marks a measurement taken before the stroke was known: Eq. 7's g_j not yet defined)
+#: fields added to the state after it was first written, with the value a state saved before them restores to
+#: (effect_wear: the work gradient at each measurement and where the present surface was made, stop 10).
+#: Such a state is accepted without them; every other missing field is refused.
+ADDED_FIELDS = {"measurement_gradients": [], "surface_start_m": 0.0}
 EMPTY_LIST_ELEMENT = {"duty_bucket_index": 0, "measurement_t_ns": 0, "measurement_loss_per_k_m": float("nan")}
+#: lists of rows of finite numbers, empty in a fresh monitor (effect_wear's duty buckets: index then sums; the
+#: work gradient at each measurement)
+NUMBER_ROWS = frozenset({"buckets", "measurement_gradients"})
 _INT64 = 2**63
 
 
@@ -118,6 +125,11 @@ def _scalar_problem(value: Any, template: Any, where: str) -> str:
 def _check_list(value: list, template: list, where: str) -> None:
     if template and len(value) != len(template):
         raise InputError(f"state field {where} has {len(value)} entries, the parameters need {len(template)}")
+    if not template and _field(where) in NUMBER_ROWS:
+        for i, row in enumerate(value):
+            if not isinstance(row, (list, tuple)) or not all(_is_number(v) and math.isfinite(v) for v in row):
+                raise InputError(f"state field {where}[{i}] must be a list of finite numbers, got {row!r}"[:200])
+        return
     element = template[0] if template else EMPTY_LIST_ELEMENT.get(_field(where), 0.0)
     for i, item in enumerate(value):
         if isinstance(element, (dict, list)):
@@ -134,14 +146,15 @@ def check_state_like(value: Any, template: Any, where: str = "state") -> None:
     if isinstance(template, dict):
         if not isinstance(value, dict):
             raise InputError(f"state field {where} must be a mapping, got {_kind(value)}")
-        missing = [k for k in template if k not in value]
+        missing = [k for k in template if k not in value and k not in ADDED_FIELDS]
         extra = [k for k in value if k not in template]
         if missing:
             raise InputError(f"state field {where}.{missing[0]} is missing")
         if extra:
             raise InputError(f"state field {where}.{str(extra[0])[:40]!s} is not a field of this monitor")
         for key, sub in template.items():
-            check_state_like(value[key], sub, f"{where}.{key}")
+            if key in value:
+                check_state_like(value[key], sub, f"{where}.{key}")
         parallel = PARALLEL_LISTS.get(_field(where), ())
         for name in parallel[1:]:
             if len(value[name]) != len(value[parallel[0]]):

@@ -10,7 +10,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
 
 # ---------------------------------------------------------------------------------------------
 # Minimum-zone straightness
@@ -25,6 +24,8 @@ def minimum_zone_straightness_m(position_m: np.ndarray, height_m: np.ndarray) ->
     """
     u = np.asarray(position_m, dtype=float)
     h = np.asarray(height_m, dtype=float)
+    from scipy.spatial import ConvexHull, QhullError  # here: readers import this package, few need the hull
+
     spread_h = float(np.ptp(h)) if h.size else 0.0
     if h.size < 3 or spread_h == 0.0:
         return spread_h
