@@ -1,7 +1,7 @@
 """Fleet replay on Dask against a serial run of the same bags (issue 13; not CI).
 
     .venv/bin/python bench/bench_fleet.py [--bags 16] [--messages 5e5] [--workdir DIR] [--plot] [--no-address]
-                                          [--chunk-messages N]
+                                          [--chunk-messages N] [--commands]
 
 Writes (once, cached in --workdir) --bags machine bags of about --messages messages each (JointState at
 1 kHz, load at 100 Hz, straightness every 0.05 h; K factors 0.8 .. 1.4), reads every bag file once (so that
@@ -152,6 +152,10 @@ def main() -> None:
     parser.add_argument("--workdir", default=str(Path(tempfile.gettempdir()) / "guide_health_bench_fleet"))
     parser.add_argument("--plot", action="store_true", help="per-bag PNG too (default: --no-plot)")
     parser.add_argument("--no-address", action="store_true", help="skip the scheduler-address mode")
+    parser.add_argument("--commands", action="store_true",
+                        help="also time the commands a user runs: `guide-health replay` per bag one after another "
+                             "(a shell loop), the same with 2 at a time (xargs -P 2), and `guide-health fleet replay "
+                             "--workers 2` (each a fresh process: imports included)")
     parser.add_argument("--chunk-messages", type=int, default=None,
                         help="messages per batch in every mode (experiment; default: the replay's 200 000)")
     args = parser.parse_args()
@@ -228,7 +232,38 @@ def main() -> None:
     print(f"serial used {s.cpu / s.wall:.2f} cores; 2 cores' ceiling for local 2 with its CPU time: "
           f"{2 * base / modes[2].cpu:.2f}x over the baseline (meaningful on a quiet machine only: load stretches "
           "the serial wall)")
+    if args.commands:
+        time_commands(bags, out, options)
     print(f"load average after: {os.getloadavg()}")
+
+
+def time_commands(bags, out: Path, options) -> None:
+    """The user's commands, each a fresh process as typed in a shell: the issue's own measurement (8 bags
+    one after another 10 s, `xargs -P 2` 5.5 s) made on these bags, against `fleet replay --workers 2`."""
+    import subprocess
+    from concurrent.futures import ThreadPoolExecutor
+
+    exe = [str(Path(sys.executable).with_name("guide-health"))]
+
+    def one(i_bag):
+        i, bag = i_bag
+        subprocess.run(exe + ["replay", str(bag), "--params", str(PARAMS), "--out", str(out / "cmd" / str(i)),
+                              *options], check=True, capture_output=True)
+
+    walls = {}
+    for name, parallel in (("shell loop", 1), ("xargs -P 2", 2)):
+        t0 = time.perf_counter()
+        with ThreadPoolExecutor(parallel) as pool:
+            list(pool.map(one, enumerate(bags)))
+        walls[name] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    subprocess.run(exe + ["fleet", "replay", *map(str, bags), "--params", str(PARAMS), "--workers", "2",
+                          "--out", str(out / "cmd_fleet"), *options], check=True, capture_output=True)
+    walls["fleet --workers 2"] = time.perf_counter() - t0
+    loop = walls["shell loop"]
+    for name, wall in walls.items():
+        print(f"{name:<18} {wall:7.2f} s  {loop / wall:5.2f}x the shell loop of `guide-health replay`"
+              + ("  <- the issue's serial (one bag after another)" if name == "shell loop" else ""), flush=True)
 
 
 if __name__ == "__main__":
