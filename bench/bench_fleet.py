@@ -23,7 +23,9 @@ off unless --plot):
 For each mode it prints the wall time, the time and the CPU time per bag inside the bag tasks (run_bag), and
 the CPU time of the whole mode (this process + its worker processes, per bag): CPU time moves much less
 than wall time when other processes load the cores. Speed-ups are over the faster of serial and local 1
-(target: local 2 >= 1.7x); the Dask overhead per bag is (local 1 - startup - serial) / bags and local 1's
+(the in-process loop already reads in a thread while it integrates, so it bounds local 2 on 2 cores; the
+issue-13 1.7x is over the single-bag command run one bag after another, timed by --commands); the Dask
+overhead per bag is (local 1 - startup - serial) / bags and local 1's
 wall time outside its bag tasks per bag. The load average is printed before and after: on a shared machine
 only the same-run ratios mean anything, and the CPU columns say whether a slowdown was the cores' load
 (wall up, CPU not) or the work itself (CPU up).
