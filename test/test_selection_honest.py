@@ -131,3 +131,27 @@ def test_binned_work_f_test_is_calibrated_and_sees_a_sine_along_the_rail():
     # 3 noise sd over the record, in the second bin only (measured p = 3e-5; a plain trend would be absorbed
     # by the constant-and-bins fit only if the bins' work did not vary between intervals)
     assert p_of(in_bin / in_bin[-1] * 3.0 + rng.normal(0, 1, n)) < 1e-3
+
+
+def test_spearman_equals_scipy_stats_with_ties_and_constant_input():
+    """analysis.spearman (scipy.special, so that diagnose does not import scipy.stats) against
+    scipy.stats.spearmanr: rho and p to 1e-12 on 200 seeded samples with and without ties; a constant input
+    gives NaN as scipy's does."""
+    from scipy import stats
+
+    from guide_health.analysis.discrepancy.analysis import spearman
+
+    rng = np.random.default_rng(11)
+    for i in range(200):
+        n = int(rng.integers(6, 400))
+        x = rng.normal(size=n)
+        y = 0.2 * x + rng.normal(size=n)
+        if i % 3 == 0:
+            x = np.round(x, 1)
+        if i % 4 == 0:
+            y = np.round(y)
+        rho, p = spearman(x, y)
+        ref = stats.spearmanr(x, y)
+        assert rho == pytest.approx(ref[0], abs=1e-12)
+        assert p == pytest.approx(ref[1], rel=1e-10, abs=1e-300)
+    assert all(np.isnan(spearman(np.ones(8), np.arange(8.0))))
