@@ -17,7 +17,6 @@ from guide_health.io.bag_writer import write_machine_bag  # noqa: E402
 from guide_health.nodes.session import (  # noqa: E402
     DiagnosticsCollector,
     clean_fastdds_shm,
-    isolated_ros_env,
     play_bag,
     start_node,
     stop_node,
@@ -31,24 +30,16 @@ BENCH = ROOT / "config" / "bench_000.yaml"
 STATUS = "bench_000/wear_monitor: x precision"
 
 
-def _ros_env(monkeypatch, transports=None):
-    env = isolated_ros_env(transports=transports)
-    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID", "FASTDDS_BUILTIN_TRANSPORTS"):
-        if key in env:
-            monkeypatch.setenv(key, env[key])
-    return env
-
-
 @pytest.fixture
-def ros_env(monkeypatch):
-    yield _ros_env(monkeypatch)
+def ros_env(ros_test_env):
+    yield ros_test_env()
     clean_fastdds_shm()
 
 
 @pytest.fixture
-def udp_ros_env(monkeypatch):
+def udp_ros_env(ros_test_env):
     """A node is SIGKILLed: UDP only, so that its locked shared-memory ports cannot strand the next one."""
-    yield _ros_env(monkeypatch, "UDPv4")
+    yield ros_test_env(transports="UDPv4")
     clean_fastdds_shm()
 
 

@@ -19,13 +19,11 @@ XYZ = ROOT / "config" / "machine_xyz.yaml"
 
 
 @pytest.fixture
-def ros_machine_env(monkeypatch):
+def ros_machine_env(ros_test_env):
     """An isolated, localhost-only domain for the node, the player and the collector in this process."""
-    from guide_health.nodes.session import clean_fastdds_shm, isolated_ros_env
+    from guide_health.nodes.session import clean_fastdds_shm
 
-    env = isolated_ros_env()
-    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID"):
-        monkeypatch.setenv(key, env[key])
+    env = ros_test_env()
     yield env
     clean_fastdds_shm()
 

@@ -176,12 +176,10 @@ def test_simulated_regrind_is_replayed_and_listed(tmp_path):
 
 # --- live ----------------------------------------------------------------------------------------------------
 @pytest.fixture
-def ros_env(monkeypatch):
-    from guide_health.nodes.session import clean_fastdds_shm, isolated_ros_env
+def ros_env(ros_test_env):
+    from guide_health.nodes.session import clean_fastdds_shm
 
-    env = isolated_ros_env()
-    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID"):
-        monkeypatch.setenv(key, env[key])
+    env = ros_test_env()
     yield env
     clean_fastdds_shm()
 

@@ -264,7 +264,7 @@ def test_a_bad_model_file_is_one_line(tmp_path):
 # --- live == offline with a model file -------------------------------------------------------------------
 
 @pytest.mark.ros
-def test_live_node_with_several_params_files_matches_replay(tmp_path, monkeypatch):
+def test_live_node_with_several_params_files_matches_replay(tmp_path, ros_test_env):
     """wear_monitor --params-file BASE --params-file model.yaml against replay --params BASE --params model.yaml
     on the same bag (1.5 h, running-in and retract asymmetry): same samples, straightness and remaining life
     with its interval to 0.5 %."""
@@ -275,16 +275,12 @@ def test_live_node_with_several_params_files_matches_replay(tmp_path, monkeypatc
     from guide_health.nodes.session import (
         DiagnosticsCollector,
         clean_fastdds_shm,
-        isolated_ros_env,
         play_bag,
         start_node,
         stop_node,
     )
 
-    env = isolated_ros_env()
-    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID", "FASTDDS_BUILTIN_TRANSPORTS"):
-        if key in env:
-            monkeypatch.setenv(key, env[key])
+    env = ros_test_env()
     base = wear_monitor_params(BENCH)
     sim = dict(simulation_params(BENCH), duration_h=1.5, joint_state_rate_hz=10.0, load_rate_hz=1.0,
                measurement_interval_h=0.25)

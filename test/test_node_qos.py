@@ -41,7 +41,6 @@ from sensor_msgs.msg import JointState  # noqa: E402
 from guide_health.nodes.session import (  # noqa: E402
     DiagnosticsCollector,
     clean_fastdds_shm,
-    isolated_ros_env,
     start_node,
     stop_node,
 )
@@ -52,12 +51,10 @@ RELIABLE = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 
 
 @pytest.fixture
-def ros_env(monkeypatch):
+def ros_env(ros_test_env):
     # domain ids above the 1..100 of the other live tests: concurrent test runs on one host (a reliable
     # reader of another run's node on the same domain can hold back bag_player) stay apart
-    env = isolated_ros_env(domain_id=random.randint(170, 230))
-    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID"):
-        monkeypatch.setenv(key, env[key])
+    env = ros_test_env(domain_id=random.randint(170, 230))
     yield env
     clean_fastdds_shm()
 

@@ -135,22 +135,19 @@ def test_life_thresholds():
 
 
 @pytest.mark.ros
-def test_rolling_bag_through_bag_player_and_node_matches_replay(tmp_path, monkeypatch):
+def test_rolling_bag_through_bag_player_and_node_matches_replay(tmp_path, ros_test_env):
     from guide_health.analysis.replay import analyse_bag
     from guide_health.io.bag_writer import write_machine_bag
     from guide_health.nodes.session import (
         DiagnosticsCollector,
         clean_fastdds_shm,
-        isolated_ros_env,
         play_bag,
         start_node,
         stop_node,
     )
 
     # UDP only: a shared-memory port left locked by another process's killed node hides a node started after it
-    env = isolated_ros_env(transports="UDPv4")
-    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID", "FASTDDS_BUILTIN_TRANSPORTS"):
-        monkeypatch.setenv(key, env[key])
+    env = ros_test_env(transports="UDPv4")
     import dataclasses
 
     run = duty_run([(60.0, 0.0003, 2500.0), (60.0, 0.08, 7000.0), (60.0, 0.4, 4000.0), (60.0, 0.02, 9000.0)],

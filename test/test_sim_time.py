@@ -16,7 +16,6 @@ from guide_health.nodes.bag_player import ClockPublisher, build_parser  # noqa: 
 from guide_health.nodes.session import (  # noqa: E402
     DiagnosticsCollector,
     clean_fastdds_shm,
-    isolated_ros_env,
     play_bag,
     start_node,
     stop_node,
@@ -67,12 +66,10 @@ def run_clock_on(collector, from_ns, done, step_ns=5 * 10**9, steps=12):
 
 
 @pytest.fixture
-def ros_env(monkeypatch):
+def ros_env(ros_test_env):
     # domain ids above the 1..100 of the other live tests: concurrent test runs on one host (a reliable
     # reader of another run's node on the same domain can hold back bag_player) stay apart
-    env = isolated_ros_env(domain_id=random.randint(170, 230))
-    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID"):
-        monkeypatch.setenv(key, env[key])
+    env = ros_test_env(domain_id=random.randint(170, 230))
     yield env
     clean_fastdds_shm()
 

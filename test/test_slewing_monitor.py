@@ -129,22 +129,19 @@ def test_node_keys_stale_and_bad_messages(ros_context):
 
 
 @pytest.mark.ros
-def test_slewing_bag_through_bag_player_and_node_matches_offline(tmp_path, monkeypatch):
+def test_slewing_bag_through_bag_player_and_node_matches_offline(tmp_path, ros_test_env):
     from guide_health.io.bag_reader import read_slewing_bag
     from guide_health.io.bag_writer import write_slewing_bag
     from guide_health.nodes.session import (
         DiagnosticsCollector,
         clean_fastdds_shm,
-        isolated_ros_env,
         play_bag,
         start_node,
         stop_node,
     )
     from guide_health.params import load_node_params
 
-    env = isolated_ros_env()
-    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID"):
-        monkeypatch.setenv(key, env[key])
+    env = ros_test_env()
     bag = tmp_path / "slewing"
     write_slewing_bag(simulate_slewing({"duration_h": 0.02, "load_rate_hz": 200.0}, seed=2), bag)
     params = load_node_params(CONFIG, "slewing_monitor", SLEWING_MONITOR_DEFAULTS)

@@ -14,7 +14,6 @@ from guide_health.io.bag_writer import write_machine_bag  # noqa: E402
 from guide_health.nodes.session import (  # noqa: E402
     DiagnosticsCollector,
     clean_fastdds_shm,
-    isolated_ros_env,
     play_bag,
     start_node,
     stop_node,
@@ -31,11 +30,8 @@ LOAD_HOLES = [(100, 2), (400, 1)]                                         # 3 lo
 
 
 @pytest.fixture
-def ros_env(monkeypatch):
-    env = isolated_ros_env()
-    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID", "FASTDDS_BUILTIN_TRANSPORTS"):
-        if key in env:
-            monkeypatch.setenv(key, env[key])
+def ros_env(ros_test_env):
+    env = ros_test_env()
     yield env
     clean_fastdds_shm()
 

@@ -47,11 +47,10 @@ def write_bag(tmp_path):
 
 
 @pytest.mark.ros
-def test_live_node_equals_offline_chain_over_dds(tmp_path, monkeypatch):
+def test_live_node_equals_offline_chain_over_dds(tmp_path, ros_test_env):
     from guide_health.nodes.session import (
         DiagnosticsCollector,
         clean_fastdds_shm,
-        isolated_ros_env,
         play_bag,
         start_node,
         stop_node,
@@ -67,9 +66,7 @@ def test_live_node_equals_offline_chain_over_dds(tmp_path, monkeypatch):
     params.write_text("vibration_monitor:\n  ros__parameters:\n    load_fraction: 0.3\n    machine_id: bench\n"
                       "    status_period_s: 0.25\n    input_timeout_s: 600.0\n")
     # UDP only: a shared-memory port left locked by another process's killed node hides a node started after it
-    env = isolated_ros_env(transports="UDPv4")
-    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID", "FASTDDS_BUILTIN_TRANSPORTS"):
-        monkeypatch.setenv(key, env[key])
+    env = ros_test_env(transports="UDPv4")
     collector = DiagnosticsCollector("vibration_collector")
     node = start_node("guide_health.nodes.vibration_monitor", params, {}, env, tmp_path / "node.log")
     name = "bench/vibration_monitor: x vibration"
