@@ -133,7 +133,8 @@ def test_live_per_sample_path_equals_the_vectorised_path():
     sim = dict(simulation_params(JOBS), duration_h=1.0, joint_state_rate_hz=10.0)
     run = simulate_machine(params, sim, seed=2, effects={"running_in": 1.0, "retract_asymmetry": 0.4})
     p = {**params, "effects": "running_in,retract_asymmetry", "running_in_ratio": 1.0, "running_in_distance_m": 300.0,
-         "retract_wear_factor": 0.4, "effect_covariance": list(np.diag([1e-14, 0.01, 100.0, 0.001, 0, 0]).ravel())}
+         "retract_wear_factor": 0.4,
+         "effect_covariance": list(np.diag([1e-14, 0.01, 100.0, 0.001, 0, 0, 0, 0, 0]).ravel())}
     offline = PrecisionMonitor(p)
     offline.process_run(run)
     live = PrecisionMonitor(p)
@@ -233,7 +234,7 @@ def test_diagnose_writes_a_model_file_that_replay_loads(tmp_path):
     assert model["effects"] == "running_in"
     assert model["running_in_ratio"] == pytest.approx(2.5, rel=0.2)
     assert model["running_in_distance_m"] == pytest.approx(300.0, rel=0.2)
-    assert len(model["effect_covariance"]) == 36 and model["effect_covariance"][0] > 0
+    assert len(model["effect_covariance"]) == 81 and model["effect_covariance"][0] > 0
     merged = wear_monitor_params([BENCH, out / "model.yaml"])
     assert merged["effects"] == "running_in" and merged["contact_width_m"] == 0.040    # base kept, model over it
     params = wear_monitor_params(BENCH)
@@ -251,8 +252,8 @@ def test_diagnose_writes_a_model_file_that_replay_loads(tmp_path):
 
 def test_a_bad_model_file_is_one_line(tmp_path):
     bad = tmp_path / "model.yaml"
-    bad.write_text("wear_monitor:\n  ros__parameters:\n    effects: running_in,thermal_drift\n")
-    with pytest.raises(InputError, match="not live effect 'thermal_drift'"):
+    bad.write_text("wear_monitor:\n  ros__parameters:\n    effects: running_in,stroke_distribution\n")
+    with pytest.raises(InputError, match="not live effect 'stroke_distribution'"):
         wear_monitor_params([BENCH, bad])
     bad.write_text("wear_monitor:\n  ros__parameters:\n    running_in_ratio: -1.0\n")
     proc = cli("replay", str(tmp_path / "nobag"), "--params", str(BENCH), "--params", str(bad), check=False)
@@ -288,7 +289,7 @@ def test_live_node_with_several_params_files_matches_replay(tmp_path, ros_test_e
     bag = tmp_path / "bench"
     write_machine_bag(run, bag)
     model = tmp_path / "model.yaml"
-    cov = np.diag([(0.02 * 4.4e-6) ** 2, 0.1 ** 2, 30.0 ** 2, 0.05 ** 2, 0.0, 0.0]).ravel().tolist()
+    cov = np.diag([(0.02 * 4.4e-6) ** 2, 0.1 ** 2, 30.0 ** 2, 0.05 ** 2, 0.0, 0.0, 0.0, 0.0, 0.0]).ravel().tolist()
     model.write_text(yaml.safe_dump({"wear_monitor": {"ros__parameters": {
         "wear_coefficient": 4.4e-6, "effects": "running_in,retract_asymmetry", "running_in_ratio": 2.0,
         "running_in_distance_m": 300.0, "retract_wear_factor": 0.5, "retract_direction": "-x",
@@ -379,7 +380,8 @@ def test_a_regrind_restarts_running_in_as_on_a_new_guide():
     run = simulate_machine(params, sim, seed=5, effects={"running_in": 2.5})
     live = {**params, "stroke_min_m": 0.1, "stroke_max_m": 0.3, "effects": "running_in", "running_in_ratio": 2.5,
             "running_in_distance_m": 300.0,
-            "effect_covariance": np.diag([(0.01 * 4.42e-6) ** 2, 0.1 ** 2, 20.0 ** 2, 0, 0, 0]).ravel().tolist()}
+            "effect_covariance": np.diag([(0.01 * 4.42e-6) ** 2, 0.1 ** 2, 20.0 ** 2,
+                                          0, 0, 0, 0, 0, 0]).ravel().tolist()}
     t_regrind = int(run.joint_t_ns[0]) + int(1.7 * 3600e9) + 123_456_789
     event = MaintenanceEvent(t_regrind, "regrind", params["joint"], straightness_m=20e-6)
     axis = AxisMonitor(live)

@@ -58,3 +58,17 @@ def test_every_shipped_machine_and_the_fleet_fall_into_exactly_one_analyzer():
         assert paths[0] == f"/Machines/{group}/{node}: x precision"
     # a machine whose id starts like another's is not swallowed by it: the prefix ends with '/'
     assert aggregated_paths("m10/wear_monitor: x precision") == []
+
+
+def test_format_value_publishes_numpy_scalars_as_python_numbers():
+    """numpy 2's repr of np.float64 is 'np.float64(1.5)': a KeyValue must read '1.5' (found on the
+    remaining life of a monitor with duty effects, stop 11)."""
+    import numpy as np
+
+    from guide_health.nodes.status import format_value
+
+    assert format_value(np.float64(28.25)) == "28.25" == format_value(28.25)
+    assert format_value(np.float32(0.5)) == "0.5"
+    assert format_value(np.int64(7)) == "7" and format_value(np.True_) == "true" and format_value(False) == "false"
+    assert format_value(np.float64("nan")) == "nan" and format_value(-np.inf) == "-inf" and format_value(None) == "nan"
+    assert float(format_value(np.float64(1.0) / 3.0)) == 1.0 / 3.0

@@ -6,9 +6,10 @@ divided by the prior it was computed with (models/fleet.py ``likelihood_from_pos
 prior is not counted once per machine. Bags of one machine are combined (inverse variance on log K). The
 machines' log K then give the population (mu, tau) by REML, and the new machine's prior is the lognormal
 predictive's mean and relative sd (``wear_coefficient_prior``), written as a wear_monitor params file.
-Named effects' parameters (diagnose) get the same population fit on their own scale; an effect the live
-model integrates that at least half of the diagnosed bags named goes into the params file at its
-population mean, its predictive variance on the diagonal of ``effect_covariance``.
+Named effects' parameters (diagnose) get the same population fit on their own scale; a material effect the
+live model integrates (model_file.MATERIAL_EFFECTS: not a change time, a relubrication plan or one rail's
+misalignment, which belong to one machine) that at least half of the diagnosed bags named goes into the
+params file at its population mean, its predictive variance on the diagonal of ``effect_covariance``.
 """
 from __future__ import annotations
 
@@ -126,11 +127,11 @@ def live_effect_parameters(effects: dict[str, dict[str, Any]]) -> dict[str, Any]
     bags named (every parameter with a population): ``effects``, each parameter at its population mean and
     ``effect_covariance`` with the predictive variances on the diagonal (K's entry 0: the K prior covers K).
     {} when none qualifies."""
-    from guide_health.analysis.discrepancy.model_file import EFFECT_PARAMETERS
+    from guide_health.analysis.discrepancy.model_file import EFFECT_PARAMETERS, MATERIAL_EFFECTS
     from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
 
-    chosen = [e for e, names in EFFECT_PARAMETERS.items()
-              if all(f"{e}.{n}" in effects and 2 * effects[f"{e}.{n}"]["machines"] >= effects[f"{e}.{n}"]["of_bags"]
+    chosen = [e for e, names in EFFECT_PARAMETERS.items() if e in MATERIAL_EFFECTS
+              and all(f"{e}.{n}" in effects and 2 * effects[f"{e}.{n}"]["machines"] >= effects[f"{e}.{n}"]["of_bags"]
                      for n in names)]
     if not chosen:
         return {}

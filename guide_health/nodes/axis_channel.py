@@ -43,7 +43,9 @@ EXTRA_PRECISION_KEYS = ("wear_coefficient_low", "wear_coefficient_high", "measur
                         "last_maintenance", "messages_lost", "best_effort_topics",
                         # models/wear/stream_gaps.py: samples missing by stamp gaps (what messages_lost misses)
                         "samples_missing_estimate", "joint_samples_missing_estimate",
-                        "load_samples_missing_estimate", "joint_period_estimate_us", "joint_stamp_pauses")
+                        "load_samples_missing_estimate", "joint_period_estimate_us", "joint_stamp_pauses",
+                        # the thermal_drift effect (docs/model_file.md): taken off the last measurement
+                        "straightness_thermal_correction_um")
 TIMING_KEYS = ("load_samples", "callback_time_us", "model_time_us")
 ROLLING_PRECISION_KEYS = ("lambda", "asperity_load_share", "boundary_share_recent", "boundary_share_total",
                           "oil_viscosity_pa_s", "oil_temperature_c")

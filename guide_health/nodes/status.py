@@ -18,11 +18,13 @@ of the repeats it held back.
 from __future__ import annotations
 
 import math
+import numbers
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import NamedTuple
 
+import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from guide_health.models.levels import Alarm, Level
@@ -66,12 +68,14 @@ class StatusTask:
 
 
 def format_value(value) -> str:
-    """A KeyValue's text: true/false, integers as such, floats by repr (nan, inf, -inf), None as nan."""
-    if isinstance(value, bool):
+    """A KeyValue's text: true/false, integers as such, floats by repr (nan, inf, -inf), None as nan. numpy
+    scalars as the Python number (numpy 2's repr would publish 'np.float64(...)')."""
+    if isinstance(value, (bool, np.bool_)):
         return "true" if value else "false"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
+    if isinstance(value, numbers.Integral):
+        return str(int(value))
+    if isinstance(value, numbers.Real):
+        value = float(value)
         if math.isnan(value):
             return "nan"
         if math.isinf(value):

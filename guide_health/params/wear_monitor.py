@@ -69,9 +69,32 @@ SLIDING_GUIDE_PARAMS = (
           "speed_dependent_wear v_lift: asperity share 1 / (1 + (v / v_lift)^1.4); 0 = no effect"),
     Param("load_exponent", 1.0, "-", "[0, 4]", "load_exponent n: wear rate proportional to (W / W_ref)^n W_ref"),
     Param("load_reference_n", 1000.0, "N", "(0, 1e9]", "load_exponent W_ref (diagnose: the geometric mean load)"),
-    Param("effect_covariance", [0.0] * 36, "SI", "",
-          "covariance (row-major 6 x 6) of the fitted wear_coefficient, running_in_ratio, running_in_distance_m, "
-          "retract_wear_factor, lift_speed_m_s, load_exponent (SI); widens the remaining-life interval"),
+    Param("load_gradient_per_m", 0.0, "1/m", "[-1e3, 1e3]",
+          "load_along_rail g: load W (1 + g (x - x_ref)) along the rail (misalignment, foundation)"),
+    Param("load_reference_position_m", 0.0, "m", "[-1e3, 1e3]",
+          "load_along_rail x_ref (diagnose: the work-weighted mean position, axis frame)"),
+    Param("wear_rate_change_factor", 1.0, "-", "(0, 100]",
+          "wear_rate_change f: K x f from wear_rate_change_stamp_s on"),
+    Param("wear_rate_change_stamp_s", 0.0, "s", "[0, 1e11]",
+          "wear_rate_change t_c: when the wear rate changed, seconds since the epoch of the message stamps"),
+    Param("lubrication_wear_growth", 0.0, "-", "[0, 1e3]",
+          "lubrication_interval growth: b [1/s] in m = 1 + b tau (tau since the last relubricate event, "
+          "lubrication_interval_s = 0), or a [-] in m = 1 + a ((t - t_ref) mod T) / T"),
+    Param("lubrication_interval_s", 0.0, "s", "[0, 1e9]",
+          "lubrication_interval T: relubricated every T from lubrication_reference_stamp_s; 0 = the recorded "
+          "relubricate maintenance events are the time base"),
+    Param("lubrication_reference_stamp_s", 0.0, "s", "[0, 1e11]",
+          "lubrication_interval t_ref [s since the stamps' epoch]: the first assumed relubrication (interval), "
+          "or the last recorded one of the diagnosed record (events)"),
+    Param("thermal_drift_m_per_k", 0.0, "m/K", "[-1e-4, 1e-4]",
+          "thermal_drift c_T: the straightness gauge reads A + c_T (T - T_ref); each measurement is corrected "
+          "with the guide/temperature reading in force at its stamp"),
+    Param("thermal_reference_c", 20.0, "degC", "[-50, 200]",
+          "thermal_drift T_ref: the guide temperature at which the gauge reads the true straightness"),
+    Param("effect_covariance", [0.0] * 81, "SI", "",
+          "covariance (row-major 9 x 9) of the fitted wear_coefficient, running_in_ratio, running_in_distance_m, "
+          "retract_wear_factor, lift_speed_m_s, load_exponent, load_gradient_per_m, wear_rate_change_factor, "
+          "lubrication_wear_growth (SI); widens the remaining-life interval"),
     Param("life_warn_h", 500.0, "h", "(0, 1e7]", "WARN when the remaining precision life drops below this",
           dynamic=True),
     Param("life_error_h", 100.0, "h", "[0, 1e7]",
@@ -170,7 +193,8 @@ ROLLING_GUIDE_PARAMS = (
 
 
 #: effect ids the live model integrates (models/wear/effect_wear.py); initial_offset is folded into A0
-LIVE_EFFECT_IDS = ("running_in", "retract_asymmetry", "speed_dependent_wear", "load_exponent")
+LIVE_EFFECT_IDS = ("running_in", "retract_asymmetry", "speed_dependent_wear", "load_exponent", "load_along_rail",
+                   "wear_rate_change", "lubrication_interval", "thermal_drift")
 
 
 def effect_ids(p: dict[str, Any]) -> list[str]:
@@ -187,6 +211,8 @@ def _effect_checks(p: dict[str, Any]) -> None:
         raise InputError("parameter effects: the live wear effects need straightness_model eq7")
     if "speed_dependent_wear" in effect_ids(p) and not p["lift_speed_m_s"] > 0:
         raise InputError("parameter effects: speed_dependent_wear needs lift_speed_m_s > 0")
+    if "thermal_drift" in effect_ids(p) and p.get("thermal_drift_m_per_k", 0.0) == 0.0:
+        raise InputError("parameter effects: thermal_drift needs thermal_drift_m_per_k != 0")
 
 
 def _wear_cross_checks(p: dict[str, Any]) -> None:

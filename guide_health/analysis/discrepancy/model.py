@@ -193,11 +193,13 @@ class WearProblem:
         self.load_reference_n = work_weighted_geomean(cells.load_n, cells.work_nm)
         # temperature change at the measurements (relative to the first measurement)
         self.temperature_change_k = None
+        self.temperature_first_c = math.nan
         if cells.temperature_c.size >= 2:
             tt = cells.temperature_t_s
             o = np.argsort(tt, kind="stable")
             temp = np.interp(self.t_s, tt[o], cells.temperature_c[o])
             self.temperature_change_k = temp - temp[0]
+            self.temperature_first_c = float(temp[0])     # T_0: thermal_drift's reference is T_0 + dT_ref
         # each cell spans its measurement interval (for a change point inside it: uniform work assumed)
         edges = np.concatenate(([0.0], self.t_s, [max(cells.duration_s, float(self.t_s[-1]))]))
         k = np.clip(cells.interval, 0, n)

@@ -2,14 +2,18 @@
 
 A ROS 2 parameters file (``wear_monitor: ros__parameters:``) with the calibrated K, the A0 the fit used,
 the named effects the live model integrates (``effects`` and their parameters, params/wear_monitor.py) and
-the covariance of the fitted K and effect parameters (6 x 6, models/wear/effect_wear.COVARIANCE_NAMES).
+the covariance of the fitted K and effect parameters (9 x 9, models/wear/effect_wear.COVARIANCE_NAMES).
+The duty effects' times become absolute (seconds since the stamps' epoch): the change time of
+wear_rate_change, lubrication_interval's reference (the record's start for a fitted interval, the last
+recorded relubrication otherwise); load_along_rail carries the fit's x_ref.
 Load it after the base file, the later overriding, as ROS merges several ``--params-file``:
 
     guide-health replay BAG --params config/bench_000.yaml --params DIR/model.yaml
     ros2 run guide_health wear_monitor --ros-args --params-file base.yaml --params-file DIR/model.yaml
 
-Effects the live model cannot integrate (thermal_drift: a measurement term; stroke_distribution: the
-pass-length weighting) are listed in a comment, not applied; initial_offset is folded into A0.
+thermal_drift goes in as the gauge correction (c_T and the absolute T_ref: the live model corrects each
+measurement by c_T (T - T_ref) before the K update). stroke_distribution (the pass-length weighting) is
+listed in a comment, not applied; initial_offset is folded into A0.
 """
 from __future__ import annotations
 
@@ -25,12 +29,44 @@ from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
 from guide_health.params import validate_wear_params
 from guide_health.params.wear_monitor import LIVE_EFFECT_IDS
 
+#: the fitted parameters each live effect carries into the model file (same names as the wear_monitor's)
 EFFECT_PARAMETERS = {
     "running_in": ("running_in_ratio", "running_in_distance_m"),
     "retract_asymmetry": ("retract_wear_factor",),
     "speed_dependent_wear": ("lift_speed_m_s",),
     "load_exponent": ("load_exponent",),
+    "load_along_rail": ("load_gradient_per_m",),
+    "wear_rate_change": ("wear_rate_change_factor",),
+    "thermal_drift": ("thermal_drift_m_per_k",),
 }
+#: effects of the material pair and lubricant, shared by machines of a type (the fleet prior pools them);
+#: the others belong to one machine's history or mounting (a change time, a relubrication plan, a rail)
+MATERIAL_EFFECTS = ("running_in", "retract_asymmetry", "speed_dependent_wear", "load_exponent")
+#: a fitted parameter's row in the covariance when its name differs from the live one
+COVARIANCE_ALIASES = {"lubrication_wear_growth_per_s": "lubrication_wear_growth"}
+
+
+def duty_effect_parameters(problem, v: dict[str, float], live: list[str]) -> dict[str, Any]:
+    """The absolute times and references of the named duty effects (module text)."""
+    t0_s = problem.cells.t0_ns * 1e-9
+    out: dict[str, Any] = {}
+    if "load_along_rail" in live:
+        out["load_reference_position_m"] = float(problem.position_ref_m)
+    if "wear_rate_change" in live:
+        out["wear_rate_change_stamp_s"] = float(t0_s + v["wear_rate_change_time_s"])
+    if "thermal_drift" in live:     # T_ref = T_0 + dT_ref, dT_ref = -b / c_T (b fitted when A0 is given)
+        c, b = v["thermal_drift_m_per_k"], v.get("thermal_offset_m", 0.0)
+        out["thermal_reference_c"] = float(problem.temperature_first_c - (b / c if c != 0.0 else 0.0))
+    if "lubrication_interval" in live:
+        if "lubrication_wear_growth_per_s" in v:            # the recorded relubrications were the time base
+            relube = problem.relubrication_t_s
+            out.update(lubrication_wear_growth=float(v["lubrication_wear_growth_per_s"]), lubrication_interval_s=0.0,
+                       lubrication_reference_stamp_s=float(t0_s + (relube[-1] if relube is not None else 0.0)))
+        else:
+            out.update(lubrication_wear_growth=float(v["lubrication_wear_growth"]),
+                       lubrication_interval_s=float(v["lubrication_interval_s"]),
+                       lubrication_reference_stamp_s=float(t0_s))
+    return out
 
 
 def model_parameters(problem, final, named: list[str]) -> dict[str, Any]:
@@ -47,12 +83,13 @@ def model_parameters(problem, final, named: list[str]) -> dict[str, Any]:
         "retract_direction": "+x" if problem.retract_sign > 0 else "-x",
     }
     for e in live:
-        for name in EFFECT_PARAMETERS[e]:
+        for name in EFFECT_PARAMETERS.get(e, ()):
             out[name] = float(v[name])
+    out.update(duty_effect_parameters(problem, v, live))
     cov = final.extra.get("covariance")
     matrix = np.zeros((len(COVARIANCE_NAMES), len(COVARIANCE_NAMES)))
     if cov is not None:
-        index = {n: i for i, n in enumerate(cov["names"])}
+        index = {COVARIANCE_ALIASES.get(n, n): i for i, n in enumerate(cov["names"])}
         keep = [n for n in COVARIANCE_NAMES if n in index and (n == "wear_coefficient" or n in out)]
         for a in keep:
             for b in keep:
@@ -69,7 +106,8 @@ def write_model_file(path: Path, base_params: dict[str, Any], model: dict[str, A
     header = [f"# guide-health diagnose {source}: the model it learnt, as wear_monitor parameters.",
               "# Load after the base parameters: --params BASE --params model.yaml (replay, diagnose) or",
               "# --params-file BASE --params-file model.yaml (wear_monitor); the later file overrides.",
-              f"# effect_covariance: 6 x 6 row-major over {', '.join(COVARIANCE_NAMES)}."]
+              f"# effect_covariance: {len(COVARIANCE_NAMES)} x {len(COVARIANCE_NAMES)} row-major over "
+              f"{', '.join(COVARIANCE_NAMES)}."]
     if not_live:
         header.append(f"# named but not integrated live: {', '.join(not_live)}")
     body = yaml.safe_dump({"wear_monitor": {"ros__parameters": model}}, sort_keys=False, width=200)

@@ -38,10 +38,15 @@ from guide_health.models.wear.effects import (
     wear_rate_multiplier,
 )
 
-#: the order of the model file's effect_covariance rows (6 x 6, SI)
+#: the order of the model file's effect_covariance rows (9 x 9, SI); a 6 x 6 file (before the duty effects)
+#: is the leading block. ``lubrication_wear_growth`` is b [1/s] (recorded relubrications) or a [-] (interval)
 COVARIANCE_NAMES = ("wear_coefficient", "running_in_ratio", "running_in_distance_m", "retract_wear_factor",
-                    "lift_speed_m_s", "load_exponent")
-_SUMS = 6          # per bucket: work, effective work w/o running-in, distance, d/d rho, d/d v_lift, d/d n
+                    "lift_speed_m_s", "load_exponent", "load_gradient_per_m", "wear_rate_change_factor",
+                    "lubrication_wear_growth")
+LEGACY_COVARIANCE_SIZE = 6
+_PHI = len(COVARIANCE_NAMES) - 1       # effect parameters phi (all but K)
+#: per bucket: work, effective work w/o running-in, distance, then d(effective work)/d(rho, v_lift, n, g, f, b)
+_SUMS = 3 + _PHI - 2
 
 
 @dataclass(frozen=True)
@@ -56,7 +61,22 @@ class LiveEffects:
     lift_speed_m_s: float = math.inf
     load_exponent: float = 1.0
     load_reference_n: float = 1000.0
-    covariance: tuple = ()             # 36 numbers, COVARIANCE_NAMES order
+    # load_along_rail: m = max(1 + g (x - x_ref), 0)
+    load_gradient_per_m: float = 0.0
+    load_reference_position_m: float = 0.0
+    # wear_rate_change: m = f from the stamp t_c on [s since the epoch of the stamps]
+    wear_rate_change_factor: float = 1.0
+    wear_rate_change_stamp_s: float = math.inf
+    # lubrication_interval: m = 1 + b tau (tau: time since the last relubricate event, interval_s = 0) or
+    # m = 1 + a ((t - t_ref) mod T) / T (relubricated every T from t_ref); lubrication_growth is b or a
+    lubrication_growth: float = 0.0
+    lubrication_interval_s: float = 0.0
+    lubrication_reference_stamp_s: float = 0.0
+    # thermal_drift (a term of the gauge reading): y = A + c_T (T - T_ref); the live model corrects each
+    # straightness measurement by it before the K update
+    thermal_drift_m_per_k: float = 0.0
+    thermal_reference_c: float = 20.0
+    covariance: tuple = ()             # 81 numbers (or 36: before the duty effects), COVARIANCE_NAMES order
 
     @classmethod
     def from_params(cls, p: dict) -> LiveEffects | None:
@@ -73,8 +93,26 @@ class LiveEffects:
                             else math.inf),
             load_exponent=float(p["load_exponent"]) if "load_exponent" in ids else 1.0,
             load_reference_n=float(p["load_reference_n"]),
+            load_gradient_per_m=float(p.get("load_gradient_per_m", 0.0)) if "load_along_rail" in ids else 0.0,
+            load_reference_position_m=float(p.get("load_reference_position_m", 0.0)),
+            wear_rate_change_factor=(float(p.get("wear_rate_change_factor", 1.0)) if "wear_rate_change" in ids
+                                     else 1.0),
+            wear_rate_change_stamp_s=(float(p.get("wear_rate_change_stamp_s", math.inf))
+                                      if "wear_rate_change" in ids else math.inf),
+            lubrication_growth=(float(p.get("lubrication_wear_growth", 0.0)) if "lubrication_interval" in ids
+                                else 0.0),
+            lubrication_interval_s=float(p.get("lubrication_interval_s", 0.0)),
+            lubrication_reference_stamp_s=float(p.get("lubrication_reference_stamp_s", 0.0)),
+            thermal_drift_m_per_k=float(p.get("thermal_drift_m_per_k", 0.0)) if "thermal_drift" in ids else 0.0,
+            thermal_reference_c=float(p.get("thermal_reference_c", 20.0)),
             covariance=tuple(float(v) for v in p.get("effect_covariance", ())),
         )
+
+    def phi(self) -> np.ndarray:
+        """The effect parameters in COVARIANCE_NAMES order after K (v_lift 0 when absent)."""
+        return np.array([self.running_in_ratio, self.running_in_distance_m, self.retract_wear_factor,
+                         self.lift_speed_m_s if math.isfinite(self.lift_speed_m_s) else 0.0, self.load_exponent,
+                         self.load_gradient_per_m, self.wear_rate_change_factor, self.lubrication_growth])
 
     def wear_effects(self) -> WearEffects:
         return WearEffects(retract_wear_factor=self.retract_wear_factor, lift_speed_m_s=self.lift_speed_m_s,
@@ -83,7 +121,37 @@ class LiveEffects:
     def covariance_matrix(self) -> np.ndarray:
         n = len(COVARIANCE_NAMES)
         c = np.asarray(self.covariance, dtype=float)
-        return c.reshape(n, n) if c.size == n * n else np.zeros((n, n))
+        out = np.zeros((n, n))
+        if c.size == n * n:
+            out[:] = c.reshape(n, n)
+        elif c.size == LEGACY_COVARIANCE_SIZE ** 2:
+            out[:LEGACY_COVARIANCE_SIZE, :LEGACY_COVARIANCE_SIZE] = c.reshape(LEGACY_COVARIANCE_SIZE, -1)
+        return out
+
+
+def duty_factor_terms(e: LiveEffects, t_s: np.ndarray, x_m: np.ndarray, last_relubrication_s: np.ndarray):
+    """The duty multipliers of load_along_rail, wear_rate_change and lubrication_interval (effects.py) at
+    segment mid-times t [s since the stamps' epoch] and mid-positions x [m]: (m, dm/dg, dm/df, dm/db)
+    (``last_relubrication_s``: the recorded form's time base per segment)."""
+    one = np.ones_like(t_s)
+    zero = np.zeros_like(t_s)
+    rail = 1.0 + e.load_gradient_per_m * (x_m - e.load_reference_position_m)
+    m_rail = np.maximum(rail, 0.0)
+    d_g = np.where(rail > 0, x_m - e.load_reference_position_m, 0.0)
+    after = t_s >= e.wear_rate_change_stamp_s
+    m_change = np.where(after, e.wear_rate_change_factor, 1.0)
+    if e.lubrication_interval_s > 0:
+        tau = np.mod(np.maximum(t_s - e.lubrication_reference_stamp_s, 0.0), e.lubrication_interval_s)
+        d_b = tau / e.lubrication_interval_s
+    else:
+        d_b = np.maximum(t_s - last_relubrication_s, 0.0)
+    m_lube = 1.0 + e.lubrication_growth * d_b
+    m = m_rail * m_change * m_lube
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dm_g = np.where(m_rail > 0, m / np.where(m_rail > 0, m_rail, 1.0) * d_g, zero)
+        dm_f = np.where(after, m_rail * m_lube, zero)
+        dm_b = m_rail * m_change * d_b
+    return m * one, dm_g, dm_f, dm_b
 
 
 @dataclass
@@ -95,13 +163,17 @@ class EffectWear:
     duty_buckets: int
     effective_work_nm: float = 0.0
     buckets: dict = field(default_factory=dict)       # bucket index -> [_SUMS sums]
-    # d(effective work)/d(r, s0, rho, v_lift, n) over the whole history [N m per unit]
-    work_gradient: list = field(default_factory=lambda: [0.0] * 5)
+    # d(effective work)/d(phi) over the whole history, phi = (r, s0, rho, v_lift, n, g, f, b) [N m per unit]
+    work_gradient: list = field(default_factory=lambda: [0.0] * _PHI)
     # work_gradient at each straightness measurement (parallel to the estimator's measurements)
     measurement_gradients: list = field(default_factory=list)
     # the guide's sliding distance when the present surface was made (0, or at the last regrind / new rail):
     # running-in counts the distance slid on this surface [m]
     surface_start_m: float = 0.0
+    # lubrication_interval's time base (recorded form): the last relubricate event seen, and the first stamp
+    # this guide integrated (the record's start, before the first event) [ns since the epoch]; None: not yet
+    last_relubrication_ns: int | None = None
+    first_t_ns: int | None = None
 
     def add_segments(self, t_start_ns, t_end_ns, xa_m, xb_m, load_n, s_start_m) -> None:
         """Sliding segments from xa to xb between the stamps, under load_n (NaN / 0: no wear), starting at
@@ -109,32 +181,43 @@ class EffectWear:
         xa, xb = np.asarray(xa_m, dtype=float), np.asarray(xb_m, dtype=float)
         if xa.size == 0:
             return
+        ta_ns = np.asarray(t_start_ns, dtype=np.int64)
+        tb_ns = np.asarray(t_end_ns, dtype=np.int64)
+        if self.first_t_ns is None:
+            self.first_t_ns = int(ta_ns.min())
         ds = np.abs(xb - xa)
         w = np.nan_to_num(np.asarray(load_n, dtype=float))
-        dt = (np.asarray(t_end_ns, dtype=np.int64) - np.asarray(t_start_ns, dtype=np.int64)) * 1e-9
+        dt = (tb_ns - ta_ns) * 1e-9
         speed = np.divide(ds, dt, out=np.zeros_like(ds), where=dt > 0)
         e = self.effects
         retract = np.sign(xb - xa) == e.retract_sign
         s_a = np.maximum(np.asarray(s_start_m, dtype=float) - self.surface_start_m, 0.0)   # on this surface
         m = wear_rate_multiplier(e.wear_effects(), speed, np.maximum(w, 1e-12), retract)
+        # the duty effects at the segment's middle (time in s since the stamps' epoch, position)
+        t_mid_s = 0.5 * (ta_ns + tb_ns) * 1e-9
+        m_duty, dm_g, dm_f, dm_b = duty_factor_terms(e, t_mid_s, 0.5 * (xa + xb),
+                                                     self.relubrication_base_s(t_mid_s))
         work = w * ds
-        eff = work * m
+        base = work * m                                      # without the duty factors
+        eff = base * m_duty
         ri = running_in_factor_mean(s_a, s_a + ds, e.running_in_ratio, e.running_in_distance_m)
         self.effective_work_nm += float((eff * ri).sum())
         share = asperity_load_share(speed, e.lift_speed_m_s)
-        d_rho = np.where(retract, eff / e.retract_wear_factor if e.retract_wear_factor else work, 0.0)
+        d_rho = np.where(retract, eff / e.retract_wear_factor if e.retract_wear_factor else work * m_duty, 0.0)
         d_vl = (eff * (1.0 - share) * 2.0 * LUBRICATION_SPEED_EXPONENT / e.lift_speed_m_s
                 if math.isfinite(e.lift_speed_m_s) else np.zeros_like(eff))
         d_n = eff * np.log(np.maximum(w, 1e-12) / e.load_reference_n)
+        d_g, d_f, d_b = base * dm_g, base * dm_f, base * dm_b
         s0 = e.running_in_distance_m
         decay = np.exp(-(s_a + 0.5 * ds) / s0)               # at the segment's middle (a gradient only)
         grads = (eff * decay, eff * e.running_in_ratio * decay * (s_a + 0.5 * ds) / s0 ** 2,
-                 d_rho * ri, d_vl * ri, d_n * ri)
+                 d_rho * ri, d_vl * ri, d_n * ri, d_g * ri, d_f * ri, d_b * ri)
         for j, g in enumerate(grads):
             self.work_gradient[j] += float(g.sum())
-        bucket = (np.asarray(t_end_ns, dtype=np.int64) * 1e-9 // self.duty_bucket_s).astype(np.int64)
+        bucket = (tb_ns * 1e-9 // self.duty_bucket_s).astype(np.int64)
         uniq, inverse = np.unique(bucket, return_inverse=True)
-        sums = [np.bincount(inverse, weights=v, minlength=uniq.size) for v in (work, eff, ds, d_rho, d_vl, d_n)]
+        sums = [np.bincount(inverse, weights=v, minlength=uniq.size)
+                for v in (work, eff, ds, d_rho, d_vl, d_n, d_g, d_f, d_b)]
         for i, b in enumerate(uniq.tolist()):
             row = self.buckets.setdefault(int(b), [0.0] * _SUMS)
             for j in range(_SUMS):
@@ -142,6 +225,19 @@ class EffectWear:
         newest = max(self.buckets)
         for b in [b for b in self.buckets if b <= newest - self.duty_buckets]:
             del self.buckets[b]
+
+    def relubrication_base_s(self, t_s: np.ndarray) -> np.ndarray:
+        """The recorded form's last relubrication at each time t [s since the epoch]: the latest of the last
+        relubricate event seen, the guide's first stamp and (once reached) the model file's reference (the
+        last relubrication of the record diagnose fitted, or its start)."""
+        known = [v * 1e-9 for v in (self.last_relubrication_ns, self.first_t_ns) if v is not None]
+        base = np.full_like(t_s, max(known) if known else -np.inf)
+        ref = self.effects.lubrication_reference_stamp_s
+        return np.where(t_s >= ref, np.maximum(base, ref), base)
+
+    def relubricated(self, t_ns: int) -> None:
+        """A relubricate maintenance event: lubrication_interval's time since relubrication restarts."""
+        self.last_relubrication_ns = int(t_ns)
 
     def window_sums(self, last_t_ns: int | None) -> np.ndarray:
         """The bucket sums over the duty window ending at ``last_t_ns``."""
@@ -168,14 +264,25 @@ class EffectWear:
         return {"effective_work_nm": self.effective_work_nm, "work_gradient": list(self.work_gradient),
                 "buckets": [[b, *v] for b, v in sorted(self.buckets.items())],
                 "measurement_gradients": [list(g) for g in self.measurement_gradients],
-                "surface_start_m": self.surface_start_m}
+                "surface_start_m": self.surface_start_m,
+                "last_relubrication_t_ns": self.last_relubrication_ns, "first_sample_t_ns": self.first_t_ns}
 
     def restore(self, state: dict) -> None:
         self.effective_work_nm = float(state["effective_work_nm"])
-        self.work_gradient = [float(v) for v in state.get("work_gradient", [0.0] * 5)]
-        self.buckets = {int(row[0]): [float(v) for v in row[1:]] for row in state["buckets"]}
-        self.measurement_gradients = [[float(v) for v in g] for g in state.get("measurement_gradients", [])]
+        self.work_gradient = _padded(state.get("work_gradient", []), _PHI)
+        self.buckets = {int(row[0]): _padded(row[1:], _SUMS) for row in state["buckets"]}
+        self.measurement_gradients = [_padded(g, _PHI) for g in state.get("measurement_gradients", [])]
         self.surface_start_m = float(state.get("surface_start_m", 0.0))
+        last, first = state.get("last_relubrication_t_ns"), state.get("first_sample_t_ns")
+        self.last_relubrication_ns = None if last is None else int(last)
+        self.first_t_ns = None if first is None else int(first)
+
+
+def _padded(values, size: int) -> list[float]:
+    """A saved row of sums or gradients, zero-padded to ``size`` (states saved before the duty effects had
+    5 gradients and 6 bucket sums; the added terms were zero then)."""
+    out = [float(v) for v in values][:size]
+    return out + [0.0] * (size - len(out))
 
 
 def running_in_extra_m_per_rate(horizon_s, ratio: float, distance_m: float, s_now_m: float,
@@ -198,7 +305,7 @@ def remaining_life_with_running_in_s(margin_m: float, steady_rate_m_s: float, ra
         return 0.0
     if steady_rate_m_s <= 0:
         return math.inf
-    hi = margin_m / steady_rate_m_s
+    hi = float(margin_m / steady_rate_m_s)
     if ratio == 0.0 or not sliding_speed_m_s > 0:
         return hi
 
@@ -237,17 +344,17 @@ def online_k_sensitivity(loss_per_k_m: np.ndarray, rise_m: np.ndarray, loss_grad
 
 def life_interval_s(k: float, k_sd: float, e: LiveEffects, now: dict, z: float) -> tuple[float, float, float]:
     """(life, low, high) [s] of remaining life with the effects, and its interval: the delta method on ln life
-    with K profiled (module text): the effect parameters phi = (r, s0, rho, v_lift, n) vary with the model
+    with K profiled (module text): the effect parameters phi = (r, s0, rho, v_lift, n, g, f, b; ``LiveEffects.phi``;
+    the change time t_c, the interval T and the rail's x_ref are held) vary with the model
     file's marginal covariance, K follows as the online update would (``now["k_sensitivity"]`` = dK / dphi),
     and K's own spread given phi is the online posterior sd ``k_sd``.
 
     ``now``: margin0 = A_max - A0 [m], c = straightness per unit K and effective work [m / (N m)], work =
     effective work [N m], work_gradient (d work / d phi), k_sensitivity (d K / d phi), rate_per_k (steady
-    dA/dt per K [m/s]), dln_rate (d ln rate / d(rho, v_lift, n) at the present duty), s_now (sliding distance
+    dA/dt per K [m/s]), dln_rate (d ln rate / d(rho, v_lift, n, g, f, b) at the present duty), s_now (distance
     of the present surface [m]), v_s [m/s]. A change of phi moves the straightness now (through the past
     effective work and K) and the rate."""
-    phi0 = np.array([e.running_in_ratio, e.running_in_distance_m, e.retract_wear_factor,
-                     e.lift_speed_m_s if math.isfinite(e.lift_speed_m_s) else 0.0, e.load_exponent])
+    phi0 = e.phi()
     dk = np.asarray(now.get("k_sensitivity", np.zeros(phi0.size)), dtype=float)
 
     def life(k_: float, phi: np.ndarray) -> float:
@@ -274,4 +381,4 @@ def life_interval_s(k: float, k_sd: float, e: LiveEffects, now: dict, z: float) 
     if k_sd > 0:
         var += (dln(1e-2 * k_sd, None) * k_sd) ** 2
     sd = math.sqrt(max(var, 0.0))
-    return centre, centre * math.exp(-z * sd), centre * math.exp(z * sd)
+    return float(centre), float(centre * math.exp(-z * sd)), float(centre * math.exp(z * sd))

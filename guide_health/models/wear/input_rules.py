@@ -71,6 +71,7 @@ MALFORMED_LOAD = "malformed guide/load message"
 EMPTY_JOINT_STATES = "empty joint_states arrays"
 JOINT_POSITION_MISSING = "joint_states position shorter than name"
 STRAIGHTNESS_WITHOUT_TIME_BASE = "straightness before any joint_states (no time base)"
+STRAIGHTNESS_WITHOUT_TEMPERATURE = "straightness before any guide/temperature (thermal_drift correction)"
 INVALID_STAMP = "invalid header stamp (nanosec >= 1e9)"
 
 # sample reasons by code (0 = accepted): the per-sample form of the vectorised rules
@@ -80,7 +81,7 @@ REASON_CODES = (None, NON_FINITE_JOINT, POSITION_OUT_OF_TRAVEL, JOINT_TIME_BACKW
                 STRAIGHTNESS_TIME_BACKWARDS, MEASUREMENT_ALREADY_APPLIED)
 CODE_OF_REASON = {reason: code for code, reason in enumerate(REASON_CODES)}
 MESSAGE_REASONS = (MALFORMED_JOINT_STATES, MALFORMED_LOAD, EMPTY_JOINT_STATES, JOINT_POSITION_MISSING,
-                   STRAIGHTNESS_WITHOUT_TIME_BASE, INVALID_STAMP)
+                   STRAIGHTNESS_WITHOUT_TIME_BASE, INVALID_STAMP, STRAIGHTNESS_WITHOUT_TEMPERATURE)
 NS_PER_S = 1_000_000_000
 
 

@@ -138,8 +138,11 @@ def reset_fatigue(monitor) -> None:
     rolling.fatigue = fresh.fatigue
 
 
-def relubricate(monitor) -> None:
-    """Fresh lubricant: the recent boundary-lubrication share restarts (rolling guides)."""
+def relubricate(monitor, t_ns: int) -> None:
+    """Fresh lubricant: the recent boundary-lubrication share restarts (rolling guides); the live
+    lubrication_interval effect's time since relubrication restarts."""
+    if getattr(monitor, "effect_wear", None) is not None:
+        monitor.effect_wear.relubricated(t_ns)
     if monitor.rolling is not None:
         monitor.rolling.boundary_travel_m = 0.0
         monitor.rolling.window_travel_m = 0.0
@@ -153,7 +156,7 @@ def apply_event(monitor, event: MaintenanceEvent) -> str | None:
     if event.kind in RESETS_FATIGUE:
         reset_fatigue(monitor)
     if event.kind == "relubricate":
-        relubricate(monitor)
+        relubricate(monitor, int(event.t_ns))
     if event.kind == "measure":
         return monitor.on_straightness(int(event.t_ns), float(event.straightness_m))
     return None

@@ -8,6 +8,7 @@ and remaining precision life (seed 000 Eqs. 7, 10, 11, 12) with a 90 % interval.
 """
 from __future__ import annotations
 
+import bisect
 import math
 from collections import Counter, deque
 from collections.abc import Callable
@@ -33,6 +34,7 @@ from guide_health.models.wear.effect_wear import (
 )
 from guide_health.models.wear.input_rules import (
     REASON_CODES,
+    STRAIGHTNESS_WITHOUT_TEMPERATURE,
     STRAIGHTNESS_WITHOUT_TIME_BASE,
     InputLimits,
     RejectionCounter,
@@ -47,6 +49,11 @@ from guide_health.models.wear.input_rules import (
 from guide_health.models.wear.stream_gaps import StreamGaps
 
 STREAMS = ("joint_states", "guide/load")     # the inputs whose recent rejected share the status judges
+
+
+#: guide/temperature readings kept for the thermal_drift correction (by stamp; a measurement takes the one in
+#: force at its stamp, so a reading may arrive after the measurement it precedes)
+TEMPERATURE_HISTORY = 4096
 
 
 class PrecisionMonitor:
@@ -79,6 +86,11 @@ class PrecisionMonitor:
         self.recent = {name: deque(maxlen=window) for name in STREAMS}
         self.load_samples = 0            # accepted load samples
         self.stream_gaps = StreamGaps()  # samples missing by stamp gaps (not persisted: a count of this run)
+        # guide/temperature readings by stamp (the last TEMPERATURE_HISTORY): the thermal_drift correction
+        # takes the one in force at a measurement's stamp
+        self.temperature_t_ns: list[int] = []
+        self.temperature_c: list[float] = []
+        self.thermal_correction_m = 0.0   # the last correction applied (c_T (T - T_ref)) [m]
         self.rolling = None
         if params.get("guide_type") == "rolling":
             from guide_health.models.rolling.rolling_guide import RollingGuideMonitor
@@ -127,9 +139,34 @@ class PrecisionMonitor:
         return None
 
     def on_temperature(self, t_ns: int, temperature_c: float) -> None:
-        """A guide/temperature reading: the rolling guide's oil viscosity from its stamp on (Walther oil)."""
+        """A guide/temperature reading: the rolling guide's oil viscosity from its stamp on (Walther oil);
+        kept by stamp for the thermal_drift correction of straightness measurements."""
         if self.rolling is not None:
             self.rolling.add_temperature(t_ns, temperature_c)
+        self._keep_temperatures(np.array([t_ns], dtype=np.int64), np.array([temperature_c], dtype=float))
+
+    def _thermal(self) -> bool:
+        return self.effects is not None and self.effects.thermal_drift_m_per_k != 0.0
+
+    def _keep_temperatures(self, t_ns: np.ndarray, temperature_c: np.ndarray, keep: int = TEMPERATURE_HISTORY) -> None:
+        """Add readings (non-finite ones dropped), sorted by stamp, keeping the last ``keep``."""
+        if not self._thermal() or t_ns.size == 0:
+            return
+        ok = np.isfinite(temperature_c)
+        t = np.concatenate((np.asarray(self.temperature_t_ns, dtype=np.int64), t_ns[ok]))
+        c = np.concatenate((np.asarray(self.temperature_c, dtype=float), temperature_c[ok]))
+        order = np.argsort(t, kind="stable")[-keep:]
+        self.temperature_t_ns, self.temperature_c = t[order].tolist(), c[order].tolist()
+
+    def thermal_correction_at_m(self, t_ns: int) -> float | None:
+        """c_T (T - T_ref) [m] with the temperature reading in force at ``t_ns`` (thermal_drift; 0 without
+        the effect); None when no reading is stamped at or before it."""
+        if not self._thermal():
+            return 0.0
+        i = bisect.bisect_right(self.temperature_t_ns, int(t_ns)) - 1
+        if i < 0:
+            return None
+        return self.effects.thermal_drift_m_per_k * (self.temperature_c[i] - self.effects.thermal_reference_c)
 
     def on_straightness(self, t_ns: int, straightness_m: float) -> str | None:
         """Straightness measurement [m]; returns the rejection reason or None when accepted. A measurement
@@ -140,7 +177,11 @@ class PrecisionMonitor:
         reason = check_straightness_sample(t_ns, straightness_m, times[-1] if times else None, self.limits)
         if reason is not None:
             return self.rejected.reject(reason)
-        self.estimator.add(t_ns, straightness_m, self.loss_per_k_m(), self.work_nm())
+        correction = self.thermal_correction_at_m(t_ns)
+        if correction is None:
+            return self.rejected.reject(STRAIGHTNESS_WITHOUT_TEMPERATURE)
+        self.thermal_correction_m = correction
+        self.estimator.add(t_ns, straightness_m - correction, self.loss_per_k_m(), self.work_nm())
         if self.effect_wear is not None:
             self.effect_wear.on_measurement()
         return None
@@ -168,7 +209,7 @@ class PrecisionMonitor:
     def effect_forecast(self) -> dict[str, float]:
         """Present duty with the effects: steady dA/dt per K [m/s] (running-in over), sliding speed [m/s],
         sliding distance on the present surface [m] (since the last regrind), the d ln(rate)/d(parameter) of
-        rho, v_lift and n."""
+        rho, v_lift, n, g, f and b."""
         sums = self.effect_wear.window_sums(self.integrator.last_t_ns)
         rate_plain = self.integrator.straightness_rate_per_k_m_s()      # Archard work rate, Eq. 7
         work, eff, dist = sums[0], sums[1], sums[2]
@@ -177,7 +218,7 @@ class PrecisionMonitor:
         return {"steady_rate_per_k_m_s": rate_plain * ratio,
                 "sliding_speed_m_s": duty * dist / work if work > 0 and math.isfinite(duty) else math.nan,
                 "sliding_distance_m": self.integrator.sliding_distance_m - self.effect_wear.surface_start_m,
-                "dln_rate": [sums[j] / eff if eff > 0 else 0.0 for j in (3, 4, 5)]}
+                "dln_rate": [sums[j] / eff if eff > 0 else 0.0 for j in range(3, sums.size)]}
 
     def effect_life_interval_s(self, k: float, loss_per_k: float):
         """(life, low, high) [s] with the effects (models/wear/effect_wear.life_interval_s): K's online spread
@@ -188,14 +229,15 @@ class PrecisionMonitor:
         g = self.measurement_losses_per_k_m()
         _, k_sd, sigma = est.posterior(g)
         n = est.count
-        grads = np.asarray(self.effect_wear.measurement_gradients, dtype=float).reshape(-1, 5)
-        if grads.shape[0] == n:         # dg_j / dphi = g_j / G_j dG_j / dphi (Eq. 7: g proportional to the work)
+        n_phi = len(self.effect_wear.work_gradient)
+        grads = np.asarray(self.effect_wear.measurement_gradients, dtype=float).reshape(-1, n_phi)
+        if grads.shape[0] == n > 0:     # dg_j / dphi = g_j / G_j dG_j / dphi (Eq. 7: g proportional to the work)
             work_j = np.asarray(est.measurement_work_nm, dtype=float)
             per_work = np.divide(g, work_j, out=np.zeros(n), where=work_j > 0)
             k_sens = online_k_sensitivity(g, np.asarray(est.measurement_m) - est.straightness_initial_m,
                                           per_work[:, None] * grads, k, k_sd, sigma)
-        else:                           # a state saved before the gradients were kept
-            k_sens = np.zeros(5)
+        else:                           # no measurement yet, or a state saved before the gradients were kept
+            k_sens = np.zeros(n_phi)
         now = {"margin0": self.params["straightness_limit_m"] - self.params["straightness_initial_m"],
                "c": loss_per_k / work if work > 0 else 0.0, "work": work,
                "work_gradient": np.asarray(self.effect_wear.work_gradient), "k_sensitivity": k_sens,
@@ -225,6 +267,9 @@ class PrecisionMonitor:
         """
         if self.rolling is not None and getattr(run, "temperature_t_ns", np.zeros(0)).size:
             self.rolling.add_temperatures(run.temperature_t_ns, run.temperature_c)   # applied by stamp
+        # the whole record's readings while its measurements are applied, then the last TEMPERATURE_HISTORY
+        self._keep_temperatures(np.asarray(getattr(run, "temperature_t_ns", np.zeros(0, np.int64)), dtype=np.int64),
+                                np.asarray(getattr(run, "temperature_c", np.zeros(0)), dtype=float), keep=2**62)
         accepted = accept_run(run, self.joint_base, self.load_base, self.load_n, self.limits)
         self.rejected.count_all(accepted.rejected)
         self.joint_base, self.load_base = accepted.joints.base, accepted.loads.base
@@ -260,6 +305,7 @@ class PrecisionMonitor:
         if accepted.load_t_ns.size:
             self.load_t_ns = int(accepted.load_t_ns[-1])
             self.load_n = float(accepted.load_n[-1])
+        del self.temperature_t_ns[:-TEMPERATURE_HISTORY], self.temperature_c[:-TEMPERATURE_HISTORY]
 
     def _advance_many(self, t_ns, position_m, load_n) -> None:
         self.integrator.advance_many(t_ns, position_m, main_way_load_n(load_n))
@@ -330,6 +376,9 @@ class PrecisionMonitor:
             **{rejected_key(reason): n for reason, n in self.rejected.items()},
             **self.stream_gaps.values(),
         }
+        if self._thermal():
+            # straightness_measured_um is the corrected reading; this is what was taken off the last one
+            result["straightness_thermal_correction_um"] = self.thermal_correction_m * 1e6
         result["level"], result["message"] = self._judge(result)
         gaps = self.stream_gaps.message()
         if gaps:
@@ -431,6 +480,9 @@ class PrecisionMonitor:
             "load_samples": self.load_samples,
             "rolling": None if self.rolling is None else self.rolling.state(),
             **({} if self.effect_wear is None else {"effects": self.effect_wear.state()}),
+            # thermal_drift: the readings a later measurement may take (by stamp)
+            **({} if not self._thermal() else {"temperatures": {"reading_t_ns": list(self.temperature_t_ns),
+                                                                 "reading_c": list(self.temperature_c)}}),
         }
 
     def restore(self, state: dict) -> None:
@@ -440,6 +492,10 @@ class PrecisionMonitor:
         self._attach_effects()
         if self.effect_wear is not None and state.get("effects"):
             self.effect_wear.restore(state["effects"])
+        temps = state.get("temperatures") or {"reading_t_ns": [], "reading_c": []}
+        self.temperature_t_ns, self.temperature_c = [], []
+        self._keep_temperatures(np.asarray(temps["reading_t_ns"], dtype=np.int64),
+                                np.asarray(temps["reading_c"], dtype=float))
         est = state["estimator"]
         self.estimator = WearCoefficientEstimator.from_state(est)
         # parameters win over the saved prior (a user may re-tune them); measurements are kept

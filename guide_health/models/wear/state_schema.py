@@ -24,6 +24,7 @@ FINGERPRINT_PARAMS = ("machine_id", "joint", "guide_type", "contact_width_m", "s
 PARALLEL_LISTS = {
     "integrator": ("duty_bucket_index", "duty_bucket_work_nm"),
     "estimator": ("measurement_t_ns", "measurement_m", "measurement_loss_per_k_m", "measurement_work_nm"),
+    "temperatures": ("reading_t_ns", "reading_c"),
 }
 
 
@@ -50,10 +51,14 @@ NON_NEGATIVE = frozenset({
 #: element kind of lists that are empty in a fresh monitor (the template cannot show it)
 #: (a NaN element marks a measurement taken before the stroke was known: Eq. 7's g_j not yet defined)
 #: fields added to the state after it was first written, with the value a state saved before them restores to
-#: (effect_wear: the work gradient at each measurement and where the present surface was made, stop 10).
+#: (effect_wear: the work gradient at each measurement and where the present surface was made, stop 10; the
+#: relubrication time base, stop 11; older bucket rows and gradients are zero-padded by effect_wear.restore).
 #: Such a state is accepted without them; every other missing field is refused.
-ADDED_FIELDS = {"measurement_gradients": [], "surface_start_m": 0.0}
-EMPTY_LIST_ELEMENT = {"duty_bucket_index": 0, "measurement_t_ns": 0, "measurement_loss_per_k_m": float("nan")}
+ADDED_FIELDS = {"measurement_gradients": [], "surface_start_m": 0.0,
+                # lubrication_interval's time base (stop 11)
+                "last_relubrication_t_ns": None, "first_sample_t_ns": None}
+EMPTY_LIST_ELEMENT = {"duty_bucket_index": 0, "measurement_t_ns": 0, "measurement_loss_per_k_m": float("nan"),
+                      "reading_t_ns": 0}
 #: lists of rows of finite numbers, empty in a fresh monitor (effect_wear's duty buckets: index then sums; the
 #: work gradient at each measurement)
 NUMBER_ROWS = frozenset({"buckets", "measurement_gradients"})

@@ -1,0 +1,510 @@
+"""The duty effects diagnose names (load_along_rail, wear_rate_change, lubrication_interval) integrated live
+(models/wear/effect_wear.py, issue 15: "the live model integrates with the effects").
+
+- The monitor's straightness at every measurement, with the true K and effect parameters, equals (1e-9) this
+  file's own sample-by-sample integration (written here: no import of the effect terms) of machine_jobs motion and
+  load: W ds m, m the effect's multiplier at the segment's middle, the load held from its last sample.
+- The recorded form of lubrication_interval takes the bag's relubricate maintenance events through the
+  AxisMonitor (as replay and the node do), and survives a state round trip.
+- diagnose -> model file -> replay: on hidden data written here (20 h, noise 0.3 um) the model file's life
+  is within 10 % of an oracle's (the same monitor with the true parameters and noise-free measurements),
+  and a wear-rate change no longer hides in an averaged K.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from guide_health.analysis.discrepancy.duty import duty_cells_from_runs
+from guide_health.analysis.discrepancy.workflow import diagnose_cells
+from guide_health.errors import InputError
+from guide_health.models.wear.axis import AxisMonitor
+from guide_health.models.wear.maintenance import MaintenanceEvent
+from guide_health.models.wear.precision import PrecisionMonitor
+from guide_health.params import simulation_params, validate_wear_params, wear_monitor_params
+from guide_health.sim.machine import simulate_machine
+
+ROOT = Path(__file__).resolve().parents[1]
+JOBS = ROOT / "config" / "machine_jobs.yaml"
+H = 3600.0
+
+
+def jobs_run(hours: float, rate_hz: float, seed: int):
+    params = wear_monitor_params(JOBS)
+    sim = dict(simulation_params(JOBS), duration_h=hours, joint_state_rate_hz=rate_hz, load_rate_hz=rate_hz,
+               straightness_noise_m=0.0)
+    return params, simulate_machine(params, sim, seed=seed)
+
+
+def own_multiplier(case: dict, t_s: np.ndarray, x_m: np.ndarray, relube_s: list[float]) -> np.ndarray:
+    """The effects' multipliers as this file writes them (t: s since the stamps' epoch)."""
+    m = np.ones_like(t_s)
+    if "g" in case:
+        m *= np.clip(1.0 + case["g"] * (x_m - case["x_ref"]), 0.0, None)
+    if "f" in case:
+        m *= np.where(t_s >= case["t_c"], case["f"], 1.0)
+    if "T" in case:
+        since = np.clip(t_s - case["t_ref"], 0.0, None)
+        m *= 1.0 + case["a"] * (since - case["T"] * np.floor(since / case["T"])) / case["T"]
+    if "b" in case:
+        last = np.array([max([case["t_first"]] + [r for r in relube_s if r <= t]) for t in t_s])
+        m *= 1.0 + case["b"] * (t_s - last)
+    return m
+
+
+def own_straightness_m(run, params: dict, k: float, stroke_sum_m: float, case: dict,
+                       relube_s: list[float]) -> np.ndarray:
+    """A0 + 2 K sum(W ds m) / (H b (l_min + l_max)) at each measurement (seed 000 Eq. 7, Eq. 10)."""
+    t = np.asarray(run.joint_t_ns, dtype=np.int64)
+    x = np.asarray(run.joint_position_m, dtype=float)
+    held = np.searchsorted(run.load_t_ns, t[1:], side="right") - 1
+    load = np.where(held >= 0, np.asarray(run.load_n)[np.clip(held, 0, None)], 0.0)
+    t_mid = 0.5 * (t[1:] + t[:-1]) * 1e-9
+    work = load * np.abs(np.diff(x)) * own_multiplier(case, t_mid, 0.5 * (x[1:] + x[:-1]), relube_s)
+    g = np.concatenate(([0.0], np.cumsum(work)))
+    at = np.searchsorted(t, np.asarray(run.straightness_t_ns, dtype=np.int64), side="right") - 1
+    return params["straightness_initial_m"] + 2.0 * k * g[at] / (params["hardness_pa"] * params["contact_width_m"]
+                                                                * stroke_sum_m)
+
+
+CASES = {
+    "load_along_rail": ({"g": 2.5, "x_ref": 0.12}, {"effects": "load_along_rail", "load_gradient_per_m": 2.5,
+                                                     "load_reference_position_m": 0.12}),
+    "wear_rate_change": ({"f": 2.2, "t_c_h": 1.37}, {"effects": "wear_rate_change", "wear_rate_change_factor": 2.2}),
+    "lubrication_interval": ({"a": 1.4, "T": 1.1 * H, "t_ref_h": 0.3},
+                             {"effects": "lubrication_interval", "lubrication_wear_growth": 1.4,
+                              "lubrication_interval_s": 1.1 * H}),
+    "lubrication_recorded": ({"b": 0.5 / H, "relube_h": [0.8, 2.45]},
+                             {"effects": "lubrication_interval", "lubrication_wear_growth": 0.5 / H,
+                              "lubrication_interval_s": 0.0}),
+    "all_three": ({"g": -1.5, "x_ref": 0.1, "f": 0.6, "t_c_h": 2.2, "a": 0.8, "T": 1.7 * H,
+                                   "t_ref_h": 0.0},
+                                  {"effects": "load_along_rail,wear_rate_change,lubrication_interval",
+                                   "load_gradient_per_m": -1.5, "load_reference_position_m": 0.1,
+                                   "wear_rate_change_factor": 0.6, "lubrication_wear_growth": 0.8,
+                                   "lubrication_interval_s": 1.7 * H}),
+}
+
+
+def monitored(case_id: str, hours: float = 4.0, rate_hz: float = 20.0, seed: int = 4):
+    """(expected straightness, monitor) of one case; the recorded lubrication through an AxisMonitor."""
+    params, run = jobs_run(hours, rate_hz, seed)
+    case, live = CASES[case_id]
+    case = dict(case)
+    t0_s = int(run.joint_t_ns[0]) * 1e-9
+    stroke = (float(run.metadata["truth"]["stroke_min_m"]), float(run.metadata["truth"]["stroke_max_m"]))
+    fixed = {**params, "stroke_min_m": stroke[0], "stroke_max_m": stroke[1], "sliding_deadband_m": 0.0}
+    live = dict(live)
+    if "t_c_h" in case:
+        case["t_c"] = t0_s + case["t_c_h"] * H
+        live["wear_rate_change_stamp_s"] = case["t_c"]
+    if "t_ref_h" in case:
+        case["t_ref"] = t0_s + case["t_ref_h"] * H
+        live["lubrication_reference_stamp_s"] = case["t_ref"]
+    relube_s = [t0_s + h * H for h in case.get("relube_h", [])]
+    if relube_s:         # the diagnosed record's last relubrication is the file's reference
+        case["t_first"] = t0_s
+        live["lubrication_reference_stamp_s"] = relube_s[-1]
+    k = params["wear_coefficient"]
+    expected = own_straightness_m(run, params, k, sum(stroke), case, relube_s)
+    run.straightness_m = expected                     # the gauge reads this truth, noise-free
+    validate_wear_params({**fixed, **live})
+    axis = AxisMonitor({**fixed, **live})
+    for t in relube_s:
+        axis.schedule(MaintenanceEvent(int(round(t * 1e9)), "relubricate", params["joint"], source="test"))
+    axis.process_run(run)
+    return expected, axis.primary, run, fixed, k, relube_s
+
+
+@pytest.mark.parametrize("case_id", list(CASES))
+def test_live_duty_effects_integrate_this_files_reference(case_id):
+    expected, monitor, run, fixed, k, _ = monitored(case_id)
+    got = monitor.straightness_m(k, monitor.measurement_losses_per_k_m())
+    a0 = fixed["straightness_initial_m"]
+    rel = np.abs(got - expected)[1:] / (expected - a0)[1:]
+    assert got.size == expected.size and np.max(rel) < 1e-9, (case_id, np.max(rel))
+    plain = PrecisionMonitor(fixed)
+    plain.process_run(run)
+    off = np.abs(plain.straightness_m(k, plain.measurement_losses_per_k_m()) - expected)[1:] / (expected - a0)[1:]
+    assert np.max(off) > 0.02, (case_id, np.max(off))      # the effect is not a rounding of the plain model
+    # the online K update, fed the noise-free measurements of this truth, recovers the true K
+    assert monitor.report()["wear_coefficient"] == pytest.approx(k, rel=1e-9)
+
+
+def test_recorded_relubrication_time_base_survives_a_state_round_trip():
+    """Stopped at 2 h (between the relubrications) and restored: the rest of the run gives the same wear
+    as without the stop (the last relubrication and the first stamp are in the state)."""
+    params, run = jobs_run(4.0, 10.0, 6)
+    _, live = CASES["lubrication_recorded"]
+    t0 = int(run.joint_t_ns[0])
+    stroke = (float(run.metadata["truth"]["stroke_min_m"]), float(run.metadata["truth"]["stroke_max_m"]))
+    p = {**params, **live, "stroke_min_m": stroke[0], "stroke_max_m": stroke[1],
+         "lubrication_reference_stamp_s": (t0 + 2.45 * H * 1e9) * 1e-9}
+    events = [MaintenanceEvent(t0 + int(h * H * 1e9), "relubricate", params["joint"], source="test")
+              for h in (0.8, 2.45)]
+
+    def split(run, t_ns):
+        from guide_health.runs import MachineRun
+        out = []
+        for keep in (lambda a: a <= t_ns, lambda a: a > t_ns):
+            j, ld, s = keep(run.joint_t_ns), keep(run.load_t_ns), keep(run.straightness_t_ns)
+            out.append(MachineRun(joint_t_ns=run.joint_t_ns[j], joint_position_m=run.joint_position_m[j],
+                                  load_t_ns=run.load_t_ns[ld], load_n=run.load_n[ld],
+                                  straightness_t_ns=run.straightness_t_ns[s], straightness_m=run.straightness_m[s]))
+        return out
+
+    whole = AxisMonitor(p)
+    for e in events:
+        whole.schedule(e)
+    whole.process_run(run)
+    first, second = split(run, t0 + int(2.0 * H * 1e9))
+    a = AxisMonitor(p)
+    for e in events:
+        a.schedule(e)
+    a.process_run(first)
+    state = a.primary.state()
+    assert state["effects"]["last_relubrication_t_ns"] == events[0].t_ns
+    b = AxisMonitor(p)
+    b.primary.restore(state)
+    b.restore_maintenance(a.maintenance_state())
+    b.process_run(second)
+    assert b.primary.work_nm() == pytest.approx(whole.primary.work_nm(), rel=1e-9)
+    assert b.primary.report()["remaining_life_h"] == pytest.approx(whole.primary.report()["remaining_life_h"],
+                                                                   rel=1e-9)
+
+
+def test_duty_effect_parameters_are_checked():
+    """Out-of-range duty-effect parameters and a covariance of the wrong size are one-line errors."""
+    params = wear_monitor_params(JOBS)
+    for bad, name in (({"wear_rate_change_factor": 0.0}, "wear_rate_change_factor"),
+                      ({"lubrication_interval_s": -1.0}, "lubrication_interval_s"),
+                      ({"load_gradient_per_m": float("nan")}, "load_gradient_per_m"),
+                      ({"thermal_drift_m_per_k": 0.0}, "thermal_drift needs thermal_drift_m_per_k")):
+        with pytest.raises(InputError, match=name):
+            validate_wear_params({**params, "effects": "wear_rate_change,lubrication_interval,load_along_rail,"
+                                  "thermal_drift", "thermal_drift_m_per_k": 1e-6, **bad})
+
+
+def test_per_sample_callbacks_equal_the_vectorised_path_with_the_duty_effects():
+    """The node's per-sample path (on_joint / on_load / on_straightness) and process_run give the same
+    effective work, life and interval with all three duty effects and their covariance (one model object,
+    two input paths); the interval is wider with the covariance than without."""
+    import json
+
+    expected, offline, run, fixed, k, _ = monitored("all_three", hours=2.0, rate_hz=5.0)
+    _, live_p = CASES["all_three"]
+    p = {**offline.params}
+    sd = np.array([0.05 * k, 0, 0, 0, 0, 0, 1.0, 0.3, 0.5])
+    p["effect_covariance"] = np.diag(sd ** 2).ravel().tolist()
+    run.straightness_m = expected + np.random.default_rng(3).normal(0.0, 0.3e-6, expected.size)
+    a_mon = PrecisionMonitor(p)
+    a_mon.process_run(run)
+    b_mon = PrecisionMonitor(p)
+    events = sorted([(int(t), 0, float(x)) for t, x in zip(run.joint_t_ns, run.joint_position_m)]
+                    + [(int(t), 1, float(w)) for t, w in zip(run.load_t_ns, run.load_n)]
+                    + [(int(t), 2, float(y)) for t, y in zip(run.straightness_t_ns, run.straightness_m)],
+                    key=lambda e: (e[0], (1, 0, 2)[e[1]]))
+    for t, kind, value in events:
+        (b_mon.on_joint, b_mon.on_load, b_mon.on_straightness)[kind](t, value)
+    a, b = a_mon.report(), b_mon.report()
+    assert b_mon.work_nm() == pytest.approx(a_mon.work_nm(), rel=1e-9)
+    for key in ("straightness_um", "remaining_life_h", "remaining_life_h_low", "remaining_life_h_high"):
+        assert b[key] == pytest.approx(a[key], rel=1e-6), key
+    narrow = PrecisionMonitor({**p, "effect_covariance": [0.0] * 81})
+    narrow.process_run(run)
+    n = narrow.report()
+    assert n["remaining_life_h"] == pytest.approx(a["remaining_life_h"], rel=1e-9)
+    assert a["remaining_life_h_high"] - a["remaining_life_h_low"] > 1.2 * (n["remaining_life_h_high"]
+                                                                           - n["remaining_life_h_low"])
+    again = PrecisionMonitor(p)
+    again.restore(json.loads(json.dumps(a_mon.state())))
+    assert again.report()["remaining_life_h"] == pytest.approx(a["remaining_life_h"], rel=1e-9)
+
+
+# --- diagnose -> model file -> replay on hidden data ------------------------------------------------------
+
+def hidden_case(effect: str, seed: int, hours: float = 20.0, rate_hz: float = 10.0):
+    """machine_jobs with a duty effect hidden by this file's integration, noise 0.3 um; returns the run, the
+    base parameters, the true live parameters and the noise-free truth."""
+    params = wear_monitor_params(JOBS)
+    sim = dict(simulation_params(JOBS), duration_h=hours, joint_state_rate_hz=rate_hz, load_rate_hz=rate_hz)
+    run = simulate_machine(params, sim, seed=seed)
+    rng = np.random.default_rng(4000 + seed)
+    t0_s = int(run.joint_t_ns[0]) * 1e-9
+    if effect == "wear_rate_change":
+        case = {"f": float(rng.uniform(1.5, 2.2)), "t_c": t0_s + float(rng.uniform(6.0, 12.0)) * H}
+        true = {"effects": effect, "wear_rate_change_factor": case["f"], "wear_rate_change_stamp_s": case["t_c"]}
+    else:
+        x = np.asarray(run.joint_position_m)
+        g = float(rng.choice([-1.0, 1.0]) * rng.uniform(2.0, 3.0))
+        case = {"g": g, "x_ref": float(np.mean(x))}
+        true = {"effects": effect, "load_gradient_per_m": g, "load_reference_position_m": case["x_ref"]}
+    stroke = run.metadata["truth"]["stroke_min_m"] + run.metadata["truth"]["stroke_max_m"]
+    # after a doubling the machine would pass the limit within 20 h at the configured K: it wears at 0.6 x
+    # (the online update finds it); the rail's gradient needs the full wear range to be told from noise
+    k_true = (0.6 if effect == "wear_rate_change" else 1.0) * params["wear_coefficient"]
+    truth = own_straightness_m(run, params, k_true, stroke, case, [])
+    run.straightness_m = truth + np.random.default_rng(5000 + seed).normal(0.0, 0.3e-6, truth.size)
+    return run, params, true, truth
+
+
+def life_of(params: dict, run) -> dict:
+    monitor = PrecisionMonitor(params)
+    monitor.process_run(run)
+    return monitor.report()
+
+
+@pytest.mark.parametrize("effect, seed", [("wear_rate_change", 1), ("load_along_rail", 2)])
+def test_model_file_of_a_duty_effect_drives_the_live_life(effect, seed, tmp_path):
+    """diagnose names the hidden effect and writes it to the model file (absolute change time, x_ref); the
+    monitor with base + model file gives a life within 10 % of the oracle's (the same monitor with the true
+    parameters and the noise-free truth as measurements) and its 90 % interval contains it; the file passes the
+    schema and loads as the later --params file."""
+    from guide_health.analysis.discrepancy.model_file import write_model_file
+
+    run, params, true, truth = hidden_case(effect, seed)
+    result = diagnose_cells(duty_cells_from_runs(run, params["slider_length_m"]), params)
+    assert effect in result["named_effects"], result["named_effects"]
+    model = result["model_file"]
+    assert effect in model["effects"].split(",")
+    path = tmp_path / "model.yaml"
+    write_model_file(path, params, model, result["named_effects"])
+    merged = wear_monitor_params([JOBS, path])
+    oracle_run = type(run)(**{**vars(run), "straightness_m": truth})
+    oracle = life_of({**params, **true}, oracle_run)["remaining_life_h"]
+    with_file = life_of(merged, run)
+    plain = life_of(params, run)
+    print(f"{effect} seed {seed}: oracle {oracle:.2f} h, with the file {with_file['remaining_life_h']:.2f} h "
+          f"[{with_file['remaining_life_h_low']:.2f}, {with_file['remaining_life_h_high']:.2f}], plain "
+          f"{plain['remaining_life_h']:.2f} h")
+    assert abs(with_file["remaining_life_h"] / oracle - 1.0) < 0.10
+    assert with_file["remaining_life_h_low"] <= oracle <= with_file["remaining_life_h_high"]
+    if effect == "wear_rate_change":     # the change hides in an averaged K without the file: life too long
+        assert true["wear_rate_change_stamp_s"] == pytest.approx(model["wear_rate_change_stamp_s"], abs=0.5 * H)
+        assert plain["remaining_life_h"] > 1.2 * oracle
+    else:
+        assert model["load_reference_position_m"] == pytest.approx(true["load_reference_position_m"], abs=0.02)
+
+
+@pytest.mark.slow
+def test_model_file_of_a_duty_effect_10_seeds():
+    """Seeds 0-9 per effect (~70 s). Measured 2026-11-23: wear_rate_change named 10/10, the oracle's life
+    within 10 % and inside the 90 % interval 10/10, plain life 1.34-1.94x the oracle's; load_along_rail named
+    9/10 (seed 0: nothing named, the file is the plain model), covered 9/10."""
+    for effect in ("wear_rate_change", "load_along_rail"):
+        covered = named = 0
+        for seed in range(10):
+            run, params, true, truth = hidden_case(effect, seed)
+            result = diagnose_cells(duty_cells_from_runs(run, params["slider_length_m"]), params)
+            oracle_run = type(run)(**{**vars(run), "straightness_m": truth})
+            oracle = life_of({**params, **true}, oracle_run)["remaining_life_h"]
+            w = life_of({**params, **result["model_file"]}, run)
+            if effect in result["named_effects"]:
+                named += 1
+                assert abs(w["remaining_life_h"] / oracle - 1.0) < 0.10, (effect, seed)
+            covered += w["remaining_life_h_low"] <= oracle <= w["remaining_life_h_high"]
+        print(f"{effect}: named {named}/10, covered {covered}/10")
+        assert named >= 9 and covered >= 8
+
+
+# --- thermal_drift: the gauge correction ----------------------------------------------------------------
+
+def thermal_case(seed: int, hours: float, rate_hz: float, noise_m: float, c_m_per_k: float, d_k: float):
+    """machine_jobs (guide temperature at 0.1 Hz) whose gauge reads A + c_T (T - T_ref), T_ref = T at the
+    first measurement + d, T the reading in force at the measurement's stamp (this file's own sum)."""
+    params, run = jobs_run(hours, rate_hz, seed)
+    truth = run.metadata["truth"]
+    stroke = truth["stroke_min_m"] + truth["stroke_max_m"]
+    params = {**params, "stroke_min_m": float(truth["stroke_min_m"]), "stroke_max_m": float(truth["stroke_max_m"]),
+              "sliding_deadband_m": 0.0}
+    wear = own_straightness_m(run, params, params["wear_coefficient"], stroke, {}, [])
+    st = np.asarray(run.straightness_t_ns, dtype=np.int64)
+    held = np.searchsorted(run.temperature_t_ns, st, side="right") - 1
+    temp = np.asarray(run.temperature_c)[np.clip(held, 0, None)]
+    t_ref = float(temp[0] + d_k)
+    gauge = wear + c_m_per_k * (temp - t_ref)
+    run.straightness_m = gauge + np.random.default_rng(6000 + seed).normal(0.0, noise_m, gauge.size)
+    return params, run, wear, t_ref, held
+
+
+def test_thermal_drift_corrects_each_measurement_with_the_temperature_at_its_stamp():
+    params, run, wear, t_ref, held = thermal_case(3, 3.0, 5.0, 0.0, 1.2e-6, 3.0)
+    assert np.ptp(np.asarray(run.temperature_c)) > 1.0
+    assert held[0] < 0 and np.all(held[1:] >= 0)      # the first measurement precedes the first reading
+    live = {"effects": "thermal_drift", "thermal_drift_m_per_k": 1.2e-6, "thermal_reference_c": t_ref}
+    validate_wear_params({**params, **live})
+    monitor = PrecisionMonitor({**params, **live})
+    monitor.process_run(run)
+    est = monitor.estimator
+    # the first measurement (t = 0, before any temperature reading) is a counted rejection, not a guess
+    assert monitor.rejected.total == 1 and est.count == wear.size - 1
+    assert np.max(np.abs(np.asarray(est.measurement_m) - wear[1:])) < 1e-12     # the gauge term taken off
+    assert monitor.report()["wear_coefficient"] == pytest.approx(params["wear_coefficient"], rel=1e-6)
+    assert "straightness_thermal_correction_um" in monitor.report()
+    plain = PrecisionMonitor(params)
+    plain.process_run(run)
+    assert abs(plain.report()["wear_coefficient"] / params["wear_coefficient"] - 1.0) > 0.01
+    # per message: a measurement before any temperature reading is a counted rejection, nothing changes
+    fresh = PrecisionMonitor({**params, **live})
+    fresh.on_joint(int(run.joint_t_ns[0]), float(run.joint_position_m[0]))
+    before = json_state(fresh)
+    reason = fresh.on_straightness(int(run.joint_t_ns[0]) + 1, 20e-6)
+    assert reason == "straightness before any guide/temperature (thermal_drift correction)"
+    assert fresh.rejected.total == 1 and json_state(fresh) == before
+    # a reading stamped before the measurement but arriving after the one stamped after it still applies
+    fresh.on_temperature(int(run.joint_t_ns[0]) + 10, t_ref + 5.0)
+    fresh.on_temperature(int(run.joint_t_ns[0]) - 10, t_ref + 1.0)
+    fresh.on_straightness(int(run.joint_t_ns[0]) + 2, 20e-6)
+    assert fresh.estimator.measurement_m[-1] == pytest.approx(20e-6 - 1.2e-6 * 1.0, abs=1e-15)
+    again = PrecisionMonitor({**params, **live})
+    again.restore(json.loads(json.dumps(fresh.state())))
+    assert again.thermal_correction_at_m(int(run.joint_t_ns[0]) + 20) == pytest.approx(1.2e-6 * 5.0, rel=1e-12)
+
+
+def json_state(monitor) -> str:
+    import json
+
+    return json.dumps(monitor.state(), sort_keys=True, default=str)
+
+
+def test_model_file_with_thermal_drift_carries_the_reference_temperature(tmp_path):
+    """Hidden thermal drift (20 h, 10 Hz, noise 0.3 um, d = T_ref - T_0 = -4 K): diagnose names it, the file's
+    thermal_reference_c is T_0 + d within 0.5 K, and the monitor with the file recovers K within 2 % (the
+    plain model's K is biased by the gauge term)."""
+    from guide_health.analysis.discrepancy.model_file import write_model_file
+
+    params, run, wear, t_ref, _ = thermal_case(2, 20.0, 10.0, 0.3e-6, 1.2e-6, -4.0)
+    result = diagnose_cells(duty_cells_from_runs(run, params["slider_length_m"]), params)
+    assert "thermal_drift" in result["named_effects"], result["named_effects"]
+    model = result["model_file"]
+    assert "thermal_drift" in model["effects"].split(",")
+    assert model["thermal_reference_c"] == pytest.approx(t_ref, abs=0.5)
+    path = tmp_path / "model.yaml"
+    write_model_file(path, params, model, result["named_effects"])
+    with_file = life_of(wear_monitor_params([JOBS, path]), run)
+    plain = life_of(params, run)
+    k = params["wear_coefficient"]
+    print(f"K with the file {with_file['wear_coefficient'] / k:.4f} x true, plain {plain['wear_coefficient'] / k:.4f}")
+    assert with_file["wear_coefficient"] == pytest.approx(k, rel=0.02)
+
+
+def test_live_node_with_the_duty_and_thermal_effects_matches_replay(tmp_path, ros_test_env):
+    """wear_monitor --params-file BASE --params-file model.yaml against replay of the same bag (bench, 1.5 h,
+    guide temperature at 0.2 Hz, two relubricate events on maintenance/events) with load_along_rail,
+    wear_rate_change, lubrication_interval (recorded) and thermal_drift: same samples and measurements,
+    straightness, K and remaining life with its interval to 0.5 %."""
+    pytest.importorskip("rclpy")
+    from guide_health.analysis.replay import analyse_bag
+    from guide_health.cli.simulate import event_series
+    from guide_health.io.bag_writer import write_machine_bag
+    from guide_health.nodes.session import DiagnosticsCollector, clean_fastdds_shm, play_bag, start_node, stop_node
+
+    bench = ROOT / "config" / "bench_000.yaml"
+    env = ros_test_env()
+    base = wear_monitor_params(bench)
+    sim = dict(simulation_params(bench), duration_h=1.5, joint_state_rate_hz=10.0, load_rate_hz=1.0,
+               measurement_interval_h=0.1, temperature_rate_hz=0.2)
+    run = simulate_machine(base, sim, seed=8)
+    t0 = int(run.joint_t_ns[0])
+    events = [MaintenanceEvent(t0 + int(h * H * 1e9), "relubricate", base["joint"], source="test")
+              for h in (0.4, 1.1)]
+    bag = tmp_path / "bench"
+    write_machine_bag(run, bag, extra=event_series(events, base["machine_id"]))
+    model = tmp_path / "model.yaml"
+    cov = np.diag([(0.02 * 4.4e-6) ** 2, 0, 0, 0, 0, 0, 0.5 ** 2, 0.1 ** 2, (0.1 / H) ** 2]).ravel().tolist()
+    model.write_text(yaml.safe_dump({"wear_monitor": {"ros__parameters": {
+        "wear_coefficient": 4.4e-6, "effects": "load_along_rail,wear_rate_change,lubrication_interval,thermal_drift",
+        "load_gradient_per_m": 2.0, "load_reference_position_m": 0.15, "wear_rate_change_factor": 1.8,
+        "wear_rate_change_stamp_s": (t0 + 0.7 * H * 1e9) * 1e-9, "lubrication_wear_growth": 0.6 / H,
+        "lubrication_interval_s": 0.0, "lubrication_reference_stamp_s": (t0 + 1.1 * H * 1e9) * 1e-9,
+        "thermal_drift_m_per_k": 0.8e-6, "thermal_reference_c": float(np.mean(run.temperature_c)),
+        "effect_covariance": cov}}}))
+    merged = wear_monitor_params([bench, model])
+    offline = analyse_bag(bag, merged)[1]
+    collector = DiagnosticsCollector("test_collector_duty")
+    overrides = {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25}
+    node = start_node("guide_health.nodes.wear_monitor", [bench, model], overrides, env,
+                      log_path=tmp_path / "node.log")
+    try:
+        assert collector.wait_for("bench_000/wear_monitor: x precision", timeout=30.0) is not None, \
+            (tmp_path / "node.log").read_text()
+        played = play_bag(bag, env, ["--wait-subscribers", "1", "--max-rate", "0"])
+        assert played.returncode == 0, played.stderr
+        live = collector.wait_settled("bench_000/wear_monitor: x precision", "sliding_distance_m", settle_s=2.0,
+                                      timeout=120.0)
+    finally:
+        stop_node(node)
+        collector.close()
+        clean_fastdds_shm()
+    keys = ("samples", "measurements", "straightness_um", "remaining_life_h", "remaining_life_h_low",
+            "remaining_life_h_high", "wear_coefficient", "straightness_thermal_correction_um")
+    values = {k: float(live["values"][k]) for k in keys}
+    assert values["samples"] == offline["samples"]
+    assert values["measurements"] == offline["measurements"] == run.straightness_t_ns.size - 1   # t = 0: no T yet
+    for key in ("straightness_um", "remaining_life_h", "remaining_life_h_low", "remaining_life_h_high",
+                "wear_coefficient", "straightness_thermal_correction_um"):
+        assert values[key] == pytest.approx(offline[key], rel=0.005), key
+    plain = analyse_bag(bag, base)[1]
+    assert abs(plain["remaining_life_h"] / offline["remaining_life_h"] - 1.0) > 0.05     # the file matters
+
+
+def test_a_monitor_with_effects_reports_before_its_first_measurement():
+    """Strokes known, no measurement accepted yet (the first one came before any temperature): the report
+    has a life from the configured K, no error (a node crashed here before stop 11)."""
+    params, run, _, t_ref, _ = thermal_case(1, 0.5, 5.0, 0.0, 1.0e-6, 0.0)
+    live = {"effects": "thermal_drift,load_along_rail", "thermal_drift_m_per_k": 1.0e-6, "thermal_reference_c": t_ref,
+            "load_gradient_per_m": 1.0, "load_reference_position_m": 0.1}
+    monitor = PrecisionMonitor({**params, **live})
+    monitor.on_straightness(int(run.joint_t_ns[0]), 20e-6)          # no time base yet: rejected
+    for t, x in zip(run.joint_t_ns[:3000].tolist(), run.joint_position_m[:3000].tolist()):
+        monitor.on_joint(t, x)
+        if monitor.load_t_ns is None:
+            monitor.on_load(t, 6000.0)
+    assert monitor.estimator.count == 0
+    r = monitor.report()
+    assert r["measurements"] == 0
+    assert 0 < r["remaining_life_h_low"] <= r["remaining_life_h"] <= r["remaining_life_h_high"]
+
+
+def test_a_state_with_the_duty_and_thermal_effects_passes_the_state_schema_and_restores():
+    """A monitor with all four new live effects, after 2 h (temperatures, a relubrication, measurements): its
+    state passes check_precision_state against a fresh monitor of the same parameters and restores to the same
+    report; a corrupted reading (a string stamp, a NaN temperature, unequal lists) is a one-line refusal."""
+    import copy
+
+    from guide_health.models.wear.state_schema import check_precision_state
+
+    params, run, _, t_ref, _ = thermal_case(5, 2.0, 5.0, 0.2e-6, 1.0e-6, 1.0)
+    t0 = int(run.joint_t_ns[0])
+    p = {**params, "effects": "load_along_rail,wear_rate_change,lubrication_interval,thermal_drift",
+         "load_gradient_per_m": 1.5, "load_reference_position_m": 0.1, "wear_rate_change_factor": 1.5,
+         "wear_rate_change_stamp_s": (t0 + 0.9 * H * 1e9) * 1e-9, "lubrication_wear_growth": 0.3 / H,
+         "thermal_drift_m_per_k": 1.0e-6, "thermal_reference_c": t_ref}
+    axis = AxisMonitor(p)
+    axis.schedule(MaintenanceEvent(t0 + int(0.6 * H * 1e9), "relubricate", params["joint"], source="test"))
+    axis.process_run(run)
+    monitor = axis.primary
+    state = json.loads(json.dumps(monitor.state()))
+    fresh = PrecisionMonitor(p)
+    check_precision_state(state, fresh.state())
+    assert len(state["temperatures"]["reading_t_ns"]) == run.temperature_t_ns.size
+    assert state["effects"]["last_relubrication_t_ns"] == t0 + int(0.6 * H * 1e9)
+    fresh.restore(state)
+    a, b = monitor.report(), fresh.report()
+    for key in ("straightness_um", "remaining_life_h", "remaining_life_h_low", "remaining_life_h_high",
+                "wear_coefficient"):
+        assert b[key] == pytest.approx(a[key], rel=1e-12), key
+    for path, value, message in ((("temperatures", "reading_t_ns", 0), "x", "reading_t_ns"),
+                                 (("temperatures", "reading_c", 1), float("nan"), "reading_c"),
+                                 (("temperatures", "reading_c"), [20.0], "length differs")):
+        bad = copy.deepcopy(state)
+        node = bad
+        for k in path[:-1]:
+            node = node[k]
+        node[path[-1]] = value
+        with pytest.raises(InputError, match=message):
+            check_precision_state(bad, PrecisionMonitor(p).state())
