@@ -508,3 +508,89 @@ def test_a_state_with_the_duty_and_thermal_effects_passes_the_state_schema_and_r
         node[path[-1]] = value
         with pytest.raises(InputError, match=message):
             check_precision_state(bad, PrecisionMonitor(p).state())
+
+
+# --- the simulator hides the duty effects (simulate --effect) ----------------------------------------------
+
+@pytest.mark.parametrize("effect, value, sim_extra", [
+    ("wear_rate_change", 2.0, {"wear_rate_change_h": 1.3}),
+    ("lubrication_interval", 1.0e-4, {"relubrication_interval_h": 1.1}),
+    # over whole jobs the rail's factor averages to 1 about x_ref: 20 h of jobs at their own positions
+    ("load_along_rail", 2.5, {"duration_h": 20.0}),
+])
+def test_the_simulator_hides_the_duty_effects_as_this_file_integrates_them(effect, value, sim_extra):
+    """The simulator's noise-free truth (exact knots, the package's effect terms) against this file's own
+    sample integration of the same motion: the effect's part (truth minus the same run without it) equal to
+    2 % of its largest value (measured 0.07, 0.1, 1.0 %), the whole wear to 0.3 % (the sampling of the
+    reversals); the automatic relubrications are in the run's metadata; x_ref is the work-weighted mean
+    position."""
+    params = wear_monitor_params(JOBS)
+    sim = {**simulation_params(JOBS), "duration_h": 4.0, "joint_state_rate_hz": 20.0, "load_rate_hz": 20.0,
+           "straightness_noise_m": 0.0, **sim_extra}
+    run = simulate_machine(params, sim, seed=4, effects={effect: value})
+    truth = run.metadata["truth"]
+    t0_s = int(run.joint_t_ns[0]) * 1e-9
+    relube_s = [t0_s + t for t in run.metadata["relubrication_t_s"]]
+    if effect == "wear_rate_change":
+        case = {"f": value, "t_c": t0_s + 1.3 * H}
+    elif effect == "lubrication_interval":
+        assert run.metadata["relubrication_t_s"] == pytest.approx([1.1 * H, 2.2 * H, 3.3 * H])
+        case = {"b": value, "t_first": t0_s}
+    else:
+        x_ref = run.metadata["effect_parameters"]["load_reference_position_m"]
+        x = np.asarray(run.joint_position_m)
+        w = np.abs(np.diff(x)) * np.asarray(run.load_n)[np.clip(np.searchsorted(run.load_t_ns, run.joint_t_ns[1:],
+                                                                                 side="right") - 1, 0, None)]
+        assert x_ref == pytest.approx(np.sum(w * 0.5 * (x[1:] + x[:-1])) / w.sum(), abs=1e-3)
+        case = {"g": value, "x_ref": x_ref}
+    mine = own_straightness_m(run, params, truth["wear_coefficient"], truth["stroke_min_m"] + truth["stroke_max_m"],
+                              case, relube_s)
+    simulated = np.asarray(truth["straightness_m"])
+    a0 = params["straightness_initial_m"]
+    # the same motion without the effect (effects draw no random numbers): the effect's part of each side,
+    # free of the sampling difference both share (0.2 % of the wear at 20 Hz, at the reversals)
+    twin = np.asarray(simulate_machine(params, sim, seed=4).metadata["truth"]["straightness_m"])
+    plain = own_straightness_m(run, params, truth["wear_coefficient"], truth["stroke_min_m"] + truth["stroke_max_m"],
+                               {}, [])
+    effect_sim, effect_mine = simulated - twin, mine - plain
+    match = np.max(np.abs(effect_sim - effect_mine)) / np.max(np.abs(effect_mine))
+    print(f"{effect}: simulator vs this file {match:.2g} of the effect (max {np.max(np.abs(effect_mine)) * 1e6:.2f} um)"
+          f", whole wear {np.max(np.abs(simulated - mine)[1:] / (mine - a0)[1:]):.2g}")
+    assert match < 0.02 and np.max(np.abs(simulated - mine)[1:] / (mine - a0)[1:]) < 3e-3
+
+
+def test_simulate_diagnose_replay_with_an_automatic_lubricator(tmp_path):
+    """The CLI loop on a hidden lubrication_interval (machine_jobs, 20 h, 5 Hz, relubricated every 5 h by the
+    simulator, recorded as relubricate events, b = 0.2 per hour): diagnose names it on the recorded time base
+    with b within 25 %, writes it to the model file, and replay --params BASE --params model.yaml loads it."""
+    import subprocess
+    import sys
+
+    base = yaml.safe_load(JOBS.read_text())
+    base["guide_health_simulation"]["ros__parameters"].update(duration_h=20.0, joint_state_rate_hz=5.0,
+                                                              load_rate_hz=5.0, relubrication_interval_h=5.0)
+    params_file = tmp_path / "jobs.yaml"
+    params_file.write_text(yaml.safe_dump(base))
+    b = 0.2 / H
+
+    def cli(*args):
+        proc = subprocess.run([sys.executable, "-m", "guide_health.cli", *args], capture_output=True, text=True,
+                              cwd=ROOT, timeout=600)
+        assert proc.returncode == 0, proc.stderr
+        return proc
+
+    bag = tmp_path / "bag"
+    cli("simulate", "--params", str(params_file), "--out", str(bag), "--seed", "3",
+        "--effect", f"lubrication_interval={b}")
+    cli("diagnose", str(bag), "--params", str(params_file), "--out", str(tmp_path / "diag"), "--no-plot")
+    report = json.loads((tmp_path / "diag" / "report.json").read_text())
+    assert report["data"]["relubrications_recorded"] == 3
+    assert "lubrication_interval" in report["named_effects"], report["named_effects"]
+    fitted = report["effects"]["lubrication_interval"]["parameters"]["lubrication_wear_growth_per_s"]["value"]
+    assert fitted == pytest.approx(b, rel=0.25)
+    model = yaml.safe_load((tmp_path / "diag" / "model.yaml").read_text())["wear_monitor"]["ros__parameters"]
+    assert "lubrication_interval" in model["effects"] and model["lubrication_interval_s"] == 0.0
+    out = json.loads(cli("replay", str(bag), "--params", str(params_file), "--params", str(tmp_path / "diag" /
+                                                                                           "model.yaml"),
+                         "--out", str(tmp_path / "replay"), "--no-plot", "--json").stdout)
+    assert out["effects"] == model["effects"] and out["remaining_life_h"] > 0

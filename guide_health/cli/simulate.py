@@ -41,7 +41,11 @@ def add_arguments(parser) -> None:
                         help="physics the baseline model lacks, hidden in the truth (models/wear/effects.py), "
                              "VALUE in SI: running_in=r (K starts at (1+r) K, s0 = running_in_distance_m), "
                              "retract_asymmetry=rho, speed_dependent_wear=v_lift [m/s], load_exponent=n, "
-                             "stroke_distribution=w, thermal_drift=c_T [m/K], initial_offset=delta [m]")
+                             "stroke_distribution=w, thermal_drift=c_T [m/K], initial_offset=delta [m], "
+                             "wear_rate_change=f (at wear_rate_change_h), lubrication_interval=b [1/s] (wear x "
+                             "(1 + b tau), tau since the last relubrication: every relubrication_interval_h and "
+                             "--maintenance relubricate events), load_along_rail=g [1/m] (load W (1 + g (x - "
+                             "x_ref)), x_ref the work-weighted mean position)")
     parser.add_argument("--maintenance", action="append", metavar="KIND:AXIS[.GUIDE]@TIME[=VALUE]",
                         help="a maintenance event on maintenance/events (docs/machine.md): KIND regrind, "
                              "replace_rail, replace_carriage, relubricate or measure; TIME from the start in h "
@@ -119,8 +123,11 @@ def run(args) -> dict:
     t0 = time.perf_counter()
     events = parse_maintenance(args.maintenance, {params["joint"]: params})
     resets = [(e.t_ns - START_TIME_NS) * 1e-9 for e in events if e.kind in ("regrind", "replace_rail")]
-    machine = simulate_machine(params, sim, seed=args.seed, effects=effects, new_surface_t_s=resets)
+    relubed = [(e.t_ns - START_TIME_NS) * 1e-9 for e in events if e.kind == "relubricate"]
+    machine = simulate_machine(params, sim, seed=args.seed, effects=effects, new_surface_t_s=resets,
+                               relubrication_t_s=relubed)
     apply_maintenance_truth(machine, events, params)
+    events = sorted(events + automatic_relubrications(machine, relubed, params["joint"]), key=lambda e: e.t_ns)
     write_machine_bag(machine, out, storage=args.storage, namespace=args.namespace,
                       extra=event_series(events, params["machine_id"]))
     elapsed = time.perf_counter() - t0
@@ -139,6 +146,16 @@ def run(args) -> dict:
         "true_straightness_final_um": truth["straightness_m"][-1] * 1e6,
         **({"maintenance_events": [e.as_dict() for e in events]} if events else {}),
     }
+
+
+def automatic_relubrications(machine, recorded_t_s, joint: str) -> list:
+    """The simulator's relubrications every relubrication_interval_h as relubricate maintenance events (an
+    automatic lubricator logs its cycles), besides the recorded ones."""
+    from guide_health.models.wear.maintenance import MaintenanceEvent
+
+    done = {round(t, 6) for t in recorded_t_s}
+    return [MaintenanceEvent(START_TIME_NS + int(round(t * 1e9)), "relubricate", joint, source="simulate")
+            for t in machine.metadata.get("relubrication_t_s", []) if round(t, 6) not in done]
 
 
 def _check_axis_free(args, sim: dict) -> None:

@@ -37,6 +37,10 @@ MACHINE_SIMULATION_PARAMS = (
     Param("stroke_skew_max", 0.0, "-", "[0, inf)", "per job stroke_skew + uniform(-this, this)"),
     Param("running_in_distance_m", 100.0, "m", "(0, inf)", "s0 of the running_in effect (models/wear/effects.py)"),
     Param("load_reference_n", 1000.0, "N", "(0, inf)", "W_ref of the load_exponent effect"),
+    Param("wear_rate_change_h", 10.0, "h", "[0, inf)", "t_c of the wear_rate_change effect, from the start"),
+    Param("relubrication_interval_h", 0.0, "h", "[0, inf)",
+          "relubricate every this (recorded as maintenance events; the lubrication_interval effect's time "
+          "base); 0 = only --maintenance relubricate events"),
     Param("temperature_rate_hz", 0.0, "Hz", "[0, inf)", "rate of guide/temperature; 0 = no temperature topic"),
     Param("ambient_temperature_c", 20.0, "degC", "[-100, 200]", "mean ambient temperature"),
     Param("ambient_swing_k", 1.0, "K", "[0, 100]", "daily amplitude of the ambient temperature"),

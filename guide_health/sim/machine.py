@@ -16,13 +16,17 @@ import numpy as np
 from guide_health.errors import InputError
 from guide_health.models.wear.archard import WearGeometry, WearIntegrator, straightness_from_wear_volume_m
 from guide_health.models.wear.effects import (
+    DUTY_EFFECT_IDS,
     EFFECT_IDS,
     WearEffects,
     asperity_load_share,
+    load_along_rail_factor,
     measured_straightness_m,
     pass_weight_per_m,
+    relubrication_growth_factor,
     running_in_factor_mean,
     straightness_wear_m,
+    wear_rate_change_factor,
     wear_rate_multiplier,
 )
 from guide_health.runs import MachineRun
@@ -36,7 +40,7 @@ from guide_health.sim.motion import (
 )
 from guide_health.sim.thermal import temperature_records
 
-EFFECTS = EFFECT_IDS
+EFFECTS = EFFECT_IDS + DUTY_EFFECT_IDS
 START_TIME_NS = 1_700_000_000 * 10**9
 
 
@@ -59,10 +63,13 @@ def parse_effects(items: list[str] | None) -> dict[str, float]:
 
 
 def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
-                     effects: dict[str, float] | None = None, new_surface_t_s=()) -> MachineRun:
+                     effects: dict[str, float] | None = None, new_surface_t_s=(),
+                     relubrication_t_s=()) -> MachineRun:
     """A :class:`MachineRun` of the scenario ``sim`` for a guide with wear parameters ``params``.
     ``new_surface_t_s``: times [s from the start] of wear resets (regrind, new rail; see
-    :func:`apply_maintenance_truth`), from which the new surface runs in again (the running_in effect)."""
+    :func:`apply_maintenance_truth`), from which the new surface runs in again (the running_in effect).
+    ``relubrication_t_s``: recorded relubrications [s from the start] besides the automatic ones every
+    ``relubrication_interval_h`` (:func:`relubrication_times_s`; the lubrication_interval effect's time base)."""
     effects = checked_effects(effects)
     rng = np.random.default_rng(seed)
     knots = cycle_knots(rng, sim)
@@ -73,8 +80,11 @@ def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
     geometry = WearGeometry.from_params(params)
     if effects and geometry.straightness_model != "eq7":
         raise InputError("--effect needs straightness_model: eq7 (the baseline the effects are defined against)")
-    wear_effects = WearEffects.from_values(effects, running_in_distance_m=sim["running_in_distance_m"],
-                                           load_reference_n=sim["load_reference_n"])
+    wear_effects = WearEffects.from_values(
+        effects, running_in_distance_m=sim["running_in_distance_m"], load_reference_n=sim["load_reference_n"],
+        wear_rate_change_time_s=sim["wear_rate_change_h"] * 3600.0,
+        relubrication_t_s=tuple(float(t) for t in relubrication_times_s(sim, relubrication_t_s, float(knots.t_s[-1]))),
+        load_reference_position_m=work_weighted_position_m(knots))
     # the random draws come in this order: strokes (above), load noise, temperature, straightness noise
     joint_t_s, position_m, velocity_m_s = joint_samples(knots, sim["joint_state_rate_hz"])
     if sim["encoder_noise_m"] > 0:
@@ -111,7 +121,9 @@ def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
             "generator": "guide_health.simulate",    # the name bags record (kept when simulate.py became sim/)
             "seed": seed,
             "effects": effects,
-            "effect_parameters": {k: v for k, v in vars(wear_effects).items() if math.isfinite(v)},
+            "effect_parameters": {k: v for k, v in vars(wear_effects).items()
+                                  if isinstance(v, float) and math.isfinite(v)},
+            "relubrication_t_s": list(wear_effects.relubrication_t_s),
             "jobs": knots.jobs,
             "simulation": dict(sim),
             "truth": truth,
@@ -248,13 +260,46 @@ def effective_work_at(knots: MachineKnots, at_s: np.ndarray, effects: WearEffect
                                          knots.retract[1:], running_in)
     else:
         m = wear_rate_multiplier(effects, speed, load, knots.retract[1:], running_in)
-    work = load * ds * m
+    work = load * ds * m * duty_factor(effects, knots)
     pass_work = work * pass_weight_per_m(knots.pass_length_m[1:], slider_length_m)
     g = np.concatenate(([0.0], np.cumsum(work)))
     p = np.concatenate(([0.0], np.cumsum(pass_work)))
     seg, share_of_move = share_of_move_at(knots, at_s)        # within a move: its share of the distance
     return (g[seg - 1] + (g[seg] - g[seg - 1]) * share_of_move,
             p[seg - 1] + (p[seg] - p[seg - 1]) * share_of_move)
+
+
+def duty_factor(effects: WearEffects, knots: MachineKnots) -> np.ndarray | float:
+    """The duty effects' multiplier of each move (models/wear/effects.py): load_along_rail at its mid-position
+    (exact: linear in x, the work uniform in x), wear_rate_change by the share of its time after t_c,
+    lubrication_interval at its mid-time (time since the last relubrication before it)."""
+    t_a, t_b = knots.t_s[:-1], knots.t_s[1:]
+    m = 1.0
+    if effects.load_gradient_per_m != 0.0:
+        m = m * load_along_rail_factor(0.5 * (knots.x_m[:-1] + knots.x_m[1:]), effects.load_gradient_per_m,
+                                       effects.load_reference_position_m)
+    if effects.wear_rate_change_factor != 1.0:
+        m = m * wear_rate_change_factor(0.5 * (t_a + t_b), t_b - t_a, effects.wear_rate_change_time_s,
+                                        effects.wear_rate_change_factor)
+    if effects.lubrication_wear_growth_per_s != 0.0:
+        m = m * relubrication_growth_factor(0.5 * (t_a + t_b), np.asarray(effects.relubrication_t_s, dtype=float),
+                                            effects.lubrication_wear_growth_per_s)
+    return m
+
+
+def work_weighted_position_m(knots: MachineKnots) -> float:
+    """x_ref of load_along_rail: the Archard-work-weighted mean mid-position of the moves [m] (the workflow's
+    definition, analysis/discrepancy/model.py position_ref_m)."""
+    work = knots.load_n[1:] * np.abs(np.diff(knots.x_m))
+    mid = 0.5 * (knots.x_m[:-1] + knots.x_m[1:])
+    return float(np.sum(work * mid) / max(float(work.sum()), 1e-300))
+
+
+def relubrication_times_s(sim: dict[str, Any], recorded_t_s, duration_s: float) -> np.ndarray:
+    """Relubrications [s from the start]: every relubrication_interval_h (0: none) and the recorded ones."""
+    interval = sim["relubrication_interval_h"] * 3600.0
+    auto = np.arange(interval, duration_s, interval) if interval > 0 else np.zeros(0)
+    return np.unique(np.concatenate((auto, np.asarray(recorded_t_s, dtype=float))))
 
 
 def simulate_axes(axes: dict[str, dict[str, Any]], sims: dict[str, dict[str, Any]],

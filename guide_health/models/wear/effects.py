@@ -71,7 +71,8 @@ import numpy as np
 
 EFFECT_IDS = ("running_in", "retract_asymmetry", "speed_dependent_wear", "load_exponent",
               "stroke_distribution", "thermal_drift", "initial_offset")
-# candidates of the discrepancy workflow that the simulator does not hide (their tests write their truth)
+# duty effects: multipliers of the work by when and where it is done (the simulator hides them too, with a
+# recorded relubrication plan for lubrication_interval)
 DUTY_EFFECT_IDS = ("wear_rate_change", "lubrication_interval", "load_along_rail")
 CANDIDATE_IDS = EFFECT_IDS + DUTY_EFFECT_IDS
 
@@ -84,6 +85,12 @@ EFFECT_VALUE = {
     "stroke_distribution": ("stroke_distribution_weight", "-", 0.0),
     "thermal_drift": ("thermal_drift_m_per_k", "m/K", 0.0),
     "initial_offset": ("initial_offset_m", "m", 0.0),
+    # t_c = simulation wear_rate_change_h; b per second of the time since the last relubricate event
+    # (simulation relubrication_interval_h, or --maintenance relubricate events); x_ref the run's work-weighted
+    # mean position
+    "wear_rate_change": ("wear_rate_change_factor", "-", 1.0),
+    "lubrication_interval": ("lubrication_wear_growth_per_s", "1/s", 0.0),
+    "load_along_rail": ("load_gradient_per_m", "1/m", 0.0),
 }
 
 LUBRICATION_SPEED_EXPONENT = 0.7     # lambda ~ v^0.7 (Hamrock-Dowson film thickness, seed 001)
@@ -102,6 +109,12 @@ class WearEffects:
     stroke_distribution_weight: float = 0.0  # w
     thermal_drift_m_per_k: float = 0.0       # c_T
     initial_offset_m: float = 0.0            # delta
+    wear_rate_change_factor: float = 1.0     # f
+    wear_rate_change_time_s: float = math.inf  # t_c [s from the start]
+    lubrication_wear_growth_per_s: float = 0.0  # b
+    relubrication_t_s: tuple = ()            # recorded relubrications [s from the start]
+    load_gradient_per_m: float = 0.0         # g
+    load_reference_position_m: float = 0.0   # x_ref
 
     @classmethod
     def from_values(cls, values: dict[str, float], **extra) -> WearEffects:
