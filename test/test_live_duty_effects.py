@@ -587,6 +587,7 @@ def test_simulate_diagnose_replay_with_an_automatic_lubricator(tmp_path):
     assert report["data"]["relubrications_recorded"] == 3
     assert "lubrication_interval" in report["named_effects"], report["named_effects"]
     fitted = report["effects"]["lubrication_interval"]["parameters"]["lubrication_wear_growth_per_s"]["value"]
+    print(f"lubrication_interval named {report['named_effects']}, b fitted {fitted / b:.3f} x the hidden one")
     assert fitted == pytest.approx(b, rel=0.25)
     model = yaml.safe_load((tmp_path / "diag" / "model.yaml").read_text())["wear_monitor"]["ros__parameters"]
     assert "lubrication_interval" in model["effects"] and model["lubrication_interval_s"] == 0.0
