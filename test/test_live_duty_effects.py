@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -595,3 +596,38 @@ def test_simulate_diagnose_replay_with_an_automatic_lubricator(tmp_path):
                                                                                            "model.yaml"),
                          "--out", str(tmp_path / "replay"), "--no-plot", "--json").stdout)
     assert out["effects"] == model["effects"] and out["remaining_life_h"] > 0
+
+
+@pytest.mark.parametrize("config, extra", [
+    ("nsk_lh45.yaml", {}),                                    # a rolling guide: Walther oil viscosity
+    ("machine_jobs.yaml", {"effects": "thermal_drift", "thermal_drift_m_per_k": 1e-6, "thermal_reference_c": 20.0}),
+])
+def test_implausible_temperatures_are_counted_rejections_live_and_offline(config, extra):
+    """NaN, -274 degC, 1e300 degC and 600 degC readings: each a counted rejection with one reason, the same per
+    message and per run, no exception (a 1e300 reading overflowed the rolling guide's Walther viscosity, a
+    -274 one raised, before stop 11); the plausible reading applies."""
+    from guide_health.models.wear.input_rules import TEMPERATURE_IMPLAUSIBLE, rejected_key
+    from guide_health.runs import MachineRun
+
+    params = {**wear_monitor_params(ROOT / "config" / config), **extra}
+    t0 = 1_700_000_000_000_000_000
+    temps = [(t0 + 1, math.nan), (t0 + 2, -274.0), (t0 + 3, 1e300), (t0 + 4, 600.0), (t0 + 5, 25.0)]
+    joints = [(t0 + 10 * i * 10**6, 0.1 + 0.001 * i) for i in range(200)]
+    live = PrecisionMonitor(params)
+    reasons = [live.on_temperature(t, c) for t, c in temps]
+    assert reasons == [TEMPERATURE_IMPLAUSIBLE] * 4 + [None]
+    live.on_load(t0, 1000.0)
+    for t, x in joints:
+        live.on_joint(t, x)
+    live.on_straightness(joints[-1][0], 20e-6)
+    run = MachineRun("x", np.array([t for t, _ in joints], dtype=np.int64), np.array([x for _, x in joints]),
+                     np.zeros(0), np.array([t0], dtype=np.int64), np.array([1000.0]),
+                     np.array([joints[-1][0]], dtype=np.int64), np.array([20e-6]),
+                     temperature_t_ns=np.array([t for t, _ in temps], dtype=np.int64),
+                     temperature_c=np.array([c for _, c in temps]))
+    offline = PrecisionMonitor(params)
+    offline.process_run(run)
+    a, b = live.report(), offline.report()
+    assert a[rejected_key(TEMPERATURE_IMPLAUSIBLE)] == b[rejected_key(TEMPERATURE_IMPLAUSIBLE)] == 4
+    assert a["measurements"] == b["measurements"] == 1
+    assert a["straightness_measured_um"] == pytest.approx(b["straightness_measured_um"], rel=1e-12)

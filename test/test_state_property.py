@@ -29,25 +29,43 @@ ROLLING_PARAMS = dict(wear_monitor_params(Path(__file__).resolve().parents[1] / 
                       joint="x")
 
 PARAMS = dict(WEAR_MONITOR_DEFAULTS, machine_id="m1", joint="x")
+#: every live effect of a model file (docs/model_file.md), the duty and thermal ones included
+EFFECTS = {"effects": "running_in,retract_asymmetry,load_exponent,load_along_rail,wear_rate_change,"
+                      "lubrication_interval,thermal_drift",
+           "running_in_ratio": 1.5, "running_in_distance_m": 50.0, "retract_wear_factor": 0.6, "load_exponent": 1.3,
+           "load_gradient_per_m": 2.0, "load_reference_position_m": 0.2, "wear_rate_change_factor": 1.7,
+           "wear_rate_change_stamp_s": 1_700_000_020.0, "lubrication_wear_growth": 1e-3,
+           "thermal_drift_m_per_k": 1e-6, "thermal_reference_c": 21.0,
+           "effect_covariance": [1e-4 if i % 10 == 0 else 0.0 for i in range(81)]}
+EFFECT_PARAMS = dict(PARAMS, **EFFECTS)
+EFFECT_RULE_PARAMS = dict(RULE_PARAMS, **EFFECTS)
 KEY = "m1/x/precision"
 #: restore() takes these from the parameters, not from the state (a user may re-tune them)
 FROM_PARAMS = ("prior_wear_coefficient", "prior_rel_sd", "noise_sd_m", "straightness_initial_m")
 
 
-def populated_state() -> dict:
-    """A monitor after 40 s of 100 Hz strokes, 2 kN, 4 straightness measurements (fixed inputs)."""
-    monitor = PrecisionMonitor(PARAMS)
+def populated_state(params: dict = PARAMS) -> dict:
+    """A monitor after 40 s of 100 Hz strokes, 2 kN, 4 straightness measurements (fixed inputs); with the
+    effects also guide temperatures and a relubrication (its time base)."""
+    from guide_health.models.wear.maintenance import relubricate
+
+    monitor = PrecisionMonitor(params)
     t0 = 1_700_000_000 * 10**9
     for i in range(4000):
         t = t0 + i * 10**7
         monitor.on_load(t, 2000.0)
         monitor.on_joint(t, 0.2 + 0.1 * math.sin(i / 50), 0.0)
+        if i % 100 == 0:
+            monitor.on_temperature(t, 20.0 + i * 1e-3)
+        if i == 2500 and monitor.effect_wear is not None:
+            relubricate(monitor, t)
         if i % 1000 == 999:
             monitor.on_straightness(t, 15.2e-6 + i * 1e-10)
     return monitor.state()
 
 
 BASE = populated_state()
+EFFECT_BASE = populated_state(EFFECT_PARAMS)
 
 
 def _paths(value, prefix=()):
@@ -62,6 +80,7 @@ def _paths(value, prefix=()):
 
 
 PATHS = [p for p in _paths(BASE) if p]
+EFFECT_PATHS = [p for p in _paths(EFFECT_BASE) if p]
 json_leaf = st.one_of(st.none(), st.booleans(), st.integers(min_value=-(2**70), max_value=2**70),
                       st.floats(allow_nan=True, allow_infinity=True), st.text(max_size=8),
                       st.sampled_from([0, -1, 1e308, -0.0, 2**63, 2**63 - 1, "nan", "1e-5"]))
@@ -78,10 +97,10 @@ def _parent(state, path):
 
 
 @st.composite
-def corrupted_rows(draw) -> str:
-    state = json.loads(json.dumps(_encode(BASE)))
+def corrupted_rows(draw, base: dict = BASE, paths: list = PATHS) -> str:
+    state = json.loads(json.dumps(_encode(base)))
     for _ in range(draw(st.integers(1, 3))):
-        path = draw(st.sampled_from(PATHS))
+        path = draw(st.sampled_from(paths))
         try:
             parent = _parent(state, path)
             current = parent[path[-1]]
@@ -109,9 +128,26 @@ def corrupted_rows(draw) -> str:
 
 
 def _comparable(state: dict) -> str:
+    """The state as JSON without what restore takes from the parameters; effect lists of the length before
+    stop 11 zero-padded and missing added fields at their defaults, as restore does (STATE_LIST_LENGTHS,
+    ADDED_FIELDS)."""
+    from guide_health.models.wear.effect_wear import STATE_LIST_LENGTHS
+    from guide_health.models.wear.state_schema import ADDED_FIELDS
+
     state = json.loads(json.dumps(_encode(state)))
     for name in FROM_PARAMS:
         state["estimator"].pop(name, None)
+    effects = state.get("effects")
+    if isinstance(effects, dict):
+        for name, default in ADDED_FIELDS.items():
+            effects.setdefault(name, default)
+
+        def pad(values, name):
+            return list(values) + [0.0] * (STATE_LIST_LENGTHS[name][0] - len(values))
+        effects["work_gradient"] = pad(effects["work_gradient"], "work_gradient")
+        effects["buckets"] = [pad(r, "buckets") for r in effects["buckets"]]
+        effects["measurement_gradients"] = [pad(r, "measurement_gradients")
+                                            for r in effects.get("measurement_gradients", [])]
     return json.dumps(state, sort_keys=True)
 
 
@@ -128,6 +164,41 @@ def test_the_uncorrupted_row_loads_exactly(store):
     assert resume_monitor(store, KEY, state_fingerprint(PARAMS), monitor)
     assert _comparable(monitor.state()) == _comparable(BASE)
     assert monitor.estimator.count == 4 and monitor.integrator.samples == 4000
+
+
+@pytest.fixture(scope="module")
+def effect_store(tmp_path_factory):
+    store = StateStore(tmp_path_factory.mktemp("prop_effects") / "state.db")
+    store.save({KEY: EFFECT_BASE}, state_fingerprint(EFFECT_PARAMS))
+    yield store
+    store.close()
+
+
+def test_the_uncorrupted_effects_row_loads_exactly(effect_store):
+    monitor = PrecisionMonitor(EFFECT_PARAMS)
+    assert resume_monitor(effect_store, KEY, state_fingerprint(EFFECT_PARAMS), monitor)
+    assert _comparable(monitor.state()) == _comparable(EFFECT_BASE)
+    assert monitor.estimator.count == 4 and len(EFFECT_BASE["temperatures"]["reading_t_ns"]) == 40
+    assert EFFECT_BASE["effects"]["last_relubrication_t_ns"] is not None
+
+
+@hypothesis.settings(max_examples=200, deadline=None, derandomize=True,
+                     suppress_health_check=[hypothesis.HealthCheck.function_scoped_fixture])
+@hypothesis.given(corrupted_rows(EFFECT_BASE, EFFECT_PATHS))
+def test_a_corrupted_effects_row_is_refused_with_one_line_or_loaded_exactly(effect_store, text):
+    """The same property for a monitor with every live effect (effect sums and gradients, the relubrication
+    time base, the temperature readings)."""
+    effect_store._db.execute("UPDATE monitor_state SET state_json = ? WHERE key = ?", (text, KEY))
+    monitor = PrecisionMonitor(EFFECT_PARAMS)
+    try:
+        resumed = resume_monitor(effect_store, KEY, state_fingerprint(EFFECT_PARAMS), monitor)
+    except InputError as exc:
+        message = str(exc)
+        assert "\n" not in message and str(effect_store.path) in message and "move the file away" in message
+        return
+    assert resumed
+    assert _comparable(monitor.state()) == _comparable(_decode_like_store(json.loads(text)))
+    assert set(monitor.report()) >= {"level", "message", "straightness_um"}
 
 
 @hypothesis.settings(max_examples=400, deadline=None, derandomize=True,
@@ -157,14 +228,25 @@ def _decode_like_store(value):
 
 @hypothesis.settings(max_examples=100, deadline=None,
                      suppress_health_check=[hypothesis.HealthCheck.too_slow, hypothesis.HealthCheck.data_too_large])
-@pytest.mark.parametrize("params", [RULE_PARAMS, ROLLING_PARAMS], ids=["sliding", "rolling"])
-@hypothesis.given(run=bad_runs())
-def test_every_state_a_monitor_reaches_is_accepted_and_round_trips(params, run):
+@pytest.mark.parametrize("params", [RULE_PARAMS, ROLLING_PARAMS, EFFECT_RULE_PARAMS],
+                         ids=["sliding", "rolling", "effects"])
+@hypothesis.given(run=bad_runs(), temperatures=st.lists(st.tuples(st.integers(-10**9, 10**11),
+                                                                  st.floats(allow_nan=True, allow_infinity=True)),
+                                                        max_size=6))
+def test_every_state_a_monitor_reaches_is_accepted_and_round_trips(params, run, temperatures):
     """The other side: whatever inputs a monitor saw (test_input_rules' arbitrary runs: any floats, stamps
-    back and forth, jumps, straightness before any stroke), the state it saves is accepted by the schema and
-    restores to the same state (a legal state refused would stop a restarted node)."""
+    back and forth, jumps, straightness before any stroke; with the effects also any temperature readings),
+    the state it saves is accepted by the schema and restores to the same state (a legal state refused would
+    stop a restarted node), and its report works."""
+    from guide_health.models.wear.maintenance import relubricate
+
     monitor = PrecisionMonitor(params)
+    for dt, value in temperatures if params is EFFECT_RULE_PARAMS else ():     # the node checks a rolling
+        monitor.on_temperature(1_700_000_000_000_000_000 + dt, value)           # guide's oil temperature first
+    if monitor.effect_wear is not None and run.joint_t_ns.size:
+        relubricate(monitor, int(run.joint_t_ns[0]))
     monitor.process_run(run)
+    monitor.report()
     with tempfile.TemporaryDirectory() as tmp:
         store = StateStore(Path(tmp) / "s.db")
         try:

@@ -243,12 +243,18 @@ class AxisChannel:
         self.rejections.log(self.model.on_straightness(t, float(msg.data)))
 
     def on_temperature(self, msg: Temperature) -> None:
+        """The rolling guide's Walther oil viscosity and the thermal_drift correction, by stamp as offline; an
+        implausible reading or an invalid stamp is a counted rejection."""
         self.node.process_inputs()
-        if math.isfinite(msg.temperature):
-            self.temperature_c = float(msg.temperature)
-            t = stamp_ns(msg.header)
-            if t is not None:        # the rolling guide's Walther oil viscosity, by stamp as offline
-                self.model.on_temperature(t, self.temperature_c)
+        t = stamp_ns(msg.header)
+        if t is None:
+            self.rejections.log(self.model.reject(INVALID_STAMP))
+            return
+        reason = self.model.on_temperature(t, float(msg.temperature))
+        if reason is not None:
+            self.rejections.log(reason)
+            return
+        self.temperature_c = float(msg.temperature)
 
     # --- maintenance ---------------------------------------------------------------------------------
     def maintenance_event(self, kind: str, values: dict) -> MaintenanceEvent | str:

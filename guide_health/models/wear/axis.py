@@ -169,10 +169,11 @@ class AxisMonitor:
         reasons = [g.on_straightness(t_ns, straightness_m) for g in self.guides.values()]
         return reasons[0]
 
-    def on_temperature(self, t_ns: int, temperature_c: float) -> None:
-        """A guide/temperature reading: every rolling guide's oil viscosity from its stamp on (Walther oil)."""
-        for guide in self.guides.values():
-            guide.on_temperature(t_ns, temperature_c)
+    def on_temperature(self, t_ns: int, temperature_c: float) -> str | None:
+        """A guide/temperature reading: every rolling guide's oil viscosity from its stamp on (Walther oil),
+        every guide's thermal_drift correction; the rejection reason of an implausible one, else None."""
+        reasons = [g.on_temperature(t_ns, temperature_c) for g in self.guides.values()]
+        return reasons[0]
 
     def reject_input(self, stream: str, reason: str) -> str:
         for guide in self.guides.values():

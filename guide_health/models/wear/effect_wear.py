@@ -47,6 +47,9 @@ LEGACY_COVARIANCE_SIZE = 6
 _PHI = len(COVARIANCE_NAMES) - 1       # effect parameters phi (all but K)
 #: per bucket: work, effective work w/o running-in, distance, then d(effective work)/d(rho, v_lift, n, g, f, b)
 _SUMS = 3 + _PHI - 2
+#: lengths of the saved lists (a work gradient, a bucket row: index then sums, a measurement's gradient):
+#: (now, before stop 11's duty effects); a state of the earlier length is zero-padded on restore
+STATE_LIST_LENGTHS = {"work_gradient": (_PHI, 5), "buckets": (1 + _SUMS, 7), "measurement_gradients": (_PHI, 5)}
 
 
 @dataclass(frozen=True)

@@ -72,6 +72,7 @@ EMPTY_JOINT_STATES = "empty joint_states arrays"
 JOINT_POSITION_MISSING = "joint_states position shorter than name"
 STRAIGHTNESS_WITHOUT_TIME_BASE = "straightness before any joint_states (no time base)"
 STRAIGHTNESS_WITHOUT_TEMPERATURE = "straightness before any guide/temperature (thermal_drift correction)"
+TEMPERATURE_IMPLAUSIBLE = "guide temperature non-finite or outside -100..500 degC"
 INVALID_STAMP = "invalid header stamp (nanosec >= 1e9)"
 
 # sample reasons by code (0 = accepted): the per-sample form of the vectorised rules
@@ -81,7 +82,8 @@ REASON_CODES = (None, NON_FINITE_JOINT, POSITION_OUT_OF_TRAVEL, JOINT_TIME_BACKW
                 STRAIGHTNESS_TIME_BACKWARDS, MEASUREMENT_ALREADY_APPLIED)
 CODE_OF_REASON = {reason: code for code, reason in enumerate(REASON_CODES)}
 MESSAGE_REASONS = (MALFORMED_JOINT_STATES, MALFORMED_LOAD, EMPTY_JOINT_STATES, JOINT_POSITION_MISSING,
-                   STRAIGHTNESS_WITHOUT_TIME_BASE, INVALID_STAMP, STRAIGHTNESS_WITHOUT_TEMPERATURE)
+                   STRAIGHTNESS_WITHOUT_TIME_BASE, INVALID_STAMP, STRAIGHTNESS_WITHOUT_TEMPERATURE,
+                   TEMPERATURE_IMPLAUSIBLE)
 NS_PER_S = 1_000_000_000
 
 
@@ -239,6 +241,19 @@ def check_straightness_sample(t_ns: int, straightness_m: float, last_t_ns: int |
     if last_t_ns is not None and t_ns == last_t_ns:
         return MEASUREMENT_ALREADY_APPLIED
     return None
+
+
+#: a guide/temperature reading outside this [degC] is a sensor fault (a machine-tool guide with oil: -20..80)
+TEMPERATURE_RANGE_C = (-100.0, 500.0)
+
+
+def plausible_temperature(temperature_c):
+    """True where a guide/temperature reading [degC] counts (finite, inside TEMPERATURE_RANGE_C); scalar or
+    array alike."""
+    t = np.asarray(temperature_c, dtype=float)
+    with np.errstate(invalid="ignore"):
+        ok = np.isfinite(t) & (t >= TEMPERATURE_RANGE_C[0]) & (t <= TEMPERATURE_RANGE_C[1])
+    return bool(ok) if ok.ndim == 0 else ok
 
 
 # --- whole arrays (offline, chunk by chunk) ---------------------------------------------------------

@@ -36,6 +36,7 @@ from guide_health.models.wear.input_rules import (
     REASON_CODES,
     STRAIGHTNESS_WITHOUT_TEMPERATURE,
     STRAIGHTNESS_WITHOUT_TIME_BASE,
+    TEMPERATURE_IMPLAUSIBLE,
     InputLimits,
     RejectionCounter,
     StampBase,
@@ -44,6 +45,7 @@ from guide_health.models.wear.input_rules import (
     check_load_sample,
     check_straightness_sample,
     main_way_load_n,
+    plausible_temperature,
     rejected_key,
 )
 from guide_health.models.wear.stream_gaps import StreamGaps
@@ -138,12 +140,16 @@ class PrecisionMonitor:
         self.load_samples += 1
         return None
 
-    def on_temperature(self, t_ns: int, temperature_c: float) -> None:
+    def on_temperature(self, t_ns: int, temperature_c: float) -> str | None:
         """A guide/temperature reading: the rolling guide's oil viscosity from its stamp on (Walther oil);
-        kept by stamp for the thermal_drift correction of straightness measurements."""
+        kept by stamp for the thermal_drift correction of straightness measurements. An implausible reading
+        (input_rules.plausible_temperature) is a counted rejection; returns its reason, else None."""
+        if not plausible_temperature(temperature_c):
+            return self.rejected.reject(TEMPERATURE_IMPLAUSIBLE)
         if self.rolling is not None:
             self.rolling.add_temperature(t_ns, temperature_c)
         self._keep_temperatures(np.array([t_ns], dtype=np.int64), np.array([temperature_c], dtype=float))
+        return None
 
     def _thermal(self) -> bool:
         return self.effects is not None and self.effects.thermal_drift_m_per_k != 0.0
@@ -265,11 +271,15 @@ class PrecisionMonitor:
         found by binary search, and the integration is split at the measurement times so each
         measurement sees the wear state at its own time.
         """
-        if self.rolling is not None and getattr(run, "temperature_t_ns", np.zeros(0)).size:
-            self.rolling.add_temperatures(run.temperature_t_ns, run.temperature_c)   # applied by stamp
+        temp_t = np.asarray(getattr(run, "temperature_t_ns", np.zeros(0, np.int64)), dtype=np.int64)
+        temp_c = np.asarray(getattr(run, "temperature_c", np.zeros(0)), dtype=float)
+        plausible = plausible_temperature(temp_c)
+        self.rejected.count(TEMPERATURE_IMPLAUSIBLE, int(temp_c.size - plausible.sum()))
+        temp_t, temp_c = temp_t[plausible], temp_c[plausible]
+        if self.rolling is not None and temp_t.size:
+            self.rolling.add_temperatures(temp_t, temp_c)   # applied by stamp
         # the whole record's readings while its measurements are applied, then the last TEMPERATURE_HISTORY
-        self._keep_temperatures(np.asarray(getattr(run, "temperature_t_ns", np.zeros(0, np.int64)), dtype=np.int64),
-                                np.asarray(getattr(run, "temperature_c", np.zeros(0)), dtype=float), keep=2**62)
+        self._keep_temperatures(temp_t, temp_c, keep=2**62)
         accepted = accept_run(run, self.joint_base, self.load_base, self.load_n, self.limits)
         self.rejected.count_all(accepted.rejected)
         self.joint_base, self.load_base = accepted.joints.base, accepted.loads.base

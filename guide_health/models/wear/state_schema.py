@@ -16,6 +16,7 @@ import numbers
 from typing import Any
 
 from guide_health.errors import InputError
+from guide_health.models.wear.effect_wear import STATE_LIST_LENGTHS
 
 #: the parameters a saved precision state belongs to: another value makes it another guide
 FINGERPRINT_PARAMS = ("machine_id", "joint", "guide_type", "contact_width_m", "slider_length_m", "rail_start_m",
@@ -41,11 +42,13 @@ def fingerprint_mismatch(saved: dict[str, Any], current: dict[str, Any]) -> str:
 
 
 #: fields that are sums of non-negative terms (distances, counts, work): a negative value is a corrupt state.
+#: (Not measurement_m: with the thermal_drift effect a reading is stored corrected, c_T (T - T_ref) taken off,
+#: which may leave a reading near zero slightly below it.)
 #: Not the per-bin profile and per-bucket/measurement work lists: made by differences, they may round to
 #: -1e-16 in a legal state (found by test_state_property's arbitrary runs).
 NON_NEGATIVE = frozenset({
     "sliding_distance_m", "archard_work_nm", "samples", "stroke_count", "stroke_sum_m",
-    "stroke_sum_sq_m2", "stroke_min_m", "stroke_max_m", "load_samples", "measurement_m", "travel_m",
+    "stroke_sum_sq_m2", "stroke_min_m", "stroke_max_m", "load_samples", "travel_m",
     "load_power_travel", "recent_travel_m", "recent_load_power_travel", "boundary_travel_m", "window_travel_m",
     "boundary", "mixed", "full_film", "reverse_travel_m"})
 #: element kind of lists that are empty in a fresh monitor (the template cannot show it)
@@ -128,12 +131,16 @@ def _scalar_problem(value: Any, template: Any, where: str) -> str:
 
 
 def _check_list(value: list, template: list, where: str) -> None:
-    if template and len(value) != len(template):
+    lengths = STATE_LIST_LENGTHS.get(_field(where))
+    if template and len(value) != len(template) and not (lengths and len(value) in lengths):
         raise InputError(f"state field {where} has {len(value)} entries, the parameters need {len(template)}")
     if not template and _field(where) in NUMBER_ROWS:
         for i, row in enumerate(value):
             if not isinstance(row, (list, tuple)) or not all(_is_number(v) and math.isfinite(v) for v in row):
                 raise InputError(f"state field {where}[{i}] must be a list of finite numbers, got {row!r}"[:200])
+            if lengths and (len(row) not in lengths or len(row) != len(value[0])):
+                raise InputError(f"state field {where}[{i}] has {len(row)} numbers, rows have "
+                                 f"{' or '.join(map(str, lengths))}, all alike")
         return
     element = template[0] if template else EMPTY_LIST_ELEMENT.get(_field(where), 0.0)
     for i, item in enumerate(value):
