@@ -354,3 +354,46 @@ def test_a_state_saved_before_the_effect_fields_were_added_is_accepted_and_resto
     del old["effects"]["effective_work_nm"]
     with pytest.raises(InputError):
         check_precision_state(old, PrecisionMonitor(dict(params)).state())
+
+
+def test_an_effects_state_from_before_the_duty_effects_is_accepted_and_restores():
+    """A state saved at stop 10 (5 work gradients, bucket rows of 1 + 6, measurement gradients of 5, no
+    relubrication time base): accepted, zero-padded, restored to the same straightness, K and life; a row of
+    another length, or rows of mixed lengths, are refused."""
+    from guide_health.models.wear.effect_wear import STATE_LIST_LENGTHS
+
+    params = {**WEAR_MONITOR_DEFAULTS, "effects": "running_in,retract_asymmetry", "running_in_ratio": 2.0,
+              "running_in_distance_m": 300.0, "retract_wear_factor": 0.5}
+    monitor = PrecisionMonitor(dict(params))
+    t = 0
+    for i in range(4000):
+        t += 50_000_000
+        monitor.on_load(t, 2000.0)
+        monitor.on_joint(t, 0.1 + 0.1 * abs(((i % 80) - 40) / 40.0), 0.2)
+        if i % 1000 == 999:
+            monitor.on_straightness(t, 5e-6 + 1e-9 * i)
+    now = json.loads(json.dumps(monitor.state()))
+    phi, row, _ = (STATE_LIST_LENGTHS[k][0] for k in ("work_gradient", "buckets", "measurement_gradients"))
+    old = json.loads(json.dumps(now))
+    eff = old["effects"]
+    # the padded duty-effect gradients (g, f, b) are 0 where a fresh state holds the derivatives at the
+    # no-effect values; they only meet the zero covariance rows of effects the file does not name
+    eff["work_gradient"] = eff["work_gradient"][:5]
+    eff["buckets"] = [r[:7] for r in eff["buckets"]]
+    eff["measurement_gradients"] = [g[:5] for g in eff["measurement_gradients"]]
+    del eff["last_relubrication_t_ns"], eff["first_sample_t_ns"]
+    check_precision_state(old, PrecisionMonitor(dict(params)).state())
+    again = PrecisionMonitor(dict(params))
+    again.restore(old)
+    assert len(again.effect_wear.work_gradient) == phi and all(len(r) == row - 1
+                                                               for r in again.effect_wear.buckets.values())
+    before, after = monitor.report(), again.report()
+    for key in ("straightness_um", "wear_coefficient", "remaining_life_h", "remaining_life_h_low",
+                "remaining_life_h_high"):
+        assert after[key] == pytest.approx(before[key], rel=1e-12), key
+    first = now["effects"]["buckets"][0]
+    for bad_rows in ([first[:8]], [first, first[:7]]):       # a length of neither kind; mixed lengths
+        bad = json.loads(json.dumps(now))
+        bad["effects"]["buckets"] = bad_rows
+        with pytest.raises(InputError, match="buckets"):
+            check_precision_state(bad, PrecisionMonitor(dict(params)).state())
