@@ -184,10 +184,12 @@ def test_duty_effect_parameters_are_checked():
     for bad, name in (({"wear_rate_change_factor": 0.0}, "wear_rate_change_factor"),
                       ({"lubrication_interval_s": -1.0}, "lubrication_interval_s"),
                       ({"load_gradient_per_m": float("nan")}, "load_gradient_per_m"),
-                      ({"thermal_drift_m_per_k": 0.0}, "thermal_drift needs thermal_drift_m_per_k")):
+                      ({"thermal_drift_m_per_k": 0.0}, "thermal_drift needs thermal_drift_m_per_k"),
+                      ({"wear_rate_change_stamp_s": 0.0}, "wear_rate_change needs wear_rate_change_stamp_s")):
         with pytest.raises(InputError, match=name):
             validate_wear_params({**params, "effects": "wear_rate_change,lubrication_interval,load_along_rail,"
-                                  "thermal_drift", "thermal_drift_m_per_k": 1e-6, **bad})
+                                  "thermal_drift", "thermal_drift_m_per_k": 1e-6,
+                                  "wear_rate_change_stamp_s": 1.7e9, **bad})
 
 
 def test_per_sample_callbacks_equal_the_vectorised_path_with_the_duty_effects():

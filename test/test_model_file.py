@@ -250,6 +250,30 @@ def test_diagnose_writes_a_model_file_that_replay_loads(tmp_path):
     assert abs(lives["model"] / truth - 1.0) < 0.10, (lives, truth)
 
 
+def test_a_model_file_from_before_the_duty_effects_still_loads(tmp_path):
+    """A stop-10 model file holds a 6 x 6 effect_covariance: loaded as the leading block of the 9 x 9 (zeros
+    elsewhere), the same life and interval as the file written with the 9 x 9; 37 numbers are refused."""
+    cov6 = np.diag([(0.02 * 4.4e-6) ** 2, 0.1 ** 2, 30.0 ** 2, 0.05 ** 2, 0.0, 0.0])
+    cov6[0, 1] = cov6[1, 0] = 0.3 * (0.02 * 4.4e-6) * 0.1
+    body = {"wear_coefficient": 4.4e-6, "effects": "running_in,retract_asymmetry", "running_in_ratio": 2.0,
+            "running_in_distance_m": 300.0, "retract_wear_factor": 0.5}
+    old, new = tmp_path / "old.yaml", tmp_path / "new.yaml"
+    old.write_text(yaml.safe_dump({"wear_monitor": {"ros__parameters": {**body,
+                                                                        "effect_covariance": cov6.ravel().tolist()}}}))
+    cov9 = np.zeros((9, 9))
+    cov9[:6, :6] = cov6
+    new.write_text(yaml.safe_dump({"wear_monitor": {"ros__parameters": {**body,
+                                                                        "effect_covariance": cov9.ravel().tolist()}}}))
+    a, b = wear_monitor_params([BENCH, old]), wear_monitor_params([BENCH, new])
+    assert a["effect_covariance"] == b["effect_covariance"]
+    params, run = bench_running_in(2, rate_hz=5.0)
+    assert replay_life(a, run) == pytest.approx(replay_life(b, run), rel=1e-12)
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(yaml.safe_dump({"wear_monitor": {"ros__parameters": {**body, "effect_covariance": [0.0] * 37}}}))
+    with pytest.raises(InputError, match="effect_covariance must be a list of 81 numbers"):
+        wear_monitor_params([BENCH, bad])
+
+
 def test_a_bad_model_file_is_one_line(tmp_path):
     bad = tmp_path / "model.yaml"
     bad.write_text("wear_monitor:\n  ros__parameters:\n    effects: running_in,stroke_distribution\n")

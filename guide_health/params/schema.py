@@ -94,6 +94,20 @@ class Param:
         return above and below
 
 
+def _square_block_padded(values: list, size: int) -> list:
+    """A row-major n x n matrix as the leading block of an m x m one (m^2 = size), zeros elsewhere."""
+    n, m = math.isqrt(len(values)), math.isqrt(size)
+    out = [0.0] * size
+    for i in range(n):
+        out[i * m:i * m + n] = values[i * n:(i + 1) * n]
+    return out
+
+
+#: numeric-list parameters that grew, with the older length a file may still hold and how it widens (every
+#: loader goes through coerce_value): the 6 x 6 effect_covariance of model files before stop 11's duty effects
+LIST_UPGRADES = {"effect_covariance": (36, _square_block_padded)}
+
+
 def coerce_value(name: str, value: Any, default: Any) -> Any:
     """``value`` converted to the type of ``default`` (int -> float; '199.0e6' -> float, as ROS's rcl parser
     reads it); InputError with a one-line reason when it cannot be."""
@@ -127,6 +141,9 @@ def coerce_value(name: str, value: Any, default: Any) -> Any:
             raise InputError(f"parameter {name} must be a list of strings, got {value!r}")
         return list(value)
     if isinstance(default, list):
+        upgrade = LIST_UPGRADES.get(name)
+        if upgrade and isinstance(value, list) and len(value) == upgrade[0] != len(default):
+            value = upgrade[1](value, len(default))
         if not isinstance(value, list) or len(value) != len(default):
             raise InputError(f"parameter {name} must be a list of {len(default)} numbers, got {value!r}")
         return [coerce_value(f"{name}[{i}]", v, d) for i, (v, d) in enumerate(zip(value, default))]

@@ -213,6 +213,8 @@ def _effect_checks(p: dict[str, Any]) -> None:
         raise InputError("parameter effects: speed_dependent_wear needs lift_speed_m_s > 0")
     if "thermal_drift" in effect_ids(p) and p.get("thermal_drift_m_per_k", 0.0) == 0.0:
         raise InputError("parameter effects: thermal_drift needs thermal_drift_m_per_k != 0")
+    if "wear_rate_change" in effect_ids(p) and not p.get("wear_rate_change_stamp_s", 0.0) > 0:
+        raise InputError("parameter effects: wear_rate_change needs wear_rate_change_stamp_s > 0 (when it changed)")
 
 
 def _wear_cross_checks(p: dict[str, Any]) -> None:
