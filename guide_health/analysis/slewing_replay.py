@@ -19,10 +19,11 @@ def analyse_slewing_run(run, params: dict, progress=None) -> tuple[SlewingMonito
     levels = {OK: 0, WARN: 0, ERROR: 0}
     worst_i = -1
     worst = None
-    for i, (fa, fr, mt) in enumerate(zip(np.asarray(run.axial_n, float).tolist(),
-                                         np.asarray(run.radial_n, float).tolist(),
-                                         np.asarray(run.moment_nm, float).tolist())):
-        if monitor.on_loads(fa, fr, mt) is None:
+    for i, (fa, fr, mt, t) in enumerate(zip(np.asarray(run.axial_n, float).tolist(),
+                                            np.asarray(run.radial_n, float).tolist(),
+                                            np.asarray(run.moment_nm, float).tolist(),
+                                            np.asarray(run.t_ns, dtype=np.int64).tolist())):
+        if monitor.on_loads(fa, fr, mt, t_ns=t) is None:
             rep = monitor.worst_sample
             p_max[i] = rep["p_max_MPa"]
             levels[int(rep["level"])] += 1
@@ -32,7 +33,8 @@ def analyse_slewing_run(run, params: dict, progress=None) -> tuple[SlewingMonito
             progress(i + 1, n)
     report = dict(worst or {})
     report.update(
-        loads=n, rejected_loads=monitor.rejected,
+        loads=n, rejected_loads=monitor.rejected, samples_missing_estimate=monitor.stamp_gaps.missing,
+        load_period_estimate_us=monitor.stamp_gaps.period_ns * 1e-3,
         samples_ok=levels[OK], samples_warn=levels[WARN], samples_error=levels[ERROR],
         worst_t_s=(float(run.t_ns[worst_i] - run.t_ns[0]) * 1e-9) if worst_i >= 0 else math.nan,
         worst_axial_n=float(run.axial_n[worst_i]) if worst_i >= 0 else math.nan,

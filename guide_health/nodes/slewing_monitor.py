@@ -14,6 +14,7 @@ from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 
 from guide_health.models.slewing.monitor import SlewingMonitor, contact_level
+from guide_health.models.wear.input_rules import header_stamp_ns
 from guide_health.nodes.common import run_node
 from guide_health.nodes.live_params import PeriodicTimers, apply_slewing_changes
 from guide_health.nodes.qos import SensorSubscriptions
@@ -27,7 +28,9 @@ ROLLER_CONTACT_KEYS = ("roller_load_max_n", "p0_hertz_MPa", "p0_center_MPa", "p0
 EXTRA_KEYS = ("p_max_MPa", "p_max_position_mm", "shear_depth_mm", "von_mises_subsurface_max_MPa",
               "von_mises_surface_MPa", "axial_main_row_max_n",
               "axial_opposite_row_max_n", "radial_row_max_n", "worst_row", "loads_in_period", "rejected_loads",
-              "messages_lost", "best_effort_topics")
+              "messages_lost", "best_effort_topics",
+              # models/wear/stream_gaps.py on the load stamps: samples missing by stamp gaps
+              "samples_missing_estimate", "load_period_estimate_us", "load_stamp_pauses")
 LOG_THROTTLE_S = 5.0        # at most one rejected-load warning per period; it carries the running count
 
 
@@ -58,7 +61,8 @@ class SlewingMonitorNode(Node):
 
     def _on_load(self, msg: WrenchStamped) -> None:
         self.updater.touch("slewing/load")
-        reason = self.core.on_loads(*wrench_to_loads(msg))
+        stamp = header_stamp_ns(msg.header.stamp.sec, msg.header.stamp.nanosec)    # None: no gap estimate
+        reason = self.core.on_loads(*wrench_to_loads(msg), t_ns=stamp)
         if reason:
             self.get_logger().warning(f"rejected load: {reason} ({self.core.rejected} so far)",
                                       throttle_duration_sec=LOG_THROTTLE_S)

@@ -22,6 +22,7 @@ from guide_health.models.slewing.finite_roller import (
 )
 from guide_health.models.slewing.mcewen import McEwenMaxima, cached_mcewen_maxima, mcewen_maxima
 from guide_health.models.slewing.row_loads import AxialRowLoads, axial_row_roller_loads, radial_row_roller_load_max_n
+from guide_health.models.wear.stream_gaps import StampGaps
 from guide_health.params import SLEWING_MONITOR_DEFAULTS, validate_slewing_params
 
 #: seed 003 Sec. 4 example: 131.32.2000.00Z, E = 210 GPa, nu = 0.3, d = 32 mm, l = 31.3 mm, f = 0.1
@@ -289,9 +290,15 @@ class SlewingMonitor:
         self.rejected = 0
         self.last_problem: str | None = None
         self.worst_sample: dict | None = None
+        # load samples missing by stamp gaps (models/wear/stream_gaps.py, as wear_monitor's streams): what a
+        # reliable KEEP_LAST writer overwrote without any DDS loss event
+        self.stamp_gaps = StampGaps()
 
-    def on_loads(self, axial_n: float, radial_n: float, moment_nm: float) -> str | None:
-        """One load sample; returns the rejection reason or None."""
+    def on_loads(self, axial_n: float, radial_n: float, moment_nm: float, t_ns: int | None = None) -> str | None:
+        """One load sample (``t_ns``: its header stamp, None when unknown or invalid); returns the rejection
+        reason or None."""
+        if t_ns is not None:        # a received sample, bad or not, is not a missing one
+            self.stamp_gaps.add(t_ns)
         if not all(math.isfinite(v) for v in (axial_n, radial_n, moment_nm)):
             self.rejected += 1
             self.last_problem = "non-finite load"
@@ -309,6 +316,9 @@ class SlewingMonitor:
         values = dict(report or {})
         values["loads_in_period"] = self.loads_in_period
         values["rejected_loads"] = self.rejected
+        gaps = self.stamp_gaps
+        values.update(samples_missing_estimate=gaps.missing, load_period_estimate_us=gaps.period_ns * 1e-3,
+                      load_stamp_pauses=gaps.pauses)
         if report is None:
             level, message = WARN, "no valid load received yet"
             if self.last_problem:
@@ -325,6 +335,8 @@ class SlewingMonitor:
             if self.loads_in_period == 0 and self.rejected:
                 level = max(level, WARN)
                 message = f"only invalid loads this period ({self.last_problem}); last valid: {message}"
+        if gaps.missing:
+            message = f"{message}; {gaps.missing} load samples missing (stamp gaps)"
         if report is not None and self.worst is not None:
             self.last_report = self.worst
         self.worst = None
