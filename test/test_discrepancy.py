@@ -373,7 +373,10 @@ def test_diagnose_bad_input_is_one_line_exit_2(tmp_path):
 
 def test_simulate_effect_names_and_values_are_checked(tmp_path):
     for bad, text in (("friction=1", "unknown effect"), ("running_in", "NAME=VALUE"),
-                      ("load_exponent=abc", "not a number"), ("initial_offset=nan", "finite")):
+                      ("load_exponent=abc", "not a number"), ("initial_offset=nan", "finite"),
+                      ("wear_rate_change=-1", "must be in (0, 100]"),
+                      ("lubrication_interval=-1e-5", "must be in [0, 0.01] 1/s"),
+                      ("speed_dependent_wear=0", "must be in (0, 100] m/s")):
         proc = cli("simulate", "--params", str(JOBS), "--out", str(tmp_path / "x"), "--effect", bad, check=False)
         assert proc.returncode == 2 and text in proc.stderr, proc.stderr
 

@@ -18,6 +18,7 @@ from guide_health.models.wear.archard import WearGeometry, WearIntegrator, strai
 from guide_health.models.wear.effects import (
     DUTY_EFFECT_IDS,
     EFFECT_IDS,
+    EFFECT_VALUE,
     WearEffects,
     asperity_load_share,
     load_along_rail_factor,
@@ -131,12 +132,34 @@ def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
     )
 
 
+#: the allowed range of an --effect value that is not a wear_monitor parameter of the same name (those take
+#: the wear_monitor schema's range), or whose hidden value must differ from the parameter's "no effect"
+EFFECT_VALUE_RANGES = {"stroke_distribution_weight": "[0, 1]", "initial_offset_m": "[-1e-3, 1e-3]",
+                       "lubrication_wear_growth_per_s": "[0, 0.01]", "lift_speed_m_s": "(0, 100]"}
+
+
+def effect_value_range(name: str):
+    """The Param whose range an --effect value must be in (``name``: the effect id)."""
+    from guide_health.params.schema import Param
+    from guide_health.params.wear_monitor import WEAR_MONITOR_SCHEMA
+
+    field, unit, _ = EFFECT_VALUE[name]
+    if field in EFFECT_VALUE_RANGES or field not in WEAR_MONITOR_SCHEMA.by_name:
+        return Param(field, 0.0, unit, EFFECT_VALUE_RANGES[field], "")
+    return WEAR_MONITOR_SCHEMA[field]
+
+
 def checked_effects(effects: dict[str, float] | None) -> dict[str, float]:
-    """A copy of ``effects``; InputError for a name not in :data:`EFFECTS`."""
+    """A copy of ``effects``; InputError (one line) for a name not in :data:`EFFECTS` or a value outside its
+    physical range (a negative wear factor would make negative wear, silently)."""
     effects = dict(effects or {})
     unknown = sorted(set(effects) - set(EFFECTS))
     if unknown:
         raise InputError(f"unknown effects {unknown}; known: {', '.join(EFFECTS)}")
+    for name, value in effects.items():
+        allowed = effect_value_range(name)
+        if not allowed.accepts(value):
+            raise InputError(f"--effect {name}={value!r}: must be in {allowed.range_text}{allowed.unit_suffix}")
     return effects
 
 
