@@ -163,6 +163,14 @@ def test_flag_comes_first_in_every_output(tmp_path):
     files = write_report(full, tmp_path, bag="speed_squared", with_plot=False)
     md = (tmp_path / "report.md").read_text().splitlines()
     assert md[2].startswith("> **UNEXPLAINED STRUCTURE")
+    live = md.index("## The live model (model.yaml)")
+    if full["model_file"]["effects"]:
+        assert "fitted, not an explanation" in " ".join(md[live:live + 6])
+    from guide_health.analysis.discrepancy.model_file import write_model_file
+    write_model_file(tmp_path / "model.yaml", params, full["model_file"], full["named_effects"], source="bag",
+                     unexplained=full["unexplained_structure"]["message"])
+    head = (tmp_path / "model.yaml").read_text().splitlines()
+    assert head[0].startswith("# UNEXPLAINED STRUCTURE") and "fitted, not an explanation" in head[1]
     body = json.loads((tmp_path / "report.json").read_text())
     assert next(iter(body)) == "unexplained_structure" and body["explained"] is False
     full.update(messages=0, read_s=0.0, files=files)

@@ -53,7 +53,7 @@ def own_multiplier(case: dict, t_s: np.ndarray, x_m: np.ndarray, relube_s: list[
         m *= 1.0 + case["a"] * (since - case["T"] * np.floor(since / case["T"])) / case["T"]
     if "b" in case:
         last = np.array([max([case["t_first"]] + [r for r in relube_s if r <= t]) for t in t_s])
-        m *= 1.0 + case["b"] * (t_s - last)
+        m *= np.clip(1.0 + case["b"] * (t_s - last), 0.0, None)     # no negative wear
     return m
 
 
@@ -81,6 +81,11 @@ CASES = {
                               "lubrication_interval_s": 1.1 * H}),
     "lubrication_recorded": ({"b": 0.5 / H, "relube_h": [0.8, 2.45]},
                              {"effects": "lubrication_interval", "lubrication_wear_growth": 0.5 / H,
+                              "lubrication_interval_s": 0.0}),
+    # wear falling after a relubrication (diagnose fits growth down to -0.9 per gap), past the point where
+    # the line would cross zero: no wear, never negative
+    "lubrication_negative": ({"b": -0.5 / H, "relube_h": [0.8]},
+                             {"effects": "lubrication_interval", "lubrication_wear_growth": -0.5 / H,
                               "lubrication_interval_s": 0.0}),
     "all_three": ({"g": -1.5, "x_ref": 0.1, "f": 0.6, "t_c_h": 2.2, "a": 0.8, "T": 1.7 * H,
                                    "t_ref_h": 0.0},

@@ -232,6 +232,8 @@ def test_diagnose_writes_a_model_file_that_replay_loads(tmp_path):
     cli("diagnose", str(bag), "--params", str(BENCH), "--out", str(out), "--no-plot")
     model = yaml.safe_load((out / "model.yaml").read_text())["wear_monitor"]["ros__parameters"]
     assert model["effects"] == "running_in"
+    assert "the effects the live monitor integrates: running_in." in (out / "report.md").read_text()
+    assert (out / "model.yaml").read_text().startswith("# guide-health diagnose")     # explained: no warning
     assert model["running_in_ratio"] == pytest.approx(2.5, rel=0.2)
     assert model["running_in_distance_m"] == pytest.approx(300.0, rel=0.2)
     assert len(model["effect_covariance"]) == 81 and model["effect_covariance"][0] > 0
@@ -473,3 +475,28 @@ def test_simulated_regrind_runs_in_again_as_the_live_model():
         assert got.size == 4
         errors[restart] = float(np.max(np.abs(got - after) / (after - 15e-6)))
     assert errors[True] < 3e-3 < errors[False], errors
+
+
+def test_every_fitted_effect_value_passes_the_live_schema():
+    """diagnose's fit bounds (analysis/discrepancy/model.py ParamSpec) against the wear_monitor ranges: a
+    model file from any fit loads (a lubrication growth of -0.31 made `diagnose --out` exit 2 before stop
+    11). Each live parameter at both ends of its fit bounds is accepted by the schema."""
+    from guide_health.analysis.discrepancy.duty import duty_cells_from_runs as cells_of
+    from guide_health.analysis.discrepancy.model import WearProblem, _effect_specs
+    from guide_health.analysis.discrepancy.model_file import COVARIANCE_ALIASES, EFFECT_PARAMETERS
+    from guide_health.params import validate_wear_params
+
+    params = wear_monitor_params(JOBS)
+    sim = dict(simulation_params(JOBS), duration_h=4.0, joint_state_rate_hz=5.0, load_rate_hz=5.0)
+    run = simulate_machine(params, sim, seed=1)
+    for relube in (None, [3600.0]):
+        problem = WearProblem(cells_of(run, params["slider_length_m"]), params, relubrication_t_s=relube)
+        for effect, specs in _effect_specs(problem).items():
+            live = set(EFFECT_PARAMETERS.get(effect, ())) | ({"lubrication_wear_growth"} if effect ==
+                                                             "lubrication_interval" else set())
+            for spec in specs:
+                name = COVARIANCE_ALIASES.get(spec.name, spec.name)
+                if name not in live:
+                    continue
+                for value in (spec.lower, spec.upper):
+                    validate_wear_params({**params, name: value})

@@ -55,7 +55,9 @@ def run(args) -> dict:
     finally:
         pending.close()
     result["files"]["model"] = str(out / "model.yaml")
-    write_model_file(out / "model.yaml", params, result["model_file"], result["named_effects"], source=str(bag))
+    structure = result.get("unexplained_structure", {})
+    write_model_file(out / "model.yaml", params, result["model_file"], result["named_effects"], source=str(bag),
+                     unexplained=structure.get("message", "") if structure.get("present") else "")
     result["report_s"] = time.perf_counter() - t1
     result["total_s"] = time.perf_counter() - t0
     result.pop("series")

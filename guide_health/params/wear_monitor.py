@@ -77,9 +77,10 @@ SLIDING_GUIDE_PARAMS = (
           "wear_rate_change f: K x f from wear_rate_change_stamp_s on"),
     Param("wear_rate_change_stamp_s", 0.0, "s", "[0, 1e11]",
           "wear_rate_change t_c: when the wear rate changed, seconds since the epoch of the message stamps"),
-    Param("lubrication_wear_growth", 0.0, "-", "[0, 1e3]",
-          "lubrication_interval growth: b [1/s] in m = 1 + b tau (tau since the last relubricate event, "
-          "lubrication_interval_s = 0), or a [-] in m = 1 + a ((t - t_ref) mod T) / T"),
+    Param("lubrication_wear_growth", 0.0, "-", "[-1, 1e3]",
+          "lubrication_interval growth: b [1/s] in m = max(1 + b tau, 0) (tau since the last relubricate "
+          "event, lubrication_interval_s = 0), or a [-] in m = 1 + a ((t - t_ref) mod T) / T; diagnose fits "
+          "it down to -0.9 per interval (wear falling after a relubrication)"),
     Param("lubrication_interval_s", 0.0, "s", "[0, 1e9]",
           "lubrication_interval T: relubricated every T from lubrication_reference_stamp_s; 0 = the recorded "
           "relubricate maintenance events are the time base"),
@@ -89,8 +90,9 @@ SLIDING_GUIDE_PARAMS = (
     Param("thermal_drift_m_per_k", 0.0, "m/K", "[-1e-4, 1e-4]",
           "thermal_drift c_T: the straightness gauge reads A + c_T (T - T_ref); each measurement is corrected "
           "with the guide/temperature reading in force at its stamp"),
-    Param("thermal_reference_c", 20.0, "degC", "[-50, 200]",
-          "thermal_drift T_ref: the guide temperature at which the gauge reads the true straightness"),
+    Param("thermal_reference_c", 20.0, "degC", "[-1e6, 1e6]",
+          "thermal_drift T_ref: the guide temperature at which the gauge reads the true straightness (diagnose's "
+          "T_0 - b / c_T: far from the guide's temperatures when the drift is mostly a constant offset)"),
     Param("effect_covariance", [0.0] * 81, "SI", "",
           "covariance (row-major 9 x 9) of the fitted wear_coefficient, running_in_ratio, running_in_distance_m, "
           "retract_wear_factor, lift_speed_m_s, load_exponent, load_gradient_per_m, wear_rate_change_factor, "

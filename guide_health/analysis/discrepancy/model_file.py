@@ -98,12 +98,20 @@ def model_parameters(problem, final, named: list[str]) -> dict[str, Any]:
     return out
 
 
+def not_live_effects(named: list[str]) -> list[str]:
+    """The named effects the live model does not apply (initial_offset is folded into A0)."""
+    return [e for e in named if e not in LIVE_EFFECT_IDS and e != "initial_offset"]
+
+
 def write_model_file(path: Path, base_params: dict[str, Any], model: dict[str, Any], named: list[str],
-                     source: str = "") -> None:
-    """DIR/model.yaml; the merged parameters (base then model) are validated first."""
+                     source: str = "", unexplained: str = "") -> None:
+    """DIR/model.yaml; the merged parameters (base then model) are validated first. ``unexplained``: the
+    unexplained-structure message, which then heads the file (its effects are fitted, not an explanation)."""
     validate_wear_params({**base_params, **model})
-    not_live = [e for e in named if e not in LIVE_EFFECT_IDS and e != "initial_offset"]
-    header = [f"# guide-health diagnose {source}: the model it learnt, as wear_monitor parameters.",
+    not_live = not_live_effects(named)
+    header = [f"# {unexplained}", "# The effects below are fitted, not an explanation: check the physics before "
+              "trusting the live remaining life they give."] if unexplained else []
+    header += [f"# guide-health diagnose {source}: the model it learnt, as wear_monitor parameters.",
               "# Load after the base parameters: --params BASE --params model.yaml (replay, diagnose) or",
               "# --params-file BASE --params-file model.yaml (wear_monitor); the later file overrides.",
               f"# effect_covariance: {len(COVARIANCE_NAMES)} x {len(COVARIANCE_NAMES)} row-major over "

@@ -18,6 +18,24 @@ def _fmt(v: float, unit: str = "") -> str:
     return f"{v:.4g}{(' ' + unit) if unit and unit != '-' else ''}"
 
 
+def model_file_lines(result: dict[str, Any]) -> list[str]:
+    """What model.yaml (beside the report) gives the live monitor, and how to load it."""
+    from guide_health.analysis.discrepancy.model_file import not_live_effects
+
+    model = result.get("model_file") or {}
+    live = [e for e in str(model.get("effects", "")).split(",") if e]
+    out = [f"`model.yaml` holds K = {model.get('wear_coefficient', math.nan):.4g} and "
+           + (f"the effects the live monitor integrates: {', '.join(live)}." if live else "no effect (plain Archard).")]
+    skipped = not_live_effects(result["named_effects"])
+    if skipped:
+        out.append(f"Named but not applied live: {', '.join(skipped)}.")
+    if result.get("unexplained_structure", {}).get("present") and live:
+        out.append("The residuals still have structure: these effects are fitted, not an explanation.")
+    out.append("Load it after the base parameters: `guide-health replay BAG --params BASE --params model.yaml`, or "
+               "`wear_monitor --ros-args --params-file BASE --params-file model.yaml` (docs/model_file.md).")
+    return out
+
+
 def markdown(result: dict[str, Any], bag: str = "") -> str:
     b, f, d = result["baseline"], result["final"], result["data"]
     where = result["where_baseline_disagrees"]
@@ -49,6 +67,7 @@ def markdown(result: dict[str, Any], bag: str = "") -> str:
     for d in result.get("dropped_by_backward_pass", []):
         lines.append(f"- dropped by the backward pass: {d['effect']} (BIC rises by only {d['delta_bic']:.1f} "
                      "without it)")
+    lines += ["", "## The live model (model.yaml)", ""] + model_file_lines(result)
     lines += ["", "## The gap", "", "| model | RMSE fit [um] | max rel. error fit | RMSE held out [um] | "
               "max rel. error held out | K |", "|---|---|---|---|---|---|"]
     for label, g in (("baseline (K calibrated)", b), ("with " + (" + ".join(named) or "nothing"), f)):

@@ -70,8 +70,8 @@ class LiveEffects:
     # wear_rate_change: m = f from the stamp t_c on [s since the epoch of the stamps]
     wear_rate_change_factor: float = 1.0
     wear_rate_change_stamp_s: float = math.inf
-    # lubrication_interval: m = 1 + b tau (tau: time since the last relubricate event, interval_s = 0) or
-    # m = 1 + a ((t - t_ref) mod T) / T (relubricated every T from t_ref); lubrication_growth is b or a
+    # lubrication_interval: m = max(1 + b tau, 0) (tau: time since the last relubricate event, interval_s = 0)
+    # or m = 1 + a ((t - t_ref) mod T) / T (relubricated every T from t_ref); lubrication_growth is b or a
     lubrication_growth: float = 0.0
     lubrication_interval_s: float = 0.0
     lubrication_reference_stamp_s: float = 0.0
@@ -148,7 +148,9 @@ def duty_factor_terms(e: LiveEffects, t_s: np.ndarray, x_m: np.ndarray, last_rel
         d_b = tau / e.lubrication_interval_s
     else:
         d_b = np.maximum(t_s - last_relubrication_s, 0.0)
-    m_lube = 1.0 + e.lubrication_growth * d_b
+    lube = 1.0 + e.lubrication_growth * d_b
+    m_lube = np.maximum(lube, 0.0)          # a negative growth past the fitted gap: no negative wear
+    d_b = np.where(lube > 0, d_b, 0.0)
     m = m_rail * m_change * m_lube
     with np.errstate(invalid="ignore", divide="ignore"):
         dm_g = np.where(m_rail > 0, m / np.where(m_rail > 0, m_rail, 1.0) * d_g, zero)
