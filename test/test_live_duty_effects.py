@@ -409,7 +409,7 @@ def test_live_node_with_the_duty_and_thermal_effects_matches_replay(tmp_path, ro
     from guide_health.analysis.replay import analyse_bag
     from guide_health.cli.simulate import event_series
     from guide_health.io.bag_writer import write_machine_bag
-    from guide_health.nodes.session import DiagnosticsCollector, clean_fastdds_shm, play_bag, start_node, stop_node
+    from guide_health.nodes.session import settled_status_after_bag
 
     bench = ROOT / "config" / "bench_000.yaml"
     env = ros_test_env()
@@ -433,21 +433,10 @@ def test_live_node_with_the_duty_and_thermal_effects_matches_replay(tmp_path, ro
         "effect_covariance": cov}}}))
     merged = wear_monitor_params([bench, model])
     offline = analyse_bag(bag, merged)[1]
-    collector = DiagnosticsCollector("test_collector_duty")
-    overrides = {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25}
-    node = start_node("guide_health.nodes.wear_monitor", [bench, model], overrides, env,
-                      log_path=tmp_path / "node.log")
-    try:
-        assert collector.wait_for("bench_000/wear_monitor: x precision", timeout=30.0) is not None, \
-            (tmp_path / "node.log").read_text()
-        played = play_bag(bag, env, ["--wait-subscribers", "1", "--max-rate", "0"])
-        assert played.returncode == 0, played.stderr
-        live = collector.wait_settled("bench_000/wear_monitor: x precision", "sliding_distance_m", settle_s=2.0,
-                                      timeout=120.0)
-    finally:
-        stop_node(node)
-        collector.close()
-        clean_fastdds_shm()
+    live = settled_status_after_bag("guide_health.nodes.wear_monitor", [bench, model],
+                                    {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25}, env,
+                                    bag, "bench_000/wear_monitor: x precision", tmp_path / "node.log",
+                                    collector_name="test_collector_duty")
     keys = ("samples", "measurements", "straightness_um", "remaining_life_h", "remaining_life_h_low",
             "remaining_life_h_high", "wear_coefficient", "straightness_thermal_correction_um")
     values = {k: float(live["values"][k]) for k in keys}

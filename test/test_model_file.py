@@ -299,13 +299,7 @@ def test_live_node_with_several_params_files_matches_replay(tmp_path, ros_test_e
     from guide_health.analysis.replay import analyse
     from guide_health.io.bag_reader import read_machine_bag
     from guide_health.io.bag_writer import write_machine_bag
-    from guide_health.nodes.session import (
-        DiagnosticsCollector,
-        clean_fastdds_shm,
-        play_bag,
-        start_node,
-        stop_node,
-    )
+    from guide_health.nodes.session import settled_status_after_bag
 
     env = ros_test_env()
     base = wear_monitor_params(BENCH)
@@ -321,21 +315,10 @@ def test_live_node_with_several_params_files_matches_replay(tmp_path, ros_test_e
         "running_in_distance_m": 300.0, "retract_wear_factor": 0.5, "retract_direction": "-x",
         "effect_covariance": cov}}}))
     offline = analyse(read_machine_bag(bag, joint="x"), wear_monitor_params([BENCH, model]))[1]
-    collector = DiagnosticsCollector("test_collector_model")
-    overrides = {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25}
-    node = start_node("guide_health.nodes.wear_monitor", [BENCH, model], overrides, env,
-                      log_path=tmp_path / "node.log")
-    try:
-        assert collector.wait_for("bench_000/wear_monitor: x precision", timeout=30.0) is not None, \
-            (tmp_path / "node.log").read_text()
-        played = play_bag(bag, env, ["--wait-subscribers", "1", "--max-rate", "0"])
-        assert played.returncode == 0, played.stderr
-        live = collector.wait_settled("bench_000/wear_monitor: x precision", "sliding_distance_m", settle_s=2.0,
-                                      timeout=120.0)
-    finally:
-        stop_node(node)
-        collector.close()
-        clean_fastdds_shm()
+    live = settled_status_after_bag("guide_health.nodes.wear_monitor", [BENCH, model],
+                                    {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25}, env,
+                                    bag, "bench_000/wear_monitor: x precision", tmp_path / "node.log",
+                                    collector_name="test_collector_model")
     values = {k: float(v) for k, v in live["values"].items() if k != "lubrication_regime"}
     assert values["samples"] == offline["samples"]
     assert values["measurements"] == offline["measurements"]

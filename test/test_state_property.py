@@ -188,27 +188,23 @@ def test_the_uncorrupted_effects_row_loads_exactly(effect_store):
 def test_a_corrupted_effects_row_is_refused_with_one_line_or_loaded_exactly(effect_store, text):
     """The same property for a monitor with every live effect (effect sums and gradients, the relubrication
     time base, the temperature readings)."""
-    effect_store._db.execute("UPDATE monitor_state SET state_json = ? WHERE key = ?", (text, KEY))
-    monitor = PrecisionMonitor(EFFECT_PARAMS)
-    try:
-        resumed = resume_monitor(effect_store, KEY, state_fingerprint(EFFECT_PARAMS), monitor)
-    except InputError as exc:
-        message = str(exc)
-        assert "\n" not in message and str(effect_store.path) in message and "move the file away" in message
-        return
-    assert resumed
-    assert _comparable(monitor.state()) == _comparable(_decode_like_store(json.loads(text)))
-    assert set(monitor.report()) >= {"level", "message", "straightness_um"}
+    check_refused_with_one_line_or_loaded_exactly(effect_store, EFFECT_PARAMS, text)
 
 
 @hypothesis.settings(max_examples=400, deadline=None, derandomize=True,
                      suppress_health_check=[hypothesis.HealthCheck.function_scoped_fixture])
 @hypothesis.given(corrupted_rows())
 def test_a_corrupted_row_is_refused_with_one_line_or_loaded_exactly(store, text):
+    check_refused_with_one_line_or_loaded_exactly(store, PARAMS, text)
+
+
+def check_refused_with_one_line_or_loaded_exactly(store, params: dict, text: str) -> None:
+    """``text`` as the saved row of KEY: refused with one InputError line naming the file and what to do, or
+    loaded exactly (the monitor's state is the row) with a working report."""
     store._db.execute("UPDATE monitor_state SET state_json = ? WHERE key = ?", (text, KEY))
-    monitor = PrecisionMonitor(PARAMS)
+    monitor = PrecisionMonitor(params)
     try:
-        resumed = resume_monitor(store, KEY, state_fingerprint(PARAMS), monitor)
+        resumed = resume_monitor(store, KEY, state_fingerprint(params), monitor)
     except InputError as exc:
         message = str(exc)
         assert "\n" not in message and str(store.path) in message and "move the file away" in message, message

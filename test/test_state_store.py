@@ -317,12 +317,8 @@ def test_a_failed_checkpoint_write_is_one_line_and_the_node_keeps_running(ros_co
         node.destroy_node()
 
 
-def test_a_state_saved_before_the_effect_fields_were_added_is_accepted_and_restores():
-    """A state with effects saved before stop 10 has no measurement_gradients / surface_start_m
-    (ADDED_FIELDS): accepted, restored to the same straightness and life as the full state, and a missing
-    field that is not an added one is still refused."""
-    params = {**WEAR_MONITOR_DEFAULTS, "effects": "running_in", "running_in_ratio": 2.0,
-              "running_in_distance_m": 300.0}
+def strokes_and_measurements(params: dict) -> PrecisionMonitor:
+    """A monitor after 200 s of 20 Hz triangular strokes under 2 kN with 4 straightness measurements."""
     monitor = PrecisionMonitor(dict(params))
     t = 0
     for i in range(4000):
@@ -331,6 +327,16 @@ def test_a_state_saved_before_the_effect_fields_were_added_is_accepted_and_resto
         monitor.on_joint(t, 0.1 + 0.1 * abs(((i % 80) - 40) / 40.0), 0.2)
         if i % 1000 == 999:
             monitor.on_straightness(t, 5e-6 + 1e-9 * i)
+    return monitor
+
+
+def test_a_state_saved_before_the_effect_fields_were_added_is_accepted_and_restores():
+    """A state with effects saved before stop 10 has no measurement_gradients / surface_start_m
+    (ADDED_FIELDS): accepted, restored to the same straightness and life as the full state, and a missing
+    field that is not an added one is still refused."""
+    params = {**WEAR_MONITOR_DEFAULTS, "effects": "running_in", "running_in_ratio": 2.0,
+              "running_in_distance_m": 300.0}
+    monitor = strokes_and_measurements(params)
     full = monitor.state()
     assert len(full["effects"]["buckets"]) > 0 and len(full["effects"]["measurement_gradients"]) == 4
     check_precision_state(full, PrecisionMonitor(dict(params)).state())       # its own state (was refused)
@@ -364,14 +370,7 @@ def test_an_effects_state_from_before_the_duty_effects_is_accepted_and_restores(
 
     params = {**WEAR_MONITOR_DEFAULTS, "effects": "running_in,retract_asymmetry", "running_in_ratio": 2.0,
               "running_in_distance_m": 300.0, "retract_wear_factor": 0.5}
-    monitor = PrecisionMonitor(dict(params))
-    t = 0
-    for i in range(4000):
-        t += 50_000_000
-        monitor.on_load(t, 2000.0)
-        monitor.on_joint(t, 0.1 + 0.1 * abs(((i % 80) - 40) / 40.0), 0.2)
-        if i % 1000 == 999:
-            monitor.on_straightness(t, 5e-6 + 1e-9 * i)
+    monitor = strokes_and_measurements(params)
     now = json.loads(json.dumps(monitor.state()))
     phi, row, _ = (STATE_LIST_LENGTHS[k][0] for k in ("work_gradient", "buckets", "measurement_gradients"))
     old = json.loads(json.dumps(now))

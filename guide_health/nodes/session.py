@@ -173,3 +173,26 @@ class DiagnosticsCollector:
         self.node.destroy_node()
         self._rclpy.shutdown(context=self.context)
         self._thread.join(timeout=5)
+
+
+def settled_status_after_bag(executable_module: str, params_file: str | Path | list, overrides: dict | None,
+                             env: dict[str, str], bag: str | Path, status_name: str, log_path: str | Path,
+                             settle_key: str = "sliding_distance_m", collector_name: str = "bag_collector",
+                             timeout: float = 120.0) -> dict:
+    """Start a node, wait for its status ``status_name``, play ``bag`` into it at full rate (waiting for a
+    subscriber), and return the status once ``settle_key`` has stopped changing; the node is stopped and the
+    collector closed whatever happens. RuntimeError (with the node's log or bag_player's stderr) when the
+    node does not come up or the player fails."""
+    collector = DiagnosticsCollector(collector_name)
+    node = start_node(executable_module, params_file, overrides, env, log_path=log_path)
+    try:
+        if collector.wait_for(status_name, timeout=30.0) is None:
+            raise RuntimeError(f"{status_name!r} never published:\n{Path(log_path).read_text()}")
+        played = play_bag(bag, env, ["--wait-subscribers", "1", "--max-rate", "0"])
+        if played.returncode != 0:
+            raise RuntimeError(f"bag_player failed:\n{played.stderr}")
+        return collector.wait_settled(status_name, settle_key, settle_s=2.0, timeout=timeout)
+    finally:
+        stop_node(node)
+        collector.close()
+        clean_fastdds_shm()

@@ -38,12 +38,12 @@ from guide_health.models.wear.effects import (
     wear_rate_multiplier,
 )
 
-#: the order of the model file's effect_covariance rows (9 x 9, SI); a 6 x 6 file (before the duty effects)
-#: is the leading block. ``lubrication_wear_growth`` is b [1/s] (recorded relubrications) or a [-] (interval)
+#: the order of the model file's effect_covariance rows (9 x 9, SI; a 6 x 6 file from before the duty effects
+#: is widened on loading, params/schema.py LIST_UPGRADES). ``lubrication_wear_growth`` is b [1/s] (recorded
+#: relubrications) or a [-] (interval)
 COVARIANCE_NAMES = ("wear_coefficient", "running_in_ratio", "running_in_distance_m", "retract_wear_factor",
                     "lift_speed_m_s", "load_exponent", "load_gradient_per_m", "wear_rate_change_factor",
                     "lubrication_wear_growth")
-LEGACY_COVARIANCE_SIZE = 6
 _PHI = len(COVARIANCE_NAMES) - 1       # effect parameters phi (all but K)
 #: per bucket: work, effective work w/o running-in, distance, then d(effective work)/d(rho, v_lift, n, g, f, b)
 _SUMS = 3 + _PHI - 2
@@ -79,7 +79,7 @@ class LiveEffects:
     # straightness measurement by it before the K update
     thermal_drift_m_per_k: float = 0.0
     thermal_reference_c: float = 20.0
-    covariance: tuple = ()             # 81 numbers (or 36: before the duty effects), COVARIANCE_NAMES order
+    covariance: tuple = ()             # 81 numbers, COVARIANCE_NAMES order
 
     @classmethod
     def from_params(cls, p: dict) -> LiveEffects | None:
@@ -124,20 +124,13 @@ class LiveEffects:
     def covariance_matrix(self) -> np.ndarray:
         n = len(COVARIANCE_NAMES)
         c = np.asarray(self.covariance, dtype=float)
-        out = np.zeros((n, n))
-        if c.size == n * n:
-            out[:] = c.reshape(n, n)
-        elif c.size == LEGACY_COVARIANCE_SIZE ** 2:
-            out[:LEGACY_COVARIANCE_SIZE, :LEGACY_COVARIANCE_SIZE] = c.reshape(LEGACY_COVARIANCE_SIZE, -1)
-        return out
+        return c.reshape(n, n) if c.size == n * n else np.zeros((n, n))
 
 
 def duty_factor_terms(e: LiveEffects, t_s: np.ndarray, x_m: np.ndarray, last_relubrication_s: np.ndarray):
     """The duty multipliers of load_along_rail, wear_rate_change and lubrication_interval (effects.py) at
     segment mid-times t [s since the stamps' epoch] and mid-positions x [m]: (m, dm/dg, dm/df, dm/db)
     (``last_relubrication_s``: the recorded form's time base per segment)."""
-    one = np.ones_like(t_s)
-    zero = np.zeros_like(t_s)
     rail = 1.0 + e.load_gradient_per_m * (x_m - e.load_reference_position_m)
     m_rail = np.maximum(rail, 0.0)
     d_g = np.where(rail > 0, x_m - e.load_reference_position_m, 0.0)
@@ -152,11 +145,10 @@ def duty_factor_terms(e: LiveEffects, t_s: np.ndarray, x_m: np.ndarray, last_rel
     m_lube = np.maximum(lube, 0.0)          # a negative growth past the fitted gap: no negative wear
     d_b = np.where(lube > 0, d_b, 0.0)
     m = m_rail * m_change * m_lube
-    with np.errstate(invalid="ignore", divide="ignore"):
-        dm_g = np.where(m_rail > 0, m / np.where(m_rail > 0, m_rail, 1.0) * d_g, zero)
-        dm_f = np.where(after, m_rail * m_lube, zero)
-        dm_b = m_rail * m_change * d_b
-    return m * one, dm_g, dm_f, dm_b
+    dm_g = m_change * m_lube * d_g                  # d_g is 0 where the rail factor is clipped
+    dm_f = np.where(after, m_rail * m_lube, 0.0)
+    dm_b = m_rail * m_change * d_b
+    return m, dm_g, dm_f, dm_b
 
 
 @dataclass
