@@ -470,7 +470,8 @@ def test_a_monitor_with_effects_reports_before_its_first_measurement():
 def test_a_state_with_the_duty_and_thermal_effects_passes_the_state_schema_and_restores():
     """A monitor with all four new live effects, after 2 h (temperatures, a relubrication, measurements): its
     state passes check_precision_state against a fresh monitor of the same parameters and restores to the same
-    report; a corrupted reading (a string stamp, a NaN temperature, unequal lists) is a one-line refusal."""
+    report; a corrupted reading (a string stamp, a NaN temperature, unequal lists, stamps out of order) is a
+    one-line refusal."""
     import copy
 
     from guide_health.models.wear.state_schema import check_precision_state
@@ -497,7 +498,9 @@ def test_a_state_with_the_duty_and_thermal_effects_passes_the_state_schema_and_r
         assert b[key] == pytest.approx(a[key], rel=1e-12), key
     for path, value, message in ((("temperatures", "reading_t_ns", 0), "x", "reading_t_ns"),
                                  (("temperatures", "reading_c", 1), float("nan"), "reading_c"),
-                                 (("temperatures", "reading_c"), [20.0], "length differs")):
+                                 (("temperatures", "reading_c"), [20.0], "length differs"),
+                                 (("temperatures", "reading_t_ns"),
+                                  state["temperatures"]["reading_t_ns"][::-1], "not in stamp order")):
         bad = copy.deepcopy(state)
         node = bad
         for k in path[:-1]:

@@ -130,7 +130,8 @@ def corrupted_rows(draw, base: dict = BASE, paths: list = PATHS) -> str:
 def _comparable(state: dict) -> str:
     """The state as JSON without what restore takes from the parameters; effect lists of the length before
     stop 11 zero-padded and missing added fields at their defaults, as restore does (STATE_LIST_LENGTHS,
-    ADDED_FIELDS)."""
+    ADDED_FIELDS); a JSON number by its value (a row's 12494052982552 is restored as the float
+    12494052982552.0: the same number)."""
     from guide_health.models.wear.effect_wear import STATE_LIST_LENGTHS
     from guide_health.models.wear.state_schema import ADDED_FIELDS
 
@@ -148,7 +149,17 @@ def _comparable(state: dict) -> str:
         effects["buckets"] = [pad(r, "buckets") for r in effects["buckets"]]
         effects["measurement_gradients"] = [pad(r, "measurement_gradients")
                                             for r in effects.get("measurement_gradients", [])]
-    return json.dumps(state, sort_keys=True)
+    return json.dumps(_integral_floats_as_int(state), sort_keys=True)
+
+
+def _integral_floats_as_int(value):
+    if isinstance(value, dict):
+        return {k: _integral_floats_as_int(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_integral_floats_as_int(v) for v in value]
+    if isinstance(value, float) and value.is_integer():
+        return int(value)
+    return value
 
 
 @pytest.fixture(scope="module")

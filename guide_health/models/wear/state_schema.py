@@ -17,6 +17,7 @@ from typing import Any
 
 from guide_health.errors import InputError
 from guide_health.models.wear.effect_wear import STATE_LIST_LENGTHS
+from guide_health.models.wear.precision import TEMPERATURE_HISTORY
 
 #: the parameters a saved precision state belongs to: another value makes it another guide
 FINGERPRINT_PARAMS = ("machine_id", "joint", "guide_type", "contact_width_m", "slider_length_m", "rail_start_m",
@@ -62,6 +63,9 @@ ADDED_FIELDS = {"measurement_gradients": [], "surface_start_m": 0.0,
                 "last_relubrication_t_ns": None, "first_sample_t_ns": None}
 EMPTY_LIST_ELEMENT = {"duty_bucket_index": 0, "measurement_t_ns": 0, "measurement_loss_per_k_m": float("nan"),
                       "reading_t_ns": 0}
+#: stamp lists a monitor keeps in stamp order and bounded (the thermal_drift correction's temperature
+#: readings): another order or a longer list is a corrupt state (restoring it would re-sort or trim it)
+STAMP_ORDERED_LISTS = {"reading_t_ns": TEMPERATURE_HISTORY}
 #: lists of rows of finite numbers, empty in a fresh monitor (effect_wear's duty buckets: index then sums; the
 #: work gradient at each measurement)
 NUMBER_ROWS = frozenset({"buckets", "measurement_gradients"})
@@ -171,6 +175,15 @@ def check_state_like(value: Any, template: Any, where: str = "state") -> None:
         for name in parallel[1:]:
             if len(value[name]) != len(value[parallel[0]]):
                 raise InputError(f"state field {where}.{name}: its length differs from {where}.{parallel[0]}")
+    elif isinstance(template, (list, tuple)) and _field(where) in STAMP_ORDERED_LISTS:
+        if not isinstance(value, (list, tuple)):
+            raise InputError(f"state field {where} must be a list, got {_kind(value)}")
+        _check_list(list(value), list(template), where)
+        if len(value) > STAMP_ORDERED_LISTS[_field(where)]:
+            raise InputError(f"state field {where} has {len(value)} entries, at most "
+                             f"{STAMP_ORDERED_LISTS[_field(where)]}")
+        if any(b < a for a, b in zip(value, value[1:])):
+            raise InputError(f"state field {where} is not in stamp order")
     elif isinstance(template, (list, tuple)):
         if not isinstance(value, (list, tuple)):
             raise InputError(f"state field {where} must be a list, got {_kind(value)}")
