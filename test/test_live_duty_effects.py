@@ -206,7 +206,7 @@ def test_per_sample_callbacks_equal_the_vectorised_path_with_the_duty_effects():
     expected, offline, run, fixed, k, _ = monitored("all_three", hours=2.0, rate_hz=5.0)
     _, live_p = CASES["all_three"]
     p = {**offline.params}
-    sd = np.array([0.05 * k, 0, 0, 0, 0, 0, 1.0, 0.3, 0.5])
+    sd = np.array([0.05 * k, 0, 0, 0, 0, 0, 1.0, 0.3, 0.5, 0])
     p["effect_covariance"] = np.diag(sd ** 2).ravel().tolist()
     run.straightness_m = expected + np.random.default_rng(3).normal(0.0, 0.3e-6, expected.size)
     a_mon = PrecisionMonitor(p)
@@ -222,7 +222,7 @@ def test_per_sample_callbacks_equal_the_vectorised_path_with_the_duty_effects():
     assert b_mon.work_nm() == pytest.approx(a_mon.work_nm(), rel=1e-9)
     for key in ("straightness_um", "remaining_life_h", "remaining_life_h_low", "remaining_life_h_high"):
         assert b[key] == pytest.approx(a[key], rel=1e-6), key
-    narrow = PrecisionMonitor({**p, "effect_covariance": [0.0] * 81})
+    narrow = PrecisionMonitor({**p, "effect_covariance": [0.0] * 100})
     narrow.process_run(run)
     n = narrow.report()
     assert n["remaining_life_h"] == pytest.approx(a["remaining_life_h"], rel=1e-9)
@@ -403,7 +403,8 @@ def test_model_file_with_thermal_drift_carries_the_reference_temperature(tmp_pat
 def test_live_node_with_the_duty_and_thermal_effects_matches_replay(tmp_path, ros_test_env):
     """wear_monitor --params-file BASE --params-file model.yaml against replay of the same bag (bench, 1.5 h,
     guide temperature at 0.2 Hz, two relubricate events on maintenance/events) with load_along_rail,
-    wear_rate_change, lubrication_interval (recorded) and thermal_drift: same samples and measurements,
+    wear_rate_change, lubrication_interval (recorded), thermal_drift and stroke_distribution (the node's
+    passes, one joint message at a time): same samples and measurements,
     straightness, K and remaining life with its interval to 0.5 %."""
     pytest.importorskip("rclpy")
     from guide_health.analysis.replay import analyse_bag
@@ -423,10 +424,12 @@ def test_live_node_with_the_duty_and_thermal_effects_matches_replay(tmp_path, ro
     bag = tmp_path / "bench"
     write_machine_bag(run, bag, extra=event_series(events, base["machine_id"]))
     model = tmp_path / "model.yaml"
-    cov = np.diag([(0.02 * 4.4e-6) ** 2, 0, 0, 0, 0, 0, 0.5 ** 2, 0.1 ** 2, (0.1 / H) ** 2]).ravel().tolist()
+    cov = np.diag([(0.02 * 4.4e-6) ** 2, 0, 0, 0, 0, 0, 0.5 ** 2, 0.1 ** 2, (0.1 / H) ** 2, 0.05 ** 2]).ravel().tolist()
     model.write_text(yaml.safe_dump({"wear_monitor": {"ros__parameters": {
-        "wear_coefficient": 4.4e-6, "effects": "load_along_rail,wear_rate_change,lubrication_interval,thermal_drift",
-        "load_gradient_per_m": 2.0, "load_reference_position_m": 0.15, "wear_rate_change_factor": 1.8,
+        "wear_coefficient": 4.4e-6,
+        "effects": "load_along_rail,wear_rate_change,lubrication_interval,thermal_drift,stroke_distribution",
+        "stroke_distribution_weight": 0.6, "load_gradient_per_m": 2.0, "load_reference_position_m": 0.15,
+        "wear_rate_change_factor": 1.8,
         "wear_rate_change_stamp_s": (t0 + 0.7 * H * 1e9) * 1e-9, "lubrication_wear_growth": 0.6 / H,
         "lubrication_interval_s": 0.0, "lubrication_reference_stamp_s": (t0 + 1.1 * H * 1e9) * 1e-9,
         "thermal_drift_m_per_k": 0.8e-6, "thermal_reference_c": float(np.mean(run.temperature_c)),

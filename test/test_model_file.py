@@ -98,6 +98,10 @@ def covers(interval, truth) -> bool:
     ({"running_in": 1.5, "retract_asymmetry": 0.5, "load_exponent": 1.4},
      {"effects": "running_in,retract_asymmetry,load_exponent", "running_in_ratio": 1.5, "retract_wear_factor": 0.5,
       "load_exponent": 1.4}),
+    ({"stroke_distribution": 0.7}, {"effects": "stroke_distribution", "stroke_distribution_weight": 0.7}),
+    ({"stroke_distribution": 0.5, "running_in": 2.0, "retract_asymmetry": 0.4},
+     {"effects": "stroke_distribution,running_in,retract_asymmetry", "stroke_distribution_weight": 0.5,
+      "running_in_ratio": 2.0, "retract_wear_factor": 0.4}),
 ])
 def test_live_effects_integrate_the_independent_reference(effects, live):
     """machine_jobs (varying feed speed, cutting load, rapid light retract): the monitor's straightness at
@@ -132,9 +136,9 @@ def test_live_per_sample_path_equals_the_vectorised_path():
     params = wear_monitor_params(JOBS)
     sim = dict(simulation_params(JOBS), duration_h=1.0, joint_state_rate_hz=10.0)
     run = simulate_machine(params, sim, seed=2, effects={"running_in": 1.0, "retract_asymmetry": 0.4})
-    p = {**params, "effects": "running_in,retract_asymmetry", "running_in_ratio": 1.0, "running_in_distance_m": 300.0,
-         "retract_wear_factor": 0.4,
-         "effect_covariance": list(np.diag([1e-14, 0.01, 100.0, 0.001, 0, 0, 0, 0, 0]).ravel())}
+    p = {**params, "effects": "running_in,retract_asymmetry,stroke_distribution", "running_in_ratio": 1.0,
+         "running_in_distance_m": 300.0, "retract_wear_factor": 0.4, "stroke_distribution_weight": 0.6,
+         "effect_covariance": list(np.diag([1e-14, 0.01, 100.0, 0.001, 0, 0, 0, 0, 0, 0.01]).ravel())}
     offline = PrecisionMonitor(p)
     offline.process_run(run)
     live = PrecisionMonitor(p)
@@ -146,6 +150,12 @@ def test_live_per_sample_path_equals_the_vectorised_path():
         (live.on_joint, live.on_load, live.on_straightness)[kind](t, value)
     a, b = offline.report(), live.report()
     assert live.effect_wear.effective_work_nm == pytest.approx(offline.effect_wear.effective_work_nm, rel=1e-9)
+    # stroke_distribution's passes: one segment per call live, whole arrays offline
+    assert live.effect_wear.pass_work_now_n() == pytest.approx(offline.effect_wear.pass_work_now_n(), rel=1e-9)
+    assert live.effect_wear.measurement_pass_work_n == pytest.approx(offline.effect_wear.measurement_pass_work_n,
+                                                                     rel=1e-9)
+    assert live.effect_wear.window_sums(live.integrator.last_t_ns) == pytest.approx(
+        offline.effect_wear.window_sums(offline.integrator.last_t_ns), rel=1e-9)
     for key in ("straightness_um", "remaining_life_h", "remaining_life_h_low", "remaining_life_h_high",
                 "wear_coefficient"):
         assert b[key] == pytest.approx(a[key], rel=1e-6), key
@@ -229,14 +239,18 @@ def test_diagnose_writes_a_model_file_that_replay_loads(tmp_path):
     cli("simulate", "--params", str(BENCH), "--out", str(bag), "--rate", "5", "--seed", "3",
         "--effect", "running_in=2.5")
     out = tmp_path / "diag"
-    cli("diagnose", str(bag), "--params", str(BENCH), "--out", str(out), "--no-plot")
+    text = cli("diagnose", str(bag), "--params", str(BENCH), "--out", str(out), "--no-plot").stdout
     model = yaml.safe_load((out / "model.yaml").read_text())["wear_monitor"]["ros__parameters"]
+    # what goes live, with its standard errors, in the text and in report.md
+    sd = math.sqrt(model["effect_covariance"][11])
+    line = f"running_in_ratio = {model['running_in_ratio']:.4g} ± {sd:.2g}"
+    assert line in text and line in (out / "report.md").read_text(), text
     assert model["effects"] == "running_in"
     assert "the effects the live monitor integrates: running_in." in (out / "report.md").read_text()
     assert (out / "model.yaml").read_text().startswith("# guide-health diagnose")     # explained: no warning
     assert model["running_in_ratio"] == pytest.approx(2.5, rel=0.2)
     assert model["running_in_distance_m"] == pytest.approx(300.0, rel=0.2)
-    assert len(model["effect_covariance"]) == 81 and model["effect_covariance"][0] > 0
+    assert len(model["effect_covariance"]) == 100 and model["effect_covariance"][0] > 0
     merged = wear_monitor_params([BENCH, out / "model.yaml"])
     assert merged["effects"] == "running_in" and merged["contact_width_m"] == 0.040    # base kept, model over it
     params = wear_monitor_params(BENCH)
@@ -253,33 +267,35 @@ def test_diagnose_writes_a_model_file_that_replay_loads(tmp_path):
 
 
 def test_a_model_file_from_before_the_duty_effects_still_loads(tmp_path):
-    """A stop-10 model file holds a 6 x 6 effect_covariance: loaded as the leading block of the 9 x 9 (zeros
-    elsewhere), the same life and interval as the file written with the 9 x 9; 37 numbers are refused."""
+    """A stop-10 model file holds a 6 x 6 effect_covariance, a stop-11 one a 9 x 9: each loads as the leading
+    block of the 10 x 10 (zeros elsewhere), the same life and interval as the file written with the 10 x 10;
+    37 numbers are refused."""
     cov6 = np.diag([(0.02 * 4.4e-6) ** 2, 0.1 ** 2, 30.0 ** 2, 0.05 ** 2, 0.0, 0.0])
     cov6[0, 1] = cov6[1, 0] = 0.3 * (0.02 * 4.4e-6) * 0.1
     body = {"wear_coefficient": 4.4e-6, "effects": "running_in,retract_asymmetry", "running_in_ratio": 2.0,
             "running_in_distance_m": 300.0, "retract_wear_factor": 0.5}
-    old, new = tmp_path / "old.yaml", tmp_path / "new.yaml"
-    old.write_text(yaml.safe_dump({"wear_monitor": {"ros__parameters": {**body,
-                                                                        "effect_covariance": cov6.ravel().tolist()}}}))
-    cov9 = np.zeros((9, 9))
-    cov9[:6, :6] = cov6
-    new.write_text(yaml.safe_dump({"wear_monitor": {"ros__parameters": {**body,
-                                                                        "effect_covariance": cov9.ravel().tolist()}}}))
-    a, b = wear_monitor_params([BENCH, old]), wear_monitor_params([BENCH, new])
-    assert a["effect_covariance"] == b["effect_covariance"]
+    files = {}
+    for size in (6, 9, 10):
+        cov = np.zeros((size, size))
+        cov[:6, :6] = cov6
+        files[size] = tmp_path / f"cov{size}.yaml"
+        files[size].write_text(yaml.safe_dump({"wear_monitor": {"ros__parameters": {
+            **body, "effect_covariance": cov.ravel().tolist()}}}))
+    loaded = {size: wear_monitor_params([BENCH, f]) for size, f in files.items()}
+    assert loaded[6]["effect_covariance"] == loaded[10]["effect_covariance"] == loaded[9]["effect_covariance"]
+    assert len(loaded[6]["effect_covariance"]) == 100
     params, run = bench_running_in(2, rate_hz=5.0)
-    assert replay_life(a, run) == pytest.approx(replay_life(b, run), rel=1e-12)
+    assert replay_life(loaded[6], run) == pytest.approx(replay_life(loaded[10], run), rel=1e-12)
     bad = tmp_path / "bad.yaml"
     bad.write_text(yaml.safe_dump({"wear_monitor": {"ros__parameters": {**body, "effect_covariance": [0.0] * 37}}}))
-    with pytest.raises(InputError, match="effect_covariance must be a list of 81 numbers"):
+    with pytest.raises(InputError, match="effect_covariance must be a list of 100 numbers"):
         wear_monitor_params([BENCH, bad])
 
 
 def test_a_bad_model_file_is_one_line(tmp_path):
     bad = tmp_path / "model.yaml"
-    bad.write_text("wear_monitor:\n  ros__parameters:\n    effects: running_in,stroke_distribution\n")
-    with pytest.raises(InputError, match="not live effect 'stroke_distribution'"):
+    bad.write_text("wear_monitor:\n  ros__parameters:\n    effects: running_in,initial_offset\n")
+    with pytest.raises(InputError, match="not live effect 'initial_offset'"):
         wear_monitor_params([BENCH, bad])
     bad.write_text("wear_monitor:\n  ros__parameters:\n    running_in_ratio: -1.0\n")
     proc = cli("replay", str(tmp_path / "nobag"), "--params", str(BENCH), "--params", str(bad), check=False)
@@ -390,7 +406,7 @@ def test_a_regrind_restarts_running_in_as_on_a_new_guide():
     live = {**params, "stroke_min_m": 0.1, "stroke_max_m": 0.3, "effects": "running_in", "running_in_ratio": 2.5,
             "running_in_distance_m": 300.0,
             "effect_covariance": np.diag([(0.01 * 4.42e-6) ** 2, 0.1 ** 2, 20.0 ** 2,
-                                          0, 0, 0, 0, 0, 0]).ravel().tolist()}
+                                          0, 0, 0, 0, 0, 0, 0]).ravel().tolist()}
     t_regrind = int(run.joint_t_ns[0]) + int(1.7 * 3600e9) + 123_456_789
     event = MaintenanceEvent(t_regrind, "regrind", params["joint"], straightness_m=20e-6)
     axis = AxisMonitor(live)

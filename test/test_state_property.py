@@ -31,12 +31,12 @@ ROLLING_PARAMS = dict(wear_monitor_params(Path(__file__).resolve().parents[1] / 
 PARAMS = dict(WEAR_MONITOR_DEFAULTS, machine_id="m1", joint="x")
 #: every live effect of a model file (docs/model_file.md), the duty and thermal ones included
 EFFECTS = {"effects": "running_in,retract_asymmetry,load_exponent,load_along_rail,wear_rate_change,"
-                      "lubrication_interval,thermal_drift",
+                      "lubrication_interval,thermal_drift,stroke_distribution", "stroke_distribution_weight": 0.4,
            "running_in_ratio": 1.5, "running_in_distance_m": 50.0, "retract_wear_factor": 0.6, "load_exponent": 1.3,
            "load_gradient_per_m": 2.0, "load_reference_position_m": 0.2, "wear_rate_change_factor": 1.7,
            "wear_rate_change_stamp_s": 1_700_000_020.0, "lubrication_wear_growth": 1e-3,
            "thermal_drift_m_per_k": 1e-6, "thermal_reference_c": 21.0,
-           "effect_covariance": [1e-4 if i % 10 == 0 else 0.0 for i in range(81)]}
+           "effect_covariance": [1e-4 if i % 11 == 0 else 0.0 for i in range(100)]}
 EFFECT_PARAMS = dict(PARAMS, **EFFECTS)
 EFFECT_RULE_PARAMS = dict(RULE_PARAMS, **EFFECTS)
 KEY = "m1/x/precision"

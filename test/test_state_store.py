@@ -396,3 +396,43 @@ def test_an_effects_state_from_before_the_duty_effects_is_accepted_and_restores(
         bad["effects"]["buckets"] = bad_rows
         with pytest.raises(InputError, match="buckets"):
             check_precision_state(bad, PrecisionMonitor(dict(params)).state())
+
+
+def test_an_effects_state_from_stop_11_is_accepted_and_restores():
+    """A state saved at stop 11 (8 work gradients, bucket rows of 1 + 9, no pass work): accepted, zero-padded,
+    restored to the same straightness, K and life. Loaded with stroke_distribution now named, its pass work
+    P, which it never kept, is estimated as G / max(mean stroke, L_s): exact for strokes of one length
+    (0.1 m here, as long as the slider), so P, the straightness, K and life equal those of a monitor that ran
+    with stroke_distribution from the start (1e-9); without the estimate (P and the duty window's pass sums
+    zero) that life was 111 h against 54 h."""
+    params = {**WEAR_MONITOR_DEFAULTS, "effects": "running_in,retract_asymmetry", "running_in_ratio": 2.0,
+              "running_in_distance_m": 300.0, "retract_wear_factor": 0.5, "slider_length_m": 0.1}
+    monitor = strokes_and_measurements(params)
+    old = json.loads(json.dumps(monitor.state()))
+    eff = old["effects"]
+    eff["work_gradient"] = eff["work_gradient"][:8]
+    eff["buckets"] = [r[:10] for r in eff["buckets"]]
+    eff["measurement_gradients"] = [g[:8] for g in eff["measurement_gradients"]]
+    for name in ("pass_work_n", "pass_direction", "pass_length_m", "pass_open_work_nm", "pass_open_buckets",
+                 "measurement_pass_work_n"):
+        del eff[name]
+    check_precision_state(old, PrecisionMonitor(dict(params)).state())
+    again = PrecisionMonitor(dict(params))
+    again.restore(json.loads(json.dumps(old)))
+    before, after = monitor.report(), again.report()
+    keys = ("straightness_um", "wear_coefficient", "remaining_life_h", "remaining_life_h_low", "remaining_life_h_high")
+    for key in keys:
+        assert after[key] == pytest.approx(before[key], rel=1e-12), key
+    with_w = {**params, "effects": "running_in,retract_asymmetry,stroke_distribution",
+              "stroke_distribution_weight": 0.5}
+    fresh = strokes_and_measurements(with_w)
+    restored = PrecisionMonitor(dict(with_w))
+    restored.restore(json.loads(json.dumps(old)))
+    assert restored.effect_wear.pass_work_now_n() == pytest.approx(fresh.effect_wear.pass_work_now_n(), rel=1e-9)
+    a, b = fresh.report(), restored.report()
+    for key in keys:
+        assert b[key] == pytest.approx(a[key], rel=1e-9), key
+    # the closed form: strokes of L = L_s, so P = G / L, and each bucket's pass sum is its effective work / L
+    ew = restored.effect_wear
+    assert ew.pass_work_now_n() == pytest.approx(ew.effective_work_nm / 0.1, rel=1e-9)
+    assert all(row[9] == pytest.approx(row[1] / 0.1, rel=1e-12) and row[9] > 0 for row in ew.buckets.values())

@@ -141,6 +141,10 @@ def format_text(result: dict) -> str:
         lines.append(f"  steady stage (from {s['from_h']:.1f} h): max rel. error {s['baseline_max_rel_error']:.1%} -> "
                      f"{s['final_max_rel_error']:.1%}")
     lines.append(f"  time:            read {result['read_s']:.1f} s, fit {result['fit_s']:.1f} s")
+    if any(str(f).endswith("model.yaml") for f in result["files"].values()):
+        from guide_health.analysis.discrepancy.model_file import live_parameter_text
+
+        lines.append(f"  model.yaml:      {live_parameter_text(result['model_file'])} (refitted on every measurement)")
     lines.append(f"  files:           {', '.join(result['files'].values())}")
     return "\n".join(lines)
 

@@ -103,9 +103,10 @@ def _square_block_padded(values: list, size: int) -> list:
     return out
 
 
-#: numeric-list parameters that grew, with the older length a file may still hold and how it widens (every
-#: loader goes through coerce_value): the 6 x 6 effect_covariance of model files before stop 11's duty effects
-LIST_UPGRADES = {"effect_covariance": (36, _square_block_padded)}
+#: numeric-list parameters that grew, with the older lengths a file may still hold and how it widens (every
+#: loader goes through coerce_value): the effect_covariance of model files before stop 11's duty effects
+#: (6 x 6) and before stop 12's stroke_distribution (9 x 9)
+LIST_UPGRADES = {"effect_covariance": ((36, 81), _square_block_padded)}
 
 
 def coerce_value(name: str, value: Any, default: Any) -> Any:
@@ -142,7 +143,7 @@ def coerce_value(name: str, value: Any, default: Any) -> Any:
         return list(value)
     if isinstance(default, list):
         upgrade = LIST_UPGRADES.get(name)
-        if upgrade and isinstance(value, list) and len(value) == upgrade[0] != len(default):
+        if upgrade and isinstance(value, list) and len(value) in upgrade[0] and len(value) != len(default):
             value = upgrade[1](value, len(default))
         if not isinstance(value, list) or len(value) != len(default):
             raise InputError(f"parameter {name} must be a list of {len(default)} numbers, got {value!r}")

@@ -93,10 +93,14 @@ SLIDING_GUIDE_PARAMS = (
     Param("thermal_reference_c", 20.0, "degC", "[-1e6, 1e6]",
           "thermal_drift T_ref: the guide temperature at which the gauge reads the true straightness (diagnose's "
           "T_0 - b / c_T: far from the guide's temperatures when the drift is mostly a constant offset)"),
-    Param("effect_covariance", [0.0] * 81, "SI", "",
-          "covariance (row-major 9 x 9) of the fitted wear_coefficient, running_in_ratio, running_in_distance_m, "
+    Param("stroke_distribution_weight", 0.0, "-", "[-1, 2]",
+          "stroke_distribution w: A_wear = K / (H b) [(1 - w) 2 G / (l_min + l_max) + w P], P the work of each pass "
+          "over max(pass length, slider length) (Eq. 5's j = 1/2 at w = 0); diagnose fits it in [-1, 2]"),
+    Param("effect_covariance", [0.0] * 100, "SI", "",
+          "covariance (row-major 10 x 10) of the fitted wear_coefficient, running_in_ratio, running_in_distance_m, "
           "retract_wear_factor, lift_speed_m_s, load_exponent, load_gradient_per_m, wear_rate_change_factor, "
-          "lubrication_wear_growth (SI); widens the remaining-life interval"),
+          "lubrication_wear_growth, stroke_distribution_weight (SI); widens the remaining-life interval (a 6 x 6 "
+          "or 9 x 9 of an older model file loads as the leading block)"),
     Param("life_warn_h", 500.0, "h", "(0, 1e7]", "WARN when the remaining precision life drops below this",
           dynamic=True),
     Param("life_error_h", 100.0, "h", "[0, 1e7]",
@@ -196,7 +200,7 @@ ROLLING_GUIDE_PARAMS = (
 
 #: effect ids the live model integrates (models/wear/effect_wear.py); initial_offset is folded into A0
 LIVE_EFFECT_IDS = ("running_in", "retract_asymmetry", "speed_dependent_wear", "load_exponent", "load_along_rail",
-                   "wear_rate_change", "lubrication_interval", "thermal_drift")
+                   "wear_rate_change", "lubrication_interval", "thermal_drift", "stroke_distribution")
 
 
 def effect_ids(p: dict[str, Any]) -> list[str]:

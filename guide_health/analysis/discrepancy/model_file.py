@@ -2,7 +2,7 @@
 
 A ROS 2 parameters file (``wear_monitor: ros__parameters:``) with the calibrated K, the A0 the fit used,
 the named effects the live model integrates (``effects`` and their parameters, params/wear_monitor.py) and
-the covariance of the fitted K and effect parameters (9 x 9, models/wear/effect_wear.COVARIANCE_NAMES).
+the covariance of the fitted K and effect parameters (10 x 10, models/wear/effect_wear.COVARIANCE_NAMES).
 The duty effects' times become absolute (seconds since the stamps' epoch): the change time of
 wear_rate_change, lubrication_interval's reference (the record's start for a fitted interval, the last
 recorded relubrication otherwise); load_along_rail carries the fit's x_ref.
@@ -12,8 +12,8 @@ Load it after the base file, the later overriding, as ROS merges several ``--par
     ros2 run guide_health wear_monitor --ros-args --params-file base.yaml --params-file DIR/model.yaml
 
 thermal_drift goes in as the gauge correction (c_T and the absolute T_ref: the live model corrects each
-measurement by c_T (T - T_ref) before the K update). stroke_distribution (the pass-length weighting) is
-listed in a comment, not applied; initial_offset is folded into A0.
+measurement by c_T (T - T_ref) before the K update). stroke_distribution's weight w maps the effective
+work of each pass to straightness (effect_wear.EffectWear's pass work); initial_offset is folded into A0.
 """
 from __future__ import annotations
 
@@ -38,6 +38,7 @@ EFFECT_PARAMETERS = {
     "load_along_rail": ("load_gradient_per_m",),
     "wear_rate_change": ("wear_rate_change_factor",),
     "thermal_drift": ("thermal_drift_m_per_k",),
+    "stroke_distribution": ("stroke_distribution_weight",),
 }
 #: effects of the material pair and lubricant, shared by machines of a type (the fleet prior pools them);
 #: the others belong to one machine's history or mounting (a change time, a relubrication plan, a rail)
@@ -96,6 +97,22 @@ def model_parameters(problem, final, named: list[str]) -> dict[str, Any]:
                 matrix[COVARIANCE_NAMES.index(a), COVARIANCE_NAMES.index(b)] = cov["matrix"][index[a], index[b]]
     out["effect_covariance"] = [float(x) if math.isfinite(x) else 0.0 for x in matrix.ravel()]
     return out
+
+
+def live_parameter_text(model: dict[str, Any]) -> str:
+    """"K = 4.457e-06 ± 6.1e-08, stroke_distribution_weight = 0.59 ± 0.061": the model file's K and effect
+    parameters with their standard errors (the covariance's diagonal). These are refitted on every
+    measurement, so they differ from the selection's values (fitted without the held-out span)."""
+    n = len(COVARIANCE_NAMES)
+    cov = np.asarray(model.get("effect_covariance", [0.0] * n * n), dtype=float).reshape(n, n)
+    names = ["wear_coefficient"] + [p for e in str(model.get("effects", "")).split(",") if e
+                                    for p in EFFECT_PARAMETERS.get(e, ())]
+    parts = []
+    for name in names:
+        i = COVARIANCE_NAMES.index(name) if name in COVARIANCE_NAMES else None
+        sd = math.sqrt(cov[i, i]) if i is not None and cov[i, i] > 0 else None
+        parts.append(f"{name} = {model[name]:.4g}" + (f" ± {sd:.2g}" if sd is not None else ""))
+    return ", ".join(parts)
 
 
 def not_live_effects(named: list[str]) -> list[str]:

@@ -20,12 +20,15 @@ def _fmt(v: float, unit: str = "") -> str:
 
 def model_file_lines(result: dict[str, Any]) -> list[str]:
     """What model.yaml (beside the report) gives the live monitor, and how to load it."""
-    from guide_health.analysis.discrepancy.model_file import not_live_effects
+    from guide_health.analysis.discrepancy.model_file import live_parameter_text, not_live_effects
 
     model = result.get("model_file") or {}
     live = [e for e in str(model.get("effects", "")).split(",") if e]
     out = [f"`model.yaml` holds K = {model.get('wear_coefficient', math.nan):.4g} and "
            + (f"the effects the live monitor integrates: {', '.join(live)}." if live else "no effect (plain Archard).")]
+    if model:
+        out.append(f"Refitted on every measurement (the values above left the held-out span out): "
+                   f"{live_parameter_text(model)}.")
     skipped = not_live_effects(result["named_effects"])
     if skipped:
         out.append(f"Named but not applied live: {', '.join(skipped)}.")

@@ -7,8 +7,12 @@ retract strokes. :class:`EffectWear` receives every sliding segment of the
 the vectorised offline path alike) and keeps
 
 - the effective work G_eff = sum W ds m [N m] (what the online K update regresses on: K stays linear);
+- stroke_distribution's pass work P = sum over passes of (W ds m) / max(L, L_s) [N] (a pass: a run of one
+  direction of sliding, L its length, L_s the slider's; the straightness per unit K is
+  [(1 - w) 2 G / (l_min + l_max) + w P] / (H b), effects.straightness_wear_m);
 - per duty bucket (the integrator's buckets): the work, the effective work without running-in, the sliding
-  distance, and the work-weighted derivatives of m by rho, v_lift and n (for the interval).
+  distance, the work-weighted derivatives of m by rho, v_lift, n, g, f and b (for the interval), and the
+  pass work without running-in (for the rate).
 
 The remaining life (seed 000 Eq. 12 from the present state) integrates the running-in decay forward:
 A(t_now + T) - A(t_now) = K c [T + r s0 / v_s e^(-s/s0) (1 - e^(-v_s T / s0))], c = dA/dt per K at steady
@@ -38,18 +42,24 @@ from guide_health.models.wear.effects import (
     wear_rate_multiplier,
 )
 
-#: the order of the model file's effect_covariance rows (9 x 9, SI; a 6 x 6 file from before the duty effects
-#: is widened on loading, params/schema.py LIST_UPGRADES). ``lubrication_wear_growth`` is b [1/s] (recorded
+#: the order of the model file's effect_covariance rows (10 x 10, SI; the 6 x 6 or 9 x 9 of an older file is
+#: widened on loading, params/schema.py LIST_UPGRADES). ``lubrication_wear_growth`` is b [1/s] (recorded
 #: relubrications) or a [-] (interval)
 COVARIANCE_NAMES = ("wear_coefficient", "running_in_ratio", "running_in_distance_m", "retract_wear_factor",
                     "lift_speed_m_s", "load_exponent", "load_gradient_per_m", "wear_rate_change_factor",
-                    "lubrication_wear_growth")
+                    "lubrication_wear_growth", "stroke_distribution_weight")
 _PHI = len(COVARIANCE_NAMES) - 1       # effect parameters phi (all but K)
-#: per bucket: work, effective work w/o running-in, distance, then d(effective work)/d(rho, v_lift, n, g, f, b)
-_SUMS = 3 + _PHI - 2
+#: the phi whose multipliers set the present rate, in bucket-sum order (sums[3:9])
+_RATE_PHI = slice(2, 8)
+#: per bucket: work, effective work w/o running-in, distance, d(effective work)/d(rho, v_lift, n, g, f, b),
+#: the pass work sum W ds m / max(L, L_s) w/o running-in (stroke_distribution)
+_SUMS = 10
+PASS_SUM = 9
 #: lengths of the saved lists (a work gradient, a bucket row: index then sums, a measurement's gradient):
-#: (now, before stop 11's duty effects); a state of the earlier length is zero-padded on restore
-STATE_LIST_LENGTHS = {"work_gradient": (_PHI, 5), "buckets": (1 + _SUMS, 7), "measurement_gradients": (_PHI, 5)}
+#: (now, stop 11, stop 10); a state of an earlier length is zero-padded on restore (the terms added since were
+#: zero then: w has no work gradient, and the pass sums only count for stroke_distribution)
+STATE_LIST_LENGTHS = {"work_gradient": (_PHI, 8, 5), "buckets": (1 + _SUMS, 10, 7),
+                      "measurement_gradients": (_PHI, 8, 5), "pass_open_buckets": (2,)}
 
 
 @dataclass(frozen=True)
@@ -79,7 +89,11 @@ class LiveEffects:
     # straightness measurement by it before the K update
     thermal_drift_m_per_k: float = 0.0
     thermal_reference_c: float = 20.0
-    covariance: tuple = ()             # 81 numbers, COVARIANCE_NAMES order
+    # stroke_distribution: A_wear = K / (H b) [(1 - w) 2 G / (l_min + l_max) + w P], P = sum W ds m / max(L, L_s)
+    # over passes of length L (effects.straightness_wear_m; L_s the slider length)
+    stroke_distribution_weight: float = 0.0
+    slider_length_m: float = 0.0
+    covariance: tuple = ()             # 100 numbers, COVARIANCE_NAMES order
 
     @classmethod
     def from_params(cls, p: dict) -> LiveEffects | None:
@@ -108,6 +122,9 @@ class LiveEffects:
             lubrication_reference_stamp_s=float(p.get("lubrication_reference_stamp_s", 0.0)),
             thermal_drift_m_per_k=float(p.get("thermal_drift_m_per_k", 0.0)) if "thermal_drift" in ids else 0.0,
             thermal_reference_c=float(p.get("thermal_reference_c", 20.0)),
+            stroke_distribution_weight=(float(p.get("stroke_distribution_weight", 0.0))
+                                        if "stroke_distribution" in ids else 0.0),
+            slider_length_m=float(p.get("slider_length_m", 0.0)),
             covariance=tuple(float(v) for v in p.get("effect_covariance", ())),
         )
 
@@ -115,7 +132,8 @@ class LiveEffects:
         """The effect parameters in COVARIANCE_NAMES order after K (v_lift 0 when absent)."""
         return np.array([self.running_in_ratio, self.running_in_distance_m, self.retract_wear_factor,
                          self.lift_speed_m_s if math.isfinite(self.lift_speed_m_s) else 0.0, self.load_exponent,
-                         self.load_gradient_per_m, self.wear_rate_change_factor, self.lubrication_growth])
+                         self.load_gradient_per_m, self.wear_rate_change_factor, self.lubrication_growth,
+                         self.stroke_distribution_weight])
 
     def wear_effects(self) -> WearEffects:
         return WearEffects(retract_wear_factor=self.retract_wear_factor, lift_speed_m_s=self.lift_speed_m_s,
@@ -124,7 +142,11 @@ class LiveEffects:
     def covariance_matrix(self) -> np.ndarray:
         n = len(COVARIANCE_NAMES)
         c = np.asarray(self.covariance, dtype=float)
-        return c.reshape(n, n) if c.size == n * n else np.zeros((n, n))
+        if c.size == 0:
+            return np.zeros((n, n))
+        if c.size != n * n:       # the schema widens an older file's (params/schema.py LIST_UPGRADES)
+            raise ValueError(f"effect_covariance has {c.size} numbers, not {n * n}")
+        return c.reshape(n, n)
 
 
 def duty_factor_terms(e: LiveEffects, t_s: np.ndarray, x_m: np.ndarray, last_relubrication_s: np.ndarray):
@@ -171,6 +193,18 @@ class EffectWear:
     # this guide integrated (the record's start, before the first event) [ns since the epoch]; None: not yet
     last_relubrication_ns: int | None = None
     first_t_ns: int | None = None
+    # stroke_distribution's pass work on the present surface (effects.straightness_wear_m's P): a pass (a run of
+    # one direction of sliding, as diagnose's duty cells count it) weighs 1 / max(L, L_s), known when it ends;
+    # the open pass counts with its length so far. P of the ended passes [N] (with running-in), the open
+    # pass's direction (+-1, 0 before any), length so far [m], effective work with running-in [N m] and
+    # without it per duty bucket (added to the buckets' pass sums when it ends)
+    pass_work_n: float = 0.0
+    pass_direction: int = 0
+    pass_length_m: float = 0.0
+    pass_open_work_nm: float = 0.0
+    pass_open_buckets: dict = field(default_factory=dict)
+    # pass_work_now_n at each straightness measurement (parallel to measurement_gradients)
+    measurement_pass_work_n: list = field(default_factory=list)
 
     def add_segments(self, t_start_ns, t_end_ns, xa_m, xb_m, load_n, s_start_m) -> None:
         """Sliding segments from xa to xb between the stamps, under load_n (NaN / 0: no wear), starting at
@@ -217,11 +251,80 @@ class EffectWear:
                 for v in (work, eff, ds, d_rho, d_vl, d_n, d_g, d_f, d_b)]
         for i, b in enumerate(uniq.tolist()):
             row = self.buckets.setdefault(int(b), [0.0] * _SUMS)
-            for j in range(_SUMS):
+            for j in range(len(sums)):
                 row[j] += float(sums[j][i])
+        self._add_passes(np.sign(xb - xa).astype(np.int64), ds, eff * ri, eff, bucket)
         newest = max(self.buckets)
         for b in [b for b in self.buckets if b <= newest - self.duty_buckets]:
             del self.buckets[b]
+
+    def _add_passes(self, direction: np.ndarray, ds: np.ndarray, work_ri: np.ndarray, work: np.ndarray,
+                    bucket: np.ndarray) -> None:
+        """stroke_distribution's passes: segments in time order with their direction (+-1), length [m],
+        effective work with and without running-in [N m] and duty bucket. A change of direction ends the
+        open pass; the passes that end here add W ds m / max(L, L_s) to P and to their buckets' pass sums."""
+        if int(direction[0]) != self.pass_direction:
+            self._end_pass()
+        if direction.size == 1:                         # the live per-sample path: the same, in plain Python
+            b = int(bucket[0])
+            self.pass_direction = int(direction[0])
+            self.pass_length_m += float(ds[0])
+            self.pass_open_work_nm += float(work_ri[0])
+            self.pass_open_buckets[b] = self.pass_open_buckets.get(b, 0.0) + float(work[0])
+            return
+        starts = np.concatenate(([0], np.flatnonzero(direction[1:] != direction[:-1]) + 1))
+        lengths = np.add.reduceat(ds, starts)
+        works = np.add.reduceat(work_ri, starts)
+        lengths[0] += self.pass_length_m
+        works[0] += self.pass_open_work_nm
+        ended = starts.size - 1                         # passes [0, ended) end in this call
+        if ended:
+            weight = 1.0 / np.maximum(lengths[:ended], self.effects.slider_length_m)
+            self.pass_work_n += float(works[:ended] @ weight)
+            self._add_pass_sums(self.pass_open_buckets, float(weight[0]))
+            cut = int(starts[-1])
+            seg_weight = np.repeat(weight, np.diff(starts))
+            uniq, inverse = np.unique(bucket[:cut], return_inverse=True)
+            self._add_pass_sums(dict(zip(uniq.tolist(), np.bincount(inverse, work[:cut] * seg_weight).tolist())), 1.0)
+            self.pass_open_buckets = {}
+        else:
+            cut = 0
+        uniq, inverse = np.unique(bucket[cut:], return_inverse=True)
+        for b, v in zip(uniq.tolist(), np.bincount(inverse, work[cut:]).tolist()):
+            self.pass_open_buckets[int(b)] = self.pass_open_buckets.get(int(b), 0.0) + v
+        self.pass_direction = int(direction[-1])
+        self.pass_length_m = float(lengths[-1])
+        self.pass_open_work_nm = float(works[-1])
+
+    def _end_pass(self) -> None:
+        """The open pass ended (a change of direction): its work joins P and its buckets' pass sums."""
+        if self.pass_length_m > 0:
+            weight = 1.0 / max(self.pass_length_m, self.effects.slider_length_m)
+            self.pass_work_n += self.pass_open_work_nm * weight
+            self._add_pass_sums(self.pass_open_buckets, weight)
+        self.pass_length_m, self.pass_open_work_nm, self.pass_open_buckets = 0.0, 0.0, {}
+
+    def _add_pass_sums(self, work_by_bucket: dict, weight: float) -> None:
+        for b, v in work_by_bucket.items():
+            row = self.buckets.get(int(b))
+            if row is not None:                       # (a bucket older than the duty window is gone)
+                row[PASS_SUM] += v * weight
+
+    def _open_pass_weight(self) -> float:
+        return 1.0 / max(self.pass_length_m, self.effects.slider_length_m) if self.pass_length_m > 0 else 0.0
+
+    def pass_work_now_n(self) -> float:
+        """P now [N]: the ended passes' and the open pass's with its length so far."""
+        return self.pass_work_n + self.pass_open_work_nm * self._open_pass_weight()
+
+    def estimate_pass_work(self, pass_length_m: float) -> None:
+        """For a state saved before the pass work was kept (stop 12): P = G / max(L, L_s) and each duty
+        bucket's pass sum its effective work over it, L the mean stroke (exact for strokes of one length)."""
+        length = max(pass_length_m, self.effects.slider_length_m)
+        weight = 1.0 / length if length > 0 else 0.0
+        self.pass_work_n = self.effective_work_nm * weight
+        for row in self.buckets.values():
+            row[PASS_SUM] = row[1] * weight
 
     def relubrication_base_s(self, t_s: np.ndarray) -> np.ndarray:
         """The recorded form's last relubrication at each time t [s since the epoch]: the latest of the last
@@ -242,7 +345,11 @@ class EffectWear:
             return np.zeros(_SUMS)
         now = int(last_t_ns * 1e-9 // self.duty_bucket_s)
         rows = [v for b, v in self.buckets.items() if b > now - self.duty_buckets]
-        return np.sum(rows, axis=0) if rows else np.zeros(_SUMS)
+        sums = np.sum(rows, axis=0) if rows else np.zeros(_SUMS)
+        # the open pass with its length so far
+        weight = self._open_pass_weight()
+        sums[PASS_SUM] += sum(v * weight for b, v in self.pass_open_buckets.items() if b > now - self.duty_buckets)
+        return sums
 
     def new_surface(self, sliding_distance_m: float) -> None:
         """The worn surface made new at the guide's sliding distance (regrind, new rail): its effective work
@@ -252,17 +359,24 @@ class EffectWear:
         self.effective_work_nm = 0.0
         self.work_gradient = [0.0] * len(self.work_gradient)
         self.measurement_gradients = []
+        self.pass_work_n, self.pass_open_work_nm = 0.0, 0.0   # the open pass goes on, on the new surface
+        self.measurement_pass_work_n = []
 
     def on_measurement(self) -> None:
         """A straightness measurement was taken now: keep the work gradient it saw."""
         self.measurement_gradients.append(list(self.work_gradient))
+        self.measurement_pass_work_n.append(self.pass_work_now_n())
 
     def state(self) -> dict:
         return {"effective_work_nm": self.effective_work_nm, "work_gradient": list(self.work_gradient),
                 "buckets": [[b, *v] for b, v in sorted(self.buckets.items())],
                 "measurement_gradients": [list(g) for g in self.measurement_gradients],
                 "surface_start_m": self.surface_start_m,
-                "last_relubrication_t_ns": self.last_relubrication_ns, "first_sample_t_ns": self.first_t_ns}
+                "last_relubrication_t_ns": self.last_relubrication_ns, "first_sample_t_ns": self.first_t_ns,
+                "pass_work_n": self.pass_work_n, "pass_direction": self.pass_direction,
+                "pass_length_m": self.pass_length_m, "pass_open_work_nm": self.pass_open_work_nm,
+                "pass_open_buckets": [[b, v] for b, v in sorted(self.pass_open_buckets.items())],
+                "measurement_pass_work_n": list(self.measurement_pass_work_n)}
 
     def restore(self, state: dict) -> None:
         self.effective_work_nm = float(state["effective_work_nm"])
@@ -273,6 +387,13 @@ class EffectWear:
         last, first = state.get("last_relubrication_t_ns"), state.get("first_sample_t_ns")
         self.last_relubrication_ns = None if last is None else int(last)
         self.first_t_ns = None if first is None else int(first)
+        # the pass work (stop 12); a state saved before it has none: PrecisionMonitor.restore estimates P
+        self.pass_work_n = float(state.get("pass_work_n", 0.0))
+        self.pass_direction = int(np.sign(state.get("pass_direction", 0)))
+        self.pass_length_m = float(state.get("pass_length_m", 0.0))
+        self.pass_open_work_nm = float(state.get("pass_open_work_nm", 0.0))
+        self.pass_open_buckets = {int(b): float(v) for b, v in state.get("pass_open_buckets", [])}
+        self.measurement_pass_work_n = [float(v) for v in state.get("measurement_pass_work_n", [])]
 
 
 def _padded(values, size: int) -> list[float]:
@@ -341,25 +462,32 @@ def online_k_sensitivity(loss_per_k_m: np.ndarray, rise_m: np.ndarray, loss_grad
 
 def life_interval_s(k: float, k_sd: float, e: LiveEffects, now: dict, z: float) -> tuple[float, float, float]:
     """(life, low, high) [s] of remaining life with the effects, and its interval: the delta method on ln life
-    with K profiled (module text): the effect parameters phi = (r, s0, rho, v_lift, n, g, f, b; ``LiveEffects.phi``;
-    the change time t_c, the interval T and the rail's x_ref are held) vary with the model
+    with K profiled (module text): the effect parameters phi = (r, s0, rho, v_lift, n, g, f, b, w;
+    ``LiveEffects.phi``; the change time t_c, the interval T and the rail's x_ref are held) vary with the model
     file's marginal covariance, K follows as the online update would (``now["k_sensitivity"]`` = dK / dphi),
     and K's own spread given phi is the online posterior sd ``k_sd``.
 
-    ``now``: margin0 = A_max - A0 [m], c = straightness per unit K and effective work [m / (N m)], work =
-    effective work [N m], work_gradient (d work / d phi), k_sensitivity (d K / d phi), rate_per_k (steady
-    dA/dt per K [m/s]), dln_rate (d ln rate / d(rho, v_lift, n, g, f, b) at the present duty), s_now (distance
-    of the present surface [m]), v_s [m/s]. A change of phi moves the straightness now (through the past
-    effective work and K) and the rate."""
+    ``now``: margin0 = A_max - A0 [m]; work G = effective work [N m] and pass_work P [N] (stroke_distribution),
+    with straightness per unit K and G, loss_work = 2 / (H b (l_min + l_max)) [m / (N m)], and per unit K and
+    P, loss_pass = 1 / (H b) [m / N] (effects.straightness_wear_m: loss = (1 - w) loss_work G + w loss_pass P);
+    work_gradient (d G / d phi; P moves in proportion), k_sensitivity (d K / d phi), rate_work_per_k and
+    rate_pass_per_k (the two parts of the steady dA/dt per K [m/s]), dln_rate (d ln rate / d(rho, v_lift, n, g,
+    f, b) at the present duty), s_now (distance of the present surface [m]), v_s [m/s]. A change of phi moves
+    the straightness now (through the past effective work and K) and the rate."""
     phi0 = e.phi()
     dk = np.asarray(now.get("k_sensitivity", np.zeros(phi0.size)), dtype=float)
+    work0, pass0 = now["work"], now.get("pass_work", 0.0)
 
     def life(k_: float, phi: np.ndarray) -> float:
         d = phi - phi0
         kk = k_ + float(np.dot(dk, d))
-        work = now["work"] + float(np.dot(now["work_gradient"], d))
-        rate = kk * now["rate_per_k"] * (1.0 + float(np.dot(now["dln_rate"], d[2:])))
-        return remaining_life_with_running_in_s(now["margin0"] - kk * now["c"] * work, rate, phi[0],
+        w = phi[-1]
+        work = work0 + float(np.dot(now["work_gradient"], d))
+        passes = pass0 * work / work0 if work0 > 0 else pass0
+        loss = (1.0 - w) * now["loss_work"] * work + w * now["loss_pass"] * passes
+        rate_per_k = (1.0 - w) * now["rate_work_per_k"] + w * now.get("rate_pass_per_k", 0.0)
+        rate = kk * rate_per_k * (1.0 + float(np.dot(now["dln_rate"], d[_RATE_PHI])))
+        return remaining_life_with_running_in_s(now["margin0"] - kk * loss, rate, phi[0],
                                                 max(phi[1], 1e-9), now["s_now"], now["v_s"])
 
     centre = life(k, phi0)

@@ -26,12 +26,14 @@ from guide_health.models.wear.archard import (
 )
 from guide_health.models.wear.calibration import Z90, WearCoefficientEstimator, remaining_life_s
 from guide_health.models.wear.effect_wear import (
+    PASS_SUM,
     EffectWear,
     LiveEffects,
     forecast_straightness_m,
     life_interval_s,
     online_k_sensitivity,
 )
+from guide_health.models.wear.effects import straightness_wear_m
 from guide_health.models.wear.input_rules import (
     REASON_CODES,
     STRAIGHTNESS_WITHOUT_TEMPERATURE,
@@ -203,14 +205,32 @@ class PrecisionMonitor:
         return self.integrator.archard_work_nm if self.effect_wear is None else self.effect_wear.effective_work_nm
 
     def loss_per_k_m(self) -> float:
-        """Straightness loss per unit K now [m] (with the effects: Eq. 7 over the effective work)."""
+        """Straightness loss per unit K now [m] (with the effects: Eq. 7 over the effective work, and
+        stroke_distribution's pass weighting: effects.straightness_wear_m)."""
         if self.effect_wear is None:
             return self.integrator.straightness_loss_per_k_m()
+        return float(self._effect_losses_per_k_m(self.work_nm(), self.effect_wear.pass_work_now_n()))
+
+    def _effect_losses_per_k_m(self, work_nm, pass_work_n):
+        """Straightness per unit K [m] of effective work G and pass work P with the present stroke range:
+        K / (H b) [(1 - w) 2 G / (l_min + l_max) + w P] / K (seed 000 Eq. 7 at w = 0), not below 0."""
         l_min, l_max = self.integrator.stroke_range_m()
         if not (l_min + l_max > 0):
-            return math.nan
-        return straightness_from_wear_volume_m(self.work_nm() / self.geometry.hardness_pa,
-                                               self.geometry.contact_width_m, l_min, l_max)
+            return math.nan * np.asarray(work_nm, dtype=float)
+        loss = straightness_wear_m(1.0, self.geometry.hardness_pa, self.geometry.contact_width_m, work_nm,
+                                   pass_work_n, l_min + l_max, self.effects.stroke_distribution_weight)
+        return np.maximum(loss, 0.0)
+
+    def measurement_pass_work_n(self) -> np.ndarray:
+        """P at each measurement [N] (stroke_distribution). Measurements taken before the pass work was kept
+        (a state saved before stop 12) take the present ratio P / G of their effective work."""
+        ew, est = self.effect_wear, self.estimator
+        kept = np.asarray(ew.measurement_pass_work_n, dtype=float)
+        if kept.size == est.count:
+            return kept
+        work = self.work_nm()
+        ratio = ew.pass_work_now_n() / work if work > 0 else 0.0
+        return np.asarray(est.measurement_work_nm, dtype=float) * ratio
 
     def effect_forecast(self) -> dict[str, float]:
         """Present duty with the effects: steady dA/dt per K [m/s] (running-in over), sliding speed [m/s],
@@ -218,15 +238,20 @@ class PrecisionMonitor:
         rho, v_lift, n, g, f and b."""
         sums = self.effect_wear.window_sums(self.integrator.last_t_ns)
         rate_plain = self.integrator.straightness_rate_per_k_m_s()      # Archard work rate, Eq. 7
-        work, eff, dist = sums[0], sums[1], sums[2]
+        work, eff, dist, passes = sums[0], sums[1], sums[2], sums[PASS_SUM]
         ratio = eff / work if work > 0 else 1.0
         duty = self.integrator.duty_work_rate_w()
-        return {"steady_rate_per_k_m_s": rate_plain * ratio,
+        w = self.effects.stroke_distribution_weight
+        # stroke_distribution: dP/dt per K over H b, dP/dt = (W v) x the window's pass work per work
+        rate_pass = (duty * passes / work / (self.geometry.hardness_pa * self.geometry.contact_width_m)
+                     if work > 0 and math.isfinite(duty) else 0.0)
+        return {"steady_rate_per_k_m_s": (1.0 - w) * rate_plain * ratio + w * rate_pass,
+                "rate_work_per_k_m_s": rate_plain * ratio, "rate_pass_per_k_m_s": rate_pass,
                 "sliding_speed_m_s": duty * dist / work if work > 0 and math.isfinite(duty) else math.nan,
                 "sliding_distance_m": self.integrator.sliding_distance_m - self.effect_wear.surface_start_m,
-                "dln_rate": [sums[j] / eff if eff > 0 else 0.0 for j in range(3, sums.size)]}
+                "dln_rate": [sums[j] / eff if eff > 0 else 0.0 for j in range(3, PASS_SUM)]}
 
-    def effect_life_interval_s(self, k: float, loss_per_k: float):
+    def effect_life_interval_s(self, k: float):
         """(life, low, high) [s] with the effects (models/wear/effect_wear.life_interval_s): K's online spread
         and the model file's covariance of K and the effect parameters."""
         f = self.effect_forecast()
@@ -237,18 +262,26 @@ class PrecisionMonitor:
         n = est.count
         n_phi = len(self.effect_wear.work_gradient)
         grads = np.asarray(self.effect_wear.measurement_gradients, dtype=float).reshape(-1, n_phi)
-        if grads.shape[0] == n > 0:     # dg_j / dphi = g_j / G_j dG_j / dphi (Eq. 7: g proportional to the work)
+        l_min, l_max = self.integrator.stroke_range_m()
+        loss_pass = 1.0 / (self.geometry.hardness_pa * self.geometry.contact_width_m)   # per unit K and P
+        loss_work = 2.0 * loss_pass / (l_min + l_max)                                   # per unit K and G (Eq. 7)
+        if grads.shape[0] == n > 0:
+            # dg_j / dphi = g_j / G_j dG_j / dphi (g in proportion to the work, P moving with G), and
+            # dg_j / dw = loss_pass P_j - loss_work G_j
             work_j = np.asarray(est.measurement_work_nm, dtype=float)
             per_work = np.divide(g, work_j, out=np.zeros(n), where=work_j > 0)
+            dg = per_work[:, None] * grads
+            dg[:, -1] = loss_pass * self.measurement_pass_work_n() - loss_work * work_j
             k_sens = online_k_sensitivity(g, np.asarray(est.measurement_m) - est.straightness_initial_m,
-                                          per_work[:, None] * grads, k, k_sd, sigma)
+                                          dg, k, k_sd, sigma)
         else:                           # no measurement yet, or a state saved before the gradients were kept
             k_sens = np.zeros(n_phi)
         now = {"margin0": self.params["straightness_limit_m"] - self.params["straightness_initial_m"],
-               "c": loss_per_k / work if work > 0 else 0.0, "work": work,
+               "work": work, "pass_work": self.effect_wear.pass_work_now_n(),
+               "loss_work": loss_work, "loss_pass": loss_pass,
                "work_gradient": np.asarray(self.effect_wear.work_gradient), "k_sensitivity": k_sens,
-               "rate_per_k": f["steady_rate_per_k_m_s"], "dln_rate": np.asarray(f["dln_rate"]),
-               "s_now": f["sliding_distance_m"], "v_s": f["sliding_speed_m_s"]}
+               "rate_work_per_k": f["rate_work_per_k_m_s"], "rate_pass_per_k": f["rate_pass_per_k_m_s"],
+               "dln_rate": np.asarray(f["dln_rate"]), "s_now": f["sliding_distance_m"], "v_s": f["sliding_speed_m_s"]}
         z = float(stdtrit(n - 1, 0.95)) if n >= 3 else Z90
         return life_interval_s(k, k_sd, self.effects, now, z)
 
@@ -330,6 +363,9 @@ class PrecisionMonitor:
     def measurement_losses_per_k_m(self) -> np.ndarray:
         """g_j of each measurement: for Eq. 7 recomputed with the present stroke estimate."""
         est = self.estimator
+        if self.effect_wear is not None:
+            return self._effect_losses_per_k_m(np.asarray(est.measurement_work_nm, dtype=float),
+                                               self.measurement_pass_work_n())
         if self.geometry.straightness_model == "eq7":
             l_min, l_max = self.integrator.stroke_range_m()
             volume = np.asarray(est.measurement_work_nm) / self.geometry.hardness_pa
@@ -352,7 +388,7 @@ class PrecisionMonitor:
         limit = p["straightness_limit_m"]
         straightness = self.straightness_m(k, loss_per_k) if math.isfinite(loss_per_k) else math.nan
         if self.effect_wear is not None and math.isfinite(loss_per_k) and math.isfinite(rate_per_k):
-            life, life_low, life_high = self.effect_life_interval_s(k, loss_per_k)
+            life, life_low, life_high = self.effect_life_interval_s(k)
         else:
             life = remaining_life_s(limit, a0, loss_per_k, rate_per_k, k)
             life_low = remaining_life_s(limit, a0, loss_per_k, rate_per_k, k_high)
@@ -502,6 +538,10 @@ class PrecisionMonitor:
         self._attach_effects()
         if self.effect_wear is not None and state.get("effects"):
             self.effect_wear.restore(state["effects"])
+            if "pass_work_n" not in state["effects"]:     # saved before the pass work was kept (stop 12)
+                strokes = self.integrator.strokes
+                self.effect_wear.estimate_pass_work(strokes.stroke_sum_m / strokes.stroke_count
+                                                    if strokes.stroke_count else 0.0)
         temps = state.get("temperatures") or {"reading_t_ns": [], "reading_c": []}
         self.temperature_t_ns, self.temperature_c = [], []
         self._keep_temperatures(np.asarray(temps["reading_t_ns"], dtype=np.int64),

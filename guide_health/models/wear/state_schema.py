@@ -27,6 +27,7 @@ PARALLEL_LISTS = {
     "integrator": ("duty_bucket_index", "duty_bucket_work_nm"),
     "estimator": ("measurement_t_ns", "measurement_m", "measurement_loss_per_k_m", "measurement_work_nm"),
     "temperatures": ("reading_t_ns", "reading_c"),
+    "effects": ("measurement_gradients", "measurement_pass_work_n"),
 }
 
 
@@ -51,7 +52,7 @@ NON_NEGATIVE = frozenset({
     "sliding_distance_m", "archard_work_nm", "samples", "stroke_count", "stroke_sum_m",
     "stroke_sum_sq_m2", "stroke_min_m", "stroke_max_m", "load_samples", "travel_m",
     "load_power_travel", "recent_travel_m", "recent_load_power_travel", "boundary_travel_m", "window_travel_m",
-    "boundary", "mixed", "full_film", "reverse_travel_m"})
+    "boundary", "mixed", "full_film", "reverse_travel_m", "pass_length_m"})
 #: element kind of lists that are empty in a fresh monitor (the template cannot show it)
 #: (a NaN element marks a measurement taken before the stroke was known: Eq. 7's g_j not yet defined)
 #: fields added to the state after it was first written, with the value a state saved before them restores to
@@ -60,7 +61,10 @@ NON_NEGATIVE = frozenset({
 #: Such a state is accepted without them; every other missing field is refused.
 ADDED_FIELDS = {"measurement_gradients": [], "surface_start_m": 0.0,
                 # lubrication_interval's time base (stop 11)
-                "last_relubrication_t_ns": None, "first_sample_t_ns": None}
+                "last_relubrication_t_ns": None, "first_sample_t_ns": None,
+                # stroke_distribution's pass work (stop 12; PrecisionMonitor.restore estimates P without it)
+                "pass_work_n": 0.0, "pass_direction": 0, "pass_length_m": 0.0, "pass_open_work_nm": 0.0,
+                "pass_open_buckets": [], "measurement_pass_work_n": []}
 EMPTY_LIST_ELEMENT = {"duty_bucket_index": 0, "measurement_t_ns": 0, "measurement_loss_per_k_m": float("nan"),
                       "reading_t_ns": 0}
 #: stamp lists a monitor keeps in stamp order and bounded (the thermal_drift correction's temperature
@@ -68,7 +72,9 @@ EMPTY_LIST_ELEMENT = {"duty_bucket_index": 0, "measurement_t_ns": 0, "measuremen
 STAMP_ORDERED_LISTS = {"reading_t_ns": TEMPERATURE_HISTORY}
 #: lists of rows of finite numbers, empty in a fresh monitor (effect_wear's duty buckets: index then sums; the
 #: work gradient at each measurement)
-NUMBER_ROWS = frozenset({"buckets", "measurement_gradients"})
+NUMBER_ROWS = frozenset({"buckets", "measurement_gradients", "pass_open_buckets"})
+#: of those, the rows led by a duty bucket's index (an integer)
+INDEXED_ROWS = frozenset({"buckets", "pass_open_buckets"})
 _INT64 = 2**63
 
 
@@ -142,6 +148,9 @@ def _check_list(value: list, template: list, where: str) -> None:
         for i, row in enumerate(value):
             if not isinstance(row, (list, tuple)) or not all(_is_number(v) and math.isfinite(v) for v in row):
                 raise InputError(f"state field {where}[{i}] must be a list of finite numbers, got {row!r}"[:200])
+            if _field(where) in INDEXED_ROWS and not _is_int(row[0] if row else None):
+                raise InputError(f"state field {where}[{i}] must start with a bucket index (an integer), "
+                                 f"got {row[0] if row else None!r}"[:200])
             if lengths and (len(row) not in lengths or len(row) != len(value[0])):
                 raise InputError(f"state field {where}[{i}] has {len(row)} numbers, rows have "
                                  f"{' or '.join(map(str, lengths))}, all alike")
@@ -173,7 +182,7 @@ def check_state_like(value: Any, template: Any, where: str = "state") -> None:
                 check_state_like(value[key], sub, f"{where}.{key}")
         parallel = PARALLEL_LISTS.get(_field(where), ())
         for name in parallel[1:]:
-            if len(value[name]) != len(value[parallel[0]]):
+            if name in value and parallel[0] in value and len(value[name]) != len(value[parallel[0]]):
                 raise InputError(f"state field {where}.{name}: its length differs from {where}.{parallel[0]}")
     elif isinstance(template, (list, tuple)) and _field(where) in STAMP_ORDERED_LISTS:
         if not isinstance(value, (list, tuple)):
