@@ -138,7 +138,7 @@ def test_live_per_sample_path_equals_the_vectorised_path():
     run = simulate_machine(params, sim, seed=2, effects={"running_in": 1.0, "retract_asymmetry": 0.4})
     p = {**params, "effects": "running_in,retract_asymmetry,stroke_distribution", "running_in_ratio": 1.0,
          "running_in_distance_m": 300.0, "retract_wear_factor": 0.4, "stroke_distribution_weight": 0.6,
-         "effect_covariance": list(np.diag([1e-14, 0.01, 100.0, 0.001, 0, 0, 0, 0, 0, 0.01]).ravel())}
+         "effect_covariance": list(np.diag([1e-14, 0.01, 100.0, 0.001, 0, 0, 0, 0, 0, 0.01, 0, 0]).ravel())}
     offline = PrecisionMonitor(p)
     offline.process_run(run)
     live = PrecisionMonitor(p)
@@ -242,7 +242,7 @@ def test_diagnose_writes_a_model_file_that_replay_loads(tmp_path):
     text = cli("diagnose", str(bag), "--params", str(BENCH), "--out", str(out), "--no-plot").stdout
     model = yaml.safe_load((out / "model.yaml").read_text())["wear_monitor"]["ros__parameters"]
     # what goes live, with its standard errors, in the text and in report.md
-    sd = math.sqrt(model["effect_covariance"][11])
+    sd = math.sqrt(model["effect_covariance"][13])
     line = f"running_in_ratio = {model['running_in_ratio']:.4g} ± {sd:.2g}"
     assert line in text and line in (out / "report.md").read_text(), text
     assert model["effects"] == "running_in"
@@ -250,7 +250,7 @@ def test_diagnose_writes_a_model_file_that_replay_loads(tmp_path):
     assert (out / "model.yaml").read_text().startswith("# guide-health diagnose")     # explained: no warning
     assert model["running_in_ratio"] == pytest.approx(2.5, rel=0.2)
     assert model["running_in_distance_m"] == pytest.approx(300.0, rel=0.2)
-    assert len(model["effect_covariance"]) == 100 and model["effect_covariance"][0] > 0
+    assert len(model["effect_covariance"]) == 144 and model["effect_covariance"][0] > 0
     merged = wear_monitor_params([BENCH, out / "model.yaml"])
     assert merged["effects"] == "running_in" and merged["contact_width_m"] == 0.040    # base kept, model over it
     params = wear_monitor_params(BENCH)
@@ -267,28 +267,28 @@ def test_diagnose_writes_a_model_file_that_replay_loads(tmp_path):
 
 
 def test_a_model_file_from_before_the_duty_effects_still_loads(tmp_path):
-    """A stop-10 model file holds a 6 x 6 effect_covariance, a stop-11 one a 9 x 9: each loads as the leading
-    block of the 10 x 10 (zeros elsewhere), the same life and interval as the file written with the 10 x 10;
-    37 numbers are refused."""
+    """A stop-10 model file holds a 6 x 6 effect_covariance, a stop-11 one a 9 x 9 (and stop 12's first commit
+    a 10 x 10): each loads as the leading block of the 12 x 12 (zeros elsewhere), the same life and interval as
+    the file written with the 12 x 12; 37 numbers are refused."""
     cov6 = np.diag([(0.02 * 4.4e-6) ** 2, 0.1 ** 2, 30.0 ** 2, 0.05 ** 2, 0.0, 0.0])
     cov6[0, 1] = cov6[1, 0] = 0.3 * (0.02 * 4.4e-6) * 0.1
     body = {"wear_coefficient": 4.4e-6, "effects": "running_in,retract_asymmetry", "running_in_ratio": 2.0,
             "running_in_distance_m": 300.0, "retract_wear_factor": 0.5}
     files = {}
-    for size in (6, 9, 10):
+    for size in (6, 9, 10, 12):
         cov = np.zeros((size, size))
         cov[:6, :6] = cov6
         files[size] = tmp_path / f"cov{size}.yaml"
         files[size].write_text(yaml.safe_dump({"wear_monitor": {"ros__parameters": {
             **body, "effect_covariance": cov.ravel().tolist()}}}))
     loaded = {size: wear_monitor_params([BENCH, f]) for size, f in files.items()}
-    assert loaded[6]["effect_covariance"] == loaded[10]["effect_covariance"] == loaded[9]["effect_covariance"]
-    assert len(loaded[6]["effect_covariance"]) == 100
+    assert all(loaded[size]["effect_covariance"] == loaded[12]["effect_covariance"] for size in (6, 9, 10))
+    assert len(loaded[6]["effect_covariance"]) == 144
     params, run = bench_running_in(2, rate_hz=5.0)
-    assert replay_life(loaded[6], run) == pytest.approx(replay_life(loaded[10], run), rel=1e-12)
+    assert replay_life(loaded[6], run) == pytest.approx(replay_life(loaded[12], run), rel=1e-12)
     bad = tmp_path / "bad.yaml"
     bad.write_text(yaml.safe_dump({"wear_monitor": {"ros__parameters": {**body, "effect_covariance": [0.0] * 37}}}))
-    with pytest.raises(InputError, match="effect_covariance must be a list of 100 numbers"):
+    with pytest.raises(InputError, match="effect_covariance must be a list of 144 numbers"):
         wear_monitor_params([BENCH, bad])
 
 
@@ -406,7 +406,7 @@ def test_a_regrind_restarts_running_in_as_on_a_new_guide():
     live = {**params, "stroke_min_m": 0.1, "stroke_max_m": 0.3, "effects": "running_in", "running_in_ratio": 2.5,
             "running_in_distance_m": 300.0,
             "effect_covariance": np.diag([(0.01 * 4.42e-6) ** 2, 0.1 ** 2, 20.0 ** 2,
-                                          0, 0, 0, 0, 0, 0, 0]).ravel().tolist()}
+                                          0, 0, 0, 0, 0, 0, 0, 0, 0]).ravel().tolist()}
     t_regrind = int(run.joint_t_ns[0]) + int(1.7 * 3600e9) + 123_456_789
     event = MaintenanceEvent(t_regrind, "regrind", params["joint"], straightness_m=20e-6)
     axis = AxisMonitor(live)

@@ -36,7 +36,7 @@ EFFECTS = {"effects": "running_in,retract_asymmetry,load_exponent,load_along_rai
            "load_gradient_per_m": 2.0, "load_reference_position_m": 0.2, "wear_rate_change_factor": 1.7,
            "wear_rate_change_stamp_s": 1_700_000_020.0, "lubrication_wear_growth": 1e-3,
            "thermal_drift_m_per_k": 1e-6, "thermal_reference_c": 21.0,
-           "effect_covariance": [1e-4 if i % 11 == 0 else 0.0 for i in range(100)]}
+           "effect_covariance": [1e-4 if i % 13 == 0 else 0.0 for i in range(144)]}
 EFFECT_PARAMS = dict(PARAMS, **EFFECTS)
 EFFECT_RULE_PARAMS = dict(RULE_PARAMS, **EFFECTS)
 KEY = "m1/x/precision"
@@ -140,6 +140,8 @@ def _comparable(state: dict) -> str:
         state["estimator"].pop(name, None)
     effects = state.get("effects")
     if isinstance(effects, dict):
+        for name in ("measurement_pass_work_n", "measurement_temperature_offset_k"):   # not kept: NaN each
+            effects.setdefault(name, [math.nan] * len(effects.get("measurement_gradients", [])))
         for name, default in ADDED_FIELDS.items():
             effects.setdefault(name, default)
 

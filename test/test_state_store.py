@@ -9,6 +9,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from guide_health.errors import InputError
@@ -436,3 +437,16 @@ def test_an_effects_state_from_stop_11_is_accepted_and_restores():
     ew = restored.effect_wear
     assert ew.pass_work_now_n() == pytest.approx(ew.effective_work_nm / 0.1, rel=1e-9)
     assert all(row[9] == pytest.approx(row[1] / 0.1, rel=1e-12) and row[9] > 0 for row in ew.buckets.values())
+    # the measurements it did not keep them for are NaN (then estimated), so the lists stay parallel: after more
+    # measurements the monitor's own state passes the schema and restores
+    assert np.isnan(ew.measurement_pass_work_n).all() and len(ew.measurement_pass_work_n) == 4
+    t = restored.integrator.last_t_ns
+    for i in range(200):
+        t += 50_000_000
+        restored.on_joint(t, 0.1 + 0.1 * abs(((i % 80) - 40) / 40.0), 0.2)
+    assert restored.on_straightness(t, 6e-6) is None
+    saved = json.loads(json.dumps(restored.state()))
+    check_precision_state(saved, PrecisionMonitor(dict(with_w)).state())
+    again = PrecisionMonitor(dict(with_w))
+    again.restore(saved)
+    assert again.report()["remaining_life_h"] == pytest.approx(restored.report()["remaining_life_h"], rel=1e-12)

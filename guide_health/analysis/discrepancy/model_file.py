@@ -2,7 +2,8 @@
 
 A ROS 2 parameters file (``wear_monitor: ros__parameters:``) with the calibrated K, the A0 the fit used,
 the named effects the live model integrates (``effects`` and their parameters, params/wear_monitor.py) and
-the covariance of the fitted K and effect parameters (10 x 10, models/wear/effect_wear.COVARIANCE_NAMES).
+the covariance of the fitted K and effect parameters (12 x 12, models/wear/effect_wear.COVARIANCE_NAMES; the
+gauge offset at T_ref is a linear function of the fitted c_T and offset at T_0, its rows by that Jacobian).
 The duty effects' times become absolute (seconds since the stamps' epoch): the change time of
 wear_rate_change, lubrication_interval's reference (the record's start for a fitted interval, the last
 recorded relubrication otherwise); load_along_rail carries the fit's x_ref.
@@ -88,14 +89,24 @@ def model_parameters(problem, final, named: list[str]) -> dict[str, Any]:
             out[name] = float(v[name])
     out.update(duty_effect_parameters(problem, v, live))
     cov = final.extra.get("covariance")
-    matrix = np.zeros((len(COVARIANCE_NAMES), len(COVARIANCE_NAMES)))
+    n = len(COVARIANCE_NAMES)
+    matrix = np.zeros((n, n))
     if cov is not None:
-        index = {COVARIANCE_ALIASES.get(n, n): i for i, n in enumerate(cov["names"])}
-        keep = [n for n in COVARIANCE_NAMES if n in index and (n == "wear_coefficient" or n in out)]
-        for a in keep:
-            for b in keep:
-                matrix[COVARIANCE_NAMES.index(a), COVARIANCE_NAMES.index(b)] = cov["matrix"][index[a], index[b]]
-    out["effect_covariance"] = [float(x) if math.isfinite(x) else 0.0 for x in matrix.ravel()]
+        # the file's parameters as linear functions of the fitted ones (jac), then jac Sigma jac'
+        index = {COVARIANCE_ALIASES.get(name, name): i for i, name in enumerate(cov["names"])}
+        jac = np.zeros((n, len(cov["names"])))
+        for name in COVARIANCE_NAMES:
+            if name in index and (name == "wear_coefficient" or name in out):
+                jac[COVARIANCE_NAMES.index(name), index[name]] = 1.0
+        if "thermal_drift" in live:
+            # the gauge's offset at T_ref: e = dc_T (T_ref - T_0) + db (b the fitted offset at T_0, when fitted)
+            row = COVARIANCE_NAMES.index("thermal_gauge_offset_m")
+            jac[row, index["thermal_drift_m_per_k"]] = out["thermal_reference_c"] - problem.temperature_first_c
+            if "thermal_offset_m" in index:
+                jac[row, index["thermal_offset_m"]] = 1.0
+        fitted = np.asarray(cov["matrix"], dtype=float)
+        matrix = jac @ np.where(np.isfinite(fitted), fitted, 0.0) @ jac.T
+    out["effect_covariance"] = [float(x) for x in matrix.ravel()]
     return out
 
 

@@ -42,13 +42,19 @@ from guide_health.models.wear.effects import (
     wear_rate_multiplier,
 )
 
-#: the order of the model file's effect_covariance rows (10 x 10, SI; the 6 x 6 or 9 x 9 of an older file is
-#: widened on loading, params/schema.py LIST_UPGRADES). ``lubrication_wear_growth`` is b [1/s] (recorded
-#: relubrications) or a [-] (interval)
+#: the order of the model file's effect_covariance rows (12 x 12, SI; the 6 x 6, 9 x 9 or 10 x 10 of an older
+#: file is widened on loading, params/schema.py LIST_UPGRADES). ``lubrication_wear_growth`` is b [1/s] (recorded
+#: relubrications) or a [-] (interval). thermal_drift's gauge term c_T (T - T_ref) enters as c_T and the
+#: offset e of the gauge at T_ref (0 at the fitted values; its variance is the fit's uncertainty of the
+#: gauge term where the temperature is T_ref): the correction with both moved is (c_T + dc) (T - T_ref) + de
 COVARIANCE_NAMES = ("wear_coefficient", "running_in_ratio", "running_in_distance_m", "retract_wear_factor",
                     "lift_speed_m_s", "load_exponent", "load_gradient_per_m", "wear_rate_change_factor",
-                    "lubrication_wear_growth", "stroke_distribution_weight")
+                    "lubrication_wear_growth", "stroke_distribution_weight", "thermal_drift_m_per_k",
+                    "thermal_gauge_offset_m")
 _PHI = len(COVARIANCE_NAMES) - 1       # effect parameters phi (all but K)
+#: where w, c_T and the gauge offset at T_ref sit in phi
+W_INDEX, C_T_INDEX, OFFSET_INDEX = (COVARIANCE_NAMES.index(n) - 1 for n in (
+    "stroke_distribution_weight", "thermal_drift_m_per_k", "thermal_gauge_offset_m"))
 #: the phi whose multipliers set the present rate, in bucket-sum order (sums[3:9])
 _RATE_PHI = slice(2, 8)
 #: per bucket: work, effective work w/o running-in, distance, d(effective work)/d(rho, v_lift, n, g, f, b),
@@ -56,10 +62,10 @@ _RATE_PHI = slice(2, 8)
 _SUMS = 10
 PASS_SUM = 9
 #: lengths of the saved lists (a work gradient, a bucket row: index then sums, a measurement's gradient):
-#: (now, stop 11, stop 10); a state of an earlier length is zero-padded on restore (the terms added since were
-#: zero then: w has no work gradient, and the pass sums only count for stroke_distribution)
-STATE_LIST_LENGTHS = {"work_gradient": (_PHI, 8, 5), "buckets": (1 + _SUMS, 10, 7),
-                      "measurement_gradients": (_PHI, 8, 5), "pass_open_buckets": (2,)}
+#: (now, earlier ones); a state of an earlier length is zero-padded on restore (the terms added since were zero
+#: then: w, c_T and e have no work gradient, and the pass sums only count for stroke_distribution)
+STATE_LIST_LENGTHS = {"work_gradient": (_PHI, 9, 8, 5), "buckets": (1 + _SUMS, 10, 7),
+                      "measurement_gradients": (_PHI, 9, 8, 5), "pass_open_buckets": (2,)}
 
 
 @dataclass(frozen=True)
@@ -133,7 +139,7 @@ class LiveEffects:
         return np.array([self.running_in_ratio, self.running_in_distance_m, self.retract_wear_factor,
                          self.lift_speed_m_s if math.isfinite(self.lift_speed_m_s) else 0.0, self.load_exponent,
                          self.load_gradient_per_m, self.wear_rate_change_factor, self.lubrication_growth,
-                         self.stroke_distribution_weight])
+                         self.stroke_distribution_weight, self.thermal_drift_m_per_k, 0.0])
 
     def wear_effects(self) -> WearEffects:
         return WearEffects(retract_wear_factor=self.retract_wear_factor, lift_speed_m_s=self.lift_speed_m_s,
@@ -205,6 +211,8 @@ class EffectWear:
     pass_open_buckets: dict = field(default_factory=dict)
     # pass_work_now_n at each straightness measurement (parallel to measurement_gradients)
     measurement_pass_work_n: list = field(default_factory=list)
+    # thermal_drift: T - T_ref of the reading that corrected each measurement [K] (0 without the effect)
+    measurement_temperature_offset_k: list = field(default_factory=list)
 
     def add_segments(self, t_start_ns, t_end_ns, xa_m, xb_m, load_n, s_start_m) -> None:
         """Sliding segments from xa to xb between the stamps, under load_n (NaN / 0: no wear), starting at
@@ -361,11 +369,14 @@ class EffectWear:
         self.measurement_gradients = []
         self.pass_work_n, self.pass_open_work_nm = 0.0, 0.0   # the open pass goes on, on the new surface
         self.measurement_pass_work_n = []
+        self.measurement_temperature_offset_k = []
 
-    def on_measurement(self) -> None:
-        """A straightness measurement was taken now: keep the work gradient it saw."""
+    def on_measurement(self, temperature_offset_k: float = 0.0) -> None:
+        """A straightness measurement was taken now: keep the work gradient and pass work it saw, and the
+        T - T_ref [K] of the temperature reading that corrected it (thermal_drift)."""
         self.measurement_gradients.append(list(self.work_gradient))
         self.measurement_pass_work_n.append(self.pass_work_now_n())
+        self.measurement_temperature_offset_k.append(float(temperature_offset_k))
 
     def state(self) -> dict:
         return {"effective_work_nm": self.effective_work_nm, "work_gradient": list(self.work_gradient),
@@ -376,7 +387,8 @@ class EffectWear:
                 "pass_work_n": self.pass_work_n, "pass_direction": self.pass_direction,
                 "pass_length_m": self.pass_length_m, "pass_open_work_nm": self.pass_open_work_nm,
                 "pass_open_buckets": [[b, v] for b, v in sorted(self.pass_open_buckets.items())],
-                "measurement_pass_work_n": list(self.measurement_pass_work_n)}
+                "measurement_pass_work_n": list(self.measurement_pass_work_n),
+                "measurement_temperature_offset_k": list(self.measurement_temperature_offset_k)}
 
     def restore(self, state: dict) -> None:
         self.effective_work_nm = float(state["effective_work_nm"])
@@ -393,7 +405,11 @@ class EffectWear:
         self.pass_length_m = float(state.get("pass_length_m", 0.0))
         self.pass_open_work_nm = float(state.get("pass_open_work_nm", 0.0))
         self.pass_open_buckets = {int(b): float(v) for b, v in state.get("pass_open_buckets", [])}
-        self.measurement_pass_work_n = [float(v) for v in state.get("measurement_pass_work_n", [])]
+        # per measurement, parallel to measurement_gradients: NaN (not kept) for a state saved before them
+        unknown = [math.nan] * len(self.measurement_gradients)
+        self.measurement_pass_work_n = [float(v) for v in state.get("measurement_pass_work_n", unknown)]
+        self.measurement_temperature_offset_k = [float(v) for v in state.get("measurement_temperature_offset_k",
+                                                                              unknown)]
 
 
 def _padded(values, size: int) -> list[float]:
@@ -446,18 +462,20 @@ def forecast_straightness_m(horizon_s: np.ndarray, straightness_now_m: float, st
 
 
 def online_k_sensitivity(loss_per_k_m: np.ndarray, rise_m: np.ndarray, loss_gradient_m: np.ndarray, k: float,
-                         k_sd: float, sigma_m: float) -> np.ndarray:
+                         k_sd: float, sigma_m: float, rise_gradient_m: np.ndarray | None = None) -> np.ndarray:
     """d K(phi) / d phi of the online K update (calibration.WearCoefficientEstimator: K = (K0 / v0 + sum g y /
     sigma^2) / P, P = 1 / v0 + sum g^2 / sigma^2 = 1 / k_sd^2) when the effect parameters phi change the
-    measurements' losses per unit K g_j by dg_j / dphi (``loss_gradient_m``, one row per measurement):
-    dK = k_sd^2 / sigma^2 sum_j dg_j (y_j - 2 K g_j), y_j the measured rise over A0 [m]."""
+    measurements' losses per unit K g_j by dg_j / dphi (``loss_gradient_m``, one row per measurement) and the
+    corrected readings y_j by dy_j / dphi (``rise_gradient_m``: the gauge terms; None = 0):
+    dK = k_sd^2 / sigma^2 sum_j [dg_j (y_j - 2 K g_j) + g_j dy_j], y_j the measured rise over A0 [m]."""
     g = np.asarray(loss_per_k_m, dtype=float)
     dg = np.asarray(loss_gradient_m, dtype=float).reshape(g.size, -1)
+    dy = np.zeros_like(dg) if rise_gradient_m is None else np.asarray(rise_gradient_m, dtype=float).reshape(dg.shape)
     y = np.asarray(rise_m, dtype=float)
-    ok = np.isfinite(g) & np.isfinite(y) & np.all(np.isfinite(dg), axis=1)
+    ok = np.isfinite(g) & np.isfinite(y) & np.all(np.isfinite(dg), axis=1) & np.all(np.isfinite(dy), axis=1)
     if not ok.any() or not sigma_m > 0:
         return np.zeros(dg.shape[1])
-    return k_sd ** 2 / sigma_m ** 2 * (dg[ok].T @ (y[ok] - 2.0 * k * g[ok]))
+    return k_sd ** 2 / sigma_m ** 2 * (dg[ok].T @ (y[ok] - 2.0 * k * g[ok]) + dy[ok].T @ g[ok])
 
 
 def life_interval_s(k: float, k_sd: float, e: LiveEffects, now: dict, z: float) -> tuple[float, float, float]:
@@ -481,7 +499,7 @@ def life_interval_s(k: float, k_sd: float, e: LiveEffects, now: dict, z: float) 
     def life(k_: float, phi: np.ndarray) -> float:
         d = phi - phi0
         kk = k_ + float(np.dot(dk, d))
-        w = phi[-1]
+        w = phi[W_INDEX]
         work = work0 + float(np.dot(now["work_gradient"], d))
         passes = pass0 * work / work0 if work0 > 0 else pass0
         loss = (1.0 - w) * now["loss_work"] * work + w * now["loss_pass"] * passes
@@ -502,6 +520,9 @@ def life_interval_s(k: float, k_sd: float, e: LiveEffects, now: dict, z: float) 
         return (math.log(max(life(k + (h if i is None else 0.0), phi), 1e-30)) - math.log(centre)) / h
 
     grad = np.array([dln(1e-2 * math.sqrt(cov[i, i]), i) if cov[i, i] > 0 else 0.0 for i in range(phi0.size)])
+    if not np.all(np.isfinite(grad)):
+        # a hundredth of a parameter's sd already takes the life to no wear or to the limit: no linear interval
+        return float(centre), 0.0, math.inf
     var = float(grad @ cov @ grad)
     if k_sd > 0:
         var += (dln(1e-2 * k_sd, None) * k_sd) ** 2

@@ -26,7 +26,10 @@ from guide_health.models.wear.archard import (
 )
 from guide_health.models.wear.calibration import Z90, WearCoefficientEstimator, remaining_life_s
 from guide_health.models.wear.effect_wear import (
+    C_T_INDEX,
+    OFFSET_INDEX,
     PASS_SUM,
+    W_INDEX,
     EffectWear,
     LiveEffects,
     forecast_straightness_m,
@@ -166,15 +169,21 @@ class PrecisionMonitor:
         order = np.argsort(t, kind="stable")[-keep:]
         self.temperature_t_ns, self.temperature_c = t[order].tolist(), c[order].tolist()
 
-    def thermal_correction_at_m(self, t_ns: int) -> float | None:
-        """c_T (T - T_ref) [m] with the temperature reading in force at ``t_ns`` (thermal_drift; 0 without
-        the effect); None when no reading is stamped at or before it."""
+    def thermal_offset_at_k(self, t_ns: int) -> float | None:
+        """T - T_ref [K] of the temperature reading in force at ``t_ns`` (thermal_drift; 0 without the
+        effect); None when no reading is stamped at or before it."""
         if not self._thermal():
             return 0.0
         i = bisect.bisect_right(self.temperature_t_ns, int(t_ns)) - 1
         if i < 0:
             return None
-        return self.effects.thermal_drift_m_per_k * (self.temperature_c[i] - self.effects.thermal_reference_c)
+        return self.temperature_c[i] - self.effects.thermal_reference_c
+
+    def thermal_correction_at_m(self, t_ns: int) -> float | None:
+        """c_T (T - T_ref) [m] with the temperature reading in force at ``t_ns`` (0 without thermal_drift);
+        None when no reading is stamped at or before it."""
+        offset = self.thermal_offset_at_k(t_ns)
+        return None if offset is None else (self.effects.thermal_drift_m_per_k * offset if self._thermal() else 0.0)
 
     def on_straightness(self, t_ns: int, straightness_m: float) -> str | None:
         """Straightness measurement [m]; returns the rejection reason or None when accepted. A measurement
@@ -185,13 +194,14 @@ class PrecisionMonitor:
         reason = check_straightness_sample(t_ns, straightness_m, times[-1] if times else None, self.limits)
         if reason is not None:
             return self.rejected.reject(reason)
-        correction = self.thermal_correction_at_m(t_ns)
-        if correction is None:
+        offset = self.thermal_offset_at_k(t_ns)
+        if offset is None:
             return self.rejected.reject(STRAIGHTNESS_WITHOUT_TEMPERATURE)
+        correction = self.effects.thermal_drift_m_per_k * offset if self._thermal() else 0.0
         self.thermal_correction_m = correction
         self.estimator.add(t_ns, straightness_m - correction, self.loss_per_k_m(), self.work_nm())
         if self.effect_wear is not None:
-            self.effect_wear.on_measurement()
+            self.effect_wear.on_measurement(offset)
         return None
 
     # --- the wear effects (models/wear/effect_wear.py) ---------------------------------------------
@@ -226,11 +236,11 @@ class PrecisionMonitor:
         (a state saved before stop 12) take the present ratio P / G of their effective work."""
         ew, est = self.effect_wear, self.estimator
         kept = np.asarray(ew.measurement_pass_work_n, dtype=float)
-        if kept.size == est.count:
-            return kept
         work = self.work_nm()
-        ratio = ew.pass_work_now_n() / work if work > 0 else 0.0
-        return np.asarray(est.measurement_work_nm, dtype=float) * ratio
+        estimate = np.asarray(est.measurement_work_nm, dtype=float) * (ew.pass_work_now_n() / work if work > 0 else 0.0)
+        if kept.size != est.count:
+            return estimate
+        return np.where(np.isfinite(kept), kept, estimate)
 
     def effect_forecast(self) -> dict[str, float]:
         """Present duty with the effects: steady dA/dt per K [m/s] (running-in over), sliding speed [m/s],
@@ -271,9 +281,15 @@ class PrecisionMonitor:
             work_j = np.asarray(est.measurement_work_nm, dtype=float)
             per_work = np.divide(g, work_j, out=np.zeros(n), where=work_j > 0)
             dg = per_work[:, None] * grads
-            dg[:, -1] = loss_pass * self.measurement_pass_work_n() - loss_work * work_j
+            dg[:, W_INDEX] = loss_pass * self.measurement_pass_work_n() - loss_work * work_j
+            # thermal_drift: each reading corrected by (c_T + dc) (T_j - T_ref) + de
+            dy = np.zeros_like(dg)
+            offsets = np.asarray(self.effect_wear.measurement_temperature_offset_k, dtype=float)
+            if self._thermal() and offsets.size == n and np.all(np.isfinite(offsets)):
+                dy[:, C_T_INDEX] = -offsets
+                dy[:, OFFSET_INDEX] = -1.0
             k_sens = online_k_sensitivity(g, np.asarray(est.measurement_m) - est.straightness_initial_m,
-                                          dg, k, k_sd, sigma)
+                                          dg, k, k_sd, sigma, dy)
         else:                           # no measurement yet, or a state saved before the gradients were kept
             k_sens = np.zeros(n_phi)
         now = {"margin0": self.params["straightness_limit_m"] - self.params["straightness_initial_m"],

@@ -27,7 +27,7 @@ PARALLEL_LISTS = {
     "integrator": ("duty_bucket_index", "duty_bucket_work_nm"),
     "estimator": ("measurement_t_ns", "measurement_m", "measurement_loss_per_k_m", "measurement_work_nm"),
     "temperatures": ("reading_t_ns", "reading_c"),
-    "effects": ("measurement_gradients", "measurement_pass_work_n"),
+    "effects": ("measurement_gradients", "measurement_pass_work_n", "measurement_temperature_offset_k"),
 }
 
 
@@ -64,9 +64,13 @@ ADDED_FIELDS = {"measurement_gradients": [], "surface_start_m": 0.0,
                 "last_relubrication_t_ns": None, "first_sample_t_ns": None,
                 # stroke_distribution's pass work (stop 12; PrecisionMonitor.restore estimates P without it)
                 "pass_work_n": 0.0, "pass_direction": 0, "pass_length_m": 0.0, "pass_open_work_nm": 0.0,
-                "pass_open_buckets": [], "measurement_pass_work_n": []}
+                "pass_open_buckets": [], "measurement_pass_work_n": [],
+                # thermal_drift's T - T_ref per measurement (stop 12; without it c_T's spread is not carried)
+                "measurement_temperature_offset_k": []}
 EMPTY_LIST_ELEMENT = {"duty_bucket_index": 0, "measurement_t_ns": 0, "measurement_loss_per_k_m": float("nan"),
-                      "reading_t_ns": 0}
+                      "reading_t_ns": 0,
+                      # NaN: a measurement restored from a state saved before these were kept (effect_wear.restore)
+                      "measurement_pass_work_n": float("nan"), "measurement_temperature_offset_k": float("nan")}
 #: stamp lists a monitor keeps in stamp order and bounded (the thermal_drift correction's temperature
 #: readings): another order or a longer list is a corrupt state (restoring it would re-sort or trim it)
 STAMP_ORDERED_LISTS = {"reading_t_ns": TEMPERATURE_HISTORY}
