@@ -18,6 +18,7 @@ from guide_health.nodes.session import (  # noqa: E402
     DiagnosticsCollector,
     clean_fastdds_shm,
     play_bag,
+    settled_status_after_bag,
     start_node,
     stop_node,
 )
@@ -79,26 +80,13 @@ def make_bag_with_early_loads(tmp_path: Path, lead_ns: int = 550_000_000):
     return params, _write_bag(series, tmp_path / "early_loads", "sqlite3", run.metadata)
 
 
-def final_live_status(collector, timeout=120.0):
-    return collector.wait_settled(STATUS, "sliding_distance_m", settle_s=2.0, timeout=timeout)
-
-
 @pytest.mark.parametrize("storage", ["sqlite3", "mcap", "early_loads"])
 def test_live_node_matches_offline_replay(tmp_path, ros_env, storage):
     params, bag = make_bag_with_early_loads(tmp_path) if storage == "early_loads" else make_bag(tmp_path, storage)
     offline = analyse(read_machine_bag(bag, joint="x"), params)[1]
-    collector = DiagnosticsCollector("test_collector")
-    node = start_node("guide_health.nodes.wear_monitor", BENCH,
-                      {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25}, ros_env,
-                      log_path=tmp_path / "node.log")
-    try:
-        assert collector.wait_for(STATUS, timeout=30.0) is not None, (tmp_path / "node.log").read_text()
-        played = play_bag(bag, ros_env, ["--wait-subscribers", "1", "--max-rate", "0"])
-        assert played.returncode == 0, played.stderr
-        live = final_live_status(collector)
-    finally:
-        stop_node(node)
-        collector.close()
+    live = settled_status_after_bag("guide_health.nodes.wear_monitor", BENCH,
+                                    {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25},
+                                    ros_env, bag, STATUS, tmp_path / "node.log", collector_name="test_collector")
     values = {k: float(v) for k, v in live["values"].items() if k != "lubrication_regime"}
     assert values["samples"] == offline["samples"], "messages were lost on the way"
     assert values["load_samples"] == offline["load_samples"]

@@ -12,11 +12,8 @@ from guide_health.analysis.replay import analyse  # noqa: E402
 from guide_health.io.bag_reader import read_machine_bag  # noqa: E402
 from guide_health.io.bag_writer import write_machine_bag  # noqa: E402
 from guide_health.nodes.session import (  # noqa: E402
-    DiagnosticsCollector,
     clean_fastdds_shm,
-    play_bag,
-    start_node,
-    stop_node,
+    settled_status_after_bag,
 )
 from guide_health.params import simulation_params, wear_monitor_params  # noqa: E402
 from guide_health.sim.machine import simulate_machine  # noqa: E402
@@ -65,17 +62,9 @@ def test_live_missing_estimate_equals_offline_and_the_samples_removed(tmp_path, 
     assert (offline["joint_samples_missing_estimate"], offline["load_samples_missing_estimate"]) == (37, 3)
     assert offline["samples_missing_estimate"] == 40
     assert "40 samples missing (stamp gaps: joint_states 37, load 3)" in offline["message"]
-    collector = DiagnosticsCollector("test_gaps_collector")
-    node = start_node("guide_health.nodes.wear_monitor", BENCH,
-                      {"state_file": "none", "diagnostics_period_s": 0.25}, ros_env, log_path=tmp_path / "node.log")
-    try:
-        assert collector.wait_for(STATUS, timeout=30.0) is not None, (tmp_path / "node.log").read_text()
-        played = play_bag(bag, ros_env, ["--wait-subscribers", "1", "--max-rate", "0"])
-        assert played.returncode == 0, played.stderr
-        live = collector.wait_settled(STATUS, "samples", settle_s=2.0, timeout=120.0)
-    finally:
-        stop_node(node)
-        collector.close()
+    live = settled_status_after_bag("guide_health.nodes.wear_monitor", BENCH,
+                                    {"state_file": "none", "diagnostics_period_s": 0.25}, ros_env, bag, STATUS,
+                                    tmp_path / "node.log", settle_key="samples", collector_name="test_gaps_collector")
     values = live["values"]
     assert int(values["samples"]) == offline["samples"], "messages were lost on the way"
     for key in ("samples_missing_estimate", "joint_samples_missing_estimate", "load_samples_missing_estimate"):
