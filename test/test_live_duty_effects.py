@@ -423,7 +423,7 @@ def test_the_model_file_carries_the_gauge_offset_at_t_ref_by_its_jacobian():
     also -c_T dT_ref to first order; the other rows are the fit's own."""
     from types import SimpleNamespace
 
-    from guide_health.analysis.discrepancy.model_file import model_parameters
+    from guide_health.analysis.discrepancy.model_file import live_parameter_text, model_parameters
     from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
 
     c, b, t0 = 1.2e-6, 4.8e-6, 21.5                  # T_ref = T_0 - b / c = 17.5 degC
@@ -450,6 +450,10 @@ def test_the_model_file_carries_the_gauge_offset_at_t_ref_by_its_jacobian():
     grad = -c * np.array([0.0, b / c ** 2, -1.0 / c])
     assert cov[e, e] == pytest.approx(float(grad @ sigma @ grad), rel=1e-9)
     assert np.count_nonzero(cov) == 9
+    # diagnose's text and report.md show them (model_file.live_parameter_text)
+    text = live_parameter_text(model)
+    assert f"thermal_drift_m_per_k = {c:.4g} ± {0.03e-6:.2g}" in text
+    assert f"thermal_reference_c = {t0 - b / c:.4g}, thermal_gauge_offset_m = 0 ± {math.sqrt(cov[e, e]):.2g}" in text
 
 
 @pytest.mark.slow

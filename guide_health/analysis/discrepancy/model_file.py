@@ -116,13 +116,15 @@ def live_parameter_text(model: dict[str, Any]) -> str:
     measurement, so they differ from the selection's values (fitted without the held-out span)."""
     n = len(COVARIANCE_NAMES)
     cov = np.asarray(model.get("effect_covariance", [0.0] * n * n), dtype=float).reshape(n, n)
-    names = ["wear_coefficient"] + [p for e in str(model.get("effects", "")).split(",") if e
-                                    for p in EFFECT_PARAMETERS.get(e, ())]
+    effects = [e for e in str(model.get("effects", "")).split(",") if e]
+    names = ["wear_coefficient"] + [p for e in effects for p in EFFECT_PARAMETERS.get(e, ())]
+    if "thermal_drift" in effects:       # T_ref, and the gauge's offset there (0 at the fitted values)
+        names += ["thermal_reference_c", "thermal_gauge_offset_m"]
     parts = []
     for name in names:
         i = COVARIANCE_NAMES.index(name) if name in COVARIANCE_NAMES else None
         sd = math.sqrt(cov[i, i]) if i is not None and cov[i, i] > 0 else None
-        parts.append(f"{name} = {model[name]:.4g}" + (f" ± {sd:.2g}" if sd is not None else ""))
+        parts.append(f"{name} = {model.get(name, 0.0):.4g}" + (f" ± {sd:.2g}" if sd is not None else ""))
     return ", ".join(parts)
 
 
