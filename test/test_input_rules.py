@@ -360,3 +360,20 @@ def test_property_a_rejected_sample_changes_no_state(run):
     assert report["rejected_samples"] == monitor.rejected.total
     assert all(math.isfinite(report[k]) or math.isnan(report[k]) or report[k] == math.inf
                for k in ("straightness_um", "remaining_life_h", "wear_coefficient"))
+
+
+@hypothesis.settings(max_examples=200, deadline=None, derandomize=True)
+@hypothesis.given(stamps=st.lists(st.integers(-50, 50), max_size=30),
+                  at=st.lists(st.integers(-60, 60), min_size=1, max_size=20))
+def test_the_reading_in_force_is_one_rule_for_a_stamp_and_for_an_array(stamps, at):
+    """reading_in_force_index (thermal_drift's correction: live per measurement, diagnose vectorised): the
+    scalar branch (bisect) and the array branch (searchsorted) agree, and the index is the last reading
+    stamped at or before the stamp (-1 before the first; a reading stamped at the measurement counts)."""
+    from guide_health.models.wear.input_rules import reading_in_force_index
+
+    readings = sorted(stamps)
+    vector = reading_in_force_index(readings, np.asarray(at))
+    for a, i in zip(at, vector.tolist()):
+        assert reading_in_force_index(readings, a) == i
+        before = [j for j, s in enumerate(readings) if s <= a]
+        assert i == (before[-1] if before else -1)

@@ -32,6 +32,7 @@ from guide_health.models.wear.effects import (
     wear_rate_change_factor,
     wear_rate_multiplier,
 )
+from guide_health.models.wear.input_rules import reading_in_force_index
 
 UM = 1e6
 MICRO_UNITS = ("m", "m/K")       # fitted in um and um/K
@@ -197,7 +198,9 @@ class WearProblem:
         if cells.temperature_c.size >= 2:
             tt = cells.temperature_t_s
             o = np.argsort(tt, kind="stable")
-            temp = np.interp(self.t_s, tt[o], cells.temperature_c[o])
+            # the reading in force at each measurement, as the live correction takes it (zero-order hold by
+            # stamp); a measurement before the first reading takes the first (live rejects it)
+            temp = cells.temperature_c[o][np.maximum(reading_in_force_index(tt[o], self.t_s), 0)]
             self.temperature_change_k = temp - temp[0]
             self.temperature_first_c = float(temp[0])     # T_0: thermal_drift's reference is T_0 + dT_ref
         # each cell spans its measurement interval (for a change point inside it: uniform work assumed)

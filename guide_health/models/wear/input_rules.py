@@ -46,6 +46,7 @@ invalid header stamp) are named here too.
 """
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
@@ -254,6 +255,16 @@ def plausible_temperature(temperature_c):
     with np.errstate(invalid="ignore"):
         ok = np.isfinite(t) & (t >= TEMPERATURE_RANGE_C[0]) & (t <= TEMPERATURE_RANGE_C[1])
     return bool(ok) if ok.ndim == 0 else ok
+
+
+def reading_in_force_index(reading_stamps, at):
+    """Index of the reading in force at a stamp: the last one stamped at or before it (zero-order hold), -1
+    before the first; ``reading_stamps`` sorted. The one rule for which guide/temperature reading corrects a
+    straightness measurement (thermal_drift), live and in diagnose. A scalar ``at`` gives an int (bisect on
+    the kept list: the live path), an array an array (searchsorted: the same rule, vectorised)."""
+    if np.ndim(at) == 0:
+        return bisect.bisect_right(reading_stamps, at) - 1
+    return np.searchsorted(np.asarray(reading_stamps), np.asarray(at), side="right") - 1
 
 
 # --- whole arrays (offline, chunk by chunk) ---------------------------------------------------------

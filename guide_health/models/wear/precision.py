@@ -8,7 +8,6 @@ and remaining precision life (seed 000 Eqs. 7, 10, 11, 12) with a 90 % interval.
 """
 from __future__ import annotations
 
-import bisect
 import math
 from collections import Counter, deque
 from collections.abc import Callable
@@ -51,6 +50,7 @@ from guide_health.models.wear.input_rules import (
     check_straightness_sample,
     main_way_load_n,
     plausible_temperature,
+    reading_in_force_index,
     rejected_key,
 )
 from guide_health.models.wear.stream_gaps import StreamGaps
@@ -174,7 +174,7 @@ class PrecisionMonitor:
         effect); None when no reading is stamped at or before it."""
         if not self._thermal():
             return 0.0
-        i = bisect.bisect_right(self.temperature_t_ns, int(t_ns)) - 1
+        i = reading_in_force_index(self.temperature_t_ns, int(t_ns))
         if i < 0:
             return None
         return self.temperature_c[i] - self.effects.thermal_reference_c
