@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +29,9 @@ from guide_health.models.wear.maintenance import MaintenanceEvent
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.params import simulation_params, validate_wear_params, wear_monitor_params
 from guide_health.sim.machine import simulate_machine
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from live_feed import feed_per_sample  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 JOBS = ROOT / "config" / "machine_jobs.yaml"
@@ -212,12 +216,7 @@ def test_per_sample_callbacks_equal_the_vectorised_path_with_the_duty_effects():
     a_mon = PrecisionMonitor(p)
     a_mon.process_run(run)
     b_mon = PrecisionMonitor(p)
-    events = sorted([(int(t), 0, float(x)) for t, x in zip(run.joint_t_ns, run.joint_position_m)]
-                    + [(int(t), 1, float(w)) for t, w in zip(run.load_t_ns, run.load_n)]
-                    + [(int(t), 2, float(y)) for t, y in zip(run.straightness_t_ns, run.straightness_m)],
-                    key=lambda e: (e[0], (1, 0, 2)[e[1]]))
-    for t, kind, value in events:
-        (b_mon.on_joint, b_mon.on_load, b_mon.on_straightness)[kind](t, value)
+    feed_per_sample(b_mon, run)
     a, b = a_mon.report(), b_mon.report()
     assert b_mon.work_nm() == pytest.approx(a_mon.work_nm(), rel=1e-9)
     for key in ("straightness_um", "remaining_life_h", "remaining_life_h_low", "remaining_life_h_high"):
@@ -370,7 +369,7 @@ def test_thermal_drift_corrects_each_measurement_with_the_temperature_at_its_sta
     assert fresh.estimator.measurement_m[-1] == pytest.approx(20e-6 - 1.2e-6 * 1.0, abs=1e-15)
     again = PrecisionMonitor({**params, **live})
     again.restore(json.loads(json.dumps(fresh.state())))
-    assert again.thermal_correction_at_m(int(run.joint_t_ns[0]) + 20) == pytest.approx(1.2e-6 * 5.0, rel=1e-12)
+    assert again.thermal_offset_at_k(int(run.joint_t_ns[0]) + 20) == pytest.approx(5.0, rel=1e-12)
 
 
 def test_the_life_interval_carries_the_gauge_terms_as_a_rerun_moves_the_life():

@@ -32,6 +32,7 @@ from guide_health.sim.machine import simulate_machine
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import reference_wear as ref  # noqa: E402
+from live_feed import feed_per_sample  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT / "config" / "bench_000.yaml"
@@ -142,12 +143,7 @@ def test_live_per_sample_path_equals_the_vectorised_path():
     offline = PrecisionMonitor(p)
     offline.process_run(run)
     live = PrecisionMonitor(p)
-    events = sorted([(int(t), 0, float(x)) for t, x in zip(run.joint_t_ns, run.joint_position_m)]
-                    + [(int(t), 1, float(w)) for t, w in zip(run.load_t_ns, run.load_n)]
-                    + [(int(t), 2, float(y)) for t, y in zip(run.straightness_t_ns, run.straightness_m)],
-                    key=lambda e: (e[0], (1, 0, 2)[e[1]]))   # at a tie: load, joint, measurement
-    for t, kind, value in events:
-        (live.on_joint, live.on_load, live.on_straightness)[kind](t, value)
+    feed_per_sample(live, run)
     a, b = offline.report(), live.report()
     assert live.effect_wear.effective_work_nm == pytest.approx(offline.effect_wear.effective_work_nm, rel=1e-9)
     # stroke_distribution's passes: one segment per call live, whole arrays offline
@@ -429,12 +425,7 @@ def test_a_regrind_restarts_running_in_as_on_a_new_guide():
     # live: the node's per-sample path over the same bag and event
     per_sample = AxisMonitor(live)
     per_sample.schedule(event)
-    events = sorted([(int(t), 1, float(w)) for t, w in zip(run.load_t_ns, run.load_n)]
-                    + [(int(t), 0, float(x)) for t, x in zip(run.joint_t_ns, run.joint_position_m)]
-                    + [(int(t), 2, float(y)) for t, y in zip(run.straightness_t_ns, run.straightness_m)],
-                    key=lambda e: (e[0], (1, 0, 2)[e[1]]))
-    for t, kind, value in events:
-        (per_sample.on_joint, per_sample.on_load, per_sample.on_straightness)[kind](t, value)
+    feed_per_sample(per_sample, run)
     c = per_sample.primary.report()
     for key in ("straightness_um", "remaining_life_h", "remaining_life_h_low", "remaining_life_h_high"):
         assert c[key] == pytest.approx(a[key], rel=1e-6), key

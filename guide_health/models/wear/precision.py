@@ -179,16 +179,6 @@ class PrecisionMonitor:
             return None
         return self.temperature_c[i] - self.effects.thermal_reference_c
 
-    def thermal_correction_at_m(self, t_ns: int) -> float | None:
-        """c_T (T - T_ref) [m] with the temperature reading in force at ``t_ns`` (0 without thermal_drift);
-        None when no reading is stamped at or before it."""
-        offset = self.thermal_offset_at_k(t_ns)
-        return None if offset is None else self._thermal_correction_m(offset)
-
-    def _thermal_correction_m(self, offset_k: float) -> float:
-        """c_T (T - T_ref) [m] for T - T_ref = ``offset_k`` (0 without thermal_drift)."""
-        return self.effects.thermal_drift_m_per_k * offset_k if self._thermal() else 0.0
-
     def on_straightness(self, t_ns: int, straightness_m: float) -> str | None:
         """Straightness measurement [m]; returns the rejection reason or None when accepted. A measurement
         is identified by its stamp: one with the stamp of an applied measurement is not applied again."""
@@ -201,7 +191,7 @@ class PrecisionMonitor:
         offset = self.thermal_offset_at_k(t_ns)
         if offset is None:
             return self.rejected.reject(STRAIGHTNESS_WITHOUT_TEMPERATURE)
-        correction = self._thermal_correction_m(offset)
+        correction = self.effects.thermal_drift_m_per_k * offset if self._thermal() else 0.0   # c_T (T - T_ref)
         self.thermal_correction_m = correction
         self.estimator.add(t_ns, straightness_m - correction, self.loss_per_k_m(), self.work_nm())
         if self.effect_wear is not None:
