@@ -210,7 +210,7 @@ def test_per_sample_callbacks_equal_the_vectorised_path_with_the_duty_effects():
     expected, offline, run, fixed, k, _ = monitored("all_three", hours=2.0, rate_hz=5.0)
     _, live_p = CASES["all_three"]
     p = {**offline.params}
-    sd = np.array([0.05 * k, 0, 0, 0, 0, 0, 1.0, 0.3, 0.5, 0, 0, 0])
+    sd = np.array([0.05 * k, 0, 0, 0, 0, 0, 1.0, 0.3, 0.5, 0, 0, 0, 0])
     p["effect_covariance"] = np.diag(sd ** 2).ravel().tolist()
     run.straightness_m = expected + np.random.default_rng(3).normal(0.0, 0.3e-6, expected.size)
     a_mon = PrecisionMonitor(p)
@@ -221,7 +221,7 @@ def test_per_sample_callbacks_equal_the_vectorised_path_with_the_duty_effects():
     assert b_mon.work_nm() == pytest.approx(a_mon.work_nm(), rel=1e-9)
     for key in ("straightness_um", "remaining_life_h", "remaining_life_h_low", "remaining_life_h_high"):
         assert b[key] == pytest.approx(a[key], rel=1e-6), key
-    narrow = PrecisionMonitor({**p, "effect_covariance": [0.0] * 144})
+    narrow = PrecisionMonitor({**p, "effect_covariance": [0.0] * 169})
     narrow.process_run(run)
     n = narrow.report()
     assert n["remaining_life_h"] == pytest.approx(a["remaining_life_h"], rel=1e-9)
@@ -487,7 +487,8 @@ def test_an_unbounded_linearisation_gives_an_unbounded_interval():
     params, run, wear, t_ref, _ = thermal_case(2, 3.0, 5.0, 0.3e-6, 1.2e-6, -4.0)
     n = len(COVARIANCE_NAMES)
     cov = np.zeros((n, n))
-    cov[n - 1, n - 1] = 0.01 ** 2
+    e = COVARIANCE_NAMES.index("thermal_gauge_offset_m")
+    cov[e, e] = 0.01 ** 2
     r = life_of({**params, "effects": "thermal_drift", "thermal_drift_m_per_k": 1.2e-6, "thermal_reference_c": t_ref,
                  "effect_covariance": cov.ravel().tolist()}, run)
     assert math.isfinite(r["remaining_life_h"]) and r["remaining_life_h"] > 0
@@ -546,7 +547,7 @@ def test_live_node_with_the_duty_and_thermal_effects_matches_replay(tmp_path, ro
     write_machine_bag(run, bag, extra=event_series(events, base["machine_id"]))
     model = tmp_path / "model.yaml"
     cov = np.diag([(0.02 * 4.4e-6) ** 2, 0, 0, 0, 0, 0, 0.5 ** 2, 0.1 ** 2, (0.1 / H) ** 2, 0.05 ** 2, (0.03e-6) ** 2,
-                   (0.1e-6) ** 2]).ravel().tolist()
+                   (0.1e-6) ** 2, 0.0]).ravel().tolist()
     model.write_text(yaml.safe_dump({"wear_monitor": {"ros__parameters": {
         "wear_coefficient": 4.4e-6,
         "effects": "load_along_rail,wear_rate_change,lubrication_interval,thermal_drift,stroke_distribution",

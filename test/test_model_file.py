@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from scipy.special import stdtrit
 
 from guide_health.analysis.discrepancy.duty import duty_cells_from_runs
 from guide_health.analysis.discrepancy.workflow import diagnose_cells
@@ -139,7 +140,7 @@ def test_live_per_sample_path_equals_the_vectorised_path():
     run = simulate_machine(params, sim, seed=2, effects={"running_in": 1.0, "retract_asymmetry": 0.4})
     p = {**params, "effects": "running_in,retract_asymmetry,stroke_distribution", "running_in_ratio": 1.0,
          "running_in_distance_m": 300.0, "retract_wear_factor": 0.4, "stroke_distribution_weight": 0.6,
-         "effect_covariance": list(np.diag([1e-14, 0.01, 100.0, 0.001, 0, 0, 0, 0, 0, 0.01, 0, 0]).ravel())}
+         "effect_covariance": list(np.diag([1e-14, 0.01, 100.0, 0.001, 0, 0, 0, 0, 0, 0.01, 0, 0, 0]).ravel())}
     offline = PrecisionMonitor(p)
     offline.process_run(run)
     live = PrecisionMonitor(p)
@@ -225,6 +226,123 @@ def test_running_in_life_interval_is_calibrated_on_noise_redraws():
     assert 98 <= hits <= 116, hits
 
 
+def test_a_fitted_a0_goes_into_the_model_file_with_its_covariance():
+    """A0 not given (straightness_initial_m 0): the fit frees it and the file's A0 is the fitted one, its
+    covariance row the fit's (with K and running-in). A0 given and initial_offset named: the file's A0 is
+    A0 + delta and its row is delta's. A0 given, no initial_offset: A0 is known, its row zero. diagnose's text
+    shows A0 with its sd when fitted."""
+    from types import SimpleNamespace
+
+    from guide_health.analysis.discrepancy.model_file import live_parameter_text, model_parameters
+    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
+
+    n = len(COVARIANCE_NAMES)
+    k, r, a = (COVARIANCE_NAMES.index(x) for x in ("wear_coefficient", "running_in_ratio", "straightness_initial_m"))
+    sd = np.array([0.02 * 4.4e-6, 0.2, 40.0, 0.4e-6])
+    corr = np.eye(4)
+    corr[1, 3] = corr[3, 1] = -0.7
+    corr[0, 3] = corr[3, 0] = 0.2
+    sigma = corr * np.outer(sd, sd)
+    base = dict(load_reference_n=5000.0, retract_sign=-1, cells=SimpleNamespace(t0_ns=0), temperature_first_c=20.0)
+    for a0_free, extra_name, a0_file in ((True, "straightness_initial_m", 14.6e-6),
+                                         (False, "initial_offset_m", 15e-6 - 0.4e-6)):
+        values = {"wear_coefficient": 4.4e-6, "running_in_ratio": 2.4, "running_in_distance_m": 310.0,
+                  extra_name: 14.6e-6 if a0_free else -0.4e-6}
+        names = ["wear_coefficient", "running_in_ratio", "running_in_distance_m", extra_name]
+        final = SimpleNamespace(values=values, extra={"covariance": {"names": names, "matrix": sigma}})
+        problem = SimpleNamespace(a0_free=a0_free, a0_m=0.0 if a0_free else 15e-6, **base)
+        named = ["running_in"] if a0_free else ["running_in", "initial_offset"]
+        model = model_parameters(problem, final, named)
+        cov = np.asarray(model["effect_covariance"]).reshape(n, n)
+        assert model["straightness_initial_m"] == pytest.approx(a0_file, rel=1e-12)
+        assert cov[a, a] == pytest.approx(sigma[3, 3], rel=1e-12)
+        assert cov[a, r] == pytest.approx(sigma[1, 3], rel=1e-12) and cov[k, a] == pytest.approx(sigma[0, 3], rel=1e-12)
+        assert model["effects"] == "running_in"
+        text = live_parameter_text(model)
+        assert f"straightness_initial_m = {a0_file:.4g} ± {0.4e-6:.2g}" in text, text
+    known = model_parameters(SimpleNamespace(a0_free=False, a0_m=15e-6, **base), SimpleNamespace(
+        values={"wear_coefficient": 4.4e-6, "running_in_ratio": 2.4, "running_in_distance_m": 310.0},
+        extra={"covariance": {"names": names[:3], "matrix": sigma[:3, :3]}}), ["running_in"])
+    cov = np.asarray(known["effect_covariance"]).reshape(n, n)
+    assert known["straightness_initial_m"] == 15e-6 and not cov[a].any()
+    assert "straightness_initial_m" not in live_parameter_text(known)
+
+
+def test_the_life_interval_carries_a0_as_a_rerun_moves_the_life():
+    """A0's share of the interval (its variance alone in the covariance, less the interval with none) equals
+    the life's change when the whole monitor is rerun with A0 moved by that sd (5 %): A0 moves the straightness
+    now and every measured rise over A0, so the K update moves with it."""
+    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
+
+    params, run = bench_running_in(2, rate_hz=5.0)
+    n, a = len(COVARIANCE_NAMES), COVARIANCE_NAMES.index("straightness_initial_m")
+    live = {**params, "effects": "running_in", "running_in_ratio": 2.5, "running_in_distance_m": 300.0}
+    sd = 0.4e-6
+
+    def life(extra: dict, variance: float) -> tuple[float, float, float]:
+        cov = np.zeros((n, n))
+        cov[a, a] = variance
+        return replay_life({**live, **extra, "effect_covariance": cov.ravel().tolist()}, run)
+
+    none, one = life({}, 0.0), life({}, sd ** 2)
+    assert one[0] == pytest.approx(none[0], rel=1e-12)
+    monitor = PrecisionMonitor(live)
+    monitor.process_run(run)
+    t90 = float(stdtrit(monitor.estimator.count - 1, 0.95))      # the interval's quantile
+    half_none, half_one = (math.log(x[2] / x[0]) for x in (none, one))   # t90 x the sd of ln(life)
+    predicted = math.sqrt(half_one ** 2 - half_none ** 2) / t90        # A0's share of the sd of ln(life)
+    up, down = (life({"straightness_initial_m": params["straightness_initial_m"] + s}, 0.0)[0] for s in (sd, -sd))
+    rerun = abs(math.log(up / down)) / 2.0
+    print(f"A0: delta method {predicted:.5f}, rerun {rerun:.5f}")
+    assert predicted == pytest.approx(rerun, rel=0.05)
+    assert predicted > 0.2 * half_none / t90          # not negligible against K's own spread
+
+
+@pytest.mark.slow
+def test_a_fitted_a0_life_interval_is_calibrated_on_noise_redraws():
+    """As the running-in calibration test, with A0 not given (the fit frees it): seeds 0 and 9's motions (5 Hz),
+    100 noise draws each. The file's A0 row (correlation -0.8 with running_in_ratio, 0.55 with s0) keeps the interval
+    calibrated: predicted sd of ln(life) within 20 % of the empirical spread, coverage 82-97 %. Without it
+    (A0 held, r and s0 with their A0-free marginal variance) the interval is > 1.2x too wide. Measured
+    2026-11-24, 200 draws: seed 0 predicted 0.0220, empirical 0.0217, covered 182/200 (without A0's row: 0.0297,
+    192/200); seed 9 0.0220, 0.0217, 183/200 (0.0297, 192/200)."""
+    from guide_health.analysis.discrepancy.model import WearProblem
+    from guide_health.analysis.discrepancy.model_file import model_parameters
+    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
+
+    n, a = len(COVARIANCE_NAMES), COVARIANCE_NAMES.index("straightness_initial_m")
+    for seed in (0, 9):
+        params, run = bench_running_in(seed, rate_hz=5.0)
+        truth_m = np.asarray(run.metadata["truth"]["straightness_m"])
+        truth_h = true_remaining_life_h(run, params["straightness_limit_m"])
+        cells = duty_cells_from_runs(run, params["slider_length_m"], limits=InputLimits.from_params(params),
+                                     sliding_deadband_m=params["sliding_deadband_m"])
+        free = {**params, "straightness_initial_m": 0.0}
+        rng = np.random.default_rng(2026 + seed)
+        errors, sds, held_sds, hits = [], [], [], 0
+        for _ in range(100):
+            measured = truth_m + rng.normal(0.0, 0.5e-6, truth_m.size)
+            problem = WearProblem(dataclasses.replace(cells, measurement_m=measured), free, heldout_fraction=0.0)
+            model = model_parameters(problem, problem.fit(("running_in",)), ["running_in"])
+            cov = np.asarray(model["effect_covariance"]).reshape(n, n)
+            assert cov[a, a] > 0
+            noisy = dataclasses.replace(run, straightness_m=measured)
+            life = replay_life({**params, **model}, noisy)
+            cov = cov.copy()
+            cov[a, :] = cov[:, a] = 0.0
+            held = replay_life({**params, **model, "effect_covariance": cov.ravel().tolist()}, noisy)
+            errors.append(math.log(truth_h / life[0]))
+            sds.append(math.log(life[2] / life[0]) / 1.684)
+            held_sds.append(math.log(held[2] / held[0]) / 1.684)
+            hits += covers(life, truth_h)
+        ratio, held_ratio = (float(np.mean(x)) / float(np.std(errors)) for x in (sds, held_sds))
+        print(f"seed {seed}: predicted {np.mean(sds):.4f}, empirical {np.std(errors):.4f}, covered {hits}/100; "
+              f"A0 held {np.mean(held_sds):.4f}")
+        assert 0.8 < ratio < 1.2, ratio
+        assert held_ratio > 1.2, held_ratio
+        assert 82 <= hits <= 97, hits
+
+
 # --- the CLI ----------------------------------------------------------------------------------------
 
 def test_diagnose_writes_a_model_file_that_replay_loads(tmp_path):
@@ -238,7 +356,7 @@ def test_diagnose_writes_a_model_file_that_replay_loads(tmp_path):
     text = cli("diagnose", str(bag), "--params", str(BENCH), "--out", str(out), "--no-plot").stdout
     model = yaml.safe_load((out / "model.yaml").read_text())["wear_monitor"]["ros__parameters"]
     # what goes live, with its standard errors, in the text and in report.md
-    sd = math.sqrt(model["effect_covariance"][13])
+    sd = math.sqrt(model["effect_covariance"][14])     # [1, 1] of the 13 x 13
     line = f"running_in_ratio = {model['running_in_ratio']:.4g} ± {sd:.2g}"
     assert line in text and line in (out / "report.md").read_text(), text
     assert model["effects"] == "running_in"
@@ -246,7 +364,7 @@ def test_diagnose_writes_a_model_file_that_replay_loads(tmp_path):
     assert (out / "model.yaml").read_text().startswith("# guide-health diagnose")     # explained: no warning
     assert model["running_in_ratio"] == pytest.approx(2.5, rel=0.2)
     assert model["running_in_distance_m"] == pytest.approx(300.0, rel=0.2)
-    assert len(model["effect_covariance"]) == 144 and model["effect_covariance"][0] > 0
+    assert len(model["effect_covariance"]) == 169 and model["effect_covariance"][0] > 0
     merged = wear_monitor_params([BENCH, out / "model.yaml"])
     assert merged["effects"] == "running_in" and merged["contact_width_m"] == 0.040    # base kept, model over it
     params = wear_monitor_params(BENCH)
@@ -263,28 +381,28 @@ def test_diagnose_writes_a_model_file_that_replay_loads(tmp_path):
 
 
 def test_a_model_file_from_before_the_duty_effects_still_loads(tmp_path):
-    """A stop-10 model file holds a 6 x 6 effect_covariance, a stop-11 one a 9 x 9 (and stop 12's first commit
-    a 10 x 10): each loads as the leading block of the 12 x 12 (zeros elsewhere), the same life and interval as
-    the file written with the 12 x 12; 37 numbers are refused."""
+    """A stop-10 model file holds a 6 x 6 effect_covariance, a stop-11 one a 9 x 9 (stop 12's first commit a
+    10 x 10, stop 12's a 12 x 12): each loads as the leading block of the 13 x 13 (zeros elsewhere), the same
+    life and interval as the file written with the 13 x 13; 37 numbers are refused."""
     cov6 = np.diag([(0.02 * 4.4e-6) ** 2, 0.1 ** 2, 30.0 ** 2, 0.05 ** 2, 0.0, 0.0])
     cov6[0, 1] = cov6[1, 0] = 0.3 * (0.02 * 4.4e-6) * 0.1
     body = {"wear_coefficient": 4.4e-6, "effects": "running_in,retract_asymmetry", "running_in_ratio": 2.0,
             "running_in_distance_m": 300.0, "retract_wear_factor": 0.5}
     files = {}
-    for size in (6, 9, 10, 12):
+    for size in (6, 9, 10, 12, 13):
         cov = np.zeros((size, size))
         cov[:6, :6] = cov6
         files[size] = tmp_path / f"cov{size}.yaml"
         files[size].write_text(yaml.safe_dump({"wear_monitor": {"ros__parameters": {
             **body, "effect_covariance": cov.ravel().tolist()}}}))
     loaded = {size: wear_monitor_params([BENCH, f]) for size, f in files.items()}
-    assert all(loaded[size]["effect_covariance"] == loaded[12]["effect_covariance"] for size in (6, 9, 10))
-    assert len(loaded[6]["effect_covariance"]) == 144
+    assert all(loaded[size]["effect_covariance"] == loaded[13]["effect_covariance"] for size in (6, 9, 10, 12))
+    assert len(loaded[6]["effect_covariance"]) == 169
     params, run = bench_running_in(2, rate_hz=5.0)
-    assert replay_life(loaded[6], run) == pytest.approx(replay_life(loaded[12], run), rel=1e-12)
+    assert replay_life(loaded[6], run) == pytest.approx(replay_life(loaded[13], run), rel=1e-12)
     bad = tmp_path / "bad.yaml"
     bad.write_text(yaml.safe_dump({"wear_monitor": {"ros__parameters": {**body, "effect_covariance": [0.0] * 37}}}))
-    with pytest.raises(InputError, match="effect_covariance must be a list of 144 numbers"):
+    with pytest.raises(InputError, match="effect_covariance must be a list of 169 numbers"):
         wear_monitor_params([BENCH, bad])
 
 
@@ -390,19 +508,22 @@ def _tail_from(run, t_ns: int):
 def test_a_regrind_restarts_running_in_as_on_a_new_guide():
     """Bench with running-in (3 h, 2 Hz), reground at 1.7 h to 20 um: after the regrind the effect-aware model
     (AxisMonitor, the node's and replay's object, event from the bag) equals a new guide's model built
-    independently (prior K = the old surface's posterior, A0 = 20 um, fed from the regrind on) to 1e-9: the
-    running-in distance counts from the regrind. The per-sample path gives the same. Control: the new surface's
-    effective work is > 1.3x its Archard work (running-in is visible, so a kept counter would be seen)."""
+    independently (prior K = the old surface's posterior, A0 = 20 um known, fed from the regrind on) to 1e-9: the
+    running-in distance counts from the regrind, and the file's A0 variance, which moves the interval before
+    the regrind, no longer applies after it (A0 measured). The per-sample path gives the same. Control: the new
+    surface's effective work is > 1.3x its Archard work (running-in is visible, so a kept counter would be
+    seen)."""
     from guide_health.models.wear.axis import AxisMonitor, split_run
     from guide_health.models.wear.maintenance import MaintenanceEvent
 
     params = wear_monitor_params(BENCH)
     sim = dict(simulation_params(BENCH), duration_h=3.0, joint_state_rate_hz=2.0, load_rate_hz=1.0)
     run = simulate_machine(params, sim, seed=5, effects={"running_in": 2.5})
+    variances = [(0.01 * 4.42e-6) ** 2, 0.1 ** 2, 20.0 ** 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, (0.4e-6) ** 2]
     live = {**params, "stroke_min_m": 0.1, "stroke_max_m": 0.3, "effects": "running_in", "running_in_ratio": 2.5,
-            "running_in_distance_m": 300.0,
-            "effect_covariance": np.diag([(0.01 * 4.42e-6) ** 2, 0.1 ** 2, 20.0 ** 2,
-                                          0, 0, 0, 0, 0, 0, 0, 0, 0]).ravel().tolist()}
+            "running_in_distance_m": 300.0, "effect_covariance": np.diag(variances).ravel().tolist()}
+    # the file's A0 (fitted, sd 0.4 um) is replaced by the measured 20 um: its variance no longer applies
+    a0_known = {**live, "effect_covariance": np.diag(variances[:-1] + [0.0]).ravel().tolist()}
     t_regrind = int(run.joint_t_ns[0]) + int(1.7 * 3600e9) + 123_456_789
     event = MaintenanceEvent(t_regrind, "regrind", params["joint"], straightness_m=20e-6)
     axis = AxisMonitor(live)
@@ -412,7 +533,10 @@ def test_a_regrind_restarts_running_in_as_on_a_new_guide():
     old = PrecisionMonitor(live)
     old.process_run(split_run(run, t_regrind)[0])
     k, k_sd, _ = old.estimator.posterior(old.measurement_losses_per_k_m())
-    new = PrecisionMonitor({**live, "wear_coefficient": k, "wear_coefficient_prior_rel_sd": k_sd / k,
+    before = PrecisionMonitor(a0_known)
+    before.process_run(split_run(run, t_regrind)[0])
+    assert old.report()["remaining_life_h_high"] != pytest.approx(before.report()["remaining_life_h_high"], rel=1e-3)
+    new = PrecisionMonitor({**a0_known, "wear_coefficient": k, "wear_coefficient_prior_rel_sd": k_sd / k,
                             "straightness_initial_m": 20e-6})
     new.process_run(_tail_from(run, t_regrind))
     assert new.estimator.count == 3 and reground.estimator.count == 3

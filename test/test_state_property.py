@@ -36,7 +36,7 @@ EFFECTS = {"effects": "running_in,retract_asymmetry,load_exponent,load_along_rai
            "load_gradient_per_m": 2.0, "load_reference_position_m": 0.2, "wear_rate_change_factor": 1.7,
            "wear_rate_change_stamp_s": 1_700_000_020.0, "lubrication_wear_growth": 1e-3,
            "thermal_drift_m_per_k": 1e-6, "thermal_reference_c": 21.0,
-           "effect_covariance": [1e-4 if i % 13 == 0 else 0.0 for i in range(144)]}
+           "effect_covariance": [1e-4 if i % 14 == 0 else 0.0 for i in range(169)]}
 EFFECT_PARAMS = dict(PARAMS, **EFFECTS)
 EFFECT_RULE_PARAMS = dict(RULE_PARAMS, **EFFECTS)
 KEY = "m1/x/precision"

@@ -96,12 +96,13 @@ SLIDING_GUIDE_PARAMS = (
     Param("stroke_distribution_weight", 0.0, "-", "[-1, 2]",
           "stroke_distribution w: A_wear = K / (H b) [(1 - w) 2 G / (l_min + l_max) + w P], P the work of each pass "
           "over max(pass length, slider length) (Eq. 5's j = 1/2 at w = 0); diagnose fits it in [-1, 2]"),
-    Param("effect_covariance", [0.0] * 144, "SI", "",
-          "covariance (row-major 12 x 12) of the fitted wear_coefficient, running_in_ratio, running_in_distance_m, "
+    Param("effect_covariance", [0.0] * 169, "SI", "",
+          "covariance (row-major 13 x 13) of the fitted wear_coefficient, running_in_ratio, running_in_distance_m, "
           "retract_wear_factor, lift_speed_m_s, load_exponent, load_gradient_per_m, wear_rate_change_factor, "
-          "lubrication_wear_growth, stroke_distribution_weight, thermal_drift_m_per_k and thermal_gauge_offset_m "
-          "(the gauge's offset at thermal_reference_c, 0 at the fitted values) (SI); widens the remaining-life "
-          "interval (the 6 x 6, 9 x 9 or 10 x 10 of an older model file loads as the leading block)"),
+          "lubrication_wear_growth, stroke_distribution_weight, thermal_drift_m_per_k, thermal_gauge_offset_m "
+          "(the gauge's offset at thermal_reference_c, 0 at the fitted values) and straightness_initial_m (A0 when "
+          "fitted) (SI); widens the remaining-life interval (the 6 x 6, 9 x 9, 10 x 10 or 12 x 12 of an older "
+          "model file loads as the leading block)"),
     Param("life_warn_h", 500.0, "h", "(0, 1e7]", "WARN when the remaining precision life drops below this",
           dynamic=True),
     Param("life_error_h", 100.0, "h", "[0, 1e7]",

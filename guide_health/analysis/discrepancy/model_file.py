@@ -2,8 +2,9 @@
 
 A ROS 2 parameters file (``wear_monitor: ros__parameters:``) with the calibrated K, the A0 the fit used,
 the named effects the live model integrates (``effects`` and their parameters, params/wear_monitor.py) and
-the covariance of the fitted K and effect parameters (12 x 12, models/wear/effect_wear.COVARIANCE_NAMES; the
-gauge offset at T_ref is a linear function of the fitted c_T and offset at T_0, its rows by that Jacobian).
+the covariance of the fitted K, effect parameters and A0 (13 x 13, models/wear/effect_wear.COVARIANCE_NAMES;
+the gauge offset at T_ref is a linear function of the fitted c_T and offset at T_0, its rows by that Jacobian;
+A0's row is the fitted A0's, or initial_offset's delta's, when the fit freed them, else zero).
 The duty effects' times become absolute (seconds since the stamps' epoch): the change time of
 wear_rate_change, lubrication_interval's reference (the record's start for a fitted interval, the last
 recorded relubrication otherwise); load_along_rail carries the fit's x_ref.
@@ -98,6 +99,8 @@ def model_parameters(problem, final, named: list[str]) -> dict[str, Any]:
         for name in COVARIANCE_NAMES:
             if name in index and (name == "wear_coefficient" or name in out):
                 jac[COVARIANCE_NAMES.index(name), index[name]] = 1.0
+        if "initial_offset_m" in index:     # A0 = the given A0 + delta (initial_offset named)
+            jac[COVARIANCE_NAMES.index("straightness_initial_m"), index["initial_offset_m"]] = 1.0
         if "thermal_drift" in live:
             # the gauge's offset at T_ref: e = dc_T (T_ref - T_0) + db (b the fitted offset at T_0, when fitted)
             row = COVARIANCE_NAMES.index("thermal_gauge_offset_m")
@@ -120,6 +123,9 @@ def live_parameter_text(model: dict[str, Any]) -> str:
     names = ["wear_coefficient"] + [p for e in effects for p in EFFECT_PARAMETERS.get(e, ())]
     if "thermal_drift" in effects:       # T_ref, and the gauge's offset there (0 at the fitted values)
         names += ["thermal_reference_c", "thermal_gauge_offset_m"]
+    a0 = COVARIANCE_NAMES.index("straightness_initial_m")
+    if cov[a0, a0] > 0:                  # A0 was fitted
+        names.append("straightness_initial_m")
     parts = []
     for name in names:
         i = COVARIANCE_NAMES.index(name) if name in COVARIANCE_NAMES else None

@@ -42,19 +42,21 @@ from guide_health.models.wear.effects import (
     wear_rate_multiplier,
 )
 
-#: the order of the model file's effect_covariance rows (12 x 12, SI; the 6 x 6, 9 x 9 or 10 x 10 of an older
-#: file is widened on loading, params/schema.py LIST_UPGRADES). ``lubrication_wear_growth`` is b [1/s] (recorded
-#: relubrications) or a [-] (interval). thermal_drift's gauge term c_T (T - T_ref) enters as c_T and the
-#: offset e of the gauge at T_ref (0 at the fitted values; its variance is the fit's uncertainty of the
-#: gauge term where the temperature is T_ref): the correction with both moved is (c_T + dc) (T - T_ref) + de
+#: the order of the model file's effect_covariance rows (13 x 13, SI; the 6 x 6, 9 x 9, 10 x 10 or 12 x 12 of
+#: an older file is widened on loading, params/schema.py LIST_UPGRADES). ``lubrication_wear_growth`` is b [1/s]
+#: (recorded relubrications) or a [-] (interval). thermal_drift's gauge term c_T (T - T_ref) enters as c_T and
+#: the offset e of the gauge at T_ref (0 at the fitted values; its variance is the fit's uncertainty of the
+#: gauge term where the temperature is T_ref): the correction with both moved is (c_T + dc) (T - T_ref) + de.
+#: ``straightness_initial_m`` is A0 when the fit freed it (A0 not given, or initial_offset named): A0 + dA0
+#: moves the straightness now and every measured rise over A0 (y_j - A0)
 COVARIANCE_NAMES = ("wear_coefficient", "running_in_ratio", "running_in_distance_m", "retract_wear_factor",
                     "lift_speed_m_s", "load_exponent", "load_gradient_per_m", "wear_rate_change_factor",
                     "lubrication_wear_growth", "stroke_distribution_weight", "thermal_drift_m_per_k",
-                    "thermal_gauge_offset_m")
+                    "thermal_gauge_offset_m", "straightness_initial_m")
 _PHI = len(COVARIANCE_NAMES) - 1       # effect parameters phi (all but K)
-#: where w, c_T and the gauge offset at T_ref sit in phi
-W_INDEX, C_T_INDEX, OFFSET_INDEX = (COVARIANCE_NAMES.index(n) - 1 for n in (
-    "stroke_distribution_weight", "thermal_drift_m_per_k", "thermal_gauge_offset_m"))
+#: where w, c_T, the gauge offset at T_ref and A0's deviation sit in phi
+W_INDEX, C_T_INDEX, OFFSET_INDEX, A0_INDEX = (COVARIANCE_NAMES.index(n) - 1 for n in (
+    "stroke_distribution_weight", "thermal_drift_m_per_k", "thermal_gauge_offset_m", "straightness_initial_m"))
 #: the phi whose multipliers set the present rate, in bucket-sum order (sums[3:9])
 _RATE_PHI = slice(2, 8)
 #: per bucket: work, effective work w/o running-in, distance, d(effective work)/d(rho, v_lift, n, g, f, b),
@@ -63,9 +65,9 @@ _SUMS = 10
 PASS_SUM = 9
 #: lengths of the saved lists (a work gradient, a bucket row: index then sums, a measurement's gradient):
 #: (now, earlier ones); a state of an earlier length is zero-padded on restore (the terms added since were zero
-#: then: w, c_T and e have no work gradient, and the pass sums only count for stroke_distribution)
-STATE_LIST_LENGTHS = {"work_gradient": (_PHI, 9, 8, 5), "buckets": (1 + _SUMS, 10, 7),
-                      "measurement_gradients": (_PHI, 9, 8, 5), "pass_open_buckets": (2,)}
+#: then: w, c_T, e and A0 have no work gradient, and the pass sums only count for stroke_distribution)
+STATE_LIST_LENGTHS = {"work_gradient": (_PHI, 11, 9, 8, 5), "buckets": (1 + _SUMS, 10, 7),
+                      "measurement_gradients": (_PHI, 11, 9, 8, 5), "pass_open_buckets": (2,)}
 
 
 @dataclass(frozen=True)
@@ -99,7 +101,7 @@ class LiveEffects:
     # over passes of length L (effects.straightness_wear_m; L_s the slider length)
     stroke_distribution_weight: float = 0.0
     slider_length_m: float = 0.0
-    covariance: tuple = ()             # 100 numbers, COVARIANCE_NAMES order
+    covariance: tuple = ()             # len(COVARIANCE_NAMES)^2 numbers, row-major in that order
 
     @classmethod
     def from_params(cls, p: dict) -> LiveEffects | None:
@@ -135,11 +137,12 @@ class LiveEffects:
         )
 
     def phi(self) -> np.ndarray:
-        """The effect parameters in COVARIANCE_NAMES order after K (v_lift 0 when absent)."""
+        """The effect parameters in COVARIANCE_NAMES order after K (v_lift 0 when absent; the gauge offset and
+        A0 as deviations, 0)."""
         return np.array([self.running_in_ratio, self.running_in_distance_m, self.retract_wear_factor,
                          self.lift_speed_m_s if math.isfinite(self.lift_speed_m_s) else 0.0, self.load_exponent,
                          self.load_gradient_per_m, self.wear_rate_change_factor, self.lubrication_growth,
-                         self.stroke_distribution_weight, self.thermal_drift_m_per_k, 0.0])
+                         self.stroke_distribution_weight, self.thermal_drift_m_per_k, 0.0, 0.0])
 
     def wear_effects(self) -> WearEffects:
         return WearEffects(retract_wear_factor=self.retract_wear_factor, lift_speed_m_s=self.lift_speed_m_s,
@@ -480,7 +483,7 @@ def online_k_sensitivity(loss_per_k_m: np.ndarray, rise_m: np.ndarray, loss_grad
 
 def life_interval_s(k: float, k_sd: float, e: LiveEffects, now: dict, z: float) -> tuple[float, float, float]:
     """(life, low, high) [s] of remaining life with the effects, and its interval: the delta method on ln life
-    with K profiled (module text): the effect parameters phi = (r, s0, rho, v_lift, n, g, f, b, w;
+    with K profiled (module text): the effect parameters phi = (r, s0, rho, v_lift, n, g, f, b, w, c_T, e, dA0;
     ``LiveEffects.phi``; the change time t_c, the interval T and the rail's x_ref are held) vary with the model
     file's marginal covariance, K follows as the online update would (``now["k_sensitivity"]`` = dK / dphi),
     and K's own spread given phi is the online posterior sd ``k_sd``.
@@ -490,8 +493,9 @@ def life_interval_s(k: float, k_sd: float, e: LiveEffects, now: dict, z: float) 
     P, loss_pass = 1 / (H b) [m / N] (effects.straightness_wear_m: loss = (1 - w) loss_work G + w loss_pass P);
     work_gradient (d G / d phi; P moves in proportion), k_sensitivity (d K / d phi), rate_work_per_k and
     rate_pass_per_k (the two parts of the steady dA/dt per K [m/s]), dln_rate (d ln rate / d(rho, v_lift, n, g,
-    f, b) at the present duty), s_now (distance of the present surface [m]), v_s [m/s]. A change of phi moves
-    the straightness now (through the past effective work and K) and the rate."""
+    f, b) at the present duty), s_now (distance of the present surface [m]), v_s [m/s], a0_measured (A0 was set
+    by a measurement after a regrind or a new rail: the file's A0 variance no longer applies). A change of phi
+    moves the straightness now (through the past effective work and K, and A0 directly) and the rate."""
     phi0 = e.phi()
     dk = np.asarray(now.get("k_sensitivity", np.zeros(phi0.size)), dtype=float)
     work0, pass0 = now["work"], now.get("pass_work", 0.0)
@@ -505,13 +509,15 @@ def life_interval_s(k: float, k_sd: float, e: LiveEffects, now: dict, z: float) 
         loss = (1.0 - w) * now["loss_work"] * work + w * now["loss_pass"] * passes
         rate_per_k = (1.0 - w) * now["rate_work_per_k"] + w * now.get("rate_pass_per_k", 0.0)
         rate = kk * rate_per_k * (1.0 + float(np.dot(now["dln_rate"], d[_RATE_PHI])))
-        return remaining_life_with_running_in_s(now["margin0"] - kk * loss, rate, phi[0],
+        return remaining_life_with_running_in_s(now["margin0"] - d[A0_INDEX] - kk * loss, rate, phi[0],
                                                 max(phi[1], 1e-9), now["s_now"], now["v_s"])
 
     centre = life(k, phi0)
     if not (math.isfinite(centre) and centre > 0):
         return centre, centre, centre
-    cov = e.covariance_matrix()[1:, 1:]
+    cov = e.covariance_matrix()[1:, 1:].copy()
+    if now.get("a0_measured", False):   # A0 measured after a regrind or a new rail: the file's A0 is not used
+        cov[A0_INDEX, :] = cov[:, A0_INDEX] = 0.0
 
     def dln(h: float, i: int | None) -> float:
         phi = phi0.copy()

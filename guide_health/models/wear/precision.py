@@ -25,6 +25,7 @@ from guide_health.models.wear.archard import (
 )
 from guide_health.models.wear.calibration import Z90, WearCoefficientEstimator, remaining_life_s
 from guide_health.models.wear.effect_wear import (
+    A0_INDEX,
     C_T_INDEX,
     OFFSET_INDEX,
     PASS_SUM,
@@ -276,8 +277,10 @@ class PrecisionMonitor:
             per_work = np.divide(g, work_j, out=np.zeros(n), where=work_j > 0)
             dg = per_work[:, None] * grads
             dg[:, W_INDEX] = loss_pass * self.measurement_pass_work_n() - loss_work * work_j
-            # thermal_drift: each reading corrected by (c_T + dc) (T_j - T_ref) + de
+            # A0 + dA0: every rise over A0 falls by dA0; thermal_drift: each reading corrected by
+            # (c_T + dc) (T_j - T_ref) + de
             dy = np.zeros_like(dg)
+            dy[:, A0_INDEX] = -1.0
             offsets = np.asarray(self.effect_wear.measurement_temperature_offset_k, dtype=float)
             if self._thermal() and offsets.size == n and np.all(np.isfinite(offsets)):
                 dy[:, C_T_INDEX] = -offsets
@@ -291,7 +294,9 @@ class PrecisionMonitor:
                "loss_work": loss_work, "loss_pass": loss_pass,
                "work_gradient": np.asarray(self.effect_wear.work_gradient), "k_sensitivity": k_sens,
                "rate_work_per_k": f["rate_work_per_k_m_s"], "rate_pass_per_k": f["rate_pass_per_k_m_s"],
-               "dln_rate": np.asarray(f["dln_rate"]), "s_now": f["sliding_distance_m"], "v_s": f["sliding_speed_m_s"]}
+               "dln_rate": np.asarray(f["dln_rate"]), "s_now": f["sliding_distance_m"], "v_s": f["sliding_speed_m_s"],
+               "a0_measured": self.params["straightness_initial_m"] != self.params.get(
+                   "straightness_initial_configured_m", self.params["straightness_initial_m"])}
         z = float(stdtrit(n - 1, 0.95)) if n >= 3 else Z90
         return life_interval_s(k, k_sd, self.effects, now, z)
 
