@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from guide_health.analysis.discrepancy.duty import duty_cells_from_runs
 from guide_health.models.wear.feed import StampAlignedFeed
@@ -307,6 +309,32 @@ def temperature_run():
     tt = T0 + np.arange(301) * 1_000_000_000
     return MachineRun("x", t, x, np.zeros(0), np.array([T0]), np.array([2000.0]), np.zeros(0, np.int64),
                       np.zeros(0), temperature_t_ns=tt, temperature_c=20.0 + 25.0 * np.arange(301) / 300.0)
+
+
+@settings(max_examples=150, deadline=None, derandomize=True)
+@given(st.lists(st.tuples(st.booleans(), st.integers(0, 40), st.floats(15.0, 70.0)), min_size=1, max_size=40))
+def test_item6_the_oil_temperature_in_force_is_the_last_reading_stamped_at_or_before(events):
+    """Readings arrive in any order, samples in stamp order: after each sample the oil temperature is that of
+    the last reading stamped at or before it (a later arrival wins at the same stamp), among all that have
+    arrived; before any, the configured one. The rule written here independently of
+    input_rules.reading_in_force_index (which the rolling guide and the thermal_drift correction share)."""
+    monitor = PrecisionMonitor(rolling_params())
+    rolling = monitor.rolling
+    configured = rolling.regime_model.oil_temperature_c
+    arrived: list[tuple[int, int, float]] = []     # (stamp, arrival, degC)
+    t_sample, x = T0, 0.0
+    for k, (is_reading, offset, value) in enumerate(events):
+        if is_reading:                              # stamped up to 20 ns before or after the last sample
+            stamp = t_sample + offset - 20
+            rolling.add_temperature(stamp, value)
+            arrived.append((stamp, k, value))
+            continue
+        t_sample += offset + 1
+        x += 1e-4
+        rolling.advance(t_sample, x, 2000.0)
+        in_force = [r for r in arrived if r[0] <= t_sample]
+        expected = max(in_force)[2] if in_force else configured
+        assert rolling.regime_model.oil_temperature_c == expected
 
 
 def test_item6_temperature_topic_feeds_the_viscosity_live_equal_to_offline(ros_context):

@@ -25,6 +25,7 @@ from guide_health.models.levels import ERROR, OK, WARN, Level
 from guide_health.models.rolling.ball_contact import LubricationRegimeEstimator
 from guide_health.models.rolling.lubrication import REGIMES
 from guide_health.models.rolling.rating_life import FatigueAccumulator
+from guide_health.models.wear.input_rules import reading_in_force_index
 
 
 class RollingGuideMonitor:
@@ -55,36 +56,47 @@ class RollingGuideMonitor:
         self.last_lambda = math.nan
         self.last_asperity_share = math.nan
         self.last_speed_m_s = math.nan
-        self._temperatures: list[tuple[int, float]] = []   # guide/temperature readings not yet applied, by stamp
+        # guide/temperature readings not yet in force, by stamp (arrival order at a tie), and the stamp of the
+        # reading in force (None: none yet)
+        self._pending_t_ns: list[int] = []
+        self._pending_c: list[float] = []
+        self.oil_temperature_t_ns: int | None = None
 
     # --- oil temperature (Walther viscosity, issue 11 item 6): applied by stamp, live and offline alike -------
     MAX_PENDING_TEMPERATURES = 100_000
 
     def add_temperature(self, t_ns: int, temperature_c: float) -> None:
         """A guide/temperature reading [degC] stamped ``t_ns``: the oil viscosity of every travel segment
-        ending at or after the stamp (no effect with a constant ``oil_viscosity_pa_s``)."""
+        ending at or after the stamp (no effect with a constant ``oil_viscosity_pa_s``). The reading in force
+        at a segment's end is the last one stamped at or before it (input_rules.reading_in_force_index, the
+        rule of the thermal_drift correction): a reading arriving after a later-stamped one took force is
+        superseded and dropped."""
         if not math.isfinite(temperature_c) or self.regime_model.guide.oil is None:
             return
-        bisect.insort(self._temperatures, (int(t_ns), float(temperature_c)))
-        if len(self._temperatures) > self.MAX_PENDING_TEMPERATURES:     # no motion for a long time
-            self.regime_model.set_oil_temperature(self._temperatures.pop(0)[1])
+        t = int(t_ns)
+        if self.oil_temperature_t_ns is not None and t < self.oil_temperature_t_ns:
+            return
+        i = bisect.bisect_right(self._pending_t_ns, t)
+        self._pending_t_ns.insert(i, t)
+        self._pending_c.insert(i, float(temperature_c))
+        if len(self._pending_t_ns) > self.MAX_PENDING_TEMPERATURES:     # no motion for a long time
+            self._apply_temperatures(self._pending_t_ns[0])
 
     def add_temperatures(self, t_ns: np.ndarray, temperature_c: np.ndarray) -> None:
         for t, c in zip(np.asarray(t_ns, dtype=np.int64).tolist(), np.asarray(temperature_c, float).tolist()):
             self.add_temperature(t, c)
 
     def _apply_temperatures(self, t_ns: int) -> None:
-        pending = self._temperatures
-        k = 0
-        while k < len(pending) and pending[k][0] <= t_ns:
-            k += 1
-        if k:
-            self.regime_model.set_oil_temperature(pending[k - 1][1])
-            del pending[:k]
+        """The reading in force at ``t_ns`` sets the oil temperature; it and the earlier pending ones go."""
+        i = reading_in_force_index(self._pending_t_ns, t_ns)
+        if i >= 0:
+            self.regime_model.set_oil_temperature(self._pending_c[i])
+            self.oil_temperature_t_ns = self._pending_t_ns[i]
+            del self._pending_t_ns[:i + 1], self._pending_c[:i + 1]
 
     # --- samples (accepted by PrecisionMonitor, load = latest load stamped before) -----------------
     def advance(self, t_ns: int, position_m: float, load_n: float) -> None:
-        if self._temperatures:
+        if self._pending_t_ns:
             self._apply_temperatures(t_ns)
         if self.last_t_ns is not None and math.isfinite(load_n):
             ds = abs(position_m - self.last_position_m)
@@ -110,9 +122,9 @@ class RollingGuideMonitor:
         move = (ds > 0) & (dt > 0) & np.isfinite(w)
         speed = np.divide(ds, dt, out=np.zeros_like(ds), where=dt > 0)
         segment = self._segment
-        if self._temperatures:
+        if self._pending_t_ns:
             for ti, d, v, f in zip(t[move].tolist(), ds[move].tolist(), speed[move].tolist(), w[move].tolist()):
-                if self._temperatures and self._temperatures[0][0] <= ti:
+                if self._pending_t_ns and self._pending_t_ns[0] <= ti:
                     self._apply_temperatures(ti)
                 segment(d, v, f)
             self._apply_temperatures(int(t[-1]))
@@ -199,7 +211,8 @@ class RollingGuideMonitor:
                 "reverse_travel_m": self.reverse_travel_m,
                 "last_regime": self.last_regime, "last_lambda": self.last_lambda,
                 "last_asperity_share": self.last_asperity_share, "last_speed_m_s": self.last_speed_m_s,
-                "oil_temperature_c": self.regime_model.oil_temperature_c}
+                "oil_temperature_c": self.regime_model.oil_temperature_c,
+                "oil_temperature_t_ns": self.oil_temperature_t_ns}
 
     def restore(self, state: dict) -> None:
         if state.get("version") != self.STATE_VERSION:
@@ -215,3 +228,5 @@ class RollingGuideMonitor:
             setattr(self, key, state[key])
         self.regime_travel_m = {r: float(state["regime_travel_m"].get(r, 0.0)) for r in REGIMES}
         self.regime_model.set_oil_temperature(float(state.get("oil_temperature_c", math.nan)))
+        stamp = state.get("oil_temperature_t_ns")
+        self.oil_temperature_t_ns = None if stamp is None else int(stamp)

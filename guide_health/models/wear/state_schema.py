@@ -66,7 +66,9 @@ ADDED_FIELDS = {"measurement_gradients": [], "surface_start_m": 0.0,
                 "pass_work_n": 0.0, "pass_direction": 0, "pass_length_m": 0.0, "pass_open_work_nm": 0.0,
                 "pass_open_buckets": [], "measurement_pass_work_n": [],
                 # thermal_drift's T - T_ref per measurement (stop 12; without it c_T's spread is not carried)
-                "measurement_temperature_offset_k": []}
+                "measurement_temperature_offset_k": [],
+                # the rolling guide's stamp of the oil temperature reading in force (stop 13)
+                "oil_temperature_t_ns": None}
 EMPTY_LIST_ELEMENT = {"duty_bucket_index": 0, "measurement_t_ns": 0, "measurement_loss_per_k_m": float("nan"),
                       "reading_t_ns": 0,
                       # NaN: a measurement restored from a state saved before these were kept (effect_wear.restore)
