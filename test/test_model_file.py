@@ -343,6 +343,86 @@ def test_a_fitted_a0_life_interval_is_calibrated_on_noise_redraws():
         assert 82 <= hits <= 97, hits
 
 
+# --- running-in of forms the library does not hold -------------------------------------------------------
+
+#: K(s) / K of running-in forms other than the library's 1 + r e^(-s/s0), as the effective sliding distance
+#: int_0^s K(u) / K du in closed form (written here, not from effects.py), and the s0 [m] each is run with
+#: (linear: 600 m, so its whole extra distance r s0 / 2 is the library bench's r s0 = 750 m)
+RUNNING_IN_FORMS = {
+    "hyperbolic": (lambda s, r, s0: s + r * s0 * np.log1p(s / s0), 300.0),             # 1 + r / (1 + s/s0)
+    "linear": (lambda s, r, s0: s + r * np.where(s < s0, s - s * s / (2 * s0), s0 / 2), 600.0),  # 1 + r (1 - s/s0)+
+    "inverse_square": (lambda s, r, s0: s + r * s0 * (s / s0) / (1 + s / s0), 300.0),  # 1 + r (1 + s/s0)^-2
+}
+
+
+def running_in_of_form(form: str, seed: int, rate_hz: float, r: float = 2.5):
+    """The bench (constant load and stroke, so the wear is proportional to the sliding distance s) with a
+    running-in of ``form`` hidden: straightness A0 + c s_eff(s) at each measurement, c set so that the
+    straightness at the end equals the library-form bench's (r 2.5, s0 300 m), noise 0.5 um. The true
+    remaining life slides on at the last 5 h's mean speed until A0 + c s_eff = the limit."""
+    from scipy.optimize import brentq
+
+    params = wear_monitor_params(BENCH)
+    sim = dict(simulation_params(BENCH), joint_state_rate_hz=rate_hz, load_rate_hz=2.0, straightness_noise_m=0.0)
+    run = simulate_machine(params, sim, seed=seed)
+    a0, limit = params["straightness_initial_m"], params["straightness_limit_m"]
+    t = np.asarray(run.joint_t_ns)
+    s = np.concatenate(([0.0], np.cumsum(np.abs(np.diff(np.asarray(run.joint_position_m))))))
+    s_at = np.interp(np.asarray(run.straightness_t_ns), t, s)
+    plain_per_m = np.polyfit(s_at, np.asarray(run.straightness_m) - a0, 1)[0]      # wear per metre slid
+    s_eff, s0_m = RUNNING_IN_FORMS[form]
+    c = plain_per_m * (s_at[-1] + 2.5 * 300.0) / s_eff(s_at[-1], r, s0_m)
+    truth = a0 + c * s_eff(s_at, r, s0_m)
+    noisy = dataclasses.replace(run, straightness_m=truth + np.random.default_rng(seed).normal(0, 0.5e-6, truth.size))
+    last = t >= t[-1] - 5 * 3600e9
+    speed = (s[last][-1] - s[last][0]) / ((t[last][-1] - t[last][0]) * 1e-9)
+    s_limit = brentq(lambda q: a0 + c * s_eff(q, r, s0_m) - limit, s_at[-1], 100 * s_at[-1])
+    return params, noisy, (s_limit - s_at[-1]) / speed / 3600.0
+
+
+def other_form_rows(forms, seeds, rate_hz: float) -> list[dict]:
+    rows = []
+    for form in forms:
+        for seed in seeds:
+            params, run, truth_h = running_in_of_form(form, seed, rate_hz)
+            cells = duty_cells_from_runs(run, params["slider_length_m"], limits=InputLimits.from_params(params),
+                                         sliding_deadband_m=params["sliding_deadband_m"])
+            result = diagnose_cells(cells, params)
+            rows.append({"form": form, "seed": seed, "named": result["named_effects"], "truth_h": truth_h,
+                         "flag": bool(result.get("unexplained_structure")),
+                         "model": replay_life({**params, **result["model_file"]}, run),
+                         "plain": replay_life(params, run)})
+    return rows
+
+
+def check_other_forms(rows: list[dict]) -> None:
+    """Each run: the model file's life within 15 % of the truth and nearer to it than the plain model's, and an
+    interval that misses the truth only under the unexplained-structure flag."""
+    for r in rows:
+        print(r["form"], r["seed"], r["named"], "flag" if r["flag"] else "", f"truth {r['truth_h']:.2f} h",
+              "model {:.2f} [{:.2f}, {:.2f}]".format(*r["model"]), f"plain {r['plain'][0]:.2f}")
+        assert abs(r["model"][0] / r["truth_h"] - 1.0) < 0.15, r
+        assert abs(math.log(r["model"][0] / r["truth_h"])) < abs(math.log(r["plain"][0] / r["truth_h"])), r
+        assert r["flag"] or covers(r["model"], r["truth_h"]), r
+
+
+def test_running_in_of_other_forms_gives_the_life_or_the_flag():
+    """Running-in whose K(s) is not the library's exponential (hyperbolic, linear to zero at s0; seed 1, 5 Hz;
+    the truth written here): diagnose names what approximates it, and the model file's life is within 15 % of
+    the true one; where its interval misses, the result carries the unexplained-structure flag."""
+    check_other_forms(other_form_rows(("hyperbolic", "linear"), (1,), 5.0))
+
+
+@pytest.mark.slow
+def test_running_in_of_other_forms_10_seeds():
+    """Seeds 0-9 of three forms (10 Hz, ~1 min). Measured 2026-11-24: flagged 30/30. Hyperbolic: named
+    running_in (seed 0 with wear_rate_change), r 1.4-1.5 (hidden 2.5: the exponential takes the start of the
+    long tail), life 2-9 % short, covered 3/10; linear: wear_rate_change 8/10 (the kink at s0 as a change
+    point), running_in 2/10, life within 4 %, covered 10/10; inverse square: running_in, life 0-6 % short,
+    covered 6/10. The plain model: 0.36-0.52 of the truth."""
+    check_other_forms(other_form_rows(tuple(RUNNING_IN_FORMS), range(10), 10.0))
+
+
 # --- the CLI ----------------------------------------------------------------------------------------
 
 def test_diagnose_writes_a_model_file_that_replay_loads(tmp_path):
