@@ -79,17 +79,18 @@ class Sensors:
             time.sleep(0.05)
         return False
 
-    def publish_strokes(self, n, dt=0.01, speed=0.05, stroke=0.2, pause_every=0, pause_s=0.0):
-        """A 6000 N load, then n joint samples of triangular strokes; returns the sliding distance. The
-        first joint sample goes alone (a loss count starts at the first message received of a writer)."""
+    def publish_strokes(self, n, dt=0.01, speed=0.05, stroke=0.2, pause_every=0, pause_s=0.0, t0=T0, x0=0.0):
+        """A 6000 N load stamped t0 [s], then n joint samples of triangular strokes from x0 [m]; returns the
+        sliding distance (the last position in ``last_x``). The first joint sample goes alone (a loss count
+        starts at the first message received of a writer)."""
         wrench = WrenchStamped()
-        wrench.header.stamp.sec = T0
+        wrench.header.stamp.sec = t0
         wrench.wrench.force.z = 6000.0
         self.load.publish(wrench)
         time.sleep(0.2)
-        x, direction, distance, step = 0.0, 1.0, 0.0, speed * dt
+        x, direction, distance, step = x0, 1.0, 0.0, speed * dt
         for i in range(n):
-            t = T0 + 0.01 + i * dt
+            t = t0 + 0.01 + i * dt
             msg = JointState()
             msg.header.stamp.sec = int(t)
             msg.header.stamp.nanosec = int(round((t - int(t)) * 1e9))
@@ -104,6 +105,7 @@ class Sensors:
                 distance += step
             if pause_every and i % pause_every == pause_every - 1:
                 time.sleep(pause_s)
+        self.last_x = x
         return distance
 
     def close(self):
@@ -130,6 +132,42 @@ def test_best_effort_and_reliable_sensors_both_feed_the_default_node(tmp_path, r
         assert int(values["best_effort_topics"]) == 1                  # joint_states switched, load reliable
         assert int(values["samples"]) == n and int(values["messages_lost"]) == 0
         assert float(values["sliding_distance_m"]) == pytest.approx(distance, rel=1e-9)
+    finally:
+        sensors.close()
+        stop_node(node)
+        collector.close()
+
+
+@pytest.mark.ros
+def test_auto_goes_back_to_reliable_when_the_best_effort_publisher_leaves(tmp_path, ros_env):
+    """sensor_qos auto: a best-effort joint_states driver makes the topic best effort; when it is replaced by a
+    reliable one, the node subscribes reliably again (best_effort_topics 1 -> 0, logged) and every sample of
+    both drivers counts: samples and sliding distance exact, nothing lost."""
+    collector = DiagnosticsCollector("qos_collector")
+    log = tmp_path / "node.log"
+    node = start_node("guide_health.nodes.wear_monitor", None,
+                      {"diagnostics_period_s": 0.2, "input_align_window_s": 0.0, "input_timeout_s": 60.0,
+                       "machine_id": "qos_m1", "state_file": "''"}, ros_env, log)
+    sensors = Sensors(qos_profile_sensor_data, RELIABLE)     # joint best effort
+    try:
+        assert sensors.wait_matched(), log.read_text()
+        first = sensors.publish_strokes(500, pause_every=50, pause_s=0.02)
+        status = collector.wait_for(STATUS, lambda s: int(s["values"]["samples"]) >= 500, timeout=60.0)
+        assert status is not None and int(status["values"]["best_effort_topics"]) == 1, log.read_text()
+        x_end = sensors.last_x
+        sensors.close()
+        sensors = Sensors(RELIABLE, RELIABLE)                   # the reliable driver takes over
+        status = collector.wait_for(STATUS, lambda s: int(s["values"]["best_effort_topics"]) == 0, timeout=30.0)
+        assert status is not None, (collector.get(STATUS), log.read_text())
+        assert sensors.wait_matched(), log.read_text()
+        second = sensors.publish_strokes(1500, pause_every=50, pause_s=0.02, t0=T0 + 100, x0=x_end)
+        status = collector.wait_for(STATUS, lambda s: int(s["values"]["samples"]) >= 2000, timeout=60.0)
+        assert status is not None, (collector.get(STATUS), log.read_text())
+        values = status["values"]
+        assert int(values["samples"]) == 2000 and int(values["messages_lost"]) == 0
+        assert int(values["best_effort_topics"]) == 0
+        assert float(values["sliding_distance_m"]) == pytest.approx(first + second, rel=1e-9)
+        assert "no best-effort publisher left; reliable subscription" in log.read_text()
     finally:
         sensors.close()
         stop_node(node)

@@ -10,10 +10,13 @@ lags (its KEEP_LAST queue is overwritten) or the network drops a datagram.
 Parameter ``sensor_qos``:
 
 - ``auto`` (default): per topic, RELIABLE KEEP_ALL until a best-effort publisher appears, then BEST_EFFORT
-  KEEP_LAST(``sensor_queue_depth``) for the rest of the run. The reliable subscription's incompatible-QoS
+  KEEP_LAST(``sensor_queue_depth``) while one is there. The reliable subscription's incompatible-QoS
   event (DDS reports the refused writer) marks the topic, and a 1 s timer recreates its subscription: no
-  graph query in the data path. Both kinds of sensors work out of the box, and reliable ones keep their
-  back-pressure.
+  graph query in the data path. The same timer looks at a best-effort topic's publishers (a graph query,
+  outside the data path): when every one left is reliable (the best-effort driver gone, a reliable one
+  there), the topic goes back to RELIABLE KEEP_ALL. Both kinds of sensors work out of the box, and reliable
+  ones keep their back-pressure. A switch recreates the subscription: the few samples sent meanwhile are
+  not received (the stamp-gap count, stream_gaps.py, sees them).
 - ``reliable`` / ``best_effort``: one profile for every data topic.
 
 Status keys ``messages_lost`` and ``best_effort_topics`` (how many data topics are subscribed best effort;
@@ -144,13 +147,25 @@ class SensorSubscriptions:
 
     def refresh(self) -> None:
         """``auto``: a topic whose reliable subscription refused a best-effort writer is subscribed best effort
-        (outside the event callback, which belongs to the subscription being replaced)."""
+        (outside the event callback, which belongs to the subscription being replaced); a best-effort topic
+        whose publishers are all reliable again goes back to reliable."""
         for entry in self.entries:
             if entry.topic in self.pending and entry.kind == "reliable":
                 self.node.get_logger().info(f"{entry.topic}: a best-effort publisher; best_effort subscription "
                                             f"(sensor_qos auto)")
                 self._create(entry, "best_effort")
+            elif self.mode == "auto" and entry.kind == "best_effort" and self._only_reliable_writers(entry.topic):
+                self.node.get_logger().info(f"{entry.topic}: no best-effort publisher left; reliable subscription "
+                                            f"(sensor_qos auto)")
+                self._create(entry, "reliable")
         self.pending.clear()
+
+    def _only_reliable_writers(self, topic: str) -> bool:
+        """The topic has publishers and all of them are reliable (graph query)."""
+        from rclpy.qos import ReliabilityPolicy
+
+        writers = self.node.get_publishers_info_by_topic(topic)
+        return bool(writers) and all(w.qos_profile.reliability == ReliabilityPolicy.RELIABLE for w in writers)
 
     def values(self) -> dict:
         return {"messages_lost": self.losses.total,
