@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -21,6 +22,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.special import stdtrit
 
 from guide_health.analysis.discrepancy.duty import duty_cells_from_runs
@@ -484,6 +487,54 @@ def test_a_model_file_from_before_the_duty_effects_still_loads(tmp_path):
     bad.write_text(yaml.safe_dump({"wear_monitor": {"ros__parameters": {**body, "effect_covariance": [0.0] * 37}}}))
     with pytest.raises(InputError, match="effect_covariance must be a list of 169 numbers"):
         wear_monitor_params([BENCH, bad])
+
+
+@pytest.mark.parametrize("entries, message", [
+    ({(1, 1): -0.01}, "the variance of running_in_ratio is negative"),
+    ({(1, 1): 0.01, (2, 2): 100.0, (1, 2): 0.5}, "is not symmetric: (running_in_ratio, running_in_distance_m) 0.5"),
+    ({(1, 1): 0.01, (2, 2): 100.0, (1, 2): 1.5, (2, 1): 1.5},
+     "is not positive semidefinite (largest correlation: running_in_ratio with running_in_distance_m 1.5)"),
+])
+def test_a_model_file_covariance_that_is_no_covariance_is_one_line(tmp_path, entries, message):
+    """A negative variance, an asymmetric matrix or correlations beyond +-1 (a hand-edited file) would give a
+    narrowed or NaN interval without a word: one line naming the parameters, from the loader and the CLI."""
+    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
+
+    n = len(COVARIANCE_NAMES)
+    cov = np.zeros((n, n))
+    for (i, j), v in entries.items():
+        cov[i, j] = v
+    bad = tmp_path / "model.yaml"
+    bad.write_text(yaml.safe_dump({"wear_monitor": {"ros__parameters": {
+        "effects": "running_in", "running_in_ratio": 2.0, "running_in_distance_m": 300.0,
+        "effect_covariance": cov.ravel().tolist()}}}))
+    with pytest.raises(InputError, match=re.escape(message)):
+        wear_monitor_params([BENCH, bad])
+    proc = cli("replay", str(tmp_path / "nobag"), "--params", str(BENCH), "--params", str(bad), check=False)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert message in proc.stderr
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(st.integers(1, 13), st.integers(0, 2**32 - 1))
+def test_covariance_rule_accepts_every_covariance_and_refuses_a_negative_direction(rank, seed):
+    """covariance_problem: A A' (any rank, scales from 1e-14 to 1e4 as K's and s0's) passes; the same with
+    one eigenvalue made negative by more than the tolerance is refused."""
+    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES, covariance_problem
+
+    n = len(COVARIANCE_NAMES)
+    rng = np.random.default_rng(seed)
+    scale = 10.0 ** rng.uniform(-7, 2, n)                  # sd of each parameter
+    a = rng.normal(size=(n, rank)) * scale[:, None]
+    cov = a @ a.T
+    assert covariance_problem(cov.ravel()) == ""
+    corr_sd = np.sqrt(np.diag(cov))
+    corr = cov / np.outer(corr_sd, corr_sd)
+    w, v = np.linalg.eigh(corr)
+    w[0] = -0.01                                        # one direction of negative variance
+    bent = (v * w) @ v.T * np.outer(corr_sd, corr_sd)
+    bent = (bent + bent.T) / 2
+    assert covariance_problem(bent.ravel()) != ""
 
 
 def test_a_bad_model_file_is_one_line(tmp_path):

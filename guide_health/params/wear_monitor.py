@@ -9,6 +9,7 @@ from typing import Any
 
 from guide_health.errors import InputError
 from guide_health.models.rolling.lubrication import LAMBDA_BOUNDARY, LAMBDA_FULL_FILM  # the one source
+from guide_health.models.wear.effect_wear import covariance_problem
 from guide_health.params.machine import AXES_PARAM, MAINTENANCE_PARAMS
 from guide_health.params.schema import NodeSchema, Param, alarm_and_sensor_qos_params
 
@@ -223,6 +224,9 @@ def _effect_checks(p: dict[str, Any]) -> None:
         raise InputError("parameter effects: thermal_drift needs thermal_drift_m_per_k != 0")
     if "wear_rate_change" in effect_ids(p) and not p.get("wear_rate_change_stamp_s", 0.0) > 0:
         raise InputError("parameter effects: wear_rate_change needs wear_rate_change_stamp_s > 0 (when it changed)")
+    problem = covariance_problem(p["effect_covariance"])
+    if problem:
+        raise InputError(f"parameter effect_covariance {problem}")
 
 
 def _wear_cross_checks(p: dict[str, Any]) -> None:

@@ -158,6 +158,36 @@ class LiveEffects:
         return c.reshape(n, n)
 
 
+def covariance_problem(values) -> str:
+    """'' when ``values`` (row-major, COVARIANCE_NAMES order) is a covariance matrix: the right size, finite,
+    variances >= 0, symmetric (1e-9 of sd_i sd_j) and positive semidefinite (no correlation beyond +-1: the
+    correlation matrix's smallest eigenvalue >= -1e-6); else what is wrong, naming the parameters. A matrix
+    that is none of these would give a narrowed or NaN interval without a word."""
+    n = len(COVARIANCE_NAMES)
+    c = np.asarray(values, dtype=float).ravel()
+    if c.size != n * n:
+        return f"has {c.size} numbers, not {n * n} ({n} x {n})"
+    if not np.all(np.isfinite(c)):
+        return "has non-finite entries"
+    c = c.reshape(n, n)
+    var = np.diag(c)
+    for i in np.flatnonzero(var < 0):
+        return f"the variance of {COVARIANCE_NAMES[i]} is negative ({var[i]:.3g})"
+    sd = np.sqrt(var)
+    bad = np.abs(c - c.T) > 1e-9 * np.outer(sd, sd)
+    for i, j in zip(*np.nonzero(bad)):
+        return (f"is not symmetric: ({COVARIANCE_NAMES[i]}, {COVARIANCE_NAMES[j]}) {c[i, j]:.3g} but "
+                f"({COVARIANCE_NAMES[j]}, {COVARIANCE_NAMES[i]}) {c[j, i]:.3g}")
+    kept = np.flatnonzero(var > 0)
+    corr = c[np.ix_(kept, kept)] / np.outer(sd[kept], sd[kept])
+    if kept.size and np.linalg.eigvalsh(corr).min() < -1e-6:
+        off = np.abs(corr - np.eye(kept.size))
+        i, j = np.unravel_index(int(np.argmax(off)), off.shape)
+        return (f"is not positive semidefinite (largest correlation: {COVARIANCE_NAMES[kept[i]]} with "
+                f"{COVARIANCE_NAMES[kept[j]]} {corr[i, j]:.3g})")
+    return ""
+
+
 def duty_factor_terms(e: LiveEffects, t_s: np.ndarray, x_m: np.ndarray, last_relubrication_s: np.ndarray):
     """The duty multipliers of load_along_rail, wear_rate_change and lubrication_interval (effects.py) at
     segment mid-times t [s since the stamps' epoch] and mid-positions x [m]: (m, dm/dg, dm/df, dm/db)
