@@ -636,6 +636,49 @@ def test_a_state_with_the_duty_and_thermal_effects_passes_the_state_schema_and_r
             check_precision_state(bad, PrecisionMonitor(p).state())
 
 
+def test_a_thermal_state_saved_before_the_offsets_were_kept_rebuilds_them_from_the_readings():
+    """A state saved before stop 12 has no T - T_ref per measurement (NaN on restore), which left c_T and the
+    gauge offset out of the interval. They are rebuilt from the kept readings: the same offsets (1e-12) and the
+    same interval as the monitor that kept them. Where the kept readings do not reach back to a measurement
+    (trimmed), it stays NaN and the interval leaves the gauge terms out, as before."""
+    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
+
+    params, run, _, t_ref, _ = thermal_case(2, 3.0, 5.0, 0.3e-6, 1.2e-6, -4.0)
+    n = len(COVARIANCE_NAMES)
+    cov = np.zeros((n, n))
+    for name, sd in (("thermal_drift_m_per_k", 0.03e-6), ("thermal_gauge_offset_m", 0.1e-6)):
+        cov[COVARIANCE_NAMES.index(name), COVARIANCE_NAMES.index(name)] = sd ** 2
+    p = {**params, "effects": "thermal_drift", "thermal_drift_m_per_k": 1.2e-6, "thermal_reference_c": t_ref,
+         "effect_covariance": cov.ravel().tolist()}
+    monitor = PrecisionMonitor(p)
+    monitor.process_run(run)
+    kept = list(monitor.effect_wear.measurement_temperature_offset_k)
+    assert len(kept) > 10 and np.all(np.isfinite(kept)) and np.ptp(kept) > 1.0
+    state = json.loads(json.dumps(monitor.state()))
+    del state["effects"]["measurement_temperature_offset_k"]       # as saved before stop 12
+    old = PrecisionMonitor(p)
+    old.restore(state)
+    assert old.effect_wear.measurement_temperature_offset_k == pytest.approx(kept, rel=1e-12, abs=1e-12)
+    a, b = monitor.report(), old.report()
+    for key in ("remaining_life_h", "remaining_life_h_low", "remaining_life_h_high"):
+        assert b[key] == pytest.approx(a[key], rel=1e-12), key
+    # readings trimmed to those after the 5th measurement: the first five stay unknown
+    t5 = monitor.estimator.measurement_t_ns[5]
+    temps = state["temperatures"]
+    keep = [i for i, t in enumerate(temps["reading_t_ns"]) if t > t5]
+    temps["reading_t_ns"] = [temps["reading_t_ns"][i] for i in keep]
+    temps["reading_c"] = [temps["reading_c"][i] for i in keep]
+    trimmed = PrecisionMonitor(p)
+    trimmed.restore(state)
+    offsets = np.asarray(trimmed.effect_wear.measurement_temperature_offset_k)
+    assert np.all(np.isnan(offsets[:6])) and offsets[7:] == pytest.approx(kept[7:], rel=1e-12, abs=1e-12)
+    narrow = PrecisionMonitor({**p, "effect_covariance": [0.0] * n * n})
+    narrow.process_run(run)
+    c = trimmed.report()
+    assert c["remaining_life_h_high"] == pytest.approx(narrow.report()["remaining_life_h_high"], rel=1e-9)
+    assert a["remaining_life_h_high"] > 1.05 * c["remaining_life_h_high"]
+
+
 # --- the simulator hides the duty effects (simulate --effect) ----------------------------------------------
 
 @pytest.mark.parametrize("effect, value, sim_extra", [

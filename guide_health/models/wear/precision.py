@@ -170,6 +170,20 @@ class PrecisionMonitor:
         order = np.argsort(t, kind="stable")[-keep:]
         self.temperature_t_ns, self.temperature_c = t[order].tolist(), c[order].tolist()
 
+    def _rebuild_temperature_offsets(self) -> None:
+        """A state saved before the T - T_ref of each measurement was kept (stop 12) has NaN there, which leaves
+        c_T and the gauge offset out of the interval. Rebuilt from the kept readings where they reach back to
+        the measurement (the reading in force at its stamp is then among them: older ones only are trimmed)."""
+        if not self._thermal() or self.effect_wear is None or not self.temperature_t_ns:
+            return
+        offsets = self.effect_wear.measurement_temperature_offset_k
+        stamps = self.estimator.measurement_t_ns
+        if len(offsets) != len(stamps):
+            return
+        for j, (offset, t_ns) in enumerate(zip(offsets, stamps)):
+            if math.isnan(offset) and t_ns >= self.temperature_t_ns[0]:
+                offsets[j] = self.thermal_offset_at_k(t_ns)
+
     def thermal_offset_at_k(self, t_ns: int) -> float | None:
         """T - T_ref [K] of the temperature reading in force at ``t_ns`` (thermal_drift; 0 without the
         effect); None when no reading is stamped at or before it."""
@@ -568,6 +582,7 @@ class PrecisionMonitor:
         self.estimator.prior_rel_sd = self.params["wear_coefficient_prior_rel_sd"]
         self.estimator.noise_sd_m = self.params["straightness_noise_m"]
         self.estimator.straightness_initial_m = self.params["straightness_initial_m"]
+        self._rebuild_temperature_offsets()
         self.load_n = state["load_n"]
         self.load_t_ns = state["load_t_ns"]
         self.load_samples = int(state.get("load_samples", 0))
