@@ -20,6 +20,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from guide_health.analysis.discrepancy.duty import duty_cells_from_runs
 from guide_health.analysis.discrepancy.workflow import diagnose_cells
@@ -677,6 +679,124 @@ def test_a_thermal_state_saved_before_the_offsets_were_kept_rebuilds_them_from_t
     c = trimmed.report()
     assert c["remaining_life_h_high"] == pytest.approx(narrow.report()["remaining_life_h_high"], rel=1e-9)
     assert a["remaining_life_h_high"] > 1.05 * c["remaining_life_h_high"]
+
+
+# --- the remaining life follows the relubrication schedule ------------------------------------------------
+
+@settings(max_examples=200, deadline=None, derandomize=True)
+@given(st.floats(-2e-4, 2e-4), st.floats(0.0, 30.0), st.sampled_from([0.0, 3.0, 5.0, 8.0]), st.floats(0.0, 40.0))
+def test_the_lubrication_multiplier_integral_is_the_schedule_summed(b_s, tau_h, interval_h, horizon_h):
+    """effect_wear.lubrication_multiplier_integral_s against the schedule stepped through here every
+    5 s (midpoint sum; tau grows from tau_now, the next relubrication due at interval - tau_now or now when
+    overdue, then every interval; 0: none; the multiplier clipped at 0): to 1e-3 of the horizon."""
+    from guide_health.models.wear.effect_wear import lubrication_multiplier_integral_s
+
+    dt = 5.0
+    u = (np.arange(int(horizon_h * H / dt)) + 0.5) * dt
+    due = max(interval_h * H - tau_h * H, 0.0) if interval_h else math.inf
+    tau = np.where(u < due, tau_h * H + u, np.mod(u - due, interval_h * H) if interval_h else 0.0)
+    summed = float(np.sum(np.maximum(1.0 + b_s * tau, 0.0)) * dt)
+    exact = float(lubrication_multiplier_integral_s(u.size * dt, b_s, tau_h * H, interval_h * H))
+    assert exact == pytest.approx(summed, rel=1e-3, abs=1e-3 * horizon_h * H + 1e-6)
+
+
+def lubricated_bench(seed: int, b_per_s: float = 5.6e-5, interval_h: float = 5.0):
+    """bench 000 (constant duty), relubricated every interval_h, the lubrication_interval effect hidden by the
+    simulator (30 h, 5 Hz, a measurement every 15 min, noise 0.05 um); the truth's time to the limit [h]."""
+    bench = ROOT / "config" / "bench_000.yaml"
+    params = wear_monitor_params(bench)
+    sim = dict(simulation_params(bench), duration_h=30.0, joint_state_rate_hz=5.0, relubrication_interval_h=interval_h,
+               straightness_noise_m=0.05e-6, measurement_interval_h=0.25)
+    run = simulate_machine(params, sim, seed=seed, effects={"lubrication_interval": b_per_s})
+    truth = run.metadata["truth"]
+    t, y = np.asarray(truth["straightness_t_s"]), np.asarray(truth["straightness_m"])
+    k = int(np.argmax(y >= params["straightness_limit_m"]))
+    end_h = float(np.interp(params["straightness_limit_m"], y[k - 1:k + 1], t[k - 1:k + 1])) / H
+    return params, sim, run, end_h
+
+
+def test_the_remaining_life_follows_the_relubrication_schedule():
+    """Constant duty, relubricated every 5 h, the true lubrication_interval parameters live: the predicted time
+    at the limit (now + remaining life) is the truth's at every half hour of a cycle, in the recorded form (the
+    relubricate events, lubrication_forecast_interval_s 5 h) and the interval form (T = 5 h), to 1 %. Measured
+    before the schedule (the duty window's mean multiplier for all the future): 18.25..21.12 h against 19.1 h.
+    Without an expected relubrication (interval 0) the time since the last keeps growing: earlier (17.55 h at
+    the start of a cycle), never later."""
+    from guide_health.models.wear.axis import split_run
+
+    params, sim, run, end_h = lubricated_bench(3)
+    t0 = int(run.joint_t_ns[0])
+    k = params["wear_coefficient"] * sim["wear_coefficient_factor"]
+    recorded = {"lubrication_interval_s": 0.0, "lubrication_reference_stamp_s": t0 * 1e-9,
+                "lubrication_wear_growth": 5.6e-5}
+    forms = {"recorded": {**recorded, "lubrication_forecast_interval_s": 5 * H},
+             "interval": {"lubrication_interval_s": 5 * H, "lubrication_reference_stamp_s": t0 * 1e-9,
+                          "lubrication_wear_growth": 5.6e-5 * 5 * H},
+             "none expected": recorded}
+    ends = {}
+    for name, extra in forms.items():
+        axis = AxisMonitor({**params, "effects": "lubrication_interval", "wear_coefficient": k, **extra})
+        if name != "interval":
+            for j in range(1, 6):
+                axis.schedule(MaintenanceEvent(t0 + int(j * 5 * H * 1e9), "relubricate", params["joint"]))
+        rest, ends[name] = run, []
+        for hours in np.arange(10.5, 18.6, 0.5):
+            head, rest = split_run(rest, t0 + int(hours * H * 1e9))
+            axis.process_run(head)
+            ends[name].append(hours + axis.primary.report()["remaining_life_h"])
+    print({n: f"{min(e):.2f}..{max(e):.2f}" for n, e in ends.items()}, f"truth {end_h:.2f}")
+    for name in ("recorded", "interval"):
+        assert np.asarray(ends[name]) == pytest.approx(end_h, rel=0.01), name
+    assert max(ends["none expected"]) < 1.001 * end_h and min(ends["none expected"]) < 0.95 * end_h
+
+
+def test_the_interval_carries_the_lubrication_growth_as_a_rerun_moves_the_life():
+    """b's share of the interval (its variance alone) equals the life's change when the whole monitor is rerun
+    with b moved by that sd (5 %): b moves the past effective work (K refitted), the duty window's rate and the
+    schedule's future multiplier."""
+    from guide_health.models.wear.axis import split_run
+    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
+
+    params, sim, run, _ = lubricated_bench(4)
+    t0 = int(run.joint_t_ns[0])
+    head = split_run(run, t0 + int(12.2 * H * 1e9))[0]
+    n, i = len(COVARIANCE_NAMES), COVARIANCE_NAMES.index("lubrication_wear_growth")
+    b, sd = 5.6e-5, 0.5e-5
+
+    def life(growth: float, variance: float) -> dict:
+        cov = np.zeros((n, n))
+        cov[i, i] = variance
+        axis = AxisMonitor({**params, "effects": "lubrication_interval", "lubrication_interval_s": 0.0,
+                            "lubrication_reference_stamp_s": t0 * 1e-9, "lubrication_wear_growth": growth,
+                            "lubrication_forecast_interval_s": 5 * H, "effect_covariance": cov.ravel().tolist()})
+        for j in (1, 2):
+            axis.schedule(MaintenanceEvent(t0 + int(j * 5 * H * 1e9), "relubricate", params["joint"]))
+        axis.process_run(head)
+        return axis.primary.report()
+
+    none, one = life(b, 0.0), life(b, sd ** 2)
+    t = _t90(none)
+    half = [math.log(r["remaining_life_h_high"] / r["remaining_life_h"]) for r in (none, one)]
+    predicted = math.sqrt(half[1] ** 2 - half[0] ** 2) / t
+    up, down = life(b + sd, 0.0)["remaining_life_h"], life(b - sd, 0.0)["remaining_life_h"]
+    rerun = abs(math.log(up / down)) / 2.0
+    print(f"b: delta method {predicted:.5f}, rerun {rerun:.5f}")
+    assert predicted == pytest.approx(rerun, rel=0.05)
+    assert predicted > 0.2 * half[0] / t
+
+
+def test_the_model_file_carries_the_recorded_relubrication_interval():
+    """Recorded form: lubrication_forecast_interval_s is the record's mean gap between relubrications
+    (3, 8, 12 h: 4.5 h); one recorded: 0 (none expected)."""
+    from types import SimpleNamespace
+
+    from guide_health.analysis.discrepancy.model_file import duty_effect_parameters
+
+    for relube_h, expected_h in (([3.0, 8.0, 12.0], 4.5), ([3.0], 0.0)):
+        problem = SimpleNamespace(cells=SimpleNamespace(t0_ns=10 ** 18), relubrication_t_s=np.array(relube_h) * H)
+        out = duty_effect_parameters(problem, {"lubrication_wear_growth_per_s": 5e-5}, ["lubrication_interval"])
+        assert out["lubrication_forecast_interval_s"] == pytest.approx(expected_h * H, rel=1e-12)
+        assert out["lubrication_reference_stamp_s"] == pytest.approx(1e9 + relube_h[-1] * H, rel=1e-12)
 
 
 # --- the simulator hides the duty effects (simulate --effect) ----------------------------------------------

@@ -88,6 +88,9 @@ SLIDING_GUIDE_PARAMS = (
     Param("lubrication_reference_stamp_s", 0.0, "s", "[0, 1e11]",
           "lubrication_interval t_ref [s since the stamps' epoch]: the first assumed relubrication (interval), "
           "or the last recorded one of the diagnosed record (events)"),
+    Param("lubrication_forecast_interval_s", 0.0, "s", "[0, 1e9]",
+          "lubrication_interval with recorded relubrications: the interval of the future ones the remaining life "
+          "assumes (diagnose: the record's mean gap); 0 = none expected (the time since the last keeps growing)"),
     Param("thermal_drift_m_per_k", 0.0, "m/K", "[-1e-4, 1e-4]",
           "thermal_drift c_T: the straightness gauge reads A + c_T (T - T_ref); each measurement is corrected "
           "with the guide/temperature reading in force at its stamp"),

@@ -7,7 +7,8 @@ the gauge offset at T_ref is a linear function of the fitted c_T and offset at T
 A0's row is the fitted A0's, or initial_offset's delta's, when the fit freed them, else zero).
 The duty effects' times become absolute (seconds since the stamps' epoch): the change time of
 wear_rate_change, lubrication_interval's reference (the record's start for a fitted interval, the last
-recorded relubrication otherwise); load_along_rail carries the fit's x_ref.
+recorded relubrication otherwise, with the record's mean gap between relubrications as the interval the
+remaining life assumes for the next ones); load_along_rail carries the fit's x_ref.
 Load it after the base file, the later overriding, as ROS merges several ``--params-file``:
 
     guide-health replay BAG --params config/bench_000.yaml --params DIR/model.yaml
@@ -63,8 +64,12 @@ def duty_effect_parameters(problem, v: dict[str, float], live: list[str]) -> dic
     if "lubrication_interval" in live:
         if "lubrication_wear_growth_per_s" in v:            # the recorded relubrications were the time base
             relube = problem.relubrication_t_s
+            # the future relubrications the remaining life assumes: the record's mean gap between recorded
+            # ones (fewer than two: none expected, the pessimistic side)
+            gaps = np.diff(relube) if relube is not None else np.zeros(0)
             out.update(lubrication_wear_growth=float(v["lubrication_wear_growth_per_s"]), lubrication_interval_s=0.0,
-                       lubrication_reference_stamp_s=float(t0_s + (relube[-1] if relube is not None else 0.0)))
+                       lubrication_reference_stamp_s=float(t0_s + (relube[-1] if relube is not None else 0.0)),
+                       lubrication_forecast_interval_s=float(np.mean(gaps)) if gaps.size else 0.0)
         else:
             out.update(lubrication_wear_growth=float(v["lubrication_wear_growth"]),
                        lubrication_interval_s=float(v["lubrication_interval_s"]),

@@ -55,8 +55,9 @@ COVARIANCE_NAMES = ("wear_coefficient", "running_in_ratio", "running_in_distance
                     "thermal_gauge_offset_m", "straightness_initial_m")
 _PHI = len(COVARIANCE_NAMES) - 1       # effect parameters phi (all but K)
 #: where w, c_T, the gauge offset at T_ref and A0's deviation sit in phi
-W_INDEX, C_T_INDEX, OFFSET_INDEX, A0_INDEX = (COVARIANCE_NAMES.index(n) - 1 for n in (
-    "stroke_distribution_weight", "thermal_drift_m_per_k", "thermal_gauge_offset_m", "straightness_initial_m"))
+W_INDEX, C_T_INDEX, OFFSET_INDEX, A0_INDEX, B_INDEX = (COVARIANCE_NAMES.index(n) - 1 for n in (
+    "stroke_distribution_weight", "thermal_drift_m_per_k", "thermal_gauge_offset_m", "straightness_initial_m",
+    "lubrication_wear_growth"))
 #: the phi whose multipliers set the present rate, in bucket-sum order (sums[3:9])
 _RATE_PHI = slice(2, 8)
 #: per bucket: work, effective work w/o running-in, distance, d(effective work)/d(rho, v_lift, n, g, f, b),
@@ -93,6 +94,7 @@ class LiveEffects:
     lubrication_growth: float = 0.0
     lubrication_interval_s: float = 0.0
     lubrication_reference_stamp_s: float = 0.0
+    lubrication_forecast_interval_s: float = 0.0     # recorded form: the future relubrications' interval
     # thermal_drift (a term of the gauge reading): y = A + c_T (T - T_ref); the live model corrects each
     # straightness measurement by it before the K update
     thermal_drift_m_per_k: float = 0.0
@@ -128,6 +130,7 @@ class LiveEffects:
                                 else 0.0),
             lubrication_interval_s=float(p.get("lubrication_interval_s", 0.0)),
             lubrication_reference_stamp_s=float(p.get("lubrication_reference_stamp_s", 0.0)),
+            lubrication_forecast_interval_s=float(p.get("lubrication_forecast_interval_s", 0.0)),
             thermal_drift_m_per_k=float(p.get("thermal_drift_m_per_k", 0.0)) if "thermal_drift" in ids else 0.0,
             thermal_reference_c=float(p.get("thermal_reference_c", 20.0)),
             stroke_distribution_weight=(float(p.get("stroke_distribution_weight", 0.0))
@@ -462,10 +465,49 @@ def running_in_extra_m_per_rate(horizon_s, ratio: float, distance_m: float, s_no
             * (1.0 - np.exp(-sliding_speed_m_s * np.asarray(horizon_s, dtype=float) / distance_m)))
 
 
+def lubrication_multiplier_integral_s(horizon_s, growth_per_s: float, tau_now_s: float, interval_s: float):
+    """int_0^T max(1 + b tau(u), 0) du [s]: lubrication_interval's wear multiplier (effects.py, m = max(1 + b
+    tau, 0)) over a horizon T from now. tau(u) = tau_now + u until the next relubrication, due at interval -
+    tau_now (now, when overdue), then 0 .. interval, every interval; interval 0: none expected. Closed form
+    per relubrication cycle (the multiplier is linear in tau, clipped at 0 for a negative b)."""
+    t = np.maximum(np.asarray(horizon_s, dtype=float), 0.0)
+    cap = -1.0 / growth_per_s if growth_per_s < 0 else math.inf
+
+    def seg(a, b):      # int_a^b max(1 + g tau, 0) dtau
+        a, b = np.minimum(a, cap), np.minimum(b, cap)
+        return (b - a) + growth_per_s * (b * b - a * a) / 2.0
+
+    if not interval_s > 0:
+        return seg(tau_now_s, tau_now_s + t)
+    due = max(interval_s - tau_now_s, 0.0)
+    first = seg(tau_now_s, tau_now_s + np.minimum(t, due))
+    rest = np.maximum(t - due, 0.0)
+    cycles = np.floor(rest / interval_s)
+    return first + cycles * seg(0.0, interval_s) + seg(0.0, rest - cycles * interval_s)
+
+
+def wear_time_s(horizon_s, ratio: float, distance_m: float, s_now_m: float, sliding_speed_m_s: float,
+                lubrication: tuple | None = None):
+    """E(T) [s] with A(t_now + T) - A(t_now) = (present rate) x E(T), the present rate that of the duty window
+    (its steady dA/dt with the effects). Running-in decays on the way: E = T + extra(T)
+    (:func:`running_in_extra_m_per_rate`). ``lubrication`` = (b [1/s], tau_now [s], interval [s], the window's
+    mean multiplier m_w): the multiplier follows the relubrication schedule instead of staying at the window's,
+    E = [M(T) + m(0) extra(T)] / m_w, M of :func:`lubrication_multiplier_integral_s` (the running-in extra
+    weighted by the present multiplier: an approximation that matters only with both named, early in life)."""
+    extra = running_in_extra_m_per_rate(horizon_s, ratio, distance_m, s_now_m, sliding_speed_m_s)
+    if lubrication is None:
+        return np.asarray(horizon_s, dtype=float) + extra
+    growth, tau_now, interval, window_mean = lubrication
+    m_now = max(1.0 + growth * tau_now, 0.0) if not interval > 0 or tau_now < interval else 1.0
+    return (lubrication_multiplier_integral_s(horizon_s, growth, tau_now, interval) + m_now * extra) / window_mean
+
+
 def remaining_life_with_running_in_s(margin_m: float, steady_rate_m_s: float, ratio: float, distance_m: float,
-                                     s_now_m: float, sliding_speed_m_s: float) -> float:
-    """T with steady_rate [T + extra(T)] = margin: the time to the limit with K(s) decaying on the way
-    (seed 000 Eq. 12 with running-in). 0 when the margin is used up; inf without wear."""
+                                     s_now_m: float, sliding_speed_m_s: float,
+                                     lubrication: tuple | None = None) -> float:
+    """T with steady_rate E(T) = margin (:func:`wear_time_s`): the time to the limit with K(s) decaying and
+    the lubrication multiplier following its schedule on the way (seed 000 Eq. 12 with the effects). 0 when
+    the margin is used up; inf without wear (or when a negative lubrication growth stops it first)."""
     if not (math.isfinite(margin_m) and math.isfinite(steady_rate_m_s)):
         return math.nan
     if margin_m <= 0:
@@ -473,25 +515,30 @@ def remaining_life_with_running_in_s(margin_m: float, steady_rate_m_s: float, ra
     if steady_rate_m_s <= 0:
         return math.inf
     hi = float(margin_m / steady_rate_m_s)
-    if ratio == 0.0 or not sliding_speed_m_s > 0:
+    if lubrication is None and (ratio == 0.0 or not sliding_speed_m_s > 0):
         return hi
 
     def gap(t):
-        return steady_rate_m_s * (t + float(running_in_extra_m_per_rate(t, ratio, distance_m, s_now_m,
-                                                                        sliding_speed_m_s))) - margin_m
+        return steady_rate_m_s * float(wear_time_s(t, ratio, distance_m, s_now_m, sliding_speed_m_s,
+                                                   lubrication)) - margin_m
 
-    lo = hi / (1.0 + ratio * math.exp(-s_now_m / distance_m))
-    if gap(lo) >= 0:
-        return lo
+    lo = 0.0
+    for _ in range(80):                 # E(T) grows at least like T m_min / m_w: bracket by doubling
+        if gap(hi) >= 0:
+            break
+        lo, hi = hi, 2.0 * hi
+    else:
+        return math.inf
     return float(brentq(gap, lo, hi, xtol=1e-9 * hi))
 
 
 def forecast_straightness_m(horizon_s: np.ndarray, straightness_now_m: float, steady_rate_m_s: float,
-                            ratio: float, distance_m: float, s_now_m: float, sliding_speed_m_s: float) -> np.ndarray:
-    """A(t_now + T) at the present duty with the running-in decay [m] (the forecast curve)."""
-    t = np.asarray(horizon_s, dtype=float)
-    return straightness_now_m + steady_rate_m_s * (t + running_in_extra_m_per_rate(t, ratio, distance_m, s_now_m,
-                                                                                    sliding_speed_m_s))
+                            ratio: float, distance_m: float, s_now_m: float, sliding_speed_m_s: float,
+                            lubrication: tuple | None = None) -> np.ndarray:
+    """A(t_now + T) at the present duty with the running-in decay and the lubrication schedule [m] (the
+    forecast curve)."""
+    return straightness_now_m + steady_rate_m_s * wear_time_s(horizon_s, ratio, distance_m, s_now_m,
+                                                              sliding_speed_m_s, lubrication)
 
 
 def online_k_sensitivity(loss_per_k_m: np.ndarray, rise_m: np.ndarray, loss_gradient_m: np.ndarray, k: float,
@@ -523,7 +570,9 @@ def life_interval_s(k: float, k_sd: float, e: LiveEffects, now: dict, z: float) 
     P, loss_pass = 1 / (H b) [m / N] (effects.straightness_wear_m: loss = (1 - w) loss_work G + w loss_pass P);
     work_gradient (d G / d phi; P moves in proportion), k_sensitivity (d K / d phi), rate_work_per_k and
     rate_pass_per_k (the two parts of the steady dA/dt per K [m/s]), dln_rate (d ln rate / d(rho, v_lift, n, g,
-    f, b) at the present duty), s_now (distance of the present surface [m]), v_s [m/s], a0_measured (A0 was set
+    f, b) at the present duty), s_now (distance of the present surface [m]), v_s [m/s], lubrication (None, or
+    the relubrication schedule: growth_per_unit (b per unit of phi's b: 1, or 1 / T for the interval form),
+    tau_now_s, interval_s, window_mean; :func:`wear_time_s`), a0_measured (A0 was set
     by a measurement after a regrind or a new rail: the file's A0 variance no longer applies). A change of phi
     moves the straightness now (through the past effective work and K, and A0 directly) and the rate."""
     phi0 = e.phi()
@@ -540,7 +589,17 @@ def life_interval_s(k: float, k_sd: float, e: LiveEffects, now: dict, z: float) 
         rate_per_k = (1.0 - w) * now["rate_work_per_k"] + w * now.get("rate_pass_per_k", 0.0)
         rate = kk * rate_per_k * (1.0 + float(np.dot(now["dln_rate"], d[_RATE_PHI])))
         return remaining_life_with_running_in_s(now["margin0"] - d[A0_INDEX] - kk * loss, rate, phi[0],
-                                                max(phi[1], 1e-9), now["s_now"], now["v_s"])
+                                                max(phi[1], 1e-9), now["s_now"], now["v_s"], schedule(phi, d))
+
+    def schedule(phi: np.ndarray, d: np.ndarray) -> tuple | None:
+        """The lubrication schedule with b moved: the window's mean multiplier moves with the window's rate
+        (d ln rate / d b), the future multiplier with b itself."""
+        lub = now.get("lubrication")
+        if lub is None:
+            return None
+        dln_b = now["dln_rate"][B_INDEX - _RATE_PHI.start]
+        return (phi[B_INDEX] * lub["growth_per_unit"], lub["tau_now_s"], lub["interval_s"],
+                lub["window_mean"] * (1.0 + dln_b * d[B_INDEX]))
 
     centre = life(k, phi0)
     if not (math.isfinite(centre) and centre > 0):

@@ -26,6 +26,7 @@ from guide_health.models.wear.archard import (
 from guide_health.models.wear.calibration import Z90, WearCoefficientEstimator, remaining_life_s
 from guide_health.models.wear.effect_wear import (
     A0_INDEX,
+    B_INDEX,
     C_T_INDEX,
     OFFSET_INDEX,
     PASS_SUM,
@@ -264,11 +265,43 @@ class PrecisionMonitor:
         # stroke_distribution: dP/dt per K over H b, dP/dt = (W v) x the window's pass work per work
         rate_pass = (duty * passes / work / (self.geometry.hardness_pa * self.geometry.contact_width_m)
                      if work > 0 and math.isfinite(duty) else 0.0)
+        dln_rate = [sums[j] / eff if eff > 0 else 0.0 for j in range(3, PASS_SUM)]
         return {"steady_rate_per_k_m_s": (1.0 - w) * rate_plain * ratio + w * rate_pass,
                 "rate_work_per_k_m_s": rate_plain * ratio, "rate_pass_per_k_m_s": rate_pass,
                 "sliding_speed_m_s": duty * dist / work if work > 0 and math.isfinite(duty) else math.nan,
                 "sliding_distance_m": self.integrator.sliding_distance_m - self.effect_wear.surface_start_m,
-                "dln_rate": [sums[j] / eff if eff > 0 else 0.0 for j in range(3, PASS_SUM)]}
+                "dln_rate": dln_rate, "lubrication": self._lubrication_schedule(dln_rate[B_INDEX - 2])}
+
+    def _lubrication_schedule(self, dln_b: float) -> dict | None:
+        """lubrication_interval's schedule from now (effect_wear.wear_time_s): the time since the last
+        relubrication, the interval of the next ones (the fitted T; recorded events: the model file's
+        lubrication_forecast_interval_s, 0 = none expected) and the duty window's mean multiplier
+        m_w = 1 / (1 - b d ln(rate)/db) (the window's effective work without the multiplier is eff (1 - b
+        dln_b)). None without the effect or before any sample."""
+        e = self.effects
+        last = self.integrator.last_t_ns
+        if "lubrication_interval" not in e.effects or e.lubrication_growth == 0.0 or last is None:
+            return None
+        now_s = last * 1e-9
+        if e.lubrication_interval_s > 0:
+            interval, per_unit = e.lubrication_interval_s, 1.0 / e.lubrication_interval_s
+            tau = math.fmod(max(now_s - e.lubrication_reference_stamp_s, 0.0), interval)
+        else:
+            interval, per_unit = e.lubrication_forecast_interval_s, 1.0
+            tau = max(now_s - float(self.effect_wear.relubrication_base_s(np.array([now_s]))[0]), 0.0)
+        lubfree_share = 1.0 - e.lubrication_growth * dln_b
+        if not (math.isfinite(lubfree_share) and lubfree_share > 0.05 and math.isfinite(tau)):
+            return None
+        return {"growth_per_unit": per_unit, "tau_now_s": tau, "interval_s": interval,
+                "window_mean": 1.0 / lubfree_share}
+
+    def lubrication_tuple(self, f: dict) -> tuple | None:
+        """The forecast's lubrication schedule as effect_wear.wear_time_s takes it."""
+        lub = f.get("lubrication")
+        if lub is None:
+            return None
+        return (self.effects.lubrication_growth * lub["growth_per_unit"], lub["tau_now_s"], lub["interval_s"],
+                lub["window_mean"])
 
     def effect_life_interval_s(self, k: float):
         """(life, low, high) [s] with the effects (models/wear/effect_wear.life_interval_s): K's online spread
@@ -309,6 +342,7 @@ class PrecisionMonitor:
                "work_gradient": np.asarray(self.effect_wear.work_gradient), "k_sensitivity": k_sens,
                "rate_work_per_k": f["rate_work_per_k_m_s"], "rate_pass_per_k": f["rate_pass_per_k_m_s"],
                "dln_rate": np.asarray(f["dln_rate"]), "s_now": f["sliding_distance_m"], "v_s": f["sliding_speed_m_s"],
+               "lubrication": f["lubrication"],
                "a0_measured": self.params["straightness_initial_m"] != self.params.get(
                    "straightness_initial_configured_m", self.params["straightness_initial_m"])}
         z = float(stdtrit(n - 1, 0.95)) if n >= 3 else Z90
@@ -483,11 +517,11 @@ class PrecisionMonitor:
         end = high if math.isfinite(high) else 3.0 * life
         h = np.linspace(0.0, end, points)
         mid = a_now + (limit - a_now) * h / life
-        if self.effect_wear is not None and self.effects.running_in_ratio > 0:
-            f = self.effect_forecast()
+        f = self.effect_forecast() if self.effect_wear is not None else {}
+        if f and (self.effects.running_in_ratio > 0 or f["lubrication"] is not None):
             mid = forecast_straightness_m(h * 3600.0, a_now, r["wear_coefficient"] * f["steady_rate_per_k_m_s"] * 1e6,
                                           self.effects.running_in_ratio, self.effects.running_in_distance_m,
-                                          f["sliding_distance_m"], f["sliding_speed_m_s"])
+                                          f["sliding_distance_m"], f["sliding_speed_m_s"], self.lubrication_tuple(f))
         band = [a_now + (limit - a_now) * h / x if x > 0 else np.full_like(h, limit) for x in (low, high)]
         return {"now_h": (self.integrator.last_t_ns - (self.integrator.first_t_ns or 0)) * 1e-9 / 3600.0,
                 "now_ns": int(self.integrator.last_t_ns), "horizon_h": h, "mid_um": np.minimum(mid, limit),
