@@ -686,10 +686,10 @@ def test_a_thermal_state_saved_before_the_offsets_were_kept_rebuilds_them_from_t
 @settings(max_examples=200, deadline=None, derandomize=True)
 @given(st.floats(-2e-4, 2e-4), st.floats(0.0, 30.0), st.sampled_from([0.0, 3.0, 5.0, 8.0]), st.floats(0.0, 40.0))
 def test_the_lubrication_multiplier_integral_is_the_schedule_summed(b_s, tau_h, interval_h, horizon_h):
-    """effect_wear.lubrication_multiplier_integral_s against the schedule stepped through here every
+    """effect_life.lubrication_multiplier_integral_s against the schedule stepped through here every
     5 s (midpoint sum; tau grows from tau_now, the next relubrication due at interval - tau_now or now when
     overdue, then every interval; 0: none; the multiplier clipped at 0): to 1e-3 of the horizon."""
-    from guide_health.models.wear.effect_wear import lubrication_multiplier_integral_s
+    from guide_health.models.wear.effect_life import lubrication_multiplier_integral_s
 
     dt = 5.0
     u = (np.arange(int(horizon_h * H / dt)) + 0.5) * dt

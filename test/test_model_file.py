@@ -520,7 +520,8 @@ def test_a_model_file_covariance_that_is_no_covariance_is_one_line(tmp_path, ent
 def test_covariance_rule_accepts_every_covariance_and_refuses_a_negative_direction(rank, seed):
     """covariance_problem: A A' (any rank, scales from 1e-14 to 1e4 as K's and s0's) passes; the same with
     one eigenvalue made negative by more than the tolerance is refused."""
-    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES, covariance_problem
+    from guide_health.models.wear.effect_life import covariance_problem
+    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
 
     n = len(COVARIANCE_NAMES)
     rng = np.random.default_rng(seed)

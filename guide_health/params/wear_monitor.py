@@ -9,7 +9,7 @@ from typing import Any
 
 from guide_health.errors import InputError
 from guide_health.models.rolling.lubrication import LAMBDA_BOUNDARY, LAMBDA_FULL_FILM  # the one source
-from guide_health.models.wear.effect_wear import covariance_problem
+from guide_health.models.wear.effect_life import covariance_problem
 from guide_health.params.machine import AXES_PARAM, MAINTENANCE_PARAMS
 from guide_health.params.schema import NodeSchema, Param, alarm_and_sensor_qos_params
 

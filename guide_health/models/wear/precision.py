@@ -24,18 +24,22 @@ from guide_health.models.wear.archard import (
     straightness_from_wear_volume_m,
 )
 from guide_health.models.wear.calibration import Z90, WearCoefficientEstimator, remaining_life_s
+from guide_health.models.wear.effect_life import (
+    forecast_straightness_m,
+    life_interval_s,
+    lubrication_schedule,
+    online_k_sensitivity,
+    schedule_tuple,
+)
 from guide_health.models.wear.effect_wear import (
     A0_INDEX,
-    B_INDEX,
+    B_RATE_INDEX,
     C_T_INDEX,
     OFFSET_INDEX,
     PASS_SUM,
     W_INDEX,
     EffectWear,
     LiveEffects,
-    forecast_straightness_m,
-    life_interval_s,
-    online_k_sensitivity,
 )
 from guide_health.models.wear.effects import straightness_wear_m
 from guide_health.models.wear.input_rules import (
@@ -171,20 +175,6 @@ class PrecisionMonitor:
         order = np.argsort(t, kind="stable")[-keep:]
         self.temperature_t_ns, self.temperature_c = t[order].tolist(), c[order].tolist()
 
-    def _rebuild_temperature_offsets(self) -> None:
-        """A state saved before the T - T_ref of each measurement was kept (stop 12) has NaN there, which leaves
-        c_T and the gauge offset out of the interval. Rebuilt from the kept readings where they reach back to
-        the measurement (the reading in force at its stamp is then among them: older ones only are trimmed)."""
-        if not self._thermal() or self.effect_wear is None or not self.temperature_t_ns:
-            return
-        offsets = self.effect_wear.measurement_temperature_offset_k
-        stamps = self.estimator.measurement_t_ns
-        if len(offsets) != len(stamps):
-            return
-        for j, (offset, t_ns) in enumerate(zip(offsets, stamps)):
-            if math.isnan(offset) and t_ns >= self.temperature_t_ns[0]:
-                offsets[j] = self.thermal_offset_at_k(t_ns)
-
     def thermal_offset_at_k(self, t_ns: int) -> float | None:
         """T - T_ref [K] of the temperature reading in force at ``t_ns`` (thermal_drift; 0 without the
         effect); None when no reading is stamped at or before it."""
@@ -270,41 +260,12 @@ class PrecisionMonitor:
                 "rate_work_per_k_m_s": rate_plain * ratio, "rate_pass_per_k_m_s": rate_pass,
                 "sliding_speed_m_s": duty * dist / work if work > 0 and math.isfinite(duty) else math.nan,
                 "sliding_distance_m": self.integrator.sliding_distance_m - self.effect_wear.surface_start_m,
-                "dln_rate": dln_rate, "lubrication": self._lubrication_schedule(dln_rate[B_INDEX - 2])}
-
-    def _lubrication_schedule(self, dln_b: float) -> dict | None:
-        """lubrication_interval's schedule from now (effect_wear.wear_time_s): the time since the last
-        relubrication, the interval of the next ones (the fitted T; recorded events: the model file's
-        lubrication_forecast_interval_s, 0 = none expected) and the duty window's mean multiplier
-        m_w = 1 / (1 - b d ln(rate)/db) (the window's effective work without the multiplier is eff (1 - b
-        dln_b)). None without the effect or before any sample."""
-        e = self.effects
-        last = self.integrator.last_t_ns
-        if "lubrication_interval" not in e.effects or e.lubrication_growth == 0.0 or last is None:
-            return None
-        now_s = last * 1e-9
-        if e.lubrication_interval_s > 0:
-            interval, per_unit = e.lubrication_interval_s, 1.0 / e.lubrication_interval_s
-            tau = math.fmod(max(now_s - e.lubrication_reference_stamp_s, 0.0), interval)
-        else:
-            interval, per_unit = e.lubrication_forecast_interval_s, 1.0
-            tau = max(now_s - float(self.effect_wear.relubrication_base_s(np.array([now_s]))[0]), 0.0)
-        lubfree_share = 1.0 - e.lubrication_growth * dln_b
-        if not (math.isfinite(lubfree_share) and lubfree_share > 0.05 and math.isfinite(tau)):
-            return None
-        return {"growth_per_unit": per_unit, "tau_now_s": tau, "interval_s": interval,
-                "window_mean": 1.0 / lubfree_share}
-
-    def lubrication_tuple(self, f: dict) -> tuple | None:
-        """The forecast's lubrication schedule as effect_wear.wear_time_s takes it."""
-        lub = f.get("lubrication")
-        if lub is None:
-            return None
-        return (self.effects.lubrication_growth * lub["growth_per_unit"], lub["tau_now_s"], lub["interval_s"],
-                lub["window_mean"])
+                "dln_rate": dln_rate, "lubrication": lubrication_schedule(self.effects, self.effect_wear,
+                                                                         self.integrator.last_t_ns,
+                                                                         dln_rate[B_RATE_INDEX])}
 
     def effect_life_interval_s(self, k: float):
-        """(life, low, high) [s] with the effects (models/wear/effect_wear.life_interval_s): K's online spread
+        """(life, low, high) [s] with the effects (models/wear/effect_life.life_interval_s): K's online spread
         and the model file's covariance of K and the effect parameters."""
         f = self.effect_forecast()
         work = self.work_nm()
@@ -507,7 +468,7 @@ class PrecisionMonitor:
 
     def forecast(self, points: int = 60) -> dict[str, Any]:
         """Straightness from now to the limit at the present duty [um] over the horizon [h]: the point
-        forecast (with the effects: running-in decaying on the way, effect_wear.forecast_straightness_m) and
+        forecast (with the effects: running-in decaying on the way, effect_life.forecast_straightness_m) and
         the 90 % band, whose edges reach the limit at the interval's ends. {} without a finite life."""
         r = self.report()
         life, low, high = r["remaining_life_h"], r["remaining_life_h_low"], r["remaining_life_h_high"]
@@ -521,7 +482,8 @@ class PrecisionMonitor:
         if f and (self.effects.running_in_ratio > 0 or f["lubrication"] is not None):
             mid = forecast_straightness_m(h * 3600.0, a_now, r["wear_coefficient"] * f["steady_rate_per_k_m_s"] * 1e6,
                                           self.effects.running_in_ratio, self.effects.running_in_distance_m,
-                                          f["sliding_distance_m"], f["sliding_speed_m_s"], self.lubrication_tuple(f))
+                                          f["sliding_distance_m"], f["sliding_speed_m_s"],
+                                          schedule_tuple(f["lubrication"], self.effects.lubrication_growth))
         band = [a_now + (limit - a_now) * h / x if x > 0 else np.full_like(h, limit) for x in (low, high)]
         return {"now_h": (self.integrator.last_t_ns - (self.integrator.first_t_ns or 0)) * 1e-9 / 3600.0,
                 "now_ns": int(self.integrator.last_t_ns), "horizon_h": h, "mid_um": np.minimum(mid, limit),
@@ -616,7 +578,9 @@ class PrecisionMonitor:
         self.estimator.prior_rel_sd = self.params["wear_coefficient_prior_rel_sd"]
         self.estimator.noise_sd_m = self.params["straightness_noise_m"]
         self.estimator.straightness_initial_m = self.params["straightness_initial_m"]
-        self._rebuild_temperature_offsets()
+        if self._thermal() and self.effect_wear is not None and self.temperature_t_ns:   # a state before stop 12
+            self.effect_wear.rebuild_temperature_offsets(self.estimator.measurement_t_ns, self.temperature_t_ns[0],
+                                                         self.thermal_offset_at_k)
         self.load_n = state["load_n"]
         self.load_t_ns = state["load_t_ns"]
         self.load_samples = int(state.get("load_samples", 0))
