@@ -10,6 +10,7 @@ from typing import Any
 from guide_health.errors import InputError
 from guide_health.models.rolling.lubrication import LAMBDA_BOUNDARY, LAMBDA_FULL_FILM  # the one source
 from guide_health.models.wear.effect_life import covariance_problem
+from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
 from guide_health.params.machine import AXES_PARAM, MAINTENANCE_PARAMS
 from guide_health.params.schema import NodeSchema, Param, alarm_and_sensor_qos_params
 
@@ -100,7 +101,7 @@ SLIDING_GUIDE_PARAMS = (
     Param("stroke_distribution_weight", 0.0, "-", "[-1, 2]",
           "stroke_distribution w: A_wear = K / (H b) [(1 - w) 2 G / (l_min + l_max) + w P], P the work of each pass "
           "over max(pass length, slider length) (Eq. 5's j = 1/2 at w = 0); diagnose fits it in [-1, 2]"),
-    Param("effect_covariance", [0.0] * 169, "SI", "",
+    Param("effect_covariance", [0.0] * len(COVARIANCE_NAMES) ** 2, "SI", "",
           "covariance (row-major 13 x 13) of the fitted wear_coefficient, running_in_ratio, running_in_distance_m, "
           "retract_wear_factor, lift_speed_m_s, load_exponent, load_gradient_per_m, wear_rate_change_factor, "
           "lubrication_wear_growth, stroke_distribution_weight, thermal_drift_m_per_k, thermal_gauge_offset_m "

@@ -29,6 +29,7 @@ from guide_health.models.wear.effect_wear import (
     W_INDEX,
     EffectWear,
     LiveEffects,
+    time_since_relubrication_s,
 )
 
 
@@ -235,13 +236,12 @@ def lubrication_schedule(e: LiveEffects, wear: EffectWear, now_ns: int | None, d
     multiplier is eff (1 - b dln_b)). None without the effect or before any sample."""
     if "lubrication_interval" not in e.effects or e.lubrication_growth == 0.0 or now_ns is None:
         return None
-    now_s = now_ns * 1e-9
+    now_s = np.array([now_ns * 1e-9])
+    tau = float(time_since_relubrication_s(e, now_s, wear.relubrication_base_s(now_s))[0])
     if e.lubrication_interval_s > 0:
         interval, per_unit = e.lubrication_interval_s, 1.0 / e.lubrication_interval_s
-        tau = math.fmod(max(now_s - e.lubrication_reference_stamp_s, 0.0), interval)
     else:
         interval, per_unit = e.lubrication_forecast_interval_s, 1.0
-        tau = max(now_s - float(wear.relubrication_base_s(np.array([now_s]))[0]), 0.0)
     lubfree_share = 1.0 - e.lubrication_growth * dln_b
     if not (math.isfinite(lubfree_share) and lubfree_share > 0.05 and math.isfinite(tau)):
         return None

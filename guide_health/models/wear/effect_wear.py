@@ -151,6 +151,15 @@ class LiveEffects:
         return c.reshape(n, n)
 
 
+def time_since_relubrication_s(e: LiveEffects, t_s, last_relubrication_s):
+    """lubrication_interval's tau [s] at times t [s since the stamps' epoch]: (t - t_ref) mod T in the interval
+    form, t - the last relubrication (``last_relubrication_s``, EffectWear.relubrication_base_s) in the
+    recorded form; 0 before the reference."""
+    if e.lubrication_interval_s > 0:
+        return np.mod(np.maximum(t_s - e.lubrication_reference_stamp_s, 0.0), e.lubrication_interval_s)
+    return np.maximum(t_s - last_relubrication_s, 0.0)
+
+
 def duty_factor_terms(e: LiveEffects, t_s: np.ndarray, x_m: np.ndarray, last_relubrication_s: np.ndarray):
     """The duty multipliers of load_along_rail, wear_rate_change and lubrication_interval (effects.py) at
     segment mid-times t [s since the stamps' epoch] and mid-positions x [m]: (m, dm/dg, dm/df, dm/db)
@@ -160,11 +169,8 @@ def duty_factor_terms(e: LiveEffects, t_s: np.ndarray, x_m: np.ndarray, last_rel
     d_g = np.where(rail > 0, x_m - e.load_reference_position_m, 0.0)
     after = t_s >= e.wear_rate_change_stamp_s
     m_change = np.where(after, e.wear_rate_change_factor, 1.0)
-    if e.lubrication_interval_s > 0:
-        tau = np.mod(np.maximum(t_s - e.lubrication_reference_stamp_s, 0.0), e.lubrication_interval_s)
-        d_b = tau / e.lubrication_interval_s
-    else:
-        d_b = np.maximum(t_s - last_relubrication_s, 0.0)
+    tau = time_since_relubrication_s(e, t_s, last_relubrication_s)
+    d_b = tau / e.lubrication_interval_s if e.lubrication_interval_s > 0 else tau
     lube = 1.0 + e.lubrication_growth * d_b
     m_lube = np.maximum(lube, 0.0)          # a negative growth past the fitted gap: no negative wear
     d_b = np.where(lube > 0, d_b, 0.0)
@@ -302,8 +308,8 @@ class EffectWear:
 
     def _end_pass(self) -> None:
         """The open pass ended (a change of direction): its work joins P and its buckets' pass sums."""
-        if self.pass_length_m > 0:
-            weight = 1.0 / max(self.pass_length_m, self.effects.slider_length_m)
+        weight = self._open_pass_weight()
+        if weight:
             self.pass_work_n += self.pass_open_work_nm * weight
             self._add_pass_sums(self.pass_open_buckets, weight)
         self.pass_length_m, self.pass_open_work_nm, self.pass_open_buckets = 0.0, 0.0, {}
