@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+import json
 import os
 import shutil
 import subprocess
@@ -48,7 +49,30 @@ def _cli(args: list[str], cwd: Path) -> subprocess.CompletedProcess:
                           text=True, env=_env())
 
 
+#: wall-clock timings in the JSON outputs: the only keys that differ between two runs of the same code
+TIMING_KEYS = {"read_s", "model_s", "fit_s", "report_s", "total_s", "seconds", "wall_s"}
+
+
+def _without_timings(value):
+    if isinstance(value, dict):
+        return {k: _without_timings(v) for k, v in value.items() if k not in TIMING_KEYS}
+    if isinstance(value, list):
+        return [_without_timings(v) for v in value]
+    return value
+
+
+def _hash_text(text: str) -> str:
+    """sha256 of a text; a JSON text is hashed without its timing keys."""
+    try:
+        text = json.dumps(_without_timings(json.loads(text)), sort_keys=True)
+    except ValueError:
+        pass
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
 def _digest(path: Path) -> str:
+    if path.suffix == ".json":
+        return _hash_text(path.read_text())
     return hashlib.sha256(path.read_bytes()).hexdigest()[:16]
 
 
@@ -80,7 +104,7 @@ def main(argv: list[str] | None = None) -> int:
             done = _cli(cli_args, out)
             stdout = done.stdout if step != "simulate" else ""
             lines.append(f"{name} {step} exit={done.returncode} stdout="
-                         f"{hashlib.sha256(stdout.encode()).hexdigest()[:16]}")
+                         f"{_hash_text(stdout)}")
             if done.returncode != 0:
                 lines.append(f"{name} {step} stderr: {done.stderr.strip().splitlines()[-1:]}")
         for path in _files(out / name):
