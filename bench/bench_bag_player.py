@@ -64,7 +64,7 @@ print(json.dumps({"received": count["n"], "span_s": span}), flush=True)
 
 
 def make_bag(n_joint: int, workdir: Path) -> Path:
-    from guide_health.io.bag_writer import write_machine_bag
+    from guide_health.io.bag.writer import write_machine_bag
     from guide_health.params import simulation_params, wear_monitor_params
     from guide_health.sim.machine import simulate_machine
 
@@ -95,7 +95,7 @@ def trial(bag: Path, env: dict, sub_qos: str, player_args: list[str]) -> dict:
 
 
 def main() -> int:
-    from guide_health.io.bag_info import bag_info
+    from guide_health.io.bag.info import bag_info
     from guide_health.nodes.session import clean_fastdds_shm, isolated_ros_env
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])

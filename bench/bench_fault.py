@@ -109,8 +109,8 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
 
     from guide_health.analysis.replay import analyse
-    from guide_health.io.bag_reader import read_machine_bag
-    from guide_health.io.bag_writer import write_machine_bag
+    from guide_health.io.bag.reader import read_machine_bag
+    from guide_health.io.bag.writer import write_machine_bag
     from guide_health.nodes.session import (
         DiagnosticsCollector,
         clean_fastdds_shm,

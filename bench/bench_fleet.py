@@ -47,7 +47,7 @@ PARAMS = ROOT / "config" / "bench_000.yaml"
 
 
 def make_bags(n: int, messages: float, workdir: Path) -> list[Path]:
-    from guide_health.io.bag_writer import write_machine_bag
+    from guide_health.io.bag.writer import write_machine_bag
     from guide_health.params import simulation_params, wear_monitor_params
     from guide_health.sim.machine import simulate_machine
 
@@ -112,7 +112,7 @@ def run_pool(bags, out: Path, options, read_ahead: bool) -> list[dict]:
     from concurrent.futures import ProcessPoolExecutor
 
     from guide_health.analysis.fleet import report_names, run_bag
-    from guide_health.io.packed import set_read_ahead
+    from guide_health.io.bag.sqlite3_storage import set_read_ahead
 
     with ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("fork"), initializer=set_read_ahead,
                              initargs=(read_ahead,)) as pool:

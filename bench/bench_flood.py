@@ -39,7 +39,7 @@ import rclpy
 from rclpy.qos import QoSProfile, HistoryPolicy, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from geometry_msgs.msg import WrenchStamped
-from guide_health.io.cdr import encode_joint_states, encode_wrench_stamped
+from guide_health.io.bag.cdr import encode_joint_states, encode_wrench_stamped
 seconds, rate, profile = float(sys.argv[1]), float(sys.argv[2]), sys.argv[3]
 n = int(seconds * rate)
 t0_ns = 1_700_000_000_000_000_000

@@ -49,18 +49,19 @@ def loop_time(bag: Path) -> tuple[int, float]:
 
 def read_time(bag: Path, *, bulk: bool) -> tuple[int, float]:
     """(messages, seconds) of iter_machine_bag in this process; bulk=False: the per-message path."""
-    from guide_health.io import storage
-    from guide_health.io.bag_reader import iter_machine_bag
+    from guide_health.io.bag.mcap_storage import McapStorage
+    from guide_health.io.bag.reader import iter_machine_bag
+    from guide_health.io.bag.sqlite3_storage import Sqlite3Storage
 
-    saved = (storage.SqliteDirectStorage.iter_packed, storage.RosbagsStorage.iter_packed)
+    saved = (Sqlite3Storage.iter_packed, McapStorage.iter_packed)
     if not bulk:
-        storage.SqliteDirectStorage.iter_packed = storage.RosbagsStorage.iter_packed = lambda *a: None
+        Sqlite3Storage.iter_packed = McapStorage.iter_packed = lambda *a: None
     try:
         t0 = time.perf_counter()
         n = sum(run.messages for run in iter_machine_bag(bag))
         return n, time.perf_counter() - t0
     finally:
-        storage.SqliteDirectStorage.iter_packed, storage.RosbagsStorage.iter_packed = saved
+        Sqlite3Storage.iter_packed, McapStorage.iter_packed = saved
 
 
 def write_cached(n_joint: int, storage_id: str, workdir: Path) -> Path:

@@ -34,7 +34,7 @@ PARAMS = ROOT / "config" / "bench_000.yaml"
 
 
 def make_bag(n_joint: int, storage: str, workdir: Path) -> Path:
-    from guide_health.io.bag_writer import write_machine_bag
+    from guide_health.io.bag.writer import write_machine_bag
     from guide_health.params import simulation_params, wear_monitor_params
     from guide_health.sim.machine import simulate_machine
 

@@ -17,8 +17,8 @@ import time
 from pathlib import Path
 
 from guide_health.analysis.replay import analyse, write_outputs
-from guide_health.io.bag_reader import read_machine_bag
-from guide_health.io.bag_writer import write_machine_bag
+from guide_health.io.bag.reader import read_machine_bag
+from guide_health.io.bag.writer import write_machine_bag
 from guide_health.models.levels import LEVEL_NAMES
 from guide_health.nodes.session import (
     DiagnosticsCollector,

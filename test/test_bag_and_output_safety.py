@@ -15,8 +15,9 @@ import numpy as np
 import pytest
 
 from guide_health.errors import InputError
-from guide_health.io import bag_reader, bag_writer
-from guide_health.io.output_files import REPORT_MODE, open_output, write_text
+from guide_health.io.bag import reader as bag_reader
+from guide_health.io.bag import writer as bag_writer
+from guide_health.io.outputs.files import REPORT_MODE, open_output, write_text
 from guide_health.runs import MachineRun
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -145,12 +146,12 @@ def test_open_output_refuses_links_and_special_files(tmp_path):
 
 def test_every_report_writer_goes_through_output_files():
     """A new writer that opens its file directly would follow a planted symlink and leave 0644 (issue 10
-    item 6): every report, CSV, PNG and params file goes through guide_health/io/output_files.py."""
+    item 6): every report, CSV, PNG and params file goes through guide_health/io/outputs/files.py."""
     import re
 
     direct = re.compile(r"\.write_text\(|\.write_bytes\(|\bopen\([^)]*[\"'][wa]b?[\"']"
                         r"|\.savefig\(\s*(?!buffer)|np\.savetxt\(\s*files")
-    allowed = {"guide_health/io/output_files.py",
+    allowed = {"guide_health/io/outputs/files.py",
                "guide_health/nodes/session.py"}      # the log of a node a test/bench starts, path from the caller
     offenders = []
     for path in sorted((ROOT / "guide_health").rglob("*.py")):

@@ -20,11 +20,13 @@ import numpy as np
 import pytest
 
 from guide_health.errors import InputError
-from guide_health.io import bag_reader, bag_writer, cdr
-from guide_health.io.bag_info import bag_info
-from guide_health.io.interfaces import FLOAT64, JOINT_STATE, TEMPERATURE, WRENCH_STAMPED
-from guide_health.io.progress import ProgressBar
-from guide_health.io.typestore import header, message, typestore
+from guide_health.io.bag import cdr
+from guide_health.io.bag import reader as bag_reader
+from guide_health.io.bag import writer as bag_writer
+from guide_health.io.bag.info import bag_info
+from guide_health.io.bag.interfaces import FLOAT64, JOINT_STATE, TEMPERATURE, WRENCH_STAMPED
+from guide_health.io.bag.typestore import header, message, typestore
+from guide_health.io.outputs.progress import ProgressBar
 from guide_health.nodes.bag_player import Pacer, bag_namespace, compute_schedule, output_topic
 from guide_health.runs import MachineRun, SlewingLoadRun
 
@@ -376,8 +378,8 @@ def test_progress_bar_renders_and_is_rate_limited():
 
 
 def test_io_modules_do_not_import_rclpy():
-    code = ("import sys, guide_health.io.bag_reader, guide_health.io.bag_writer, guide_health.io.bag_info, "
-            "guide_health.io.progress, guide_health.io.state_store; sys.exit('rclpy' in sys.modules)")
+    code = ("import sys, guide_health.io.bag.reader, guide_health.io.bag.writer, guide_health.io.bag.info, "
+            "guide_health.io.outputs.progress, guide_health.io.state_store; sys.exit('rclpy' in sys.modules)")
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]))
     assert subprocess.run([sys.executable, "-c", code], env=env, cwd=REPO, timeout=60).returncode == 0
 

@@ -13,9 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from guide_health.io import bag_reader, bag_writer, cdr, packed, storage
-from guide_health.io.interfaces import JOINT_STATE, WRENCH_STAMPED
-from guide_health.io.packed import iter_sqlite_packed
+from guide_health.io.bag import cdr, mcap_storage, sqlite3_storage, storage
+from guide_health.io.bag import reader as bag_reader
+from guide_health.io.bag import writer as bag_writer
+from guide_health.io.bag.interfaces import JOINT_STATE, WRENCH_STAMPED
+from guide_health.io.bag.sqlite3_storage import iter_sqlite_packed
 from guide_health.runs import MachineRun
 
 T0 = 1_700_000_000_123_456_789
@@ -62,7 +64,7 @@ def _renumber(bag: Path, order_of_rows) -> None:
 def _ordered_read(bag: Path, monkeypatch, **kw) -> MachineRun:
     """The previous reader: per-message rows ORDER BY timestamp (the packed path switched off)."""
     with monkeypatch.context() as m:
-        m.setattr(storage.SqliteDirectStorage, "iter_packed", lambda *a: None)
+        m.setattr(sqlite3_storage.Sqlite3Storage, "iter_packed", lambda *a: None)
         return bag_reader.read_machine_bag(bag, **kw)
 
 
@@ -86,13 +88,13 @@ def _uses_packed(bag: Path, chunk: int) -> bool:
 def _read_watching_fallback(bag: Path, chunk: int, monkeypatch) -> tuple[MachineRun, list]:
     """read_machine_bag, and the rowids from which the bulk reader fell back to ORDER BY timestamp."""
     starts = []
-    real = packed._RangeReader.ordered_from
+    real = sqlite3_storage._RangeReader.ordered_from
 
     def spy(self, start, step):
         starts.append(start)
         return real(self, start, step)
     with monkeypatch.context() as m:
-        m.setattr(packed._RangeReader, "ordered_from", spy)
+        m.setattr(sqlite3_storage._RangeReader, "ordered_from", spy)
         return bag_reader.read_machine_bag(bag, chunk_messages=chunk), starts
 
 
@@ -104,11 +106,11 @@ def test_packed_sqlite_read_equals_ordered_read(tmp_path, monkeypatch):
         assert_runs_equal(got, run)
         assert fallback == []
     try:                                        # without the read-ahead thread (fleet workers on full cores)
-        packed.set_read_ahead(False)
+        sqlite3_storage.set_read_ahead(False)
         for chunk in (1, 700):
             assert_runs_equal(bag_reader.read_machine_bag(bag, chunk_messages=chunk), run)
     finally:
-        packed.set_read_ahead(True)
+        sqlite3_storage.set_read_ahead(True)
     assert_runs_equal(bag_reader.read_machine_bag(bag, chunk_messages=700),
                       _ordered_read(bag, monkeypatch, chunk_messages=700))
     chunks = list(bag_reader.iter_machine_bag(bag, chunk_messages=700))
@@ -117,7 +119,7 @@ def test_packed_sqlite_read_equals_ordered_read(tmp_path, monkeypatch):
 
 def _range_batches(db, where, args, flat, base_ns, step=700):
     lo, hi = db.execute("SELECT MIN(rowid), MAX(rowid) FROM messages").fetchone()
-    return [packed._read_range(db, r, r + step, where, args, flat, base_ns) for r in range(lo, hi + 1, step)]
+    return [sqlite3_storage._read_range(db, r, r + step, where, args, flat, base_ns) for r in range(lo, hi + 1, step)]
 
 
 def test_range_query_forms_give_the_same_batches(tmp_path):
@@ -128,8 +130,8 @@ def test_range_query_forms_give_the_same_batches(tmp_path):
     with storage.open_storage(bag) as st:
         db, ids = st._db, [c.id for c in st.connections]
         where = f" AND topic_id IN ({','.join('?' * len(ids))})"
-        assert packed._plan_in_rowid_order(db, where, ids)
-        base = packed._time_base(db)
+        assert sqlite3_storage._plan_in_rowid_order(db, where, ids)
+        base = sqlite3_storage._time_base(db)
         assert base == db.execute("SELECT MIN(timestamp) FROM messages").fetchone()[0] > 0
         want = _range_batches(db, where, ids, False, 0)
         for flat, base_ns in ((True, 0), (True, base), (False, base)):
@@ -143,11 +145,11 @@ def test_range_query_forms_give_the_same_batches(tmp_path):
     con.executemany("INSERT INTO messages VALUES (?, 1, ?, ?)", [(i + 1, t, bytes([i] * 3)) for i, t in
                                                                  enumerate(times)])
     con.commit()
-    assert packed._time_base(con) == 0
+    assert sqlite3_storage._time_base(con) == 0
     con.execute("DELETE FROM messages WHERE timestamp >= 0")
-    assert packed._time_base(con) == -(2**63)
+    assert sqlite3_storage._time_base(con) == -(2**63)
     for flat in (False, True):
-        got = packed._read_range(con, 1, 10, "", [], flat, -(2**63))
+        got = sqlite3_storage._read_range(con, 1, 10, "", [], flat, -(2**63))
         assert got.log_time_ns.tolist() == times[:2] and got.buf.tolist() == [0, 0, 0, 1, 1, 1]
     con.close()
 
@@ -170,8 +172,8 @@ def test_unwanted_topics_and_rows_of_no_topic(tmp_path, monkeypatch):
     assert_runs_equal(bag_reader.read_machine_bag(bag, chunk_messages=700),
                       _ordered_read(bag, monkeypatch, chunk_messages=700))
     with storage.open_storage(bag) as st:
-        assert packed._every_topic(st._db, tuple(c.id for c in st.connections))
-        assert not packed._every_topic(st._db, (first,))
+        assert sqlite3_storage._every_topic(st._db, tuple(c.id for c in st.connections))
+        assert not sqlite3_storage._every_topic(st._db, (first,))
         batches = [b for group in iter_sqlite_packed(st._db, bag, (first,), 700) for b in group]
     assert {int(i) for b in batches for i in b.connection_ids} == {first}
     assert [int(t) for b in batches for t in b.log_time_ns] == [t for t, _ in want]
@@ -231,7 +233,7 @@ def test_late_disorder_falls_back_from_that_range(tmp_path, monkeypatch):
         return perm
     _renumber(bag, swap_late)
     for ahead in (True, False):                 # with and without the read-ahead thread
-        monkeypatch.setattr(packed, "_READ_AHEAD", [ahead])
+        monkeypatch.setattr(sqlite3_storage, "_READ_AHEAD", [ahead])
         got, fallback = _read_watching_fallback(bag, 1000, monkeypatch)
         assert fallback == [1001]
         assert_runs_equal(got, run)
@@ -259,7 +261,7 @@ def test_replay_report_identical_to_ordered_read(tmp_path, monkeypatch):
         return json.dumps(summary, sort_keys=True, default=str)
     fast = report()
     with monkeypatch.context() as m:
-        m.setattr(storage.SqliteDirectStorage, "iter_packed", lambda *a: None)
+        m.setattr(sqlite3_storage.Sqlite3Storage, "iter_packed", lambda *a: None)
         slow = report()
     assert json.loads(fast)["messages"] == json.loads(slow)["messages"] > 30_000
     assert fast == slow
@@ -268,7 +270,7 @@ def test_replay_report_identical_to_ordered_read(tmp_path, monkeypatch):
 def test_decode_packed_equals_decode_chunk():
     """Messages of several lengths and layouts (one and two joints, big-endian, truncated, empty) packed
     into one buffer decode exactly as the list decoder decodes them (values, presence, counts)."""
-    from guide_health.io.typestore import header, message, typestore
+    from guide_health.io.bag.typestore import header, message, typestore
 
     rng = np.random.default_rng(3)
     ts = typestore()
@@ -389,7 +391,7 @@ def mcap_source(tmp_path_factory):
 
 def _rosbags_mcap_read(path: Path, monkeypatch) -> MachineRun:
     with monkeypatch.context() as m:
-        m.setattr(storage.RosbagsStorage, "iter_packed", lambda *a: None)
+        m.setattr(mcap_storage.McapStorage, "iter_packed", lambda *a: None)
         return bag_reader.read_machine_bag(path)
 
 

@@ -21,7 +21,7 @@ from guide_health.analysis.discrepancy import duty
 from guide_health.analysis.discrepancy.duty_process import start_duty_cells
 from guide_health.analysis.discrepancy.workflow import diagnose_cells
 from guide_health.errors import InputError
-from guide_health.io.bag_writer import write_machine_bag
+from guide_health.io.bag.writer import write_machine_bag
 from guide_health.models.wear.input_rules import InputLimits
 from guide_health.params import simulation_params, wear_monitor_params
 from guide_health.sim.machine import simulate_machine

@@ -364,7 +364,7 @@ def test_diagnose_bad_input_is_one_line_exit_2(tmp_path):
     params = wear_monitor_params(JOBS)
     sim = simulation_params(JOBS)
     sim.update(duration_h=0.5, joint_state_rate_hz=5.0, load_rate_hz=5.0, measurement_interval_h=10.0)
-    from guide_health.io.bag_writer import write_machine_bag
+    from guide_health.io.bag.writer import write_machine_bag
     run = simulate_machine(params, sim, seed=0)
     write_machine_bag(run, tmp_path / "few")
     proc = cli("diagnose", str(tmp_path / "few"), "--params", str(JOBS), check=False)

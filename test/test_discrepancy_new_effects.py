@@ -156,7 +156,7 @@ def relube_case(seed: int, tmp: Path) -> dict:
     import sys
 
     from guide_health.cli.simulate import event_series
-    from guide_health.io.bag_writer import write_machine_bag
+    from guide_health.io.bag.writer import write_machine_bag
     from guide_health.models.wear.maintenance import MaintenanceEvent
 
     params = wear_monitor_params(JOBS)

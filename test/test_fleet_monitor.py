@@ -76,7 +76,7 @@ def test_invalid_values_and_unknown_levels_are_ignored_and_counted():
 
 
 def test_history_retention_deletes_old_rows_and_forgets_old_periods(tmp_path):
-    from guide_health.io.fleet_history import FleetHistory
+    from guide_health.io.outputs.fleet_history import FleetHistory
 
     history = FleetHistory(str(tmp_path / "h.db"), period_s=60.0, retention_days=1.0)
     day = 86400.0

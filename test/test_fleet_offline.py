@@ -18,7 +18,7 @@ FACTORS = (1.0, 1.8, 0.6)          # truth K / configured K of the three machine
 def fleet_bags(tmp_path_factory):
     """Three tiny machine bags (1 h, 10 Hz joint states, a measurement every 0.2 h), namespaces /m0../m2
     (bag2's run metadata names its machine press7), and a broken bag (unparsable metadata.yaml)."""
-    from guide_health.io.bag_writer import write_machine_bag
+    from guide_health.io.bag.writer import write_machine_bag
     from guide_health.params import simulation_params, wear_monitor_params
     from guide_health.sim.machine import simulate_machine
 
@@ -148,7 +148,7 @@ def test_read_ahead_is_switched_off_only_where_the_workers_fill_the_cores():
     """share_cores: a host whose worker threads fill its cores gets no read-ahead thread, a host with cores
     left over keeps it (a fake client: two hosts, 2 threads on 2 cores and 1 thread on 4 cores)."""
     from guide_health.analysis import fleet
-    from guide_health.io import packed
+    from guide_health.io.bag import sqlite3_storage
 
     class Client:
         calls: list = []
@@ -165,5 +165,5 @@ def test_read_ahead_is_switched_off_only_where_the_workers_fill_the_cores():
 
     client = Client()
     assert fleet.share_cores(client) == {"a1": False, "a2": False, "b1": True}
-    assert sorted(client.calls, key=str) == sorted([(packed.set_read_ahead, (True,), ["b1"]),
-                                                    (packed.set_read_ahead, (False,), ["a1", "a2"])], key=str)
+    assert sorted(client.calls, key=str) == sorted([(sqlite3_storage.set_read_ahead, (True,), ["b1"]),
+                                                    (sqlite3_storage.set_read_ahead, (False,), ["a1", "a2"])], key=str)

@@ -99,7 +99,7 @@ def test_population_fit_closed_forms():
 def test_fleet_prior_command_from_a_fleet_replay(tmp_path, capsys):
     """fleet replay of 4 machines of one type, then `fleet prior`: a params file the wear_monitor loads."""
     from guide_health.cli.app import main
-    from guide_health.io.bag_writer import write_machine_bag
+    from guide_health.io.bag.writer import write_machine_bag
     from guide_health.models.wear.precision import PrecisionMonitor
     from guide_health.params import simulation_params, wear_monitor_params
     from guide_health.sim.machine import simulate_machine

@@ -16,7 +16,7 @@ import pytest
 from matplotlib.image import imread
 
 from guide_health.cli.app import main
-from guide_health.io.fleet_history import FleetHistory
+from guide_health.io.outputs.fleet_history import FleetHistory
 
 T0_UNIX_S = 1.8e9
 LIFE_RATE_H_PER_H = {"m1": 1.0, "m2": 3.0, "m3": 0.5}     # remaining life lost per hour of history

@@ -209,7 +209,7 @@ def test_rolling_guide_load_limit_is_a_multiple_of_the_rating():
 @pytest.mark.parametrize("case", ["loads_1e308", "position_1e300"])
 def test_diagnose_with_huge_values_is_no_traceback(bench_run, tmp_path, case):
     """On main both bags made `diagnose` exit 1 with a traceback (the fit found no finite optimum)."""
-    from guide_health.io.bag_writer import write_machine_bag
+    from guide_health.io.bag.writer import write_machine_bag
 
     if case == "loads_1e308":
         w = bench_run.load_n.copy()

@@ -533,7 +533,7 @@ def test_live_node_with_the_duty_and_thermal_effects_matches_replay(tmp_path, ro
     pytest.importorskip("rclpy")
     from guide_health.analysis.replay import analyse_bag
     from guide_health.cli.simulate import event_series
-    from guide_health.io.bag_writer import write_machine_bag
+    from guide_health.io.bag.writer import write_machine_bag
     from guide_health.nodes.session import settled_status_after_bag
 
     bench = ROOT / "config" / "bench_000.yaml"

@@ -12,8 +12,8 @@ import pytest
 pytest.importorskip("rclpy")
 
 from guide_health.analysis.replay import analyse  # noqa: E402
-from guide_health.io.bag_reader import read_machine_bag  # noqa: E402
-from guide_health.io.bag_writer import write_machine_bag  # noqa: E402
+from guide_health.io.bag.reader import read_machine_bag  # noqa: E402
+from guide_health.io.bag.writer import write_machine_bag  # noqa: E402
 from guide_health.nodes.session import (  # noqa: E402
     DiagnosticsCollector,
     clean_fastdds_shm,
@@ -58,9 +58,9 @@ def make_bag_with_early_loads(tmp_path: Path, lead_ns: int = 550_000_000):
     """The sqlite3 bench bag of make_bag, but every load is logged (so played) `lead_ns` before its header
     stamp, as from a load sensor whose messages overtake the joint samples stamped before them: the first
     load (6000 N at t0 + 0.5 s) reaches the node before the joint samples t0 + 0.1..0.4 s (5 mm steps)."""
-    from guide_health.io.bag_writer import _TopicSeries, _write_bag
-    from guide_health.io.cdr import encode_float64, encode_joint_states, encode_wrench_stamped
-    from guide_health.io.interfaces import FLOAT64, JOINT_STATE, WRENCH_STAMPED
+    from guide_health.io.bag.cdr import encode_float64, encode_joint_states, encode_wrench_stamped
+    from guide_health.io.bag.interfaces import FLOAT64, JOINT_STATE, WRENCH_STAMPED
+    from guide_health.io.bag.writer import _TopicSeries, _write_bag
 
     params = wear_monitor_params(BENCH)
     sim = dict(simulation_params(BENCH), duration_h=1.5, joint_state_rate_hz=10.0, load_rate_hz=1.0,

@@ -36,7 +36,7 @@ def cli(*args, timeout=600):
 
 def make_machine_bag(path: Path, hours: float, rate: float = 10.0, load_rate: float = 1.0, seed: int = 3,
                      events=None):
-    from guide_health.io.bag_writer import write_machine_axes_bag
+    from guide_health.io.bag.writer import write_machine_axes_bag
     from guide_health.sim.machine import simulate_axes
 
     axes = machine_axes_params(XYZ)
@@ -103,7 +103,7 @@ def test_machine_xyz_simulated_4h_and_replayed_gives_the_axes_json(tmp_path):
     assert proc.returncode == 0, proc.stderr
     report = json.loads(proc.stdout)
     assert set(report["axes"]) == {"x", "y", "z"}
-    from guide_health.io.bag_reader import read_machine_bag
+    from guide_health.io.bag.reader import read_machine_bag
 
     axes = machine_axes_params(XYZ)
     duty = {}

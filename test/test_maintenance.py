@@ -165,7 +165,7 @@ def test_simulated_regrind_is_replayed_and_listed(tmp_path):
                        "straightness_um": 10.0, "applied": True}]
     assert "maintenance_events" not in rep["without"]
     # the truth after the regrind grew from 10 um: without it the guide is ~5 um more worn
-    from guide_health.io.bag_metadata import read_run_metadata
+    from guide_health.io.bag.metadata import read_run_metadata
 
     truth = read_run_metadata(with_event)["truth"]["straightness_m"][-1] * 1e6
     assert rep["with"]["straightness_um"] == pytest.approx(truth, abs=0.5)
@@ -189,7 +189,7 @@ def test_regrind_mid_bag_live_equals_offline(tmp_path, ros_env):
     pytest.importorskip("rclpy")
     from guide_health.analysis.replay import analyse_bag
     from guide_health.cli.simulate import event_series
-    from guide_health.io.bag_writer import write_machine_bag
+    from guide_health.io.bag.writer import write_machine_bag
     from guide_health.nodes.session import DiagnosticsCollector, play_bag, start_node, stop_node
 
     event = regrind(0.75)

@@ -559,8 +559,8 @@ def test_live_node_with_several_params_files_matches_replay(tmp_path, ros_test_e
     with its interval to 0.5 %."""
     pytest.importorskip("rclpy")
     from guide_health.analysis.replay import analyse
-    from guide_health.io.bag_reader import read_machine_bag
-    from guide_health.io.bag_writer import write_machine_bag
+    from guide_health.io.bag.reader import read_machine_bag
+    from guide_health.io.bag.writer import write_machine_bag
     from guide_health.nodes.session import settled_status_after_bag
 
     env = ros_test_env()

@@ -49,7 +49,7 @@ def test_replay_end_to_end_files_and_eq7_numbers(tmp_path):
     bag's positions (K held at the configured value by a tiny prior sd and no effect).
     Catches: a dropped factor 2 or swapped b/H in Eq. 7, CSV columns swapped, a report.json that is not
     what --json printed."""
-    from guide_health.io.bag_writer import write_machine_bag
+    from guide_health.io.bag.writer import write_machine_bag
     from guide_health.params import simulation_params, wear_monitor_params
     from guide_health.sim.machine import simulate_machine
 

@@ -137,7 +137,7 @@ def test_life_thresholds():
 @pytest.mark.ros
 def test_rolling_bag_through_bag_player_and_node_matches_replay(tmp_path, ros_test_env):
     from guide_health.analysis.replay import analyse_bag
-    from guide_health.io.bag_writer import write_machine_bag
+    from guide_health.io.bag.writer import write_machine_bag
     from guide_health.nodes.session import (
         DiagnosticsCollector,
         clean_fastdds_shm,

@@ -10,8 +10,8 @@ import pytest
 pytest.importorskip("rclpy")
 
 from guide_health.analysis.replay import analyse  # noqa: E402
-from guide_health.io.bag_reader import read_machine_bag  # noqa: E402
-from guide_health.io.bag_writer import write_machine_bag  # noqa: E402
+from guide_health.io.bag.reader import read_machine_bag  # noqa: E402
+from guide_health.io.bag.writer import write_machine_bag  # noqa: E402
 from guide_health.nodes.bag_player import ClockPublisher, build_parser  # noqa: E402
 from guide_health.nodes.session import (  # noqa: E402
     DiagnosticsCollector,

@@ -130,8 +130,8 @@ def test_node_keys_stale_and_bad_messages(ros_context):
 
 @pytest.mark.ros
 def test_slewing_bag_through_bag_player_and_node_matches_offline(tmp_path, ros_test_env):
-    from guide_health.io.bag_reader import read_slewing_bag
-    from guide_health.io.bag_writer import write_slewing_bag
+    from guide_health.io.bag.reader import read_slewing_bag
+    from guide_health.io.bag.writer import write_slewing_bag
     from guide_health.nodes.session import (
         DiagnosticsCollector,
         clean_fastdds_shm,

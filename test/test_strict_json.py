@@ -9,8 +9,8 @@ import pytest
 
 from guide_health.analysis.fleet_prior import bag_log_k
 from guide_health.cli.app import main
-from guide_health.io.bag_metadata import run_metadata_json
-from guide_health.io.json_text import json_text, number, plain
+from guide_health.io.bag.metadata import run_metadata_json
+from guide_health.io.outputs.json_text import json_text, number, plain
 from guide_health.models.wear.calibration import Z90
 
 BENCH = Path(__file__).resolve().parents[1] / "config" / "bench_000.yaml"
@@ -36,7 +36,7 @@ def test_json_text_writes_non_finite_floats_as_null_and_refuses_an_escape():
 
 
 def test_replay_with_an_unbounded_remaining_life_writes_strict_json(tmp_path, capsys):
-    from guide_health.io.bag_writer import write_machine_bag
+    from guide_health.io.bag.writer import write_machine_bag
     from guide_health.models.wear.precision import PrecisionMonitor
     from guide_health.params import simulation_params, wear_monitor_params
     from guide_health.sim.machine import simulate_machine

@@ -139,7 +139,7 @@ def test_bad_blocks_leave_the_state_unchanged():
 def test_chain_from_a_bag_reproduces_0_624(tmp_path):
     from guide_health.analysis.life_signs import life_test_from_bag
     from guide_health.errors import InputError
-    from guide_health.io.bag_writer import write_life_test_bag
+    from guide_health.io.bag.writer import write_life_test_bag
 
     p = bench_params(failure_km=450.0, load_fraction=0.3, block_every_m=5000.0)
     write_life_test_bag(simulate_life_test(p, seed=0), tmp_path / "bag")

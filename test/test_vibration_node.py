@@ -16,7 +16,7 @@ from guide_health.analysis.life_signs import (  # noqa: E402
     signs_from_params,
     vibration_status_values,
 )
-from guide_health.io.bag_writer import write_life_test_bag  # noqa: E402
+from guide_health.io.bag.writer import write_life_test_bag  # noqa: E402
 from guide_health.models.rolling.life_signs import StampedLifeTest  # noqa: E402
 from guide_health.params import SCHEMAS  # noqa: E402
 from guide_health.sim.life_test import simulate_life_test  # noqa: E402

@@ -189,8 +189,8 @@ def test_pin_on_disc_fit_within_3_percent_of_published_k():
 
 
 def test_k_update_recovers_true_k_and_life_interval_from_bag(tmp_path):
-    from guide_health.io.bag_reader import read_machine_bag
-    from guide_health.io.bag_writer import write_machine_bag
+    from guide_health.io.bag.reader import read_machine_bag
+    from guide_health.io.bag.writer import write_machine_bag
 
     p = bench_params()
     sim = dict(simulation_params(BENCH), duration_h=4.6, joint_state_rate_hz=20.0,

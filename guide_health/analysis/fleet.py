@@ -27,9 +27,9 @@ from guide_health.errors import InputError
 #: the single-bag command behind each fleet command (guide_health.cli module:Command)
 SINGLE_BAG_COMMANDS = {"replay": "replay:REPLAY", "diagnose": "diagnose:DIAGNOSE"}
 #: modules the single-bag commands import when they run: imported before forking local workers
-PRELOAD = {"replay": ("guide_health.io.bag_reader", "guide_health.io.progress"),
+PRELOAD = {"replay": ("guide_health.io.bag.reader", "guide_health.io.outputs.progress"),
            "diagnose": ("guide_health.analysis.discrepancy.workflow", "guide_health.analysis.discrepancy.duty",
-                        "guide_health.analysis.discrepancy.report", "guide_health.io.progress")}
+                        "guide_health.analysis.discrepancy.report", "guide_health.io.outputs.progress")}
 #: Dask settings of the local cluster the command starts: its diagnostics (the stack profiler sampling every
 #: 10 ms, the 20 ms event-loop tick, system and memory monitors at 0.5 / 0.1 s) serve a dashboard this
 #: cluster does not have. Measured alternating on 16 bags of 0.5 M messages, 2 workers: 322-330 against
@@ -82,8 +82,8 @@ def report_names(bags: list[Path]) -> list[str]:
 
 def machine_of_bag(bag: Path) -> str:
     """The machine of a bag: run metadata ``machine_id``, else its topics' namespace, else its name."""
-    from guide_health.io.bag_info import bag_topic_types
-    from guide_health.io.bag_metadata import read_run_metadata
+    from guide_health.io.bag.info import bag_topic_types
+    from guide_health.io.bag.metadata import read_run_metadata
 
     try:
         machine = read_run_metadata(bag).get("machine_id")
@@ -100,7 +100,7 @@ def machine_of_bag(bag: Path) -> str:
 
 def error_line(exc: BaseException) -> str:
     """The one-line error of a failed bag (the CLI's wording for input and file errors)."""
-    from guide_health.io.bag_metadata import one_line
+    from guide_health.io.bag.metadata import one_line
 
     if isinstance(exc, InputError):
         return one_line(exc, 300)
@@ -175,7 +175,7 @@ def share_cores(client) -> dict[str, bool]:
     """Switch the bulk reader's read-ahead thread off in the workers of every host whose worker threads
     already fill its cores (worker threads >= cores, e.g. 2 local workers on 2 cores: measured 5-12 % less CPU
     per bag, bit-identical results); on where cores are left over. {worker: read-ahead}."""
-    from guide_health.io.packed import set_read_ahead
+    from guide_health.io.bag.sqlite3_storage import set_read_ahead
 
     try:
         workers = client.scheduler_info()["workers"]

@@ -22,9 +22,9 @@ from typing import Any
 from scipy.special import stdtrit
 
 from guide_health.errors import InputError
-from guide_health.io.bag_metadata import one_line
-from guide_health.io.json_text import number
-from guide_health.io.output_files import write_text
+from guide_health.io.bag.metadata import one_line
+from guide_health.io.outputs.files import write_text
+from guide_health.io.outputs.json_text import number
 from guide_health.models.fleet import (
     combine_estimates,
     likelihood_from_posterior,

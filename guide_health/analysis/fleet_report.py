@@ -6,8 +6,8 @@ import math
 from pathlib import Path
 from typing import Any
 
-from guide_health.io.json_text import json_text
-from guide_health.io.output_files import open_output, write_text
+from guide_health.io.outputs.files import open_output, write_text
+from guide_health.io.outputs.json_text import json_text
 
 #: table columns of each command, in order (after machine, bag, status); missing values are blank
 REPLAY_COLUMNS = ("level_name", "remaining_life_h", "remaining_life_h_low", "remaining_life_h_high",

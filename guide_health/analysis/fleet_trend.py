@@ -1,4 +1,4 @@
-"""`guide-health fleet trend`: the fleet_monitor history (io/fleet_history.py) as per-machine trends.
+"""`guide-health fleet trend`: the fleet_monitor history (io/outputs/fleet_history.py) as per-machine trends.
 
 Per machine: a CSV of its statuses over time (remaining life, straightness, fatigue life used, end-stress
 ratio, level) and a PNG; for the fleet an overview PNG and ``index.html``, one static self-contained page
@@ -18,7 +18,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 from guide_health.errors import InputError
-from guide_health.io.output_files import open_output, write_text
+from guide_health.io.outputs.files import open_output, write_text
 from guide_health.models.levels import LEVEL_NAMES
 
 #: the trend quantities: status key, label with unit

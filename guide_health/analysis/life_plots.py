@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from guide_health.io.output_files import save_figure
+from guide_health.io.outputs.files import save_figure
 from guide_health.models.rolling.vibration import welch_psd
 
 ZOOM_HARMONICS = 4

@@ -96,9 +96,9 @@ def read_life_test_bag(path) -> dict:
     from rosbags.rosbag2 import Reader
 
     from guide_health.errors import InputError
-    from guide_health.io.bag_metadata import check_bag_file_paths
-    from guide_health.io.bag_writer import SOUND_LEVEL_REFERENCE_PA
-    from guide_health.io.typestore import typestore
+    from guide_health.io.bag.metadata import check_bag_file_paths
+    from guide_health.io.bag.typestore import typestore
+    from guide_health.io.bag.writer import SOUND_LEVEL_REFERENCE_PA
 
     store = typestore()
     out = {"block_t_ns": [], "blocks": [], "level_t_ns": [], "level_db": [], "sample_rate_hz": None}

@@ -7,8 +7,8 @@ import math
 import time
 from pathlib import Path
 
-from guide_health.io.json_text import json_text
-from guide_health.io.output_files import open_output, write_text
+from guide_health.io.outputs.files import open_output, write_text
+from guide_health.io.outputs.json_text import json_text
 from guide_health.models.levels import LEVEL_NAMES
 from guide_health.models.wear.axis import PRECISION_KEYS, AxisMonitor
 
@@ -17,7 +17,7 @@ TOPIC_KEYS = ("load_topic", "straightness_topic", "temperature_topic")
 
 
 def axis_topics(params: dict) -> dict[str, str]:
-    """{role: relative topic} of an axis (bag_reader.iter_machine_bag's ``topics``)."""
+    """{role: relative topic} of an axis (io.bag.reader.iter_machine_bag's ``topics``)."""
     return dict(zip(ROLES, (params[k] for k in TOPIC_KEYS)))
 
 
@@ -39,8 +39,8 @@ def analyse_machine_bag(bag, axes: dict[str, dict], namespace: str | None = None
     """Every axis of ``axes`` (params/machine.py axes_params) over the bag, one pass per axis, with the bag's
     maintenance events (maintenance/events) applied at their stamps. Returns the models and the report."""
     from guide_health.analysis.replay import maintenance_list
-    from guide_health.io.bag_reader import iter_machine_bag
-    from guide_health.io.maintenance_msgs import read_events
+    from guide_health.io.bag.maintenance import read_events
+    from guide_health.io.bag.reader import iter_machine_bag
 
     models = {}
     t0 = time.perf_counter()

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from guide_health.errors import InputError
-from guide_health.io.output_files import save_figure
+from guide_health.io.outputs.files import save_figure
 
 #: carriage speeds of the rolling-contact plot [m/s] (log axis)
 PLOT_SPEED_RANGE_M_S = (1e-3, 2.0)

@@ -17,7 +17,7 @@ import warnings
 from guide_health.cli.command import Command
 from guide_health.cli.text import format_key_values, jsonable
 from guide_health.errors import InputError
-from guide_health.io.json_text import json_text
+from guide_health.io.outputs.json_text import json_text
 
 # (command path, "module:Command" in guide_health.cli, help)
 COMMANDS: list[tuple[tuple[str, ...], str, str]] = [

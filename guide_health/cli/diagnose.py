@@ -30,7 +30,7 @@ def add_arguments(parser) -> None:
 
 def run(args) -> dict:
     from guide_health.analysis.discrepancy.duty_process import start_duty_cells
-    from guide_health.io.progress import ProgressBar
+    from guide_health.io.outputs.progress import ProgressBar
 
     if not 0.0 <= args.heldout_fraction < 0.9:
         raise InputError("--heldout-fraction must be in [0, 0.9)")
@@ -71,7 +71,7 @@ def _diagnose(args, params: dict, bag: Path, pending, bar, threshold, t0: float)
     """The cells (from ``pending``) through the workflow: (result, report directory, time the report starts)."""
     from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD
     from guide_health.analysis.discrepancy.workflow import diagnose_cells
-    from guide_health.io.maintenance_msgs import read_events
+    from guide_health.io.bag.maintenance import read_events
     from guide_health.models.wear.maintenance import relubrication_times_s
 
     threshold = BIC_THRESHOLD if threshold is None else threshold

@@ -15,8 +15,8 @@ from pathlib import Path
 
 from guide_health.cli.command import Command
 from guide_health.errors import InputError
-from guide_health.io.json_text import json_text
-from guide_health.io.output_files import write_text
+from guide_health.io.outputs.files import write_text
+from guide_health.io.outputs.json_text import json_text
 
 #: exit status of a fleet run in which some bags failed (the others completed and are reported)
 PARTIAL_EXIT_STATUS = 3

@@ -23,7 +23,7 @@ def add_arguments(parser) -> None:
 
 
 def is_slewing_bag(bag: Path) -> bool:
-    from guide_health.io.bag_info import bag_topic_types
+    from guide_health.io.bag.info import bag_topic_types
 
     topics = bag_topic_types(bag)
     return (any(t.endswith("slewing/load") for t in topics)
@@ -37,7 +37,7 @@ def report_dir(args, bag: Path) -> Path:
 
 def run_slewing(args, bag: Path) -> dict:
     """A slewing bag: every load through the slewing_monitor core; the worst roller of the run."""
-    from guide_health.io.progress import ProgressBar
+    from guide_health.io.outputs.progress import ProgressBar
     from guide_health.params import SLEWING_MONITOR_DEFAULTS, load_node_params, validate_slewing_params
 
     params = dict(SLEWING_MONITOR_DEFAULTS)
@@ -54,7 +54,7 @@ def run_slewing(args, bag: Path) -> dict:
 
 
 def run(args) -> dict:
-    from guide_health.io.progress import ProgressBar
+    from guide_health.io.outputs.progress import ProgressBar
 
     bag = Path(args.bag)
     if bag.exists() and is_slewing_bag(bag):
@@ -79,7 +79,7 @@ def run(args) -> dict:
 def run_machine_axes(args, bag: Path, params: dict) -> dict:
     """A machine of several axes: every axis through its AxisMonitor; ``axes`` in the report."""
     from guide_health.analysis.machine_replay import analyse_machine_bag, write_machine_outputs
-    from guide_health.io.progress import ProgressBar
+    from guide_health.io.outputs.progress import ProgressBar
     from guide_health.params import validate_wear_params
     from guide_health.params.machine import axes_params
 

@@ -62,7 +62,7 @@ def new_bag_path(path: str) -> Path:
 
 
 def run_slewing(args) -> dict:
-    from guide_health.io.bag_writer import write_slewing_bag
+    from guide_health.io.bag.writer import write_slewing_bag
     from guide_health.params import SLEWING_SIMULATION_DEFAULTS, load_node_params
     from guide_health.sim.slewing import simulate_slewing
 
@@ -85,7 +85,7 @@ def run_slewing(args) -> dict:
 
 
 def run_life_test(args) -> dict:
-    from guide_health.io.bag_writer import write_life_test_bag
+    from guide_health.io.bag.writer import write_life_test_bag
     from guide_health.params import SCHEMAS, load_node_params
     from guide_health.sim.life_test import simulate_life_test
 
@@ -100,7 +100,7 @@ def run_life_test(args) -> dict:
 
 
 def run(args) -> dict:
-    from guide_health.io.bag_writer import write_machine_bag
+    from guide_health.io.bag.writer import write_machine_bag
 
     if args.kind == "slewing":
         return run_slewing(args)
@@ -169,7 +169,7 @@ def event_series(events: list, machine_id: str) -> list:
     """The maintenance events as an extra bag series (maintenance/events, DiagnosticArray)."""
     if not events:
         return []
-    from guide_health.io.maintenance_msgs import DIAGNOSTIC_ARRAY, MAINTENANCE_TOPIC, encode_events
+    from guide_health.io.bag.maintenance import DIAGNOSTIC_ARRAY, MAINTENANCE_TOPIC, encode_events
 
     encoded = encode_events(events, machine_id)
     return [(MAINTENANCE_TOPIC, DIAGNOSTIC_ARRAY, [e.t_ns for e in events], lambda i: [encoded[k] for k in i])]
@@ -188,7 +188,7 @@ def _override_duration(args, sim: dict) -> None:
 
 def run_machine_axes(args, params: dict, sim: dict) -> dict:
     """A machine of several axes (wear_monitor ``axes``): every axis with its duty in one bag."""
-    from guide_health.io.bag_writer import write_machine_axes_bag
+    from guide_health.io.bag.writer import write_machine_axes_bag
     from guide_health.params import SIMULATION_SCHEMA, validate_wear_params
     from guide_health.params.machine import axes_params, simulation_axes
     from guide_health.sim.machine import simulate_axes

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from guide_health.io.json_text import plain
+from guide_health.io.outputs.json_text import plain
 
 
 def jsonable(value):

@@ -1,9 +1,16 @@
-"""Bags and state on disk: message types and topic names (`interfaces`), CDR codec (`cdr`, also the
-live nodes' decoder), rosbags typestore (`typestore`), bag storage back ends behind one protocol
-(`storage`), bag reading (`bag_reader`), writing (`bag_writer`) and summaries (`bag_info`), run
-metadata (`bag_metadata`), the progress bar (`progress`) and the monitors' crash-safe state
-(`state_store`).
+"""Everything guide_health reads or writes outside the process, by what it serves:
 
-Works offline: nothing here imports rclpy. Import the submodules themselves (no re-exports here), so
-that a live node importing `guide_health.io.cdr` loads neither the reader nor the writer.
+* ``bag/``: rosbag2 bags and the message formats on the wire: message types and topic names
+  (`interfaces`), the CDR codec (`cdr`, also the live nodes' decoder), the rosbags typestore (`typestore`),
+  the storage back ends in one table keyed by the storage identifier (`storage`, one module per back end
+  behind `protocol.BagStorage`), reading (`reader`), writing (`writer`), summaries (`info`), run metadata
+  (`metadata`) and maintenance events (`maintenance`);
+* ``state_store``: the monitors' crash-safe state (SQLite, locking, validation);
+* ``outputs/``: what the commands and nodes write for people and other programs: report files (`files`:
+  no symbolic links, 0640), strict JSON (`json_text`), the progress bar (`progress`) and the fleet history
+  (`fleet_history`).
+
+Works offline: nothing here imports rclpy. Import the submodules themselves (no re-exports in the package
+``__init__``), so that a live node importing `guide_health.io.bag.cdr` loads neither the reader nor the
+writer.
 """

@@ -27,6 +27,7 @@ import time
 from pathlib import Path
 
 from guide_health.errors import InputError
+from guide_health.models.wear.state_schema import check_precision_state, fingerprint_mismatch
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS monitor_state (
@@ -176,8 +177,6 @@ class StateStore:
             raise self._fail(f"the saved state of '{key}' is not valid JSON ({_reason(exc)})",
                              "move the file away to start afresh") from None
         if fingerprint is not None and saved_fp is not None:
-            from guide_health.models.wear.state_schema import fingerprint_mismatch
-
             if not isinstance(saved_fp, dict):
                 raise self._fail(f"the fingerprint of '{key}' is not a mapping", "move the file away to start "
                                  "afresh")
@@ -252,8 +251,6 @@ def resume_monitor(store: StateStore, key: str, fingerprint: dict | None, monito
     against the monitor's fresh state first (models/wear/state_schema.py), then restored and reported once,
     so that a state which would crash the first status is refused here. False when there is no saved state;
     InputError (one line naming the file and what to do) when it is refused."""
-    from guide_health.models.wear.state_schema import check_precision_state
-
     template = monitor.state()
     saved = store.load(key, fingerprint, lambda state: check_precision_state(state, template))
     if saved is None:

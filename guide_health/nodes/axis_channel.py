@@ -17,8 +17,8 @@ from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 
-from guide_health.io.cdr import RawBatchDecoder, RawMessageDecoder
-from guide_health.io.interfaces import JOINT_STATE, WRENCH_STAMPED
+from guide_health.io.bag.cdr import RawBatchDecoder, RawMessageDecoder
+from guide_health.io.bag.interfaces import JOINT_STATE, WRENCH_STAMPED
 from guide_health.models.wear.axis import PRECISION_KEYS, AxisMonitor
 from guide_health.models.wear.feed import StampAlignedFeed
 from guide_health.models.wear.input_rules import (

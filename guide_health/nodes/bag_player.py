@@ -410,7 +410,7 @@ def wait_all_acked(pubs, timeout_s: float) -> bool:
 def play(args, rclpy_args) -> int:
     import rclpy
 
-    from guide_health.io.storage import iter_raw_messages, open_storage
+    from guide_health.io.bag.storage import iter_raw_messages, open_storage
 
     pacer = pacer_from_args(args)
     with open_storage(args.bag, checked=True) as reader:

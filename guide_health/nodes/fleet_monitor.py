@@ -21,7 +21,7 @@ import time
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 
-from guide_health.io.fleet_history import FleetHistory
+from guide_health.io.outputs.fleet_history import FleetHistory
 from guide_health.models.fleet import SUMMARY_KEYS, FleetBoard
 from guide_health.nodes.common import run_node
 from guide_health.nodes.live_params import PeriodicTimers, apply_fleet_changes

@@ -27,7 +27,7 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import FluidPressure, LaserScan
 
 from guide_health.analysis.life_signs import signs_from_params, vibration_status_values
-from guide_health.io.bag_writer import SOUND_LEVEL_REFERENCE_PA
+from guide_health.io.bag.writer import SOUND_LEVEL_REFERENCE_PA
 from guide_health.models.rolling.life_signs import StampedLifeTest
 from guide_health.models.rolling.vibration import persistence_false_alarm, z_threshold
 from guide_health.nodes.common import run_node

@@ -11,7 +11,7 @@ SQLite (`state_file`), one key per guide.
 Executor (parameter `executor`; `auto`, the default, is `events` unless `sensor_qos` is `best_effort` or
 the node runs on /clock, guide_health/nodes/qos.py): `events` spins rclpy's EventsExecutor with raw
 subscriptions for joint_states and guide/load, whose callbacks only copy the message and its arrival time;
-batches are decoded at fixed CDR offsets with numpy (guide_health.io.cdr.RawBatchDecoder) instead of rclpy
+batches are decoded at fixed CDR offsets with numpy (guide_health.io.bag.cdr.RawBatchDecoder) instead of rclpy
 deserialisation and integrated through the model's batch path (:meth:`WearMonitorNode.process_inputs`,
 the same numbers as one by one); it handles messages in arrival order across topics, so a header-less
 straightness message is dated by the joint samples published before it. `single_threaded` is rclpy's
@@ -34,7 +34,7 @@ from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
 from guide_health.errors import InputError
-from guide_health.io.maintenance_msgs import MAINTENANCE_TOPIC, event_from_status, event_values
+from guide_health.io.bag.maintenance import MAINTENANCE_TOPIC, event_from_status, event_values
 from guide_health.io.state_store import StateStore, resolve_state_path, resume_monitor, resume_with
 from guide_health.models.wear.state_schema import state_fingerprint
 from guide_health.nodes.axis_channel import (  # noqa: F401 - the status keys are part of this module's API

@@ -16,7 +16,7 @@ keeping the variance of the sliding distance for the running-in term. A 20 h bag
 segments) becomes a few thousand cells.
 
 Streaming: :meth:`DutyCellAccumulator.add` takes consecutive :class:`MachineRun` chunks (as
-``io.bag_reader.iter_machine_bag`` yields them) and carries the last accepted sample, load and measurement
+``io.bag.reader.iter_machine_bag`` yields them) and carries the last accepted sample, load and measurement
 and the unfinished pass to the next chunk, so memory is bounded by one chunk and the result does not
 depend on chunking.
 """
@@ -355,7 +355,7 @@ def bag_accumulator(params: dict) -> DutyCellAccumulator:
 
 def iter_bag_chunks(bag, params: dict, namespace: str | None = None, progress=None):
     """The MachineRun chunks of a machine bag that :func:`read_duty_cells` accumulates."""
-    from guide_health.io.bag_reader import iter_machine_bag
+    from guide_health.io.bag.reader import iter_machine_bag
 
     return iter_machine_bag(bag, joint=params["joint"], namespace=namespace, progress=progress)
 

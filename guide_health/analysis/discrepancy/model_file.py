@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from guide_health.io.output_files import write_text
+from guide_health.io.outputs.files import write_text
 from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
 from guide_health.params import validate_wear_params
 from guide_health.params.wear_monitor import LIVE_EFFECT_IDS

@@ -8,8 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from guide_health.io.json_text import json_text
-from guide_health.io.output_files import open_output, save_figure, write_text
+from guide_health.io.outputs.files import open_output, save_figure, write_text
+from guide_health.io.outputs.json_text import json_text
 
 
 def _fmt(v: float, unit: str = "") -> str:

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .bag_metadata import bag_yaml, read_run_metadata
-from .storage import open_storage
+from .metadata import bag_yaml, read_run_metadata
+from .storage import SUFFIX_STORAGE, open_storage
 
 
 def bag_topic_types(path) -> dict[str, str]:
@@ -25,7 +25,7 @@ def bag_info(path) -> dict:
         start = int(storage.start_ns) if count else None
         end = int(storage.end_ns) - 1 if count else None
     info = bag_yaml(path)
-    storage_id = info.get("storage_identifier") or {".db3": "sqlite3", ".mcap": "mcap"}.get(path.suffix)
+    storage_id = info.get("storage_identifier") or SUFFIX_STORAGE.get(path.suffix)
     return {
         "path": str(path),
         "storage": storage_id,

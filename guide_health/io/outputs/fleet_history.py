@@ -9,7 +9,7 @@ import sqlite3
 from pathlib import Path
 
 from guide_health.errors import InputError
-from guide_health.io.json_text import json_text
+from guide_health.io.outputs.json_text import json_text
 
 PRUNE_PERIOD_S = 3600.0         # how often old rows are deleted
 

@@ -1,4 +1,6 @@
-"""mcap files read chunk by chunk into packed batches (issue 14), instead of a Python record per message.
+"""The mcap back end: topics, counts and `iter_batches` through rosbags (as the fallback), and `iter_packed`
+for a single uncompressed-container mcap file read chunk by chunk into packed batches, instead of a Python
+record per message (NOT_SUPPORTED for a split or compressed bag: then iter_batches).
 
 The summary section (footer -> summary start) gives the channels and one ChunkIndex per chunk (mcap
 specification, https://mcap.dev/spec: Chunk 0x06, MessageIndex 0x07, ChunkIndex 0x08, Channel 0x04, Schema
@@ -11,23 +13,24 @@ index entry (opcode, channel, log time, length inside the chunk) and its data ar
 Order: rosbags sorts each chunk's messages by log time (stable, i.e. file order for ties) and merges chunks
 by (log time, chunk offset). Chunks in file order whose time ranges do not overlap (each ends no later than
 the next begins) give that order when each chunk is sorted by (log time, offset), which is done here;
-`iter_mcap_packed` returns None otherwise, and for files without a summary/chunk index, so that the caller
-reads through rosbags.
+`iter_mcap_packed` returns NOT_SUPPORTED otherwise, and for files without a summary/chunk index, so that the
+caller reads through rosbags.
 """
 from __future__ import annotations
 
 import struct
 import sys
 import zlib
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
-from ..errors import InputError
-from .bag_metadata import one_line
-from .packed import PackedBatch
+from ...errors import InputError
+from .metadata import bag_yaml, one_line
+from .protocol import NOT_SUPPORTED, BagConnection, PackedBatch
+from .rosbags_storage import RosbagsStorage
 
 MAGIC = b"\x89MCAP0\r\n"
 _FOOTER = 37                        # opcode, length, summary start, summary offset start, crc, magic
@@ -195,7 +198,7 @@ def _take(batch: PackedBatch, lo: int, hi: int) -> PackedBatch:
 def iter_mcap_packed(path: Path, connections, chunk_messages: int) -> Iterator[list[PackedBatch]] | None:
     """Groups of packed batches (one per chunk or part of a chunk: no copy) of exactly `chunk_messages`
     messages together (the last group may have fewer) of `connections`
-    (BagConnection, matched to channels by topic and type) in log-time order; None when the file has no
+    (BagConnection, matched to channels by topic and type) in log-time order; NOT_SUPPORTED when the file has no
     chunk index, its chunks overlap in time or a channel matches several connections. Read errors raise
     InputError (after the batches read before them)."""
     try:
@@ -205,18 +208,18 @@ def iter_mcap_packed(path: Path, connections, chunk_messages: int) -> Iterator[l
         raise InputError(f"corrupt bag {path}: {one_line(exc)}") from None
     if summary is None:
         f.close()
-        return None
+        return NOT_SUPPORTED
     channels, chunks = summary
     conn_of = {}
     for cid, (topic, msgtype) in channels.items():
         match = [c.id for c in connections if c.topic == topic and c.msgtype == msgtype]
         if len(match) > 1:
             f.close()
-            return None
+            return NOT_SUPPORTED
         conn_of[cid] = match[0] if match else -1
     if any(b.start_ns < a.end_ns for a, b in zip(chunks, chunks[1:])):
         f.close()
-        return None
+        return NOT_SUPPORTED
     wanted = {cid for cid, conn in conn_of.items() if conn >= 0}
     table = {cid: conn_of.get(cid, -1) for cid in range(max(channels, default=0) + 1)}
     return _iter_chunks(f, path, chunks, wanted, table, max(1, int(chunk_messages)))
@@ -247,3 +250,29 @@ def _iter_chunks(f, path, chunks, wanted: set, conn_of: dict, step: int) -> Iter
                 count += n - done
         if count:
             yield pending
+
+
+class McapStorage(RosbagsStorage):
+    """An mcap bag (directory or bare .mcap file): rosbags for topics, counts and iter_batches (see
+    protocol.BagStorage), the chunk reader above for iter_packed."""
+
+    @classmethod
+    def open(cls, path: Path, checked: bool = False) -> McapStorage:
+        """The storage of the mcap bag at `path` (rosbags reads every chunk index on open: always checked)."""
+        return cls(path)
+
+    def iter_packed(self, connections: Collection[BagConnection],
+                    chunk_messages: int) -> Iterator[list[PackedBatch]] | None:
+        """Packed batches of a single uncompressed-container mcap file read chunk by chunk
+        (iter_mcap_packed); NOT_SUPPORTED for a split or compressed bag (then iter_batches through rosbags)."""
+        file = self.path
+        if self.path.is_dir():
+            info = bag_yaml(self.path)
+            files = info.get("relative_file_paths") or []
+            if (info.get("storage_identifier") != "mcap" or len(files) != 1 or info.get("compression_format")
+                    or info.get("compression_mode") not in (None, "", "none", "NONE")):
+                return NOT_SUPPORTED
+            file = self.path / files[0]
+        if file.suffix != ".mcap" or not connections:
+            return NOT_SUPPORTED
+        return iter_mcap_packed(file, list(connections), chunk_messages)

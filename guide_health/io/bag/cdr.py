@@ -24,7 +24,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..errors import InputError
+from ...errors import InputError
 from .interfaces import FLOAT64, JOINT_STATE, NS_PER_S, TEMPERATURE, WRENCH_STAMPED
 from .typestore import header, message, typestore
 

@@ -14,9 +14,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..errors import InputError
-from ..runs import MachineRun, SlewingLoadRun
-from .bag_metadata import METADATA_KEY, one_line, run_metadata_json
+from ...errors import InputError
+from ...runs import MachineRun, SlewingLoadRun
 from .cdr import (
     encode_float64,
     encode_joint_states,
@@ -26,10 +25,11 @@ from .cdr import (
     stamp_parts,
 )
 from .interfaces import FLOAT64, JOINT_STATE, TEMPERATURE, WRENCH_STAMPED, topic_name
-from .typestore import typestore
+from .metadata import METADATA_KEY, one_line, run_metadata_json
+from .typestore import header, message, typestore
 
 if TYPE_CHECKING:
-    from .progress import ProgressFn
+    from ..outputs.progress import ProgressFn
 
 STORAGES = ("sqlite3", "mcap")
 _WRITE_CHUNK = 100_000            # messages encoded per merge window when writing
@@ -191,7 +191,6 @@ def write_life_test_bag(record, path, storage: str = "sqlite3", namespace: str =
     sensor_msgs/FluidPressure (rms sound pressure [Pa] = 20 uPa 10^(L/20), header-stamped) and
     ``guide/acceleration`` sensor_msgs/LaserScan blocks (ranges = acceleration [m/s^2], header stamp = first
     sample, time_increment = 1/fs: the block carries its sample rate)."""
-    from .typestore import header, message
 
     fs = float(record.sample_rate_hz)
     n = record.blocks.shape[1] if record.blocks.ndim == 2 else 0

@@ -14,7 +14,7 @@ import stat
 from contextlib import contextmanager
 from pathlib import Path
 
-from ..errors import InputError
+from ...errors import InputError
 
 #: mode of a report file (rw-r-----)
 REPORT_MODE = 0o640

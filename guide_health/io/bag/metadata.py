@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
-from .json_text import json_text
+from ...errors import InputError
+from ..outputs.json_text import json_text
 
 #: key of the run metadata (a JSON string) in the bag's metadata.yaml custom_data
 METADATA_KEY = "guide_health.metadata"

@@ -16,6 +16,8 @@ from guide_health.errors import InputError
 from guide_health.models.wear.maintenance import MaintenanceEvent
 
 from .interfaces import topic_name
+from .storage import open_storage
+from .typestore import header, message, typestore
 
 MAINTENANCE_TOPIC = "maintenance/events"
 DIAGNOSTIC_ARRAY = "diagnostic_msgs/msg/DiagnosticArray"
@@ -40,8 +42,6 @@ def event_from_status(t_ns: int, values: dict[str, str], message: str = "") -> M
 
 def encode_events(events: list[MaintenanceEvent], machine_id: str) -> list[bytes]:
     """CDR bytes of one DiagnosticArray per event (rosbags; events are few)."""
-    from .typestore import header, message, typestore
-
     store = typestore()
     out = []
     for e in events:
@@ -55,9 +55,6 @@ def encode_events(events: list[MaintenanceEvent], machine_id: str) -> list[bytes
 
 def read_events(bag: str | Path, namespace: str | None = None) -> list[MaintenanceEvent]:
     """Every maintenance event in a bag (its `<ns>/maintenance/events`), in stamp order; [] without."""
-    from .storage import open_storage
-    from .typestore import typestore
-
     store = typestore()
     events = []
     with open_storage(bag) as storage:

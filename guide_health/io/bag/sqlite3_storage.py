@@ -1,14 +1,20 @@
-"""Bulk reading of bag rows as packed batches: one byte buffer per batch instead of a Python object per
-message (issue 14). Used by the bag reader for single-file sqlite3 bags (`iter_sqlite_packed`) and mcap
-files (`io.mcap_chunks`); the player keeps the per-message `storage.iter_batches`.
+"""The sqlite3 back end: a single-file, uncompressed sqlite3 bag whose metadata.yaml gives every topic's
+message count, read straight through apsw (rosbags' own sqlite binding); any other sqlite3 bag is
+NOT_SUPPORTED here (`Sqlite3Storage.open`) and goes to the rosbags fallback.
 
-sqlite3: rosbag2 appends rows as messages arrive, so the rowid order is nearly always the log-time order,
-and a scan in rowid order avoids walking the timestamp index (1.7x the scan, issue 14). That is checked,
-not assumed: the rowids are cut into ranges of `chunk_messages` and one query per range gives its
-MIN/MAX(timestamp) (a covering scan without the blobs, about 0.07 us per row); the rowid order is used only
-if every range ends no later than the next one begins. A range whose rows are not in order inside it is
-sorted by (timestamp, rowid) in numpy, which then gives exactly what `ORDER BY timestamp` gives through
-the timestamp index (ties in rowid order). Otherwise the caller falls back to `ORDER BY timestamp`.
+Why: rosbags' Reader.open() counts the messages of every topic with a full scan (0.64 s of a 1.5 s read of
+1.1 M messages), and its reader yields each row as one Python generator step; here the counts come from
+metadata.yaml and the rows from the apsw cursor in C with islice. Measured on 1.1 M messages: 0.7 s for the
+rows against 1.4 s through the generator (1.0 s with the stdlib sqlite3 module).
+
+Bulk reading (`iter_packed`, `iter_sqlite_packed`): one byte buffer per batch instead of a Python object per
+message. rosbag2 appends rows as messages arrive, so the rowid order is nearly always the log-time order,
+and a scan in rowid order avoids walking the timestamp index (1.7x the scan). That is checked, not assumed:
+the rowids are cut into ranges of `chunk_messages` and one query per range gives its MIN/MAX(timestamp) (a
+covering scan without the blobs, about 0.07 us per row); the rowid order is used only if every range ends no
+later than the next one begins. A range whose rows are not in order inside it is sorted by (timestamp, rowid)
+in numpy, which then gives exactly what `ORDER BY timestamp` gives through the timestamp index (ties in rowid
+order). Otherwise the caller falls back to `ORDER BY timestamp`.
 
 Each range is read with one row per query: `group_concat` of the blobs cast back to BLOB (sqlite copies
 the bytes of a blob into the text of a UTF-8 database unchanged) plus the lengths, topic ids and
@@ -17,28 +23,29 @@ range that cannot be read this way (too large a string, another text encoding) i
 """
 from __future__ import annotations
 
-from collections.abc import Iterator
-from typing import NamedTuple
+from collections.abc import Collection, Iterator
+from concurrent.futures import ThreadPoolExecutor
+from itertools import islice
+from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
-from .bag_metadata import one_line
+from ...errors import InputError
+from .metadata import bag_yaml, one_line
+from .protocol import (
+    EMPTY_START_NS,
+    NOT_SUPPORTED,
+    READ_ERRORS,
+    BagConnection,
+    PackedBatch,
+    RawBatch,
+    raw_batches,
+)
 
 #: first and last rowid / log time of the messages table: one index search each. (MIN and MAX in one SELECT
 #: scan the whole timestamp index: 22-25 ms for 0.5 M rows, against 0.02 ms.)
 ROWID_SPAN = "SELECT (SELECT MIN(rowid) FROM messages), (SELECT MAX(rowid) FROM messages)"
 TIME_SPAN = "SELECT (SELECT MIN(timestamp) FROM messages), (SELECT MAX(timestamp) FROM messages)"
-
-
-class PackedBatch(NamedTuple):
-    """Consecutive messages in log-time order, their bytes packed in one buffer."""
-
-    connection_ids: np.ndarray      # int64 storage connection id of each message
-    log_time_ns: np.ndarray         # int64 log time of each message [ns]
-    buf: np.ndarray                 # uint8: every message's bytes, one after the other
-    offsets: np.ndarray             # int64 start of each message in buf
-    lengths: np.ndarray             # int64 length of each message [bytes]
 
 
 def pack_rows(conn_ids, log_times, raws) -> PackedBatch:
@@ -160,7 +167,7 @@ def _has_time_index(db) -> bool:
 
 def iter_sqlite_packed(db, path, topic_ids: tuple, chunk_messages: int) -> Iterator[list[PackedBatch]] | None:
     """Packed batches (each alone in a list, as the mcap reader gives groups of them) of the rows of
-    `topic_ids` in log-time order, `chunk_messages` rowids at a time; None if the rows are not stored in
+    `topic_ids` in log-time order, `chunk_messages` rowids at a time; NOT_SUPPORTED if the rows are not stored in
     log-time order (known before reading) or the database is not UTF-8 (the caller then reads with ORDER
     BY timestamp). Read errors raise InputError.
 
@@ -171,7 +178,7 @@ def iter_sqlite_packed(db, path, topic_ids: tuple, chunk_messages: int) -> Itera
     step = max(1, int(chunk_messages))
     try:
         if db.execute("PRAGMA encoding").fetchone()[0] != "UTF-8":
-            return None
+            return NOT_SUPPORTED
         if _has_time_index(db):
             lo, hi = db.execute(ROWID_SPAN).fetchone()
             ranges = [] if lo is None else [(r, r + step) for r in range(int(lo), int(hi) + 1, step)]
@@ -181,7 +188,7 @@ def iter_sqlite_packed(db, path, topic_ids: tuple, chunk_messages: int) -> Itera
     except Exception as exc:  # noqa: BLE001 - a damaged database: one-line error
         raise InputError(f"corrupt bag {path}: {one_line(exc)}") from None
     if ranges is None:
-        return None
+        return NOT_SUPPORTED
     where = f" AND topic_id IN ({','.join('?' * len(topic_ids))})"
     try:
         every = _every_topic(db, topic_ids)
@@ -243,8 +250,6 @@ class _RangeReader:
 
     def ordered_from(self, start: int, step: int) -> Iterator[list[PackedBatch]]:
         """The wanted rows from rowid `start` on with ORDER BY timestamp, packed `step` at a time."""
-        from itertools import islice
-
         try:
             rows = self.db.execute(f"SELECT topic_id, timestamp, data FROM messages WHERE rowid >= ?{self.where} "
                                    "ORDER BY timestamp", [start, *self.args])
@@ -272,8 +277,6 @@ def _iter_ranges(reader: _RangeReader, ranges, step: int) -> Iterator[list[Packe
     if not _READ_AHEAD[0]:
         yield from _iter_ranges_inline(reader, ranges, step)
         return
-    from concurrent.futures import ThreadPoolExecutor
-
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="bag-read") as pool:
         ahead = pool.submit(reader.read, ranges[0]) if ranges else None
         for k in range(len(ranges)):
@@ -297,3 +300,100 @@ def _iter_ranges_inline(reader: _RangeReader, ranges, step: int) -> Iterator[lis
         if batch.lengths.size:
             yield [batch]
         del batch
+
+
+class Sqlite3Storage:
+    """A single-file, uncompressed sqlite3 bag read straight through apsw (see protocol.BagStorage)."""
+
+    def __init__(self, path: Path, db, connections: list[BagConnection]):
+        self.path = path
+        self._db = db
+        self.connections = connections
+        self.message_count = sum(c.msgcount for c in connections)
+        self._time_range: tuple[int, int] | None = None
+
+    @classmethod
+    def open(cls, path: Path, checked: bool = False) -> Sqlite3Storage | None:
+        """The storage if `path` is such a bag whose metadata.yaml counts every topic; NOT_SUPPORTED for any
+        other bag and for a checked open (the rosbags fallback reads those, and reports what is wrong with a
+        broken bag)."""
+        if checked:
+            return NOT_SUPPORTED
+        try:
+            import apsw
+        except ImportError:  # pragma: no cover - rosbags depends on it
+            return NOT_SUPPORTED
+        info = bag_yaml(path) if path.is_dir() else {}
+        files = info.get("relative_file_paths") or []
+        if info.get("storage_identifier") != "sqlite3" or len(files) != 1 or info.get("compression_format"):
+            return NOT_SUPPORTED
+        counts = {}
+        for entry in info.get("topics_with_message_count") or []:
+            try:
+                counts[entry["topic_metadata"]["name"]] = int(entry["message_count"])
+            except (KeyError, TypeError, ValueError):
+                return NOT_SUPPORTED
+        db_path = path / files[0]
+        if not db_path.is_file():
+            return NOT_SUPPORTED
+        try:
+            db = apsw.Connection(str(db_path), flags=apsw.SQLITE_OPEN_READONLY)
+            rows = db.execute("SELECT id, name, type FROM topics ORDER BY id")
+            connections = [BagConnection(int(tid), name, msgtype, counts.get(name, -1))
+                           for tid, name, msgtype in rows]
+        except apsw.Error:
+            return NOT_SUPPORTED
+        if any(c.msgcount < 0 for c in connections):
+            db.close()
+            return NOT_SUPPORTED
+        return cls(path, db, connections)
+
+    def _log_time_range(self) -> tuple[int, int]:
+        if self._time_range is None:
+            try:
+                first, last = self._db.execute(TIME_SPAN).fetchone()  # two index searches, not a scan
+            except READ_ERRORS as exc:
+                raise InputError(f"corrupt bag {self.path}: {one_line(exc)}") from None
+            self._time_range = ((int(first), int(last) + 1) if self.message_count and first is not None
+                                else (EMPTY_START_NS, 0))
+        return self._time_range
+
+    @property
+    def start_ns(self) -> int:
+        return self._log_time_range()[0]
+
+    @property
+    def end_ns(self) -> int:
+        return self._log_time_range()[1]
+
+    def iter_batches(self, connections: Collection[BagConnection], chunk_messages: int,
+                     start_ns: int | None = None) -> Iterator[RawBatch]:
+        ids = tuple(c.id for c in connections)
+        if not ids:
+            return iter(())
+        sql = f"SELECT topic_id, timestamp, data FROM messages WHERE topic_id IN ({','.join('?' * len(ids))})"
+        args = list(ids)
+        if start_ns is not None:
+            sql += " AND timestamp >= ?"
+            args.append(int(start_ns))
+        try:            # log-time order, as rosbags orders them
+            rows = self._db.execute(sql + " ORDER BY timestamp", args)
+        except READ_ERRORS as exc:
+            raise InputError(f"corrupt bag {self.path}: {one_line(exc)}") from None
+        return raw_batches(rows, chunk_messages, self.path)
+
+    def iter_packed(self, connections: Collection[BagConnection],
+                    chunk_messages: int) -> Iterator[list[PackedBatch]] | None:
+        """Packed batches in log-time order read in rowid order (iter_sqlite_packed); NOT_SUPPORTED when the
+        rows are not stored in log-time order (then iter_batches, ORDER BY timestamp)."""
+        ids = tuple(c.id for c in connections)
+        return iter_sqlite_packed(self._db, self.path, ids, chunk_messages) if ids else NOT_SUPPORTED
+
+    def close(self) -> None:
+        self._db.close()
+
+    def __enter__(self) -> Sqlite3Storage:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()

@@ -1,7 +1,8 @@
 """Read machine and slewing runs out of rosbag2 bags into numpy (MachineRun, SlewingLoadRun).
 
 One pass over the bag in log-time order, in batches of `chunk_messages` messages from the storage back
-end (`storage.open_storage`); each topic's raw CDR of a batch is decoded with numpy (`cdr.decode_chunk`).
+end (`storage.open_storage`: packed batches where the back end supports them, else raw batches); each
+topic's raw CDR of a batch is decoded with numpy (`cdr.decode_chunk`, `cdr.decode_packed`).
 Times are int64 nanoseconds: header stamps for JointState, WrenchStamped and Temperature, the bag's log
 time for Float64 (it has no header).
 """
@@ -17,16 +18,17 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-from ..errors import InputError
-from ..runs import MachineRun, SlewingLoadRun
-from .bag_metadata import count_mismatch_text, count_mismatches, read_run_metadata
+from ...errors import InputError
+from ...runs import MachineRun, SlewingLoadRun
 from .cdr import WRENCH_NAMES, DecodedChunk, codec_for, decode_chunk, decode_packed
 from .interfaces import FLOAT64, MACHINE_TOPICS, NS_PER_S, SLEWING_TOPICS, topic_name
-from .packed import PackedBatch
-from .storage import BagConnection, BagStorage, RawBatch, open_storage
+from .metadata import count_mismatch_text, count_mismatches, read_run_metadata
+from .protocol import NOT_SUPPORTED, BagConnection, BagStorage, PackedBatch, RawBatch
+from .storage import iter_raw_messages, open_storage
+from .typestore import typestore
 
 if TYPE_CHECKING:
-    from .progress import ProgressFn
+    from ..outputs.progress import ProgressFn
 
 _COUNT_KEYS = ("missing", "malformed", "fast", "fallback")
 
@@ -242,8 +244,8 @@ def _iter_topic_batches(path, wanted: dict, namespace: str | None, suffix_for_ns
         accs, conns = _topic_accumulators(storage, wanted, namespace, suffix_for_ns, joint, fast)
         total = int(sum(c.msgcount for c in conns))
         acc_of = {c.id: accs[c.topic] for c in conns}
-        packed = storage.iter_packed(conns, chunk_messages) if hasattr(storage, "iter_packed") else None
-        batches = storage.iter_batches(conns, chunk_messages) if packed is None else iter(())
+        packed = storage.iter_packed(conns, chunk_messages)
+        batches = storage.iter_batches(conns, chunk_messages) if packed is NOT_SUPPORTED else iter(())
         if progress is not None:
             progress(0, total)
         done = 0
@@ -379,9 +381,6 @@ def _machine_run(read: TopicBatch, joint: str, metadata: dict,
 
 def joint_names_in_bag(path, namespace) -> list[str]:
     """The joint names of the first joint_states message of the bag ([] when it has none or is unreadable)."""
-    from .storage import iter_raw_messages
-    from .typestore import typestore
-
     try:
         with open_storage(path) as storage:
             conns = [c for c in storage.connections if c.topic == topic_name(namespace, "joint_states")]
