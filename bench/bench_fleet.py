@@ -38,6 +38,7 @@ import os
 import sys
 import tempfile
 import time
+from functools import partial
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -112,12 +113,14 @@ def run_pool(bags, out: Path, options, read_ahead: bool) -> list[dict]:
     from concurrent.futures import ProcessPoolExecutor
 
     from guide_health.analysis.fleet import report_names, run_bag
+    from guide_health.cli.fleet import run_single_bag
     from guide_health.io.bag.sqlite3_storage import set_read_ahead
 
     with ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("fork"), initializer=set_read_ahead,
                              initargs=(read_ahead,)) as pool:
-        return list(pool.map(run_bag, ["replay"] * len(bags), [str(b) for b in bags], [str(PARAMS)] * len(bags),
-                             [str(out / n) for n in report_names(bags)], [options] * len(bags)))
+        return list(pool.map(run_bag, [partial(run_single_bag, "replay")] * len(bags), [str(b) for b in bags],
+                             [str(PARAMS)] * len(bags), [str(out / n) for n in report_names(bags)],
+                             [options] * len(bags)))
 
 
 def process_cpu() -> float:
@@ -166,6 +169,9 @@ def main() -> None:
     from distributed import Client, LocalCluster
 
     from guide_health.analysis.fleet import dask_client, local_start_method, run_bag, run_fleet, share_cores
+    from guide_health.cli.fleet import run_single_bag
+
+    replay = partial(run_single_bag, "replay")
 
     workdir = Path(args.workdir)
     workdir.mkdir(parents=True, exist_ok=True)
@@ -174,17 +180,17 @@ def main() -> None:
     out = workdir / "out"
     print(f"{len(bags)} bags, {warm_page_cache(bags) / 2**20:.0f} MiB read into the page cache", flush=True)
     print(f"load average before: {os.getloadavg()}  cpus: {os.cpu_count()}", flush=True)
-    run_bag("replay", str(bags[0]), str(PARAMS), str(out / "warmup"), options)      # imports, caches
+    run_bag(replay, str(bags[0]), str(PARAMS), str(out / "warmup"), options)      # imports, caches
     modes = {}
     with Mode("serial") as m:
-        m.entries = check(run_fleet("replay", bags, str(PARAMS), out / "serial", options, workers=0))
+        m.entries = check(run_fleet("replay", replay, bags, str(PARAMS), out / "serial", options, workers=0))
     modes["serial"] = m
     messages = sum(e["result"]["messages"] for e in m.entries)
     print(f"{messages:,} messages; serial {messages / m.wall:,.0f} msg/s", flush=True)
     print(m.line(None), flush=True)
     for workers in (1, 2):
         with Mode(f"local {workers}") as m:
-            m.entries = check(run_fleet("replay", bags, str(PARAMS), out / f"local{workers}", options,
+            m.entries = check(run_fleet("replay", replay, bags, str(PARAMS), out / f"local{workers}", options,
                                         workers=workers))
         modes[workers] = m
         if workers == 1:
@@ -210,12 +216,12 @@ def main() -> None:
                 with Client(cluster) as client:
                     client.run(set_chunk_messages, args.chunk_messages)
             # a plant's cluster keeps running: its spawned workers import the analysis once, before the run
-            check(run_fleet("replay", bags[:2], str(PARAMS), out / "address_warmup", options,
+            check(run_fleet("replay", replay, bags[:2], str(PARAMS), out / "address_warmup", options,
                             scheduler=cluster.scheduler_address))
             with Client(cluster) as client:
                 workers_cpu = sum(client.run(process_cpu).values())
                 with Mode("address") as m:
-                    m.entries = check(run_fleet("replay", bags, str(PARAMS), out / "address", options,
+                    m.entries = check(run_fleet("replay", replay, bags, str(PARAMS), out / "address", options,
                                                 scheduler=cluster.scheduler_address))
                 m.cpu += sum(client.run(process_cpu).values()) - workers_cpu     # the workers outlive the mode
         print(m.line(base, f"  (running 2-worker cluster at {cluster.scheduler_address}, Dask's default "

@@ -17,7 +17,7 @@ from guide_health.models.contact import hertz_line, hertz_point
 from guide_health.models.contact.elastic import effective_modulus_pa
 from guide_health.models.rolling import ball_contact, lubrication
 from guide_health.models.slewing import finite_roller, monitor, numerical_roller
-from guide_health.params import WEAR_MONITOR_DEFAULTS
+from guide_health.params import SLEWING_MONITOR_DEFAULTS, WEAR_MONITOR_DEFAULTS
 
 PACKAGE = Path(__file__).resolve().parents[1] / "guide_health"
 
@@ -82,7 +82,7 @@ def test_rolling_call_sites_use_e_star():
 
 
 def test_slewing_call_sites_use_e_star():
-    params = dict(monitor.SLEWING_MONITOR_DEFAULTS, youngs_modulus_pa=210.0e9, poisson=0.3,
+    params = dict(SLEWING_MONITOR_DEFAULTS, youngs_modulus_pa=210.0e9, poisson=0.3,
                   roller_end_radius_m=2e-3)
     e_star = effective_modulus_pa(210.0e9, 0.3)
     load, length, diameter = 103_400.0, params["roller_length_m"], params["roller_diameter_m"]

@@ -1,11 +1,12 @@
 """Fleet replay/diagnose: many bags through the single-bag commands on Dask, and the combined table.
 
 Each bag goes through the very command a user runs on one bag (``guide-health replay`` /
-``guide-health diagnose``: cli/replay.py, cli/diagnose.py, parsed with their own options), in a Dask worker
-process, writing its report directory ``OUT/bags/<name>/`` as that command would. The engine is either a
-local cluster of worker processes (``LocalCluster(processes=True)``, started and stopped here: no server to
-run) or an existing Dask distributed scheduler given by address (``tcp://host:port``); ``workers=0`` runs
-the bags one after another in this process (no Dask; for debugging and the benchmark's serial baseline).
+``guide-health diagnose``), given by the caller as a callable ``run_one(bag, params_files, out, options) ->
+result`` (cli/fleet.py: the command parsed with its own options), in a Dask worker process, writing its
+report directory ``OUT/bags/<name>/`` as that command would. The engine is either a local cluster of
+worker processes (``LocalCluster(processes=True)``, started and stopped here: no server to run) or an
+existing Dask distributed scheduler given by address (``tcp://host:port``); ``workers=0`` runs the bags one
+after another in this process (no Dask; for debugging and the benchmark's serial baseline).
 
 The machine of a bag (docs/fleet.md): ``machine_id`` of the bag's run metadata if it has one, else the
 namespace of its topics (``/m1/joint_states`` -> ``m1``), else the bag directory's name.
@@ -14,18 +15,18 @@ A bag that fails (bad bag, bad data) is a row with its one-line error; the other
 """
 from __future__ import annotations
 
-import argparse
 import contextlib
-import io
 import math
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from guide_health.errors import InputError
 
-#: the single-bag command behind each fleet command (guide_health.cli module:Command)
-SINGLE_BAG_COMMANDS = {"replay": "replay:REPLAY", "diagnose": "diagnose:DIAGNOSE"}
+#: one bag through a single-bag command: run_one(bag, params files, report directory, options) -> its JSON-able
+#: result; raises on failure (a module-level function or a partial of one: Dask pickles it by reference)
+RunOneBag = Callable[[str, tuple[str, ...], str, tuple[str, ...]], dict[str, Any]]
 #: modules the single-bag commands import when they run: imported before forking local workers
 PRELOAD = {"replay": ("guide_health.io.bag.reader", "guide_health.io.outputs.progress"),
            "diagnose": ("guide_health.analysis.discrepancy.workflow", "guide_health.analysis.discrepancy.duty",
@@ -131,28 +132,20 @@ def undo_dask_malloc_trim() -> bool:
         return False
 
 
-def run_bag(command: str, bag: str, params, out: str, options: tuple[str, ...] = ()) -> dict[str, Any]:
-    """One bag through the single-bag command (the worker task): {bag, machine, ok, error, seconds, result}.
+def run_bag(run_one: RunOneBag, bag: str, params, out: str, options: tuple[str, ...] = ()) -> dict[str, Any]:
+    """One bag through the single-bag command `run_one` (the worker task): {bag, machine, ok, error, seconds,
+    result}.
 
-    ``params``: a params file or a list (merged in order). The command's arguments are parsed by its own
-    parser (same defaults as on the command line); its stderr chatter is dropped.
+    ``params``: a params file or a list (merged in order).
     Never raises: a failure is ``ok: False`` with the one-line error."""
-    from guide_health.cli.app import load_command
-    from guide_health.cli.text import jsonable
-
     if not _MALLOC_TUNED:                       # once per worker process
         _MALLOC_TUNED.append(undo_dask_malloc_trim())
     t0, cpu0 = time.perf_counter(), time.process_time()
     entry: dict[str, Any] = {"bag": bag, "machine": machine_of_bag(Path(bag)), "ok": False, "error": "",
                              "result": None}
-    cmd = load_command(SINGLE_BAG_COMMANDS[command])
-    parser = argparse.ArgumentParser(prog=f"guide-health {command}")
-    cmd.add_arguments(parser)
-    files = [params] if isinstance(params, str) else list(params)     # several merge in order, as for one bag
-    args = parser.parse_args([bag, *[a for f in files for a in ("--params", f)], "--out", out, *options])
+    files = (params,) if isinstance(params, str) else tuple(params)   # several merge in order, as for one bag
     try:
-        with contextlib.redirect_stderr(io.StringIO()):
-            entry["result"] = jsonable(cmd.run(args))
+        entry["result"] = run_one(bag, files, out, tuple(options))
         entry["ok"] = True
     except Exception as exc:  # noqa: BLE001 - one bag's failure is its row, never the fleet's
         entry["error"] = error_line(exc)
@@ -231,10 +224,12 @@ def local_start_method() -> str:
     return "fork"
 
 
-def run_fleet(command: str, bags: list[Path], params, out: Path, options: tuple[str, ...] = (),
+def run_fleet(command: str, run_one: RunOneBag, bags: list[Path], params, out: Path, options: tuple[str, ...] = (),
               workers: int = 2, scheduler: str | None = None, progress=None) -> list[dict[str, Any]]:
-    """Every bag through ``command`` (replay|diagnose), report directories ``out/bags/<name>``; the
-    entries of :func:`run_bag` in the order of ``bags``. ``progress(done, total)`` after each bag."""
+    """Every bag through ``run_one``, the single-bag command ``command`` (replay|diagnose: its PRELOAD),
+    report directories ``out/bags/<name>``; the entries of :func:`run_bag` in the order of ``bags``.
+    ``progress(done, total)`` after each bag. The caller has imported the command's module (forked local
+    workers inherit the modules)."""
     params = tuple(str(Path(p).resolve()) for p in ([params] if isinstance(params, (str, Path)) else params))
     jobs = [(str(bag.resolve()), str((out / "bags" / name).resolve()))
             for bag, name in zip(bags, report_names(bags))]
@@ -243,7 +238,7 @@ def run_fleet(command: str, bags: list[Path], params, out: Path, options: tuple[
         progress(0, len(jobs))
     if workers == 0 and not scheduler:
         for i, (bag, bag_out) in enumerate(jobs):
-            entries[i] = run_bag(command, bag, params, bag_out, options)
+            entries[i] = run_bag(run_one, bag, params, bag_out, options)
             if progress:
                 progress(i + 1, len(jobs))
         return entries
@@ -251,14 +246,11 @@ def run_fleet(command: str, bags: list[Path], params, out: Path, options: tuple[
 
     from distributed import as_completed
 
-    from guide_health.cli.app import load_command
-
-    load_command(SINGLE_BAG_COMMANDS[command])     # imported here: forked local workers inherit the modules
     for module in PRELOAD[command] + (() if "--no-plot" in options else PLOT_PRELOAD):
         importlib.import_module(module)
     with dask_client(workers, scheduler) as client:
         share_cores(client)
-        futures = {client.submit(run_bag, command, bag, params, bag_out, options, pure=False): i
+        futures = {client.submit(run_bag, run_one, bag, params, bag_out, options, pure=False): i
                    for i, (bag, bag_out) in enumerate(jobs)}
         for done, future in enumerate(as_completed(futures), start=1):
             i = futures[future]

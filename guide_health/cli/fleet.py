@@ -9,17 +9,38 @@
 """
 from __future__ import annotations
 
+import argparse
+import contextlib
+import io
 import os
 import sys
+from functools import partial
 from pathlib import Path
 
+from guide_health.cli.app import load_command
 from guide_health.cli.command import Command
+from guide_health.cli.text import jsonable
 from guide_health.errors import InputError
 from guide_health.io.outputs.files import write_text
 from guide_health.io.outputs.json_text import json_text
 
 #: exit status of a fleet run in which some bags failed (the others completed and are reported)
 PARTIAL_EXIT_STATUS = 3
+#: the single-bag command behind each fleet command (guide_health.cli module:Command)
+SINGLE_BAG_COMMANDS = {"replay": "replay:REPLAY", "diagnose": "diagnose:DIAGNOSE"}
+
+
+def run_single_bag(command: str, bag: str, params_files: tuple[str, ...], out: str,
+                   options: tuple[str, ...] = ()) -> dict:
+    """One bag through the single-bag `command` (replay|diagnose) as a user runs it, its arguments parsed by
+    its own parser (same defaults as on the command line), its stderr chatter dropped: the JSON-able result.
+    The fleet runner's `run_one` (analysis/fleet.py) as partial(run_single_bag, command)."""
+    cmd = load_command(SINGLE_BAG_COMMANDS[command])
+    parser = argparse.ArgumentParser(prog=f"guide-health {command}")
+    cmd.add_arguments(parser)
+    args = parser.parse_args([bag, *[a for f in params_files for a in ("--params", f)], "--out", out, *options])
+    with contextlib.redirect_stderr(io.StringIO()):
+        return jsonable(cmd.run(args))
 
 
 def _add_fleet_arguments(parser, command: str) -> None:
@@ -92,8 +113,10 @@ def run_fleet_command(args, command: str) -> dict:
     bags = expand_bags(args.bags)
     out = Path(args.out or f"fleet_{command}")
     t0 = time.perf_counter()
-    entries = run_fleet(command, bags, args.params, out, _single_bag_options(args, command), workers=workers,
-                        scheduler=args.scheduler, progress=_bag_progress(args.progress))
+    load_command(SINGLE_BAG_COMMANDS[command])      # imported before any local worker forks: they inherit it
+    entries = run_fleet(command, partial(run_single_bag, command), bags, args.params, out,
+                        _single_bag_options(args, command), workers=workers, scheduler=args.scheduler,
+                        progress=_bag_progress(args.progress))
     wall_s = time.perf_counter() - t0
     failed = [e for e in entries if not e["ok"]]
     summary = {"command": command, "bags": len(entries), "ok": len(entries) - len(failed), "failed": len(failed),
@@ -145,7 +168,7 @@ def add_trend_arguments(parser) -> None:
 
 
 def run_trend(args) -> dict:
-    from guide_health.analysis.fleet_trend import write_trend_report
+    from guide_health.analysis.fleet_trend_report import write_trend_report
 
     if args.days is not None and not args.days > 0:
         raise InputError("--days must be > 0")

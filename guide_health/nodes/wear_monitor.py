@@ -52,7 +52,7 @@ from guide_health.nodes.live_params import PeriodicTimers, apply_wear_changes
 from guide_health.nodes.qos import SensorSubscriptions, resolve_executor
 from guide_health.nodes.status import StatusUpdater
 from guide_health.params import WEAR_MONITOR_SCHEMA, declare_parameters
-from guide_health.params.machine import declare_axis_parameters
+from guide_health.params.ros import declare_axis_parameters
 from guide_health.params.wear_monitor import hardness_units_warning
 
 # data QoS: parameter sensor_qos (guide_health/nodes/qos.py: reliable back-pressure vs best-effort loss)

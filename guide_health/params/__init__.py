@@ -6,47 +6,32 @@ node and ``guide-health ... --params FILE``, so live and offline results come fr
 * ``schema.py``: :class:`Param` (name, type via the default, unit, range, description, dynamic) and
   :class:`NodeSchema` (ranges + cross-checks, unknown-key suggestions, defaults), ``markdown_table``.
 * ``wear_monitor.py``, ``slewing_monitor.py``, ``fleet_monitor.py``, ``simulation.py``: the schemas.
+* ``schemas.py``: every schema by section name.
 * ``loader.py``: YAML files (the only file I/O); ``ros.py``: descriptors and ``declare_parameters``.
 
 The ``*_DEFAULTS`` dicts are views of the schemas ({name: default}) for the call sites that merge over them.
 """
 from __future__ import annotations
 
-import difflib
-
-from guide_health.errors import InputError
 from guide_health.params.fleet_monitor import FLEET_MONITOR_SCHEMA
 from guide_health.params.loader import load_node_params, machine_axes_params, simulation_params, wear_monitor_params
 from guide_health.params.ros import declare_parameters, descriptor_for
 from guide_health.params.schema import NodeSchema, Param, check_unknown_keys, markdown_table
+from guide_health.params.schemas import SCHEMAS, schema_for
 from guide_health.params.simulation import SIMULATION_SCHEMA, SLEWING_SIMULATION_SCHEMA, slewing_simulation_params
 from guide_health.params.slewing_monitor import SLEWING_MONITOR_SCHEMA, validate_slewing_params
 from guide_health.params.vibration_monitor import LIFE_TEST_SIMULATION_SCHEMA, VIBRATION_MONITOR_SCHEMA
 from guide_health.params.wear_monitor import WEAR_MONITOR_SCHEMA, validate_wear_params
-
-#: every schema by its YAML section / node name
-SCHEMAS: dict[str, NodeSchema] = {s.section: s for s in (
-    WEAR_MONITOR_SCHEMA, SLEWING_MONITOR_SCHEMA, FLEET_MONITOR_SCHEMA, SIMULATION_SCHEMA, SLEWING_SIMULATION_SCHEMA,
-    VIBRATION_MONITOR_SCHEMA, LIFE_TEST_SIMULATION_SCHEMA)}
 
 WEAR_MONITOR_DEFAULTS = WEAR_MONITOR_SCHEMA.defaults()
 SLEWING_MONITOR_DEFAULTS = SLEWING_MONITOR_SCHEMA.defaults()
 SLEWING_SIMULATION_DEFAULTS = SLEWING_SIMULATION_SCHEMA.defaults()
 
 
-def schema_for(section: str) -> NodeSchema:
-    """The schema of a node/section name; InputError naming the closest known name otherwise."""
-    if section not in SCHEMAS:
-        close = difflib.get_close_matches(section, list(SCHEMAS), n=1)
-        hint = f" (did you mean '{close[0]}'?)" if close else ""
-        raise InputError(f"no parameter schema for '{section}'{hint}; known: {', '.join(SCHEMAS)}")
-    return SCHEMAS[section]
-
-
 __all__ = [
-    "FLEET_MONITOR_SCHEMA", "NodeSchema", "Param", "SCHEMAS", "SIMULATION_SCHEMA", "SLEWING_MONITOR_DEFAULTS",
-    "SLEWING_MONITOR_SCHEMA",
-    "SLEWING_SIMULATION_DEFAULTS", "SLEWING_SIMULATION_SCHEMA", "WEAR_MONITOR_DEFAULTS", "WEAR_MONITOR_SCHEMA",
+    "FLEET_MONITOR_SCHEMA", "LIFE_TEST_SIMULATION_SCHEMA", "NodeSchema", "Param", "SCHEMAS", "SIMULATION_SCHEMA",
+    "SLEWING_MONITOR_DEFAULTS", "SLEWING_MONITOR_SCHEMA", "SLEWING_SIMULATION_DEFAULTS", "SLEWING_SIMULATION_SCHEMA",
+    "VIBRATION_MONITOR_SCHEMA", "WEAR_MONITOR_DEFAULTS", "WEAR_MONITOR_SCHEMA",
     "check_unknown_keys", "declare_parameters", "descriptor_for", "load_node_params", "machine_axes_params",
     "markdown_table", "schema_for", "simulation_params", "slewing_simulation_params", "validate_slewing_params",
     "validate_wear_params", "wear_monitor_params",

@@ -24,8 +24,9 @@ from typing import Any
 import yaml
 
 from guide_health.errors import InputError
-from guide_health.params.machine import axes_params, check_axis_keys, coerce_axis_value, flatten
+from guide_health.params.machine import axes_params, axis_default, check_axis_keys, coerce_axis_value, flatten
 from guide_health.params.schema import check_unknown_keys, coerce_value
+from guide_health.params.schemas import SCHEMAS, schema_for
 from guide_health.params.simulation import SIMULATION_SCHEMA
 from guide_health.params.wear_monitor import WEAR_MONITOR_SCHEMA, hardness_units_warning, validate_wear_params
 
@@ -66,8 +67,6 @@ def _section_params(path: Path, key: str, section: Any) -> dict:
 
 
 def _all_known_names() -> set[str]:
-    from guide_health.params import SCHEMAS  # the package imports this module: import here
-
     return {name for schema in SCHEMAS.values() for name in schema.by_name}
 
 
@@ -117,9 +116,6 @@ def load_node_params(path: str | Path | None, node_name: str, defaults: dict[str
 def _axis_values(path, node_name: str, section: dict, params: dict, defaults: dict, strict: bool) -> None:
     """The dotted per-axis names of a section (params/machine.py): checked against ``axes`` (or, for the
     simulation section, which has no axes list, any axis name) and coerced by their parameter's type."""
-    from guide_health.params import schema_for
-    from guide_health.params.machine import axis_default
-
     dotted = [name for name in section if "." in name and name.partition(".")[2] not in ROS_NODE_PARAMS]
     if not dotted:
         return

@@ -177,29 +177,3 @@ def simulation_axes(sim: dict, axes: list[str]) -> dict[str, dict]:
                 p[name] = value
         out[axis] = p
     return out
-
-
-def declare_axis_parameters(node, params: dict) -> dict[str, dict]:
-    """Declare ``<axis>.<name>`` of every axis on an rclpy node (read-only: an axis's geometry and topics
-    are fixed while it runs; default: the section's top-level value) and return :func:`axes_params` of
-    the values, validated like the offline loader does."""
-    from rcl_interfaces.msg import ParameterDescriptor
-
-    from guide_health.params.ros import descriptor_for
-    from guide_health.params.wear_monitor import WEAR_MONITOR_SCHEMA, validate_wear_params
-
-    values = dict(params)
-    for axis in params["axes"]:
-        for name in axis_names(WEAR_MONITOR_SCHEMA):
-            param = AXIS_SCHEMA[name] if name in AXIS_SCHEMA.by_name else WEAR_MONITOR_SCHEMA[name]
-            default = param.default if name in AXIS_SCHEMA.by_name else params[name]
-            full = f"{axis}.{name}"
-            node.declare_parameter(full, default, ParameterDescriptor(dynamic_typing=True))
-            value = node.get_parameter(full).value
-            if isinstance(default, list):
-                value = list(value)
-            values[full] = coerce_axis_value(full, value, default)
-            descriptor = descriptor_for(param)
-            descriptor.read_only = True
-            node.set_descriptor(full, descriptor)
-    return axes_params(values, validate_wear_params)

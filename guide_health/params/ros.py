@@ -7,7 +7,9 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from guide_health.params.machine import AXIS_SCHEMA, axes_params, axis_names, coerce_axis_value
 from guide_health.params.schema import NodeSchema, Param, coerce_value
+from guide_health.params.wear_monitor import WEAR_MONITOR_SCHEMA, validate_wear_params
 
 INT64_MIN, INT64_MAX = -(2 ** 63), 2 ** 63 - 1
 
@@ -89,3 +91,26 @@ def _check_set(schema: NodeSchema, values: dict[str, Any], changed) -> Any:
         return SetParametersResult(successful=False, reason=str(exc))
     values.update(new)
     return SetParametersResult(successful=True)
+
+
+def declare_axis_parameters(node, params: dict) -> dict[str, dict]:
+    """Declare ``<axis>.<name>`` of every axis on an rclpy node (read-only: an axis's geometry and topics
+    are fixed while it runs; default: the section's top-level value) and return :func:`axes_params` of
+    the values, validated like the offline loader does."""
+    from rcl_interfaces.msg import ParameterDescriptor
+
+    values = dict(params)
+    for axis in params["axes"]:
+        for name in axis_names(WEAR_MONITOR_SCHEMA):
+            param = AXIS_SCHEMA[name] if name in AXIS_SCHEMA.by_name else WEAR_MONITOR_SCHEMA[name]
+            default = param.default if name in AXIS_SCHEMA.by_name else params[name]
+            full = f"{axis}.{name}"
+            node.declare_parameter(full, default, ParameterDescriptor(dynamic_typing=True))
+            value = node.get_parameter(full).value
+            if isinstance(default, list):
+                value = list(value)
+            values[full] = coerce_axis_value(full, value, default)
+            descriptor = descriptor_for(param)
+            descriptor.read_only = True
+            node.set_descriptor(full, descriptor)
+    return axes_params(values, validate_wear_params)

@@ -55,7 +55,6 @@ from guide_health.models.rolling.lubrication import (
     lubrication_regime,
 )
 from guide_health.models.rolling.oil import WaltherOil, oil_from_params, oil_viscosity_pa_s
-from guide_health.params import WEAR_MONITOR_DEFAULTS
 
 ROWS_SUPPORTED = 4
 _isfinite = math.isfinite
@@ -109,7 +108,8 @@ class RollingGuideContact:
 
     @classmethod
     def from_params(cls, params: dict[str, Any]) -> RollingGuideContact:
-        """Validate and convert wear_monitor parameters; raises ValueError with a one-line reason."""
+        """Validate and convert wear_monitor parameters (a complete set: the schema's defaults merged in, as
+        guide_health.params loads them); raises ValueError with a one-line reason."""
         def number(name: str, default: Any = None) -> float:
             value = params.get(name, default)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
@@ -157,10 +157,9 @@ class RollingGuideContact:
             viscosity_pa_s=_oil_viscosity(params, positive("oil_viscosity_pa_s")),
             pressure_viscosity_pa_inv=positive("pressure_viscosity_pa_inv"),
             composite_rms_m=positive("roughness_rms_m"), youngs_modulus_pa=youngs, poisson=poisson,
-            asperity_radius_m=positive("asperity_radius_m", WEAR_MONITOR_DEFAULTS["asperity_radius_m"]),
-            asperity_density_per_m2=positive("asperity_density_per_m2",
-                                             WEAR_MONITOR_DEFAULTS["asperity_density_per_m2"]),
-            carriages=integer("carriages", WEAR_MONITOR_DEFAULTS["carriages"]),
+            asperity_radius_m=positive("asperity_radius_m"),
+            asperity_density_per_m2=positive("asperity_density_per_m2"),
+            carriages=integer("carriages"),
             lambda_boundary=lam_b, lambda_full_film=lam_f,
             radius_x_m=r_x, radius_y_m=r_y, effective_modulus_pa=e_star,
             ball_stiffness=ball_stiffness_n_per_m15(r_x, r_y, e_star),

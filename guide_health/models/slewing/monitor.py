@@ -23,12 +23,13 @@ from guide_health.models.slewing.finite_roller import (
 from guide_health.models.slewing.mcewen import McEwenMaxima, cached_mcewen_maxima, mcewen_maxima
 from guide_health.models.slewing.row_loads import AxialRowLoads, axial_row_roller_loads, radial_row_roller_load_max_n
 from guide_health.models.wear.stream_gaps import StampGaps
-from guide_health.params import SLEWING_MONITOR_DEFAULTS, validate_slewing_params
 
 #: seed 003 Sec. 4 example: 131.32.2000.00Z, E = 210 GPa, nu = 0.3, d = 32 mm, l = 31.3 mm, f = 0.1
 SEED003_EXAMPLE_ROLLER_LOAD_N: float = 103_400.0
 
-# Parameters, their defaults and validation: guide_health.params.SLEWING_MONITOR_SCHEMA
+# Parameters, their defaults and validation: guide_health.params.SLEWING_MONITOR_SCHEMA. Every function and class
+# here takes a complete, validated parameter set (guide_health.params loads and validates it; models never
+# import params).
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -153,7 +154,7 @@ def _numerical_report(params: dict[str, Any], load_n: float, pressures: dict | N
 def slewing_contact_report(params: dict[str, Any], roller_load_n: float | None = None) -> dict[str, Any]:
     """Direct (uncached) roller/raceway report for one roller load [N] (INTERFACES.md keys).
 
-    ``params``: slewing_monitor parameters (validated here); ``roller_load_n`` None = the seed 003
+    ``params``: slewing_monitor parameters (validated by the caller); ``roller_load_n`` None = the seed 003
     example load, 103 400 N. The highest pressure (``p_max_MPa``) of the seed model is p0 at the roller
     end (Eq. 5); ``von_mises_max_MPa`` (= ``von_mises_subsurface_max_MPa``)/``shear_max_MPa`` are the
     subsurface maxima of the McEwen field (over x and z, friction included) under that pressure, depths in mm
@@ -164,7 +165,6 @@ def slewing_contact_report(params: dict[str, Any], roller_load_n: float | None =
     recomputed on every call (grid + scipy.optimize, milliseconds): use ``SlewingContactModel`` live.
     # seed 003 Eqs. 2-24
     """
-    validate_slewing_params(params)
     load = SEED003_EXAMPLE_ROLLER_LOAD_N if roller_load_n is None else checked_load_n("roller load", roller_load_n)
     if params["stress_model"] == "numerical":
         return _numerical_report(params, load)
@@ -203,7 +203,6 @@ def slewing_contact_report_from_loads(params: dict[str, Any], axial_load_n: floa
     radial row is ASSUMED to have the axial rollers' size (the seed does not give it), n_r =
     ``radial_roller_count`` or ``roller_count`` when 0.
     """
-    validate_slewing_params(params)
     rows = axial_row_roller_loads(axial_load_n, tilting_moment_nm, params["roller_count"], params["raceway_diameter_m"])
     n_radial = params["radial_roller_count"] or params["roller_count"]
     load, extra = _loads_extra(rows, radial_row_roller_load_max_n(radial_load_n, n_radial))
@@ -224,7 +223,6 @@ class SlewingContactModel:
     """
 
     def __init__(self, params: dict[str, Any]) -> None:
-        validate_slewing_params(params)
         self.params = dict(params)
         self.numerical = params["stress_model"] == "numerical"
         self.roller_count = int(params["roller_count"])
@@ -242,12 +240,9 @@ class SlewingContactModel:
         if self.numerical:
             from guide_health.models.slewing.numerical_roller import build_roller_contact_table
 
-            defaults = SLEWING_MONITOR_DEFAULTS
             self.table = build_roller_contact_table(
-                self.params,
-                float(params.get("numerical_table_min_load_n", defaults["numerical_table_min_load_n"])),
-                float(params.get("numerical_table_max_load_n", defaults["numerical_table_max_load_n"])),
-                n_loads=int(params.get("numerical_table_loads", defaults["numerical_table_loads"])),
+                self.params, float(params["numerical_table_min_load_n"]), float(params["numerical_table_max_load_n"]),
+                n_loads=int(params["numerical_table_loads"]),
                 check_midpoints=2)
 
     def report_for_roller_load(self, roller_load_n: float) -> dict[str, Any]:
@@ -281,7 +276,6 @@ class SlewingMonitor:
     """ROS-free core of the node: worst case per publish period, input validation, levels."""
 
     def __init__(self, params: dict):
-        validate_slewing_params(params)
         self.params = params
         self.model = SlewingContactModel(params)
         self.worst: dict | None = None
