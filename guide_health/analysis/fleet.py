@@ -23,6 +23,9 @@ from pathlib import Path
 from typing import Any
 
 from guide_health.errors import InputError
+from guide_health.io.bag.info import bag_topic_types
+from guide_health.io.bag.metadata import one_line, read_run_metadata
+from guide_health.io.bag.sqlite3_storage import set_read_ahead
 
 #: one bag through a single-bag command: run_one(bag, params files, report directory, options) -> its JSON-able
 #: result; raises on failure (a module-level function or a partial of one: Dask pickles it by reference)
@@ -83,9 +86,6 @@ def report_names(bags: list[Path]) -> list[str]:
 
 def machine_of_bag(bag: Path) -> str:
     """The machine of a bag: run metadata ``machine_id``, else its topics' namespace, else its name."""
-    from guide_health.io.bag.info import bag_topic_types
-    from guide_health.io.bag.metadata import read_run_metadata
-
     try:
         machine = read_run_metadata(bag).get("machine_id")
         if machine:
@@ -101,8 +101,6 @@ def machine_of_bag(bag: Path) -> str:
 
 def error_line(exc: BaseException) -> str:
     """The one-line error of a failed bag (the CLI's wording for input and file errors)."""
-    from guide_health.io.bag.metadata import one_line
-
     if isinstance(exc, InputError):
         return one_line(exc, 300)
     if isinstance(exc, OSError) and exc.strerror:
@@ -168,8 +166,6 @@ def share_cores(client) -> dict[str, bool]:
     """Switch the bulk reader's read-ahead thread off in the workers of every host whose worker threads
     already fill its cores (worker threads >= cores, e.g. 2 local workers on 2 cores: measured 5-12 % less CPU
     per bag, bit-identical results); on where cores are left over. {worker: read-ahead}."""
-    from guide_health.io.bag.sqlite3_storage import set_read_ahead
-
     try:
         workers = client.scheduler_info()["workers"]
         cores = client.run(usable_cores)

@@ -21,6 +21,7 @@ from typing import Any
 
 from scipy.special import stdtrit
 
+from guide_health.analysis.discrepancy.model_file import EFFECT_PARAMETERS, MATERIAL_EFFECTS
 from guide_health.errors import InputError
 from guide_health.io.bag.metadata import one_line
 from guide_health.io.outputs.files import write_text
@@ -32,6 +33,7 @@ from guide_health.models.fleet import (
     wear_coefficient_prior,
 )
 from guide_health.models.wear.calibration import Z90
+from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
 
 
 def load_fleet_results(paths: list[str]) -> list[dict[str, Any]]:
@@ -127,9 +129,6 @@ def live_effect_parameters(effects: dict[str, dict[str, Any]]) -> dict[str, Any]
     bags named (every parameter with a population): ``effects``, each parameter at its population mean and
     ``effect_covariance`` with the predictive variances on the diagonal (K's entry 0: the K prior covers K).
     {} when none qualifies."""
-    from guide_health.analysis.discrepancy.model_file import EFFECT_PARAMETERS, MATERIAL_EFFECTS
-    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
-
     chosen = [e for e, names in EFFECT_PARAMETERS.items() if e in MATERIAL_EFFECTS
               and all(f"{e}.{n}" in effects and 2 * effects[f"{e}.{n}"]["machines"] >= effects[f"{e}.{n}"]["of_bags"]
                      for n in names)]

@@ -1,4 +1,4 @@
-"""The picture of one life test (issue 12, seed 004 Sec. 4.1): sound level against travel with the detected rise,
+"""The picture of one life test (seed 004 Sec. 4.1): sound level against travel with the detected rise,
 drop and failure travel, and the accelerometer spectrogram against travel (full band with the machine's band, and a
 zoom on the kinematic defect frequencies, the raceway frequency and its harmonics marked). matplotlib (Agg) is
 imported on use."""

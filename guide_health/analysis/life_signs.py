@@ -8,6 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
+from guide_health.errors import InputError
+from guide_health.io.bag.metadata import check_bag_file_paths
+from guide_health.io.bag.typestore import typestore
+from guide_health.io.bag.writer import SOUND_LEVEL_REFERENCE_PA
 from guide_health.models.rolling import rating_life as lm
 from guide_health.models.rolling import weibull
 from guide_health.models.rolling.life_signs import LifeTestSigns, NoiseTrend, StampedLifeTest
@@ -95,10 +99,6 @@ def read_life_test_bag(path) -> dict:
     ``guide/sound_pressure`` sensor_msgs/FluidPressure); InputError on a missing bag or topic."""
     from rosbags.rosbag2 import Reader
 
-    from guide_health.errors import InputError
-    from guide_health.io.bag.metadata import check_bag_file_paths
-    from guide_health.io.bag.typestore import typestore
-    from guide_health.io.bag.writer import SOUND_LEVEL_REFERENCE_PA
 
     store = typestore()
     out = {"block_t_ns": [], "blocks": [], "level_t_ns": [], "level_db": [], "sample_rate_hz": None}
@@ -134,8 +134,6 @@ def life_test_from_bag(path, p: dict) -> dict:
 
 def life_test_from_data(path, d: dict, p: dict) -> dict:
     """:func:`life_test_from_bag` on data already read by :func:`read_life_test_bag` (``path`` names it)."""
-    from guide_health.errors import InputError
-
     if d["sample_rate_hz"] and abs(d["sample_rate_hz"] - p["sample_rate_hz"]) > 1e-6 * p["sample_rate_hz"]:
         raise InputError(f"{path}: blocks at {d['sample_rate_hz']:g} Hz, sample_rate_hz is {p['sample_rate_hz']:g}")
     try:

@@ -63,13 +63,13 @@ def equal_spacing_refit(lower_km: np.ndarray, upper_km: np.ndarray, counts: np.n
     return eq
 
 
-#: the Weibull shape of the alternative single-specimen reading (issue 11 item 7; rolling guides 1.1-1.5)
+#: the Weibull shape of the alternative single-specimen reading (rolling guides 1.1-1.5)
 SINGLE_SPECIMEN_WEIBULL_SHAPE = 1.5
 
 
 def life_test_readings(load_fraction: float, life_km: float, life_factors: list[float],
                        weibull_shape: float = SINGLE_SPECIMEN_WEIBULL_SHAPE) -> dict:
-    """C_test / C of one test life under every reading that changes it (issue 11 item 7), side by side:
+    """C_test / C of one test life under every reading that changes it, side by side:
     rating distance 50 km (the seed's own definition, catalogues) or 100 km (ISO 14728-1), exponent p = 3 or
     10/3, and the single specimen's life read as L10 (the seed) or as a median converted to B10 with a Weibull
     shape. Each row says whether the catalogue C is confirmed (C_test/C >= 1) or optimistic (< 1).

@@ -7,6 +7,10 @@ import math
 import time
 from pathlib import Path
 
+from guide_health.analysis.replay import maintenance_list, model_curve
+from guide_health.analysis.report_plots import plot_straightness_report
+from guide_health.io.bag.maintenance import read_events
+from guide_health.io.bag.reader import iter_machine_bag
 from guide_health.io.outputs.files import open_output, write_text
 from guide_health.io.outputs.json_text import json_text
 from guide_health.models.levels import LEVEL_NAMES
@@ -38,10 +42,6 @@ def analyse_machine_bag(bag, axes: dict[str, dict], namespace: str | None = None
                         chunk_messages: int = 200_000) -> tuple[dict[str, AxisMonitor], dict]:
     """Every axis of ``axes`` (params/machine.py axes_params) over the bag, one pass per axis, with the bag's
     maintenance events (maintenance/events) applied at their stamps. Returns the models and the report."""
-    from guide_health.analysis.replay import maintenance_list
-    from guide_health.io.bag.maintenance import read_events
-    from guide_health.io.bag.reader import iter_machine_bag
-
     models = {}
     t0 = time.perf_counter()
     bag_events = read_events(bag, namespace)
@@ -80,9 +80,6 @@ def _life(life_h: float) -> float:
 def write_machine_outputs(out: Path, models: dict[str, AxisMonitor], report: dict, plot: bool) -> dict[str, str]:
     """report.json and, per axis, straightness_<axis>.csv (measured, model, residual at the measurements of
     its worst guide) and with ``plot`` straightness_<axis>.png; returns the files written."""
-    from guide_health.analysis.replay import model_curve
-    from guide_health.analysis.report_plots import plot_straightness_report
-
     out.mkdir(parents=True, exist_ok=True)
     files = {"json": str(out / "report.json")}
     for axis, model in models.items():

@@ -13,8 +13,11 @@ from pathlib import Path
 import numpy as np
 
 from guide_health.analysis.report_plots import plot_slewing_contact_series, plot_straightness_report
+from guide_health.io.bag.maintenance import read_events
+from guide_health.io.bag.reader import iter_machine_bag, read_slewing_bag
 from guide_health.io.outputs.files import open_output, write_text
 from guide_health.io.outputs.json_text import json_text
+from guide_health.models.wear.axis import AxisMonitor
 from guide_health.models.wear.precision import PrecisionMonitor
 
 
@@ -41,10 +44,6 @@ def analyse_bag(bag, params: dict, namespace: str | None = None, progress=None,
     """Stream a bag through the precision model chunk by chunk (memory bounded by one chunk, whatever
     the bag's size); identical to analyse(read_machine_bag(bag)) to rounding. Returns the monitor, its
     report and timings {read_s, model_s}."""
-    from guide_health.io.bag.maintenance import read_events
-    from guide_health.io.bag.reader import iter_machine_bag
-    from guide_health.models.wear.axis import AxisMonitor
-
     model = AxisMonitor(params)      # one guide: the PrecisionMonitor, plus the bag's maintenance events
     events = read_events(bag, namespace)
     for event in events:
@@ -118,7 +117,6 @@ def analyse_slewing_bag(bag: Path, params: dict, namespace: str | None = None, p
     """Every load of a slewing bag through the slewing monitor core. Returns the run, the report (the
     worst roller of the run), the highest roller pressure of each sample [MPa] and timings {read_s, model_s}."""
     from guide_health.analysis.slewing_replay import analyse_slewing_run
-    from guide_health.io.bag.reader import read_slewing_bag
 
     t0 = time.perf_counter()
     run = read_slewing_bag(bag, namespace=namespace)

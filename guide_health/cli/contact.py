@@ -28,7 +28,8 @@ from typing import Any
 from guide_health.analysis.report_plots import plot_rolling_contact_vs_speed, plot_slewing_roller_stresses
 from guide_health.cli.command import Command, value_errors_as_input_errors
 from guide_health.errors import InputError
-from guide_health.params import load_node_params, wear_monitor_params
+from guide_health.models.rolling import ball_contact as bc
+from guide_health.params import SLEWING_MONITOR_DEFAULTS, load_node_params, validate_slewing_params, wear_monitor_params
 
 DEFAULT_SPEED_M_S = 0.1
 
@@ -77,7 +78,6 @@ def _finite(name: str, value: float | None, allow_negative: bool) -> float | Non
 def run_slewing(args: argparse.Namespace) -> dict[str, Any]:
     """Compute the report (INTERFACES.md `contact slewing --json` keys)."""
     from guide_health.models.slewing import monitor as rc
-    from guide_health.params import SLEWING_MONITOR_DEFAULTS, validate_slewing_params
 
     params = load_node_params(args.params, "slewing_monitor", SLEWING_MONITOR_DEFAULTS)
     validate_slewing_params(params)
@@ -130,8 +130,6 @@ def add_rolling_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run_rolling(args: argparse.Namespace) -> dict[str, Any]:
     """Compute the report (INTERFACES.md `contact rolling --json` keys)."""
-    from guide_health.models.rolling import ball_contact as bc
-
     params = wear_monitor_params(args.params)
     if args.load_n is not None and not (math.isfinite(args.load_n) and args.load_n > 0):
         raise InputError(f"--load-n must be a finite number > 0, got {args.load_n!r}")

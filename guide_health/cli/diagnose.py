@@ -7,8 +7,10 @@ import sys
 import time
 from pathlib import Path
 
+from guide_health.analysis.discrepancy.duty_process import start_duty_cells
 from guide_health.cli.command import Command
 from guide_health.errors import InputError
+from guide_health.io.outputs.progress import ProgressBar
 from guide_health.params import wear_monitor_params
 
 
@@ -29,9 +31,6 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> dict:
-    from guide_health.analysis.discrepancy.duty_process import start_duty_cells
-    from guide_health.io.outputs.progress import ProgressBar
-
     if not 0.0 <= args.heldout_fraction < 0.9:
         raise InputError("--heldout-fraction must be in [0, 0.9)")
     threshold = _bic_threshold(args.bic_threshold)

@@ -17,6 +17,8 @@ import sys
 from functools import partial
 from pathlib import Path
 
+from guide_health.analysis.fleet import expand_bags, run_fleet
+from guide_health.analysis.fleet_report import plot_ranking, table_rows, write_tables
 from guide_health.cli.app import load_command
 from guide_health.cli.command import Command
 from guide_health.cli.text import jsonable
@@ -100,8 +102,6 @@ def _bag_progress(force: bool):
 def run_fleet_command(args, command: str) -> dict:
     import time
 
-    from guide_health.analysis.fleet import expand_bags, run_fleet
-    from guide_health.analysis.fleet_report import plot_ranking, table_rows, write_tables
     from guide_health.params import wear_monitor_params
 
     params = wear_monitor_params(args.params)              # bad params: one error, before any worker starts

@@ -29,7 +29,8 @@ from guide_health.cli.text import format_key_values
 from guide_health.errors import InputError
 from guide_health.models.rolling import rating_life as lm
 from guide_health.models.rolling import weibull
-from guide_health.params import WEAR_MONITOR_DEFAULTS, load_node_params
+from guide_health.models.rolling.iso_rating import B_M, LAMBDA_REDUCTION, ball_guide_dynamic_rating_n
+from guide_health.params import SCHEMAS, WEAR_MONITOR_DEFAULTS, load_node_params
 
 
 class _OneLineParser(argparse.ArgumentParser):
@@ -204,7 +205,6 @@ def _run_test_bag(args) -> dict:
         specimen_interval_km,
         weibull_of_specimens,
     )
-    from guide_health.params import SCHEMAS
 
     section = SCHEMAS["vibration_monitor"]
     p = load_node_params(args.params, section.section, section.defaults()) if args.params else section.defaults()
@@ -244,8 +244,6 @@ def _shape(args) -> float:
 
 def _geometry_check(args) -> dict:
     """C from the wear_monitor geometry of --params (when the file has that section) next to its catalogue C."""
-    from guide_health.models.rolling.iso_rating import B_M, LAMBDA_REDUCTION, ball_guide_dynamic_rating_n
-
     if not args.params:
         return {}
     g = load_node_params(args.params, "wear_monitor", WEAR_MONITOR_DEFAULTS, required=False)

@@ -5,10 +5,20 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from guide_health.analysis.machine_replay import analyse_machine_bag, write_machine_outputs
 from guide_health.analysis.replay import analyse_bag, analyse_slewing_bag, write_outputs, write_slewing_outputs
 from guide_health.cli.command import Command
+from guide_health.io.bag.info import bag_topic_types
+from guide_health.io.outputs.progress import ProgressBar
 from guide_health.models.levels import LEVEL_NAMES
-from guide_health.params import wear_monitor_params
+from guide_health.params import (
+    SLEWING_MONITOR_DEFAULTS,
+    load_node_params,
+    validate_slewing_params,
+    validate_wear_params,
+    wear_monitor_params,
+)
+from guide_health.params.machine import axes_params
 
 
 def add_arguments(parser) -> None:
@@ -23,8 +33,6 @@ def add_arguments(parser) -> None:
 
 
 def is_slewing_bag(bag: Path) -> bool:
-    from guide_health.io.bag.info import bag_topic_types
-
     topics = bag_topic_types(bag)
     return (any(t.endswith("slewing/load") for t in topics)
             and not any(t.endswith("joint_states") for t in topics))
@@ -37,9 +45,6 @@ def report_dir(args, bag: Path) -> Path:
 
 def run_slewing(args, bag: Path) -> dict:
     """A slewing bag: every load through the slewing_monitor core; the worst roller of the run."""
-    from guide_health.io.outputs.progress import ProgressBar
-    from guide_health.params import SLEWING_MONITOR_DEFAULTS, load_node_params, validate_slewing_params
-
     params = dict(SLEWING_MONITOR_DEFAULTS)
     for path in args.params:
         params = load_node_params(path, "slewing_monitor", params)
@@ -54,8 +59,6 @@ def run_slewing(args, bag: Path) -> dict:
 
 
 def run(args) -> dict:
-    from guide_health.io.outputs.progress import ProgressBar
-
     bag = Path(args.bag)
     if bag.exists() and is_slewing_bag(bag):
         return run_slewing(args, bag)
@@ -78,11 +81,6 @@ def run(args) -> dict:
 
 def run_machine_axes(args, bag: Path, params: dict) -> dict:
     """A machine of several axes: every axis through its AxisMonitor; ``axes`` in the report."""
-    from guide_health.analysis.machine_replay import analyse_machine_bag, write_machine_outputs
-    from guide_health.io.outputs.progress import ProgressBar
-    from guide_health.params import validate_wear_params
-    from guide_health.params.machine import axes_params
-
     axes = axes_params(params, validate_wear_params)
     bar = ProgressBar("replay", force=args.progress)
     models, report = analyse_machine_bag(bag, axes, namespace=args.namespace, progress=bar)

@@ -7,15 +7,29 @@ from pathlib import Path
 
 from guide_health.cli.command import Command
 from guide_health.errors import InputError
-from guide_health.params import simulation_params, wear_monitor_params
+from guide_health.io.bag.maintenance import DIAGNOSTIC_ARRAY, MAINTENANCE_TOPIC, encode_events
+from guide_health.io.bag.writer import write_life_test_bag, write_machine_axes_bag, write_machine_bag, write_slewing_bag
+from guide_health.models.wear.maintenance import MaintenanceEvent
+from guide_health.params import (
+    SCHEMAS,
+    SIMULATION_SCHEMA,
+    SLEWING_SIMULATION_DEFAULTS,
+    load_node_params,
+    simulation_params,
+    validate_wear_params,
+    wear_monitor_params,
+)
+from guide_health.params.machine import axes_params, simulation_axes
 from guide_health.params.simulation import REALISTIC_MOTION
 from guide_health.sim.machine import (
     START_TIME_NS,
     apply_maintenance_truth,
     parse_effects,
     parse_maintenance,
+    simulate_axes,
     simulate_machine,
 )
+from guide_health.sim.slewing import simulate_slewing
 
 
 def add_arguments(parser) -> None:
@@ -62,10 +76,6 @@ def new_bag_path(path: str) -> Path:
 
 
 def run_slewing(args) -> dict:
-    from guide_health.io.bag.writer import write_slewing_bag
-    from guide_health.params import SLEWING_SIMULATION_DEFAULTS, load_node_params
-    from guide_health.sim.slewing import simulate_slewing
-
     if args.effect:
         raise InputError("--effect applies to machine bags only")
     sim = load_node_params(args.params, "guide_health_slewing_simulation", SLEWING_SIMULATION_DEFAULTS,
@@ -85,8 +95,6 @@ def run_slewing(args) -> dict:
 
 
 def run_life_test(args) -> dict:
-    from guide_health.io.bag.writer import write_life_test_bag
-    from guide_health.params import SCHEMAS, load_node_params
     from guide_health.sim.life_test import simulate_life_test
 
     p = {}
@@ -100,8 +108,6 @@ def run_life_test(args) -> dict:
 
 
 def run(args) -> dict:
-    from guide_health.io.bag.writer import write_machine_bag
-
     if args.kind == "slewing":
         return run_slewing(args)
     if args.kind == "life-test":
@@ -151,8 +157,6 @@ def run(args) -> dict:
 def automatic_relubrications(machine, recorded_t_s, joint: str) -> list:
     """The simulator's relubrications every relubrication_interval_h as relubricate maintenance events (an
     automatic lubricator logs its cycles), besides the recorded ones."""
-    from guide_health.models.wear.maintenance import MaintenanceEvent
-
     done = {round(t, 6) for t in recorded_t_s}
     return [MaintenanceEvent(START_TIME_NS + int(round(t * 1e9)), "relubricate", joint, source="simulate")
             for t in machine.metadata.get("relubrication_t_s", []) if round(t, 6) not in done]
@@ -169,7 +173,6 @@ def event_series(events: list, machine_id: str) -> list:
     """The maintenance events as an extra bag series (maintenance/events, DiagnosticArray)."""
     if not events:
         return []
-    from guide_health.io.bag.maintenance import DIAGNOSTIC_ARRAY, MAINTENANCE_TOPIC, encode_events
 
     encoded = encode_events(events, machine_id)
     return [(MAINTENANCE_TOPIC, DIAGNOSTIC_ARRAY, [e.t_ns for e in events], lambda i: [encoded[k] for k in i])]
@@ -188,11 +191,6 @@ def _override_duration(args, sim: dict) -> None:
 
 def run_machine_axes(args, params: dict, sim: dict) -> dict:
     """A machine of several axes (wear_monitor ``axes``): every axis with its duty in one bag."""
-    from guide_health.io.bag.writer import write_machine_axes_bag
-    from guide_health.params import SIMULATION_SCHEMA, validate_wear_params
-    from guide_health.params.machine import axes_params, simulation_axes
-    from guide_health.sim.machine import simulate_axes
-
     if args.effect:
         raise InputError("--effect applies to single-joint machine bags only")
     axes = axes_params(params, validate_wear_params)

@@ -4,7 +4,7 @@ One row per monitor (key = e.g. "<machine_id>/<joint>/precision") holding the JS
 transaction: a reader (or a restarted node) sees either the previous checkpoint or the new one, never a
 mix. WAL journal + synchronous=FULL: a SIGKILL or power loss loses at most the work since the last commit.
 
-Safety (issue 10 item 5, issue 16):
+Safety:
 * where: ``resolve_state_path`` turns the ``state_file`` parameter into a path: ``auto`` (the default) is
   ``$ROS_HOME/guide_health/<machine_id>/<node>.db`` (ROS_HOME defaults to ``~/.ros``), ``''`` or ``none``
   disables persistence, anything else is the path itself;

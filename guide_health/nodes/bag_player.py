@@ -59,6 +59,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from guide_health.errors import InputError
+from guide_health.io.bag.storage import iter_raw_messages, open_storage
 
 DEFAULT_MAX_RATE = 3000.0       # msg/s a cross-process SingleThreadedExecutor subscriber keeps up with
 DEFAULT_BURST = 20              # messages a token-bucket burst may hold
@@ -410,7 +411,6 @@ def wait_all_acked(pubs, timeout_s: float) -> bool:
 def play(args, rclpy_args) -> int:
     import rclpy
 
-    from guide_health.io.bag.storage import iter_raw_messages, open_storage
 
     pacer = pacer_from_args(args)
     with open_storage(args.bag, checked=True) as reader:

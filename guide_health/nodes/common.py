@@ -10,6 +10,8 @@ import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
 from guide_health.errors import InputError
+from guide_health.params import SCHEMAS
+from guide_health.params.ros_args import check_ros_args
 
 
 def _one_line(exc: BaseException) -> str:
@@ -20,9 +22,6 @@ def _one_line(exc: BaseException) -> str:
 
 def _check_params(name: str, argv: list[str]) -> None:
     """The node's --params-file/-p arguments through the strict loader of the CLI (InputError, one line)."""
-    from guide_health.params import SCHEMAS
-    from guide_health.params.ros_args import check_ros_args
-
     if name in SCHEMAS:
         check_ros_args(SCHEMAS[name], list(argv))
 

@@ -21,6 +21,8 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Callable, Iterable
 
+from guide_health.models.wear.input_rules import InputLimits
+
 #: wear_monitor parameters whose change rebuilds the input plausibility limits
 LIMIT_PARAMS = ("travel_margin_m", "load_max_n", "load_max_rating_multiple", "straightness_max_multiple")
 
@@ -47,8 +49,6 @@ class PeriodicTimers:
 
 def apply_to_precision_monitor(monitor, changed: dict) -> None:
     """A PrecisionMonitor (guide_health.models.wear.precision) takes the accepted changes (module text)."""
-    from guide_health.models.wear.input_rules import InputLimits
-
     monitor.params.update(changed)
     if monitor.rolling is not None:
         monitor.rolling.params.update(changed)

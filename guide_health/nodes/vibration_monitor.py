@@ -1,4 +1,4 @@
-"""`vibration_monitor`: seed 004's failure signs of a rolling guide, live (issue 12).
+"""`vibration_monitor`: seed 004's failure signs of a rolling guide, live.
 
 Subscribes `guide/acceleration` (sensor_msgs/LaserScan, one accelerometer block per message: ranges =
 acceleration [m/s^2], header stamp = first sample, time_increment = 1/fs) and `guide/sound_pressure`

@@ -77,7 +77,7 @@ class WearMonitorNode(Node):
         self.axes = declare_axis_parameters(self, params)         # {axis: params}, validated
         self.single = not params["axes"]
         self.startup_warnings = [w for w in {hardness_units_warning(p) for p in self.axes.values()} if w]
-        for warning in self.startup_warnings:     # issue 11 item 3: a real hardness in Pa with seed 000's K
+        for warning in self.startup_warnings:     # a real hardness in Pa with seed 000's K (units mix-up)
             self.get_logger().warning(warning)
         self.raw = resolve_executor(params, self.get_parameter("use_sim_time").value) == "events"
         # cost accounting since start: callback wall time per message and the model's part of it

@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from guide_health.errors import InputError
 from guide_health.params.machine import AXIS_SCHEMA, axes_params, axis_names, coerce_axis_value
 from guide_health.params.schema import NodeSchema, Param, coerce_value
 from guide_health.params.wear_monitor import WEAR_MONITOR_SCHEMA, validate_wear_params
@@ -78,7 +79,6 @@ def _check_set(schema: NodeSchema, values: dict[str, Any], changed) -> Any:
     threshold pair is refused with the schema's message); ``values`` follows the accepted changes."""
     from rcl_interfaces.msg import SetParametersResult
 
-    from guide_health.errors import InputError
 
     new = dict(values)
     try:

@@ -104,8 +104,8 @@ def _square_block_padded(values: list, size: int) -> list:
 
 
 #: numeric-list parameters that grew, with the older lengths a file may still hold and how it widens (every
-#: loader goes through coerce_value): the effect_covariance of model files before stop 11's duty effects
-#: (6 x 6), before stop 12's stroke_distribution (9 x 9) and thermal_drift's terms (10 x 10), before A0's
+#: loader goes through coerce_value): the effect_covariance of model files written without the duty effects
+#: (6 x 6), without stroke_distribution (9 x 9), without thermal_drift's terms (10 x 10), without A0's
 #: variance (12 x 12)
 LIST_UPGRADES = {"effect_covariance": ((36, 81, 100, 144), _square_block_padded)}
 

@@ -1,7 +1,7 @@
 """wear_monitor parameters: sliding guide (seed 000) and rolling guide (seed 001) precision monitoring.
 
-Defaults: the seed 000 bench (45 steel slider on an HT200 rail, Tan et al. 2015) and the seed 001 NSK LH45
-carriage (Wang et al. 2020). Ranges are wide physical bounds, not design limits.
+Defaults: the seed 000 bench (45 steel slider on an HT200 rail) and the seed 001 NSK LH45 carriage. Ranges are
+wide physical bounds, not design limits.
 """
 from __future__ import annotations
 

@@ -30,6 +30,9 @@ from guide_health.models.wear.effects import (
     wear_rate_change_factor,
     wear_rate_multiplier,
 )
+from guide_health.models.wear.maintenance import KINDS, MaintenanceEvent, check_event
+from guide_health.params.schema import Param
+from guide_health.params.wear_monitor import WEAR_MONITOR_SCHEMA
 from guide_health.runs import MachineRun
 from guide_health.sim.motion import (
     MachineKnots,
@@ -140,9 +143,6 @@ EFFECT_VALUE_RANGES = {"stroke_distribution_weight": "[0, 1]", "initial_offset_m
 
 def effect_value_range(name: str):
     """The Param whose range an --effect value must be in (``name``: the effect id)."""
-    from guide_health.params.schema import Param
-    from guide_health.params.wear_monitor import WEAR_MONITOR_SCHEMA
-
     field, unit, _ = EFFECT_VALUE[name]
     if field in EFFECT_VALUE_RANGES or field not in WEAR_MONITOR_SCHEMA.by_name:
         return Param(field, 0.0, unit, EFFECT_VALUE_RANGES[field], "")
@@ -364,8 +364,6 @@ def parse_maintenance(items: list[str] | None, axes: dict[str, dict], start_ns: 
     """``KIND:AXIS[.GUIDE]@TIME[=VALUE]`` strings (``regrind:x@10h``, ``measure:z@2.5h=8.2um``,
     ``replace_carriage:y.front@90min``) to MaintenanceEvents; TIME in h (default), min or s from the start
     of the run, VALUE a straightness with its unit (um or m). InputError (one line) for anything else."""
-    from guide_health.models.wear.maintenance import KINDS, MaintenanceEvent, check_event
-
     events = []
     for item in items or []:
         kind, sep, rest = item.partition(":")

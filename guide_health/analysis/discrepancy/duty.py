@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from guide_health.io.bag.reader import iter_machine_bag
 from guide_health.models.wear.archard import sliding_positions_m
 from guide_health.models.wear.effects import pass_weight_per_m
 from guide_health.models.wear.input_rules import (
@@ -355,8 +356,6 @@ def bag_accumulator(params: dict) -> DutyCellAccumulator:
 
 def iter_bag_chunks(bag, params: dict, namespace: str | None = None, progress=None):
     """The MachineRun chunks of a machine bag that :func:`read_duty_cells` accumulates."""
-    from guide_health.io.bag.reader import iter_machine_bag
-
     return iter_machine_bag(bag, joint=params["joint"], namespace=namespace, progress=progress)
 
 

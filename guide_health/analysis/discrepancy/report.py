@@ -8,6 +8,8 @@ from typing import Any
 
 import numpy as np
 
+from guide_health.analysis.discrepancy.model_file import live_parameter_text, not_live_effects
+from guide_health.analysis.report_plots import plot_forecast
 from guide_health.io.outputs.files import open_output, save_figure, write_text
 from guide_health.io.outputs.json_text import json_text
 
@@ -20,8 +22,6 @@ def _fmt(v: float, unit: str = "") -> str:
 
 def model_file_lines(result: dict[str, Any]) -> list[str]:
     """What model.yaml (beside the report) gives the live monitor, and how to load it."""
-    from guide_health.analysis.discrepancy.model_file import live_parameter_text, not_live_effects
-
     model = result.get("model_file") or {}
     live = [e for e in str(model.get("effects", "")).split(",") if e]
     out = [f"`model.yaml` holds K = {model.get('wear_coefficient', math.nan):.4g} and "
@@ -115,7 +115,6 @@ def preload_plotting() -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot  # noqa: F401
 
-    from guide_health.analysis import report_plots  # noqa: F401
 
 
 def plot(result: dict[str, Any], path: Path) -> None:
@@ -138,8 +137,6 @@ def plot(result: dict[str, Any], path: Path) -> None:
              label=f"with {named}, held-out RMSE {result['final']['heldout_rmse_um']:.2f} um")
     ax1.set_ylabel("straightness [um]")
     if result.get("forecast"):
-        from guide_health.analysis.report_plots import plot_forecast
-
         fc = {k: np.asarray(v) if isinstance(v, list) else v for k, v in result["forecast"].items()}
         plot_forecast(ax1, fc, " + ".join(result["named_effects"]))
         ax1.axhline(fc["limit_um"], color="r", ls=":", lw=0.8)

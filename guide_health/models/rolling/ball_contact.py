@@ -3,9 +3,8 @@ Hertz pressure, film, lambda and regime (``rolling_contact_report``, INTERFACES.
 keys), and ``LubricationRegimeEstimator`` (one-time set-up, then O(1) microseconds per joint-state sample for a
 live node).
 
-Source: WANG Xiaopeng, ZHAO Xinze, XU Xiang, LI Xiang, HE Kongde, TIAN Hongliang, "Mixed lubrication of a linear
-motion rolling guideway pair", Journal of Vibration and Shock 39(9), 2020, DOI 10.13465/j.cnki.jvs.2020.09.037
-("seed 001" below; NSK LH45 guide, equation/table/figure numbers are the paper's).
+Source: seed 001 (NSK LH45 guide; the reference: docs/physics.md#the-seeds); equation/table/figure numbers are
+the paper's.
 
 Pure physics: numpy/scipy only, SI units at every public boundary (m, N, Pa, m/s), no ROS, no I/O.
 

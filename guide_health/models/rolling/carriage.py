@@ -1,8 +1,7 @@
 """Load distribution over the four ball rows of a linear rolling-guide carriage under preload and a vertical
 load (seed 001 Eq. 1 / its ref. 11, Tian et al. 2016).
 
-Pure physics: scipy only, SI units (m, N). Seed 001: WANG Xiaopeng et al., "Mixed lubrication of a linear
-motion rolling guideway pair", Journal of Vibration and Shock 39(9), 2020 (NSK LH45 guide).
+Pure physics: scipy only, SI units (m, N). Seed 001 (NSK LH45 guide; the reference: docs/physics.md#the-seeds).
 
 Load distribution (what is solved)
 ----------------------------------
@@ -123,7 +122,7 @@ def upper_ball_load_ratio(load_ratio: float) -> float:
 
 def equivalent_fatigue_load_n(distribution: CarriageLoadDistribution,
                               reverse_load_rating_factor: float = 1.0) -> float:
-    """Carriage load for the rating life of a preloaded 4-row carriage [N] (issue 11 item 2).
+    """Carriage load for the rating life of a preloaded 4-row carriage [N].
 
     The catalogue rating (C/P)^p assumes the load is shared by the loaded rows without preload, i.e. the most
     loaded ball carries P / (2 n sin alpha). Under preload the internal ball loads of the equilibrium above

@@ -6,8 +6,7 @@ mean-plane separation and real contact area vs speed).
 Pure physics: numpy/scipy only, SI units (m, N, Pa, m/s). Elastic constant: the contact modulus E*
 (:func:`guide_health.models.contact.elastic.effective_modulus_pa`); the film fits and the asperity pressure are
 published with Hamrock's reduced modulus E' = 2 E*, which these formulas form explicitly as ``2 E*``.
-Seed 001: WANG Xiaopeng et al., "Mixed lubrication of a linear motion rolling guideway pair", Journal of
-Vibration and Shock 39(9), 2020 (NSK LH45 guide).
+Seed 001: the NSK LH45 guide (the reference: docs/physics.md#the-seeds).
 
 Film, kinematics, oil and roughness (assumptions)
 -------------------------------------------------
@@ -36,8 +35,8 @@ Film, kinematics, oil and roughness (assumptions)
 * lambda = h_c / sigma (central film, like the seed's mean film in 2/3 of the Hertz zone); ``lambda_min``
   = h_min / sigma is reported as well.
 
-Regime thresholds (issue 11 item 5: seed 001 Fig. 8 calibration)
-------------------------------------------------------------------
+Regime thresholds (seed 001 Fig. 8 calibration)
+-----------------------------------------------
 boundary: lambda < 0.0098;  mixed: 0.0098 <= lambda < 3;  full_film: lambda >= 3 (``LAMBDA_BOUNDARY``,
 ``LAMBDA_FULL_FILM``; the parameter schema imports these, the one source). Seed 001's Fig. 8 text: boundary
 lubrication (contact-area ratio A_c > 80 %) below 0.0005 m/s slider speed, A_c = 73.76 % at 0.001 m/s, falling to
@@ -65,7 +64,7 @@ Asperity parameters (``asperity_radius_m`` = 2 um, ``asperity_density_per_m2`` =
 composite sigma): eta_s beta sigma = 0.064, sigma/beta = 0.1, as for a finely ground surface measured at
 sub-micron sampling (Nayak, isotropic Gaussian: eta beta sigma = sqrt(alpha_B)/(16 sqrt(3 pi)) ~ 0.064 at
 bandwidth alpha_B ~ 10, and sigma/beta = 8 sqrt(alpha_B) Dq^2/(3 sqrt(pi)) = 0.1 at RMS slope Dq = 0.14).
-Calibration (issue 11 item 5): eta_s = 1.597e11 puts the JGP asperity share at 73.76 % at 0.001 m/s (seed 001
+Calibration: eta_s = 1.597e11 puts the JGP asperity share at 73.76 % at 0.001 m/s (seed 001
 Fig. 8) in the seed-001 oil reading (1.584e11 with the 0.060 Pa s oil: the point is nearly oil-independent).
 Why the seed's 80 % at 0.0005 m/s cannot be matched as well: the share is s = K F_5/2(t) with
 K = K_GT E'/p_mean and t = lambda (1 - s)^-0.14; the asperity parameters enter ONLY through K (one number), and
@@ -93,7 +92,7 @@ Smooth-surface Hamrock-Dowson vs the seed's rough-surface numerical mixed-EHL
 * The seed does not state the speed of Table 1 / Fig. 10, nor its oil. Its own Fig. 9 (lambda -> 1, i.e.
   h ~ 200 nm, at 0.5 m/s, film ~ u^0.6-0.7) puts Table 1's 294.3 nm at ~0.9-1 m/s slider speed. With VG68 at
   40 degC (0.060 Pa s) Hamrock-Dowson reaches 294.3 nm at 385 N only at v = 2.4 m/s (u = v/2) and lambda(0.5 m/s)
-  = 0.51; with seed 000's 68# oil at 21 degC (Walther, 0.1631 Pa s: issue 11 item 6) it reaches 294.3 nm at
+  = 0.51; with seed 000's 68# oil at 21 degC (Walther, 0.1631 Pa s) it reaches 294.3 nm at
   0.88 m/s and lambda = 1.00 at 0.50 m/s: that oil reading reproduces Fig. 9 and Table 1's speed together, with
   u = v/2 (no need to assume the seed fed the slider speed as the entrainment speed).
 * The seed's mean film h_a is the mean gap over 2/3 of the Hertz zone between ROUGH surfaces: below ~0.1 m/s

@@ -6,7 +6,7 @@ terms for nu < 2 cSt are left out (guide oils are far above). Dynamic viscosity 
 density falling linearly with temperature, rho(T) = rho_15 (1 - beta (T - 15 degC)), beta = 6.4e-4 1/K (the
 usual mineral-oil value; a 6 K error in T moves rho by 0.4 %, eta by ~25 %: only the viscosity matters).
 
-Seed 000 (Tan et al. 2015, Table 1) gives its 68# guide oil as 65.4 / 8.83 cSt at 40 / 100 degC. Walther then
+Seed 000 (Table 1) gives its 68# guide oil as 65.4 / 8.83 cSt at 40 / 100 degC. Walther then
 gives 186.1 cSt at 21 degC, and with rho_15 = 880 kg/m^3 (876.6 at 21 degC) eta = 0.1631 Pa s: the viscosity
 with which Hamrock-Dowson puts lambda = 1 at 0.5 m/s on the seed 001 LH45 contact, as seed 001's Fig. 9 does
 (docs/physics.md). At 40 degC the same oil is 65.4 cSt, eta = 0.0566 Pa s.

@@ -11,7 +11,7 @@ accepted, the load already aligned by stamp):
   L = (fh ft fc C / (fw P))^p x rating_distance_km), per carriage. The load of each travel increment is the
   carriage load that gives the most loaded ball its real load under preload, 2 n sin(alpha) max(F_u, F_L)
   (:func:`~guide_health.models.rolling.carriage.equivalent_fatigue_load_n`), divided by
-  ``reverse_load_rating_factor`` when the load is reversed (force.z < 0: lower rows, issue 11 items 1-2).
+  ``reverse_load_rating_factor`` when the load is reversed (force.z < 0: lower rows).
 """
 from __future__ import annotations
 
@@ -29,7 +29,7 @@ from guide_health.models.wear.input_rules import reading_in_force_index
 
 
 class RollingGuideMonitor:
-    STATE_VERSION = 2       # 2: fatigue sums with preload and reverse loads (issue 11); 1 had neither
+    STATE_VERSION = 2       # 2: fatigue sums with preload and reverse loads; 1 had neither
 
     def __init__(self, params: dict[str, Any]):
         self.params = dict(params)
@@ -62,7 +62,7 @@ class RollingGuideMonitor:
         self._pending_c: list[float] = []
         self.oil_temperature_t_ns: int | None = None
 
-    # --- oil temperature (Walther viscosity, issue 11 item 6): applied by stamp, live and offline alike -------
+    # --- oil temperature (Walther viscosity): applied by stamp, live and offline alike -----------------------
     MAX_PENDING_TEMPERATURES = 100_000
 
     def add_temperature(self, t_ns: int, temperature_c: float) -> None:

@@ -92,7 +92,7 @@ def _assemble(scalars: FiniteRollerScalars | None, maxima: McEwenMaxima, half_le
         "shear_max_axis_MPa": maxima.max_shear_on_axis.value_over_p0 * p_max_mpa,
         "shear_axis_depth_mm": maxima.max_shear_on_axis.z_over_a * a_end * 1e3,
         "von_mises_surface_MPa": maxima.von_mises_surface_centre_over_p0 * p_max_mpa,
-        # issue 11 item 8: the subsurface maximum (the design stress; von_mises_max_MPa is kept for the status
+        # the subsurface maximum (the design stress; von_mises_max_MPa is kept for the status
         # keys) and the SURFACE values of seed 003 Table 1 (end / centre / ideal Hertz), never to be compared
         # with each other
         "von_mises_subsurface_max_MPa": vm.value_over_p0 * p_max_mpa,

@@ -1,4 +1,4 @@
-"""Sliding-guide wear and precision retention (seed 000: Tan et al. 2015).
+"""Sliding-guide wear and precision retention (seed 000).
 
 - :mod:`.input_rules`: what a joint, load or straightness sample must be to count (the one copy);
 - :mod:`.archard`: closed forms (Eqs. 7, 10, 11, 12) and the K-free Archard integration;

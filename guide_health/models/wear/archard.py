@@ -1,4 +1,4 @@
-"""Sliding-guide wear and precision retention (seed 000: Tan et al. 2015).
+"""Sliding-guide wear and precision retention (seed 000).
 
 Closed forms (seed 000):
     Eq. 7   V = A b (l_max + l_min) / 2           wear volume <-> straightness loss A

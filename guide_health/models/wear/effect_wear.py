@@ -328,7 +328,7 @@ class EffectWear:
         return self.pass_work_n + self.pass_open_work_nm * self._open_pass_weight()
 
     def estimate_pass_work(self, pass_length_m: float) -> None:
-        """For a state saved before the pass work was kept (stop 12): P = G / max(L, L_s) and each duty
+        """For a state saved without the pass work: P = G / max(L, L_s) and each duty
         bucket's pass sum its effective work over it, L the mean stroke (exact for strokes of one length)."""
         length = max(pass_length_m, self.effects.slider_length_m)
         weight = 1.0 / length if length > 0 else 0.0
@@ -381,7 +381,7 @@ class EffectWear:
         self.measurement_temperature_offset_k.append(float(temperature_offset_k))
 
     def rebuild_temperature_offsets(self, measurement_t_ns: list, first_reading_t_ns: int, offset_at_k) -> None:
-        """A state saved before the T - T_ref of each measurement was kept (stop 12) has NaN there, which leaves
+        """A state saved without the T - T_ref of each measurement has NaN there, which leaves
         c_T and the gauge offset out of the interval: rebuilt by ``offset_at_k(stamp)`` (the reading in force)
         where the kept readings reach back to the measurement (older readings only are trimmed, so the one in
         force is then among them)."""
@@ -413,7 +413,7 @@ class EffectWear:
         last, first = state.get("last_relubrication_t_ns"), state.get("first_sample_t_ns")
         self.last_relubrication_ns = None if last is None else int(last)
         self.first_t_ns = None if first is None else int(first)
-        # the pass work (stop 12); a state saved before it has none: PrecisionMonitor.restore estimates P
+        # the pass work; a state saved without it has none: PrecisionMonitor.restore estimates P
         self.pass_work_n = float(state.get("pass_work_n", 0.0))
         self.pass_direction = int(np.sign(state.get("pass_direction", 0)))
         self.pass_length_m = float(state.get("pass_length_m", 0.0))

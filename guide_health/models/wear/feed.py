@@ -32,7 +32,7 @@ class StampAlignedFeed:
     so bad samples are rejected at once and counted in the monitor's ``rejected``.
     Every method returns the rejection reasons of the samples it handled.
 
-    Batches (issue 14, :meth:`process`): the live node only copies messages in its callbacks and hands
+    Batches (:meth:`process`): the live node only copies messages in its callbacks and hands
     the feed the joint and load samples that arrived since the last batch, in arrays, with their arrival
     times and their interleaving. The feed validates them with the vectorised input rules (every guide its
     own counters, recent windows, time bases and stamp gaps, as on arrival), replays the decisions above

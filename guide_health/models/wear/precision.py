@@ -233,7 +233,7 @@ class PrecisionMonitor:
 
     def measurement_pass_work_n(self) -> np.ndarray:
         """P at each measurement [N] (stroke_distribution). Measurements taken before the pass work was kept
-        (a state saved before stop 12) take the present ratio P / G of their effective work."""
+        (a state without measurement_pass_work_n) take the present ratio P / G of their effective work."""
         ew, est = self.effect_wear, self.estimator
         kept = np.asarray(ew.measurement_pass_work_n, dtype=float)
         work = self.work_nm()
@@ -563,7 +563,7 @@ class PrecisionMonitor:
         self._attach_effects()
         if self.effect_wear is not None and state.get("effects"):
             self.effect_wear.restore(state["effects"])
-            if "pass_work_n" not in state["effects"]:     # saved before the pass work was kept (stop 12)
+            if "pass_work_n" not in state["effects"]:     # saved without the pass work
                 strokes = self.integrator.strokes
                 self.effect_wear.estimate_pass_work(strokes.stroke_sum_m / strokes.stroke_count
                                                     if strokes.stroke_count else 0.0)
@@ -578,7 +578,7 @@ class PrecisionMonitor:
         self.estimator.prior_rel_sd = self.params["wear_coefficient_prior_rel_sd"]
         self.estimator.noise_sd_m = self.params["straightness_noise_m"]
         self.estimator.straightness_initial_m = self.params["straightness_initial_m"]
-        if self._thermal() and self.effect_wear is not None and self.temperature_t_ns:   # a state before stop 12
+        if self._thermal() and self.effect_wear is not None and self.temperature_t_ns:   # saved without T - T_ref
             self.effect_wear.rebuild_temperature_offsets(self.estimator.measurement_t_ns, self.temperature_t_ns[0],
                                                          self.thermal_offset_at_k)
         self.load_n = state["load_n"]

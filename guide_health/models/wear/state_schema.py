@@ -56,18 +56,18 @@ NON_NEGATIVE = frozenset({
 #: element kind of lists that are empty in a fresh monitor (the template cannot show it)
 #: (a NaN element marks a measurement taken before the stroke was known: Eq. 7's g_j not yet defined)
 #: fields added to the state after it was first written, with the value a state saved before them restores to
-#: (effect_wear: the work gradient at each measurement and where the present surface was made, stop 10; the
-#: relubrication time base, stop 11; older bucket rows and gradients are zero-padded by effect_wear.restore).
+#: (effect_wear: the work gradient at each measurement and where the present surface was made; the
+#: relubrication time base; older bucket rows and gradients are zero-padded by effect_wear.restore).
 #: Such a state is accepted without them; every other missing field is refused.
 ADDED_FIELDS = {"measurement_gradients": [], "surface_start_m": 0.0,
-                # lubrication_interval's time base (stop 11)
+                # lubrication_interval's time base
                 "last_relubrication_t_ns": None, "first_sample_t_ns": None,
-                # stroke_distribution's pass work (stop 12; PrecisionMonitor.restore estimates P without it)
+                # stroke_distribution's pass work (PrecisionMonitor.restore estimates P without it)
                 "pass_work_n": 0.0, "pass_direction": 0, "pass_length_m": 0.0, "pass_open_work_nm": 0.0,
                 "pass_open_buckets": [], "measurement_pass_work_n": [],
-                # thermal_drift's T - T_ref per measurement (stop 12; without it c_T's spread is not carried)
+                # thermal_drift's T - T_ref per measurement (without it c_T's spread is not carried)
                 "measurement_temperature_offset_k": [],
-                # the rolling guide's stamp of the oil temperature reading in force (stop 13)
+                # the rolling guide's stamp of the oil temperature reading in force
                 "oil_temperature_t_ns": None}
 EMPTY_LIST_ELEMENT = {"duty_bucket_index": 0, "measurement_t_ns": 0, "measurement_loss_per_k_m": float("nan"),
                       "reading_t_ns": 0,
