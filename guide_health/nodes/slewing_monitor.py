@@ -20,6 +20,7 @@ from guide_health.nodes.live_params import PeriodicTimers, apply_slewing_changes
 from guide_health.nodes.qos import SensorSubscriptions
 from guide_health.nodes.status import StatusTask, StatusUpdater
 from guide_health.params import SLEWING_MONITOR_SCHEMA, declare_parameters
+from guide_health.params.typed import slewing_monitor_params
 
 # data QoS: parameter sensor_qos (guide_health/nodes/qos.py: reliable back-pressure vs best-effort loss)
 # status keys (README "Diagnostics"): ROLLER_CONTACT_KEYS always, 'nan' until known; EXTRA_KEYS when known
@@ -45,7 +46,7 @@ class SlewingMonitorNode(Node):
         super().__init__("slewing_monitor", **kwargs)
         params = declare_parameters(self, SLEWING_MONITOR_SCHEMA, on_applied=self._apply_params)
         self.periodic = PeriodicTimers(self)
-        self.core = SlewingMonitor(params)
+        self.core = SlewingMonitor(slewing_monitor_params(params))
         self.params = params
         self.updater = StatusUpdater(self, params["machine_id"], params["input_timeout_s"], alarms=True)
         self.updater.add(StatusTask(f"{params['bearing']} roller contact", self._report,
@@ -79,7 +80,7 @@ class SlewingMonitorNode(Node):
             return level
         model = self.core.model
         return max(level, contact_level(p_max_pa, model.allowable_pa, model.warn_fraction,
-                                        self.params["alarm_clear_margin"]))
+                                        self.core.params.alarm_clear_margin))
 
     def publish_diagnostics(self) -> None:
         self.updater.update()

@@ -34,6 +34,7 @@ from guide_health.nodes.common import run_node
 from guide_health.nodes.live_params import PeriodicTimers, apply_common
 from guide_health.nodes.status import RejectionLog, StatusTask, StatusUpdater
 from guide_health.params import VIBRATION_MONITOR_SCHEMA, declare_parameters
+from guide_health.params.typed import vibration_monitor_params
 
 # reliable keep_all: a block is never dropped silently (a lagging node pushes back on the writer)
 DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1, reliability=ReliabilityPolicy.RELIABLE)
@@ -97,7 +98,8 @@ class VibrationMonitorNode(Node):
         params = declare_parameters(self, VIBRATION_MONITOR_SCHEMA, on_applied=self._apply_params)
         self.params = params
         self.periodic = PeriodicTimers(self)
-        self.feed = StampedLifeTest(signs_from_params(params), params["carriage_speed_m_s"])
+        typed = vibration_monitor_params(params)
+        self.feed = StampedLifeTest(signs_from_params(typed), typed.carriage_speed_m_s)
         self.rejections = RejectionLog(self.get_logger())
         self._callback_s = 0.0
         self._model_s = 0.0
