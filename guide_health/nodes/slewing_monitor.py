@@ -45,16 +45,17 @@ class SlewingMonitorNode(Node):
     def __init__(self, **kwargs):
         super().__init__("slewing_monitor", **kwargs)
         params = declare_parameters(self, SLEWING_MONITOR_SCHEMA, on_applied=self._apply_params)
+        p = slewing_monitor_params(params)
         self.periodic = PeriodicTimers(self)
-        self.core = SlewingMonitor(slewing_monitor_params(params))
+        self.core = SlewingMonitor(p)
         self.params = params
-        self.updater = StatusUpdater(self, params["machine_id"], params["input_timeout_s"], alarms=True)
-        self.updater.add(StatusTask(f"{params['bearing']} roller contact", self._report,
+        self.updater = StatusUpdater(self, p.machine_id, p.input_timeout_s, alarms=True)
+        self.updater.add(StatusTask(f"{p.bearing} roller contact", self._report,
                                     ROLLER_CONTACT_KEYS, EXTRA_KEYS, stale_inputs=("slewing/load",)))
         self.diag_pub = self.updater.publisher
-        self.sensors = SensorSubscriptions(self, params["sensor_qos"], params["sensor_queue_depth"], with_info=True)
+        self.sensors = SensorSubscriptions(self, p.sensor_qos, p.sensor_queue_depth, with_info=True)
         self.sensors.subscribe(WrenchStamped, "slewing/load", self._on_load)
-        self.periodic.create("diagnostics_period_s", params["diagnostics_period_s"], self.publish_diagnostics)
+        self.periodic.create("diagnostics_period_s", p.diagnostics_period_s, self.publish_diagnostics)
 
     def _apply_params(self, changed: dict) -> None:
         """An accepted ``ros2 param set`` (guide_health.nodes.live_params)."""

@@ -96,21 +96,21 @@ class VibrationMonitorNode(Node):
     def __init__(self, **kwargs):
         super().__init__("vibration_monitor", **kwargs)
         params = declare_parameters(self, VIBRATION_MONITOR_SCHEMA, on_applied=self._apply_params)
-        self.params = params
+        self.params = vibration_monitor_params(params)     # read-only ones only: the changes go to the model
+        p = self.params
         self.periodic = PeriodicTimers(self)
-        typed = vibration_monitor_params(params)
-        self.feed = StampedLifeTest(signs_from_params(typed), typed.carriage_speed_m_s)
+        self.feed = StampedLifeTest(signs_from_params(p), p.carriage_speed_m_s)
         self.rejections = RejectionLog(self.get_logger())
         self._callback_s = 0.0
         self._model_s = 0.0
         self._blocks_in = 0
-        self.updater = StatusUpdater(self, params["machine_id"], params["input_timeout_s"])
-        self.task = f"{params['joint_name']} vibration"
+        self.updater = StatusUpdater(self, p.machine_id, p.input_timeout_s)
+        self.task = f"{p.joint_name} vibration"
         self.updater.add(StatusTask(self.task, self.report, VIBRATION_KEYS, EXTRA_KEYS, stale_inputs=INPUTS))
         self.diag_pub = self.updater.publisher
         self.create_subscription(LaserScan, "guide/acceleration", self._on_block_raw, DATA_QOS, raw=True)
         self.create_subscription(FluidPressure, "guide/sound_pressure", self._on_pressure, DATA_QOS)
-        self.periodic.create("status_period_s", params["status_period_s"], self.publish_diagnostics)
+        self.periodic.create("status_period_s", p.status_period_s, self.publish_diagnostics)
 
     def _apply_params(self, changed: dict) -> None:
         """An accepted ``ros2 param set`` (validated by the schema) reaches the running model: next block/level."""
@@ -128,7 +128,7 @@ class VibrationMonitorNode(Node):
             self.feed.rejected_blocks += 1
             self.rejections.log(f"guide/acceleration: {exc}")
             return
-        fs = self.params["sample_rate_hz"]
+        fs = self.params.sample_rate_hz
         if not (dt_s > 0 and abs(1.0 / dt_s - fs) <= 1e-6 * fs):
             self.feed.rejected_blocks += 1
             self.rejections.log(f"guide/acceleration: block at {1.0 / dt_s if dt_s > 0 else 0.0:g} Hz, "
