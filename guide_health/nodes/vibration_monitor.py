@@ -96,7 +96,7 @@ class VibrationMonitorNode(Node):
     def __init__(self, **kwargs):
         super().__init__("vibration_monitor", **kwargs)
         params = declare_parameters(self, VIBRATION_MONITOR_SCHEMA, on_applied=self._apply_params)
-        self.params = vibration_monitor_params(params)     # read-only ones only: the changes go to the model
+        self.params = vibration_monitor_params(params)     # a run-time change goes to the model, not here
         p = self.params
         self.periodic = PeriodicTimers(self)
         self.feed = StampedLifeTest(signs_from_params(p), p.carriage_speed_m_s)
