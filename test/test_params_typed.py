@@ -76,3 +76,37 @@ def test_with_changes_gives_a_new_object_with_only_its_own_names():
     assert with_changes(p, {"life_warn_h": 3.0}) is p
     g = with_changes(guide_params({}), {"life_factors": [1.0, 1.0, 1.0, 2.0]})
     assert g.life_factors == (1.0, 1.0, 1.0, 2.0)
+
+
+#: (model modules, the names their parameter objects go by, the class they take): every field a model reads
+#: must be one the generated class declares (the classes are built at run time, so no static checker sees them)
+MODEL_READS = [
+    (("models/slewing/monitor.py", "models/slewing/numerical_roller.py"), ("params", "resolved"), "slewing_monitor"),
+    (("models/rolling/ball_contact.py", "models/rolling/rolling_guide.py"), ("params", "p"), "guide"),
+    (("analysis/life_signs.py", "analysis/life_plots.py", "nodes/vibration_monitor.py"), ("p",),
+     "vibration_monitor"),
+    (("sim/slewing.py",), ("p",), "guide_health_slewing_simulation"),
+    (("sim/life_test.py",), ("sim",), "guide_health_life_test_simulation"),
+    (("sim/life_test.py",), ("bench",), "vibration_monitor"),
+    (("nodes/fleet_monitor.py",), ("p",), "fleet_monitor"),
+]
+
+
+def _attribute_reads(source: str, names: tuple[str, ...]) -> set[str]:
+    import ast
+
+    return {node.attr for node in ast.walk(ast.parse(source))
+            if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id in names
+            and isinstance(node.ctx, ast.Load)}
+
+
+@pytest.mark.parametrize("modules,names,section", MODEL_READS, ids=[m[0][0] + ":" + m[2] for m in MODEL_READS])
+def test_every_field_a_consumer_reads_is_declared(modules, names, section):
+    from pathlib import Path
+
+    package = Path(__file__).resolve().parents[1] / "guide_health"
+    cls = GuideParams if section == "guide" else TYPED_CLASSES[section]
+    declared = {f.name for f in dataclasses.fields(cls)}
+    reads = set().union(*(_attribute_reads((package / m).read_text(), names) for m in modules))
+    assert len(reads) >= 3, reads                       # the check looks at real reads
+    assert reads <= declared, sorted(reads - declared)

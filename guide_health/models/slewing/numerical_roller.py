@@ -524,31 +524,31 @@ def build_roller_contact_table(
     """
     if not (0 < load_min_n < load_max_n):
         raise ValueError("need 0 < load_min_n < load_max_n")
-    p = params
-    if str(p.roller_profile) == "logarithmic" and float(p.log_profile_coeff_m) <= 0:
+    resolved = params
+    if str(resolved.roller_profile) == "logarithmic" and float(resolved.log_profile_coeff_m) <= 0:
         wd = math.sqrt(load_min_n * load_max_n) if design_load_n is None else float(design_load_n)
-        e_star = effective_modulus_pa(float(p.youngs_modulus_pa), float(p.poisson))
-        p = replace(p, log_profile_coeff_m=lundberg_log_profile_coefficient(
-            wd / float(p.roller_length_m), e_star))
+        e_star = effective_modulus_pa(float(resolved.youngs_modulus_pa), float(resolved.poisson))
+        resolved = replace(resolved, log_profile_coeff_m=lundberg_log_profile_coefficient(
+            wd / float(resolved.roller_length_m), e_star))
     loads = np.geomspace(load_min_n, load_max_n, n_loads)
     rows = []
     t0 = time.perf_counter()
     for w in loads:
-        rows.append(numerical_contact_report(p, float(w), nx=nx, ny=ny))
+        rows.append(numerical_contact_report(resolved, float(w), nx=nx, ny=ny))
     per_load = (time.perf_counter() - t0) / n_loads
     values = {k: np.array([r[k] for r in rows], dtype=float) for k in _TABLE_KEYS}
     reliable = all(bool(r["end_stress_reliable"]) for r in rows)
-    table = RollerContactTable(loads, values, p, reliable, per_load, {}, (nx, ny))
+    table = RollerContactTable(loads, values, resolved, reliable, per_load, {}, (nx, ny))
     mids = np.sqrt(loads[:-1] * loads[1:])
     if check_midpoints is not None and check_midpoints < mids.size:
         mids = mids[np.linspace(0, mids.size - 1, check_midpoints).round().astype(int)]
     err = {k: 0.0 for k in _TABLE_KEYS}
     for w in mids:
-        direct = numerical_contact_report(p, float(w), nx=nx, ny=ny)
+        direct = numerical_contact_report(resolved, float(w), nx=nx, ny=ny)
         interp = table.lookup(float(w))
         for k in _TABLE_KEYS:
             ref = direct[k]
-            scale = abs(ref) if k != "p_max_position_mm" else 1e3 * float(p.roller_length_m) / 2
+            scale = abs(ref) if k != "p_max_position_mm" else 1e3 * float(resolved.roller_length_m) / 2
             if scale > 0:
                 err[k] = max(err[k], abs(interp[k] - ref) / scale)
     table.interpolation_error = err
