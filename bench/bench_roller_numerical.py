@@ -18,6 +18,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from guide_health.models.contact.elastic import effective_modulus_pa  # noqa: E402
 from guide_health.models.slewing import numerical_roller as rn  # noqa: E402
+from guide_health.params.typed import SlewingMonitorParams  # noqa: E402
 
 SEED = {"roller_diameter_m": 0.032, "roller_length_m": 0.0313, "youngs_modulus_pa": 210.0e9, "poisson": 0.3,
         "roller_profile": "straight", "crown_drop_m": 0.0, "log_profile_coeff_m": 0.0}
@@ -49,11 +50,13 @@ def main() -> None:
         print(f"{nx:>4}x{ny:<5} {t:8.3f} {res.iterations:6d} {res.max_pressure_pa / 1e6:10.1f} "
               f"{res.p0_center_pa / 1e6:9.1f} {res.end_stress_ratio:7.3f} {change:>8}")
 
+    typed = SlewingMonitorParams(**params)
+
     def direct():
-        return rn.numerical_contact_report(params, SEED_Q, nx=args.nx, ny=args.ny)
+        return rn.numerical_contact_report(typed, SEED_Q, nx=args.nx, ny=args.ny)
 
     t_direct = min(timeit.repeat(direct, number=1, repeat=3))
-    table = rn.build_roller_contact_table(params, 10e3, 200e3, n_loads=args.loads, nx=args.nx, ny=args.ny)
+    table = rn.build_roller_contact_table(typed, 10e3, 200e3, n_loads=args.loads, nx=args.nx, ny=args.ny)
     t_lookup = rn.time_table_lookup(table, SEED_Q)
     print(f"\nlookup table: {args.loads} loads 10-200 kN, grid {args.nx}x{args.ny}, "
           f"mean solve while building {table.solve_time_per_load_s:.3f} s/load")

@@ -72,6 +72,7 @@ def main() -> int:
     from guide_health.models.slewing.mcewen import mcewen_maxima
     from guide_health.models.slewing.monitor import SlewingMonitor, _numerical_report
     from guide_health.params import SLEWING_MONITOR_DEFAULTS
+    from guide_health.params.typed import slewing_monitor_params
     from guide_health.sim.slewing import simulate_slewing
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -82,7 +83,7 @@ def main() -> int:
     loads = list(zip(run.axial_n.tolist(), run.radial_n.tolist(), run.moment_nm.tolist()))
     params = dict(SLEWING_MONITOR_DEFAULTS)
 
-    cached = SlewingMonitor(params)
+    cached = SlewingMonitor(slewing_monitor_params(params))
     t_monitor = per_message_us(cached.on_loads, loads)
     t_cached = per_message_us(cached.model.report_for_loads, loads)
     direct = direct_seed003(params)
@@ -94,7 +95,8 @@ def main() -> int:
     t_mcewen = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    numerical = SlewingMonitor(dict(params, stress_model="numerical", roller_end_radius_m=2e-3))
+    numerical = SlewingMonitor(slewing_monitor_params(dict(params, stress_model="numerical",
+                                                           roller_end_radius_m=2e-3)))
     t_build = time.perf_counter() - t0
     t_table = per_message_us(numerical.on_loads, loads)
     few = loads[:args.solves]

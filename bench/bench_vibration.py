@@ -27,6 +27,7 @@ sys.path.insert(0, str(ROOT))
 from guide_health.analysis.life_signs import signs_from_params  # noqa: E402
 from guide_health.models.rolling.life_signs import StampedLifeTest  # noqa: E402
 from guide_health.params import SCHEMAS  # noqa: E402
+from guide_health.params.typed import vibration_monitor_params  # noqa: E402
 from guide_health.sim.life_test import simulate_life_test  # noqa: E402
 
 FS_HZ = 25600.0
@@ -45,7 +46,7 @@ def model_cost(block_samples: int) -> dict:
 
     p = bench_params(block_samples)
     rec = simulate_life_test(p, seed=0)
-    feed = StampedLifeTest(signs_from_params(p), p["carriage_speed_m_s"])
+    feed = StampedLifeTest(signs_from_params(vibration_monitor_params(p)), p["carriage_speed_m_s"])
     per_block = []
     for t, x in zip(rec.t_ns, rec.blocks):
         block = np.asarray(x, dtype=np.float64)

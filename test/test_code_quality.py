@@ -295,3 +295,66 @@ def test_no_history_in_the_code():
     found = [f"{path.relative_to(ROOT)}:{number}: {line.strip()}" for path in _python_files(PACKAGE)
              for number, line in enumerate(path.read_text().splitlines(), 1) if HISTORY.search(line)]
     assert not found, found
+# --- typed parameters: models never import params/, no `.get("<parameter>", fallback)` outside params/ ----------
+#: models/ modules that still import guide_health.params (the wear core, being rewritten): a known, shrinking list
+MODELS_IMPORTING_PARAMS = ("wear/precision.py",)
+#: modules that still read parameters from a dict with `.get("<parameter>", ...)` (the wear core and its offline
+#: analysis, being rewritten; the node start-up's QoS choice): a known, shrinking list. Every other module outside
+#: params/ takes the typed objects of guide_health.params.typed (or plain numbers).
+UNCONVERTED_PARAMETER_DICTS = (
+    "models/wear/axis.py", "models/wear/effect_wear.py", "models/wear/input_rules.py", "models/wear/precision.py",
+    "analysis/discrepancy/model.py", "analysis/discrepancy/model_file.py", "analysis/discrepancy/report.py",
+    "sim/machine.py", "nodes/qos.py",
+)
+#: receivers of `.get` that are records, not parameter dicts, though some keys share a parameter's name (a report,
+#: a saved state, a bag's data or run metadata, a fit's standard errors)
+RECORD_RECEIVERS = ("state", "report", "result", "data", 'e["summary"]', 'e["result"]', "read_run_metadata(bag)",
+                    "json.loads(text)", "fit.std_errors")
+
+
+def _parameter_names() -> set[str]:
+    from guide_health.params import SCHEMAS
+    from guide_health.params.machine import AXIS_PARAMS
+
+    return {p.name for s in SCHEMAS.values() for p in s.params} | {p.name for p in AXIS_PARAMS}
+
+
+def parameter_gets(source: str, names: set[str]) -> list[str]:
+    """`receiver.get("<parameter name>", ...)` calls of ``source`` whose receiver is not a record."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "get"
+                and node.args and isinstance(node.args[0], ast.Constant) and node.args[0].value in names):
+            receiver = ast.get_source_segment(source, node.func.value)
+            if receiver not in RECORD_RECEIVERS:
+                found.append(f"{node.lineno}: {receiver}.get({node.args[0].value!r}, ...)")
+    return found
+
+
+def test_the_parameter_get_check_finds_a_fallback():
+    names = {"alarm_clear_margin", "carriages"}
+    source = 'm = params.get("alarm_clear_margin", 0.0)\nn = state.get("carriages", 1)\nk = p.get("other", 2)\n'
+    assert parameter_gets(source, names) == ["1: params.get('alarm_clear_margin', ...)"]
+
+
+def test_no_parameter_get_with_fallback_outside_params():
+    names = _parameter_names()
+    checked = [p for p in _python_files(PACKAGE) if p.relative_to(PACKAGE).parts[0] != "params"
+               and str(p.relative_to(PACKAGE).as_posix()) not in UNCONVERTED_PARAMETER_DICTS]
+    assert len(checked) > 100
+    found = {str(p.relative_to(PACKAGE)): parameter_gets(p.read_text(), names) for p in checked}
+    assert not {k: v for k, v in found.items() if v}, found
+    still = [m for m in UNCONVERTED_PARAMETER_DICTS if parameter_gets((PACKAGE / m).read_text(), names)]
+    assert still == list(UNCONVERTED_PARAMETER_DICTS), "converted: remove it from UNCONVERTED_PARAMETER_DICTS"
+
+
+def test_models_never_import_params():
+    importing = []
+    for path in _python_files(MODELS):
+        tree = ast.parse(path.read_text())
+        imported = _imported_modules(tree) | {f"guide_health.{a.name}" for n in ast.walk(tree)
+                                              if isinstance(n, ast.ImportFrom) and n.module == "guide_health"
+                                              for a in n.names}
+        if any(m == "guide_health.params" or m.startswith("guide_health.params.") for m in imported):
+            importing.append(path.relative_to(MODELS).as_posix())
+    assert importing == list(MODELS_IMPORTING_PARAMS)

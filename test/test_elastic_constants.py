@@ -17,7 +17,8 @@ from guide_health.models.contact import hertz_line, hertz_point
 from guide_health.models.contact.elastic import effective_modulus_pa
 from guide_health.models.rolling import ball_contact, lubrication
 from guide_health.models.slewing import finite_roller, monitor, numerical_roller
-from guide_health.params import SLEWING_MONITOR_DEFAULTS, WEAR_MONITOR_DEFAULTS
+from guide_health.params import WEAR_MONITOR_DEFAULTS
+from guide_health.params.typed import guide_params, slewing_monitor_params
 
 PACKAGE = Path(__file__).resolve().parents[1] / "guide_health"
 
@@ -58,7 +59,7 @@ def rolling_params() -> dict:
 
 
 def test_rolling_call_sites_use_e_star():
-    guide = ball_contact.RollingGuideContact.from_params(rolling_params())
+    guide = ball_contact.RollingGuideContact.from_params(guide_params(rolling_params()))
     e_star = effective_modulus_pa(206.0e9, 0.3)
     e_prime = 206.0e9 / (1.0 - 0.3 ** 2)                 # Hamrock's reduced modulus, written out here
     assert guide.effective_modulus_pa == e_star
@@ -82,10 +83,9 @@ def test_rolling_call_sites_use_e_star():
 
 
 def test_slewing_call_sites_use_e_star():
-    params = dict(SLEWING_MONITOR_DEFAULTS, youngs_modulus_pa=210.0e9, poisson=0.3,
-                  roller_end_radius_m=2e-3)
+    params = slewing_monitor_params(dict(youngs_modulus_pa=210.0e9, poisson=0.3, roller_end_radius_m=2e-3))
     e_star = effective_modulus_pa(210.0e9, 0.3)
-    load, length, diameter = 103_400.0, params["roller_length_m"], params["roller_diameter_m"]
+    load, length, diameter = 103_400.0, params.roller_length_m, params.roller_diameter_m
     assert monitor.SlewingContactModel(params).effective_modulus_pa == e_star
     ideal = hertz_line.hertz_line_contact(load, length, diameter, 210.0e9, 0.3)
     assert ideal.effective_modulus_pa == e_star

@@ -22,6 +22,7 @@ from guide_health.analysis.discrepancy.duty import duty_cells_from_runs
 from guide_health.models.wear.feed import StampAlignedFeed
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.params import wear_monitor_params
+from guide_health.params.typed import guide_params, slewing_monitor_params
 from guide_health.runs import MachineRun
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -143,7 +144,7 @@ def test_item2_preload_in_the_equivalent_fatigue_load(carriage_load_n, ball_n, r
     the 16.7 kN relief). Monitor, exact equilibrium and `contact rolling` agree."""
     from guide_health.models.rolling.ball_contact import rolling_contact_report
 
-    rep = rolling_contact_report(rolling_params(), None, 0.1, carriage_load_n)
+    rep = rolling_contact_report(guide_params(rolling_params()), None, 0.1, carriage_load_n)
     assert rep["upper_ball_load_n"] == pytest.approx(ball_n, abs=0.1)
     assert (rep["equivalent_fatigue_load_n"] / carriage_load_n) ** 3 == pytest.approx(ratio, rel=0.01)
     assert rep["contact_load_n"] == pytest.approx(ball_n, abs=0.1)
@@ -164,9 +165,7 @@ def test_item8_von_mises_surface_and_subsurface_are_both_reported_and_named():
     SURFACE values (0.409 p0); the 1835 MPa of von_mises_max_MPa is the subsurface maximum (0.5656 p0, off
     the axis with f = 0.1)."""
     from guide_health.models.slewing.monitor import SlewingContactModel, slewing_contact_report
-    from guide_health.params import SLEWING_MONITOR_DEFAULTS
-
-    params = dict(SLEWING_MONITOR_DEFAULTS)
+    params = slewing_monitor_params()
     for report in (slewing_contact_report(params), SlewingContactModel(params).report_for_roller_load(103400.0)):
         assert report["von_mises_surface_seed003_end_MPa"] == pytest.approx(1328.0, abs=1.0)
         assert report["von_mises_surface_seed003_center_MPa"] == pytest.approx(1095.0, abs=1.0)
@@ -251,7 +250,7 @@ def test_item5_boundary_ends_at_0p0005_m_s_and_area_ratio_73p76_at_0p001():
     from guide_health.models.rolling.ball_contact import rolling_contact_report
     from guide_health.params import wear_monitor as wm
 
-    p = rolling_params()                       # config/nsk_lh45.yaml: 68# oil at 21 degC
+    p = guide_params(rolling_params())         # config/nsk_lh45.yaml: 68# oil at 21 degC
     regime = {v: rolling_contact_report(p, None, v)["regime"] for v in (0.00045, 0.00055)}
     assert regime == {0.00045: "boundary", 0.00055: "mixed"}
     assert rolling_contact_report(p, None, 0.0005)["lambda"] == pytest.approx(0.00978, rel=0.01)

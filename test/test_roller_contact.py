@@ -19,6 +19,7 @@ from guide_health.errors import InputError
 from guide_health.models.contact import elastic, hertz_line
 from guide_health.models.slewing import finite_roller, mcewen, monitor, row_loads
 from guide_health.params import SLEWING_MONITOR_DEFAULTS, validate_slewing_params
+from guide_health.params.typed import slewing_monitor_params
 
 # --- seed 003 Sec. 4 example and Table 1 (MPa) ---------------------------------------------------
 E_PA, NU, D_M, L_M, Q_N, FRICTION = 210.0e9, 0.3, 0.032, 0.0313, 103_400.0, 0.1
@@ -33,11 +34,16 @@ JOHNSON_TAU1 = (0.300, 0.786)
 JOHNSON_VON_MISES = (0.557, 0.70)
 
 
-def seed_params(**overrides):
+def seed_values(**overrides) -> dict:
     p = dict(SLEWING_MONITOR_DEFAULTS)
     p.update(youngs_modulus_pa=E_PA, poisson=NU, roller_diameter_m=D_M, roller_length_m=L_M, friction=FRICTION)
     p.update(overrides)
     return p
+
+
+def seed_params(**overrides):
+    """The seed 003 example as the models take it: the frozen, validated SlewingMonitorParams."""
+    return slewing_monitor_params(seed_values(**overrides))
 
 
 def rel(a, b):
@@ -401,7 +407,7 @@ def test_bad_loads_and_params_raise():
     for bad in ({"poisson": 0.5}, {"roller_count": 0}, {"roller_count": 400}, {"stress_model": "fem"},
                 {"warn_fraction": 1.5}, {"roller_count": 170.0}):
         with pytest.raises(InputError):
-            validate_slewing_params(seed_params(**bad))
+            validate_slewing_params(seed_values(**bad))
 
 
 def test_numerical_model_unavailable_is_a_value_error(monkeypatch):

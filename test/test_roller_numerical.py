@@ -21,6 +21,7 @@ import pytest
 from guide_health.models.contact import elastic, hertz_line
 from guide_health.models.slewing import half_space
 from guide_health.models.slewing import numerical_roller as rn
+from guide_health.params.typed import SlewingMonitorParams
 
 # ---- seed 003 example -----------------------------------------------------------------------
 SEED_E = 210.0e9
@@ -50,7 +51,7 @@ def seed_params(**over):
         "crown_drop_m": 0.0, "log_profile_coeff_m": 0.0,
     }
     p.update(over)
-    return p
+    return SlewingMonitorParams(**p)     # unvalidated: the solver's own checks are under test
 
 
 def seed_estar() -> float:

@@ -19,6 +19,7 @@ from guide_health.models.contact import hertz_point
 from guide_health.models.rolling import ball_contact as bc
 from guide_health.models.rolling import carriage, lubrication
 from guide_health.params import WEAR_MONITOR_DEFAULTS
+from guide_health.params.typed import guide_params
 
 REPO = Path(__file__).resolve().parents[1]
 CONFIG = REPO / "config" / "nsk_lh45.yaml"
@@ -51,7 +52,7 @@ E_PRIME = E_PA / (1.0 - NU ** 2)      # Hamrock's reduced modulus E' (the publis
 E_STAR = E_PRIME / 2                  # contact modulus E* = E'/2, the models' elastic constant
 
 
-def seed_params(**overrides) -> dict:
+def seed_values(**overrides) -> dict:
     p = dict(WEAR_MONITOR_DEFAULTS)
     p.update(guide_type="rolling", ball_radius_m=BALL_RADIUS_M, groove_conformity=CONFORMITY,
              contact_angle_deg=CONTACT_ANGLE_DEG, balls_per_row=BALLS_PER_ROW, rows=4, preload_n=385.0,
@@ -59,6 +60,11 @@ def seed_params(**overrides) -> dict:
              oil_viscosity_pa_s=SEED001_OIL_PA_S, pressure_viscosity_pa_inv=2.0e-8)
     p.update(overrides)
     return p
+
+
+def seed_params(**overrides):
+    """The seed 001 NSK LH45 guide as the models take it (GuideParams)."""
+    return guide_params(seed_values(**overrides))
 
 
 def radii(conformity: float = CONFORMITY) -> tuple[float, float]:

@@ -13,6 +13,7 @@ from guide_health.models.slewing.monitor import SlewingContactModel, SlewingMoni
 from guide_health.models.slewing.row_loads import axial_row_roller_loads
 from guide_health.nodes.slewing_monitor import ROLLER_CONTACT_KEYS
 from guide_health.params import SLEWING_MONITOR_DEFAULTS
+from guide_health.params.typed import slewing_monitor_params
 from guide_health.sim.slewing import simulate_slewing
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -21,7 +22,7 @@ PARAMS = dict(SLEWING_MONITOR_DEFAULTS)
 
 
 def test_bad_loads_get_a_status_and_never_crash():
-    core = SlewingMonitor(dict(PARAMS))
+    core = SlewingMonitor(slewing_monitor_params(dict(PARAMS)))
     for bad in ((math.nan, 0.0, 1e6), (1e5, math.inf, 0.0), (1e5, 0.0, -math.inf)):
         assert core.on_loads(*bad) == "non-finite load (NaN/inf) ignored"
     level, message, values = core.period_report()
@@ -40,11 +41,11 @@ def test_bad_loads_get_a_status_and_never_crash():
 
 
 def test_worst_case_per_period_and_levels_from_the_allowable():
-    core = SlewingMonitor(dict(PARAMS))
+    core = SlewingMonitor(slewing_monitor_params(dict(PARAMS)))
     for moment in (2e6, 9e6, 4e6):                          # the 9e6 N m sample is the worst
         core.on_loads(6e5, 2e4, moment)
     level, _, values = core.period_report()
-    direct = slewing_contact_report(dict(PARAMS), values["roller_load_max_n"])
+    direct = slewing_contact_report(slewing_monitor_params(PARAMS), values["roller_load_max_n"])
     q = axial_row_roller_loads(6e5, 9e6, PARAMS["roller_count"], PARAMS["raceway_diameter_m"]).main_row_max_n
     assert values["roller_load_max_n"] == pytest.approx(q)
     assert values["loads_in_period"] == 3
@@ -53,7 +54,8 @@ def test_worst_case_per_period_and_levels_from_the_allowable():
     p_end = values["p0_end_MPa"] * 1e6
     # thresholds relative to this load's end pressure: below warn -> OK, between -> WARN, above -> ERROR
     for allowable, want in ((p_end / 0.7, 0), (p_end / 0.9, 1), (p_end * 0.95, 2)):
-        c = SlewingMonitor(dict(PARAMS, allowable_contact_stress_pa=allowable, warn_fraction=0.8))
+        c = SlewingMonitor(slewing_monitor_params(dict(PARAMS, allowable_contact_stress_pa=allowable,
+                                                       warn_fraction=0.8)))
         c.on_loads(6e5, 2e4, 9e6)
         assert c.period_report()[0] == want, allowable
     # the next period starts afresh but keeps the last report when no load came
@@ -64,8 +66,9 @@ def test_worst_case_per_period_and_levels_from_the_allowable():
 def test_numerical_model_is_tabulated_once_and_matches_a_direct_solve():
     from guide_health.models.slewing.monitor import _numerical_report
 
-    p = dict(PARAMS, stress_model="numerical", roller_end_radius_m=2e-3, numerical_table_loads=8,
-             numerical_table_min_load_n=2e4, numerical_table_max_load_n=2e5)
+    p = slewing_monitor_params(dict(PARAMS, stress_model="numerical", roller_end_radius_m=2e-3,
+                                    numerical_table_loads=8, numerical_table_min_load_n=2e4,
+                                    numerical_table_max_load_n=2e5))
     model = SlewingContactModel(p)
     assert model.table.loads_n.size == 8
     got = model.report_for_roller_load(103_400.0)
@@ -83,7 +86,7 @@ def test_numerical_model_is_tabulated_once_and_matches_a_direct_solve():
 def test_offline_analysis_finds_the_worst_roller_of_a_crane_duty():
     run = simulate_slewing({"duration_h": 0.02, "load_rate_hz": 50.0}, seed=4)
     _, report = analyse_slewing_run(run, dict(PARAMS))
-    model = SlewingContactModel(dict(PARAMS))
+    model = SlewingContactModel(slewing_monitor_params(PARAMS))
     p = np.array([model.report_for_loads(a, r, m)["p_max_MPa"]
                   for a, r, m in zip(run.axial_n, run.radial_n, run.moment_nm)])
     assert report["p_max_MPa"] == pytest.approx(p.max(), rel=1e-12)
@@ -189,7 +192,7 @@ def test_load_samples_lost_by_stamp_gaps_are_estimated_live_and_offline():
     gappy.axial_n[7000] = math.nan                   # a rejected sample was received: no gap
     params = dict(PARAMS)
     _, offline = analyse_slewing_run(gappy, params)
-    live = SlewingMonitor(params)
+    live = SlewingMonitor(slewing_monitor_params(params))
     for t, fa, fr, mt in zip(gappy.t_ns.tolist(), gappy.axial_n.tolist(), gappy.radial_n.tolist(),
                              gappy.moment_nm.tolist()):
         live.on_loads(fa, fr, mt, t_ns=t)

@@ -14,6 +14,7 @@ import pytest
 from guide_health.analysis.life_signs import c_ratio_of, detect_life_signs, weibull_of_specimens
 from guide_health.models.rolling import vibration as vib
 from guide_health.params import SCHEMAS
+from guide_health.params.typed import vibration_monitor_params
 from guide_health.sim.life_test import simulate_life_test
 
 
@@ -25,7 +26,8 @@ def bench_params(**over) -> dict:
 
 def run(p: dict, seed: int, spall: bool = True):
     rec = simulate_life_test(p, seed=seed, spall=spall)
-    return rec, detect_life_signs(p, rec.t_ns, rec.blocks, rec.level_t_ns, rec.level_db)
+    return rec, detect_life_signs(vibration_monitor_params(p), rec.t_ns, rec.blocks, rec.level_t_ns,
+                                  rec.level_db)
 
 
 def test_defect_frequencies_closed_form():
@@ -79,7 +81,7 @@ def test_seed_004_ball_guide_chain_reproduces_0_624():
     rec, signs = run(p, seed=0)
     assert rec.metadata["truth"]["spall_onset_km"] == 450.0
     assert signs.failure_travel_m / 1e3 == pytest.approx(450.0, abs=5.0)
-    assert c_ratio_of(signs, p) == pytest.approx(0.624, abs=0.003)            # seed 004 Sec. 4.2
+    assert c_ratio_of(signs, vibration_monitor_params(p)) == pytest.approx(0.624, abs=0.003)    # seed 004 Sec. 4.2
     assert signs.defect == "raceway"
     assert signs.level()[0].name == "ERROR"                                    # abnormal band + noise drop
     assert signs.noise.drop_travel_m / 1e3 == pytest.approx(459.0, abs=6.0)   # loosening at 450 x 1.02
@@ -117,7 +119,7 @@ def test_weibull_of_detected_specimens():
             intervals.append((rec.travel_m[-1] / 1e3, math.inf))
         else:
             intervals.append((signs.failure_lower_m / 1e3, signs.failure_travel_m / 1e3))
-    out = weibull_of_specimens(intervals, p)
+    out = weibull_of_specimens(intervals, vibration_monitor_params(p))
     assert out["n"] == 6 and out["failures"] >= 4
     assert out["c_ratio_ci"][0] < out["c_ratio"] < out["c_ratio_ci"][1]
     assert 0.2 < out["c_ratio"] < 2.0                                           # truth 0.624: 6 specimens are few
@@ -126,7 +128,8 @@ def test_weibull_of_detected_specimens():
 def test_bad_blocks_leave_the_state_unchanged():
     p = bench_params()
     rec = simulate_life_test(bench_params(failure_km=450.0, block_every_m=50_000.0), seed=0)
-    signs = detect_life_signs(p, rec.t_ns[:5], rec.blocks[:5], rec.level_t_ns[:5], rec.level_db[:5])
+    signs = detect_life_signs(vibration_monitor_params(p), rec.t_ns[:5], rec.blocks[:5], rec.level_t_ns[:5],
+                              rec.level_db[:5])
     before = signs.summary()
     bad = rec.blocks[5].copy()
     bad[7] = np.nan
@@ -143,12 +146,12 @@ def test_chain_from_a_bag_reproduces_0_624(tmp_path):
 
     p = bench_params(failure_km=450.0, load_fraction=0.3, block_every_m=5000.0)
     write_life_test_bag(simulate_life_test(p, seed=0), tmp_path / "bag")
-    out = life_test_from_bag(tmp_path / "bag", SCHEMAS["vibration_monitor"].defaults() | {"load_fraction": 0.3})
+    out = life_test_from_bag(tmp_path / "bag", vibration_monitor_params({"load_fraction": 0.3}))
     assert out["failure_travel_km"] == pytest.approx(450.0, abs=5.0)
     assert out["c_ratio"] == pytest.approx(0.624, abs=0.003)
     assert out["defect"] == "raceway" and out["level"] == "ERROR"
     with pytest.raises(InputError):
-        life_test_from_bag(tmp_path / "missing", p)
+        life_test_from_bag(tmp_path / "missing", vibration_monitor_params(p))
 
 
 def test_cli_simulate_life_test_and_life_test_bag(tmp_path, capsys):

@@ -19,6 +19,7 @@ from guide_health.analysis.life_signs import (  # noqa: E402
 from guide_health.io.bag.writer import write_life_test_bag  # noqa: E402
 from guide_health.models.rolling.life_signs import StampedLifeTest  # noqa: E402
 from guide_health.params import SCHEMAS  # noqa: E402
+from guide_health.params.typed import vibration_monitor_params  # noqa: E402
 from guide_health.sim.life_test import simulate_life_test  # noqa: E402
 
 SIM = {"failure_km": 450.0, "block_every_m": 5000.0}
@@ -31,7 +32,7 @@ def vib_params(**over) -> dict:
 def offline_values(bag) -> dict:
     p = vib_params()
     d = read_life_test_bag(bag)
-    feed = StampedLifeTest(signs_from_params(p), p["carriage_speed_m_s"])
+    feed = StampedLifeTest(signs_from_params(vibration_monitor_params(p)), p["carriage_speed_m_s"])
     for t, x in zip(d["block_t_ns"], d["blocks"]):
         feed.on_block(t, x)
     for t, db in zip(d["level_t_ns"], d["level_db"]):      # independent stream: order between them is free
@@ -58,7 +59,7 @@ def test_live_node_equals_offline_chain_over_dds(tmp_path, ros_test_env):
 
     rec, bag = write_bag(tmp_path)
     offline = offline_values(bag)
-    chain = life_test_from_bag(bag, vib_params())
+    chain = life_test_from_bag(bag, vibration_monitor_params(vib_params()))
     assert offline["failure_travel_km"] == chain["failure_travel_km"] == pytest.approx(450.0, abs=5.0)
     assert chain["c_ratio"] == pytest.approx(0.624, abs=0.003)            # seed 004 Sec. 4.2
     assert offline["defect"] == "raceway" and offline["level"] == 2        # ERROR: abnormal band + noise drop
@@ -166,7 +167,7 @@ def test_life_test_several_bags_weibull_and_png(tmp_path):
     out = json.loads(run.stdout)
     truth = [(295.0, 300.0), (445.0, 450.0), (545.0, 550.0), (600.0, math.inf)]
     assert out["intervals_km"] == [[lo, hi if math.isfinite(hi) else None] for lo, hi in truth]   # JSON: inf -> null
-    want = weibull_of_specimens(truth, vib_params())
+    want = weibull_of_specimens(truth, vibration_monitor_params(vib_params()))
     assert out["weibull"]["failures"] == 3 and out["weibull"]["n"] == 4
     assert out["c_ratio"] == pytest.approx(want["c_ratio"], rel=1e-6)
     assert out["weibull"]["shape"] == pytest.approx(want["shape"], rel=1e-6)
@@ -211,7 +212,7 @@ def test_dynamic_parameters_reach_the_running_model(ros_context):
                 node._on_pressure(p)
 
     def offline(p):
-        f = StampedLifeTest(signs_from_params(p), p["carriage_speed_m_s"])
+        f = StampedLifeTest(signs_from_params(vibration_monitor_params(p)), p["carriage_speed_m_s"])
         for t, x in zip(rec.t_ns, rec.blocks):
             f.on_block(t, np.asarray(x, dtype=np.float32).astype(np.float64))
         for t, db in zip(rec.level_t_ns, rec.level_db):

@@ -5,6 +5,7 @@ imported on use."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -23,16 +24,17 @@ def _spectrogram(blocks, fs: float, segment: int) -> tuple[np.ndarray, np.ndarra
     return f, np.array(rows)
 
 
-def plot_life_test(path: str | Path, data: dict, summary: dict, p: dict, title: str = "") -> Path:
+def plot_life_test(path: str | Path, data: dict, summary: dict, p: Any, title: str = "") -> Path:
     """Write the PNG of one life test. ``data``: read_life_test_bag's dict; ``summary``: the detector's summary
-    (failure/rise/drop travels, defect frequencies); ``p``: vibration_monitor parameters (speed, sample rate)."""
+    (failure/rise/drop travels, defect frequencies); ``p``: the vibration_monitor
+    parameters (VibrationMonitorParams: speed, sample rate)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    v = p["carriage_speed_m_s"]
-    fs = float(data.get("sample_rate_hz") or p["sample_rate_hz"])
+    v = p.carriage_speed_m_s
+    fs = float(data.get("sample_rate_hz") or p.sample_rate_hz)
     starts = [int(a[0]) for a in (data["block_t_ns"], data["level_t_ns"]) if len(a)]
     t0 = min(starts)
     block_km = v * (np.asarray(data["block_t_ns"], dtype=float) - t0) / 1e12
@@ -49,7 +51,7 @@ def plot_life_test(path: str | Path, data: dict, summary: dict, p: dict, title: 
     ax.set_ylabel("sound level [dB]")
     ax.legend(loc="upper left", fontsize=8)
     ax.set_title(title or "life test: noise and vibration against travel (seed 004)")
-    f, spec = _spectrogram(data["blocks"], fs, int(p["welch_segment"]))
+    f, spec = _spectrogram(data["blocks"], fs, int(p.welch_segment))
     axes[1].pcolormesh(block_km, f / 1e3, spec.T, shading="nearest", cmap="viridis")
     axes[1].set_ylabel("frequency [kHz]")
     axes[1].set_title("spectrogram (Welch per block): the machine band and broadband wear", fontsize=9)

@@ -1,10 +1,12 @@
 """Seed 004's failure signs offline: blocks and sound levels (from a bag or a simulation) through the same
 :class:`~guide_health.models.rolling.life_signs.LifeTestSigns` the live ``vibration_monitor`` node uses, then the
-failure travel into C_test / C (seed 004 Eq. 5) and several specimens into the interval-censored Weibull fit."""
+failure travel into C_test / C (seed 004 Eq. 5) and several specimens into the interval-censored Weibull fit.
+``p`` throughout: the vibration_monitor parameters (VibrationMonitorParams, guide_health.params.typed)."""
 from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -18,19 +20,20 @@ from guide_health.models.rolling.life_signs import LifeTestSigns, NoiseTrend, St
 from guide_health.models.rolling.vibration import AbnormalBand, GuideKinematics
 
 
-def signs_from_params(p: dict) -> LifeTestSigns:
-    """A fresh LifeTestSigns from ``vibration_monitor`` parameters (the live node calls this too)."""
-    kin = GuideKinematics(p["ball_diameter_m"], p["ball_pitch_m"], p["loop_length_m"],
-                          math.radians(p["contact_angle_deg"]))
-    bands = AbnormalBand(p["sample_rate_hz"], n_bands=p["n_bands"], baseline_blocks=p["baseline_blocks"],
-                         alpha_block=p["false_alarm_per_block"], persist_k=p["persist_k"],
-                         persist_n=p["persist_n"], segment=p["welch_segment"])
-    noise = NoiseTrend(baseline_samples=p["noise_baseline_samples"], rise_allowance_db=p["noise_rise_allowance_db"],
-                       rise_cusum_db=p["noise_rise_cusum_db"], drop_db=p["noise_drop_db"])
-    return LifeTestSigns(p["sample_rate_hz"], kin, p["carriage_speed_m_s"], bands, noise)
+def signs_from_params(p: Any) -> LifeTestSigns:
+    """A fresh LifeTestSigns from the ``vibration_monitor`` parameters (VibrationMonitorParams; the live node
+    calls this too)."""
+    kin = GuideKinematics(p.ball_diameter_m, p.ball_pitch_m, p.loop_length_m,
+                          math.radians(p.contact_angle_deg))
+    bands = AbnormalBand(p.sample_rate_hz, n_bands=p.n_bands, baseline_blocks=p.baseline_blocks,
+                         alpha_block=p.false_alarm_per_block, persist_k=p.persist_k,
+                         persist_n=p.persist_n, segment=p.welch_segment)
+    noise = NoiseTrend(baseline_samples=p.noise_baseline_samples, rise_allowance_db=p.noise_rise_allowance_db,
+                       rise_cusum_db=p.noise_rise_cusum_db, drop_db=p.noise_drop_db)
+    return LifeTestSigns(p.sample_rate_hz, kin, p.carriage_speed_m_s, bands, noise)
 
 
-def detect_life_signs(p: dict, block_t_ns: np.ndarray, blocks, level_t_ns: np.ndarray, level_db: np.ndarray,
+def detect_life_signs(p: Any, block_t_ns: np.ndarray, blocks, level_t_ns: np.ndarray, level_db: np.ndarray,
                       start_ns: int | None = None, stop_at_end_of_test: bool = False) -> LifeTestSigns:
     """Feed blocks and sound levels in stamp order (levels first at equal stamps); travel = speed x (t - start),
     start = the first stamp (the bag starts with the test)."""
@@ -38,7 +41,7 @@ def detect_life_signs(p: dict, block_t_ns: np.ndarray, blocks, level_t_ns: np.nd
     if start_ns is None:
         firsts = [int(a[0]) for a in (block_t_ns, level_t_ns) if len(a)]
         start_ns = min(firsts) if firsts else 0
-    feed = StampedLifeTest(signs, p["carriage_speed_m_s"], start_ns)
+    feed = StampedLifeTest(signs, p.carriage_speed_m_s, start_ns)
     events = sorted([(int(t), 0, i) for i, t in enumerate(level_t_ns)] +
                     [(int(t), 1, i) for i, t in enumerate(block_t_ns)])
     for t, kind, i in events:
@@ -74,14 +77,14 @@ def vibration_status_values(feed: StampedLifeTest) -> dict:
 
 
 
-def c_ratio_of(signs: LifeTestSigns, p: dict) -> float | None:
+def c_ratio_of(signs: LifeTestSigns, p: Any) -> float | None:
     """C_test / C of the detected failure travel (seed 004 Eq. 5, ball exponent); None without a failure."""
     if signs.failure_travel_m is None:
         return None
-    return lm.c_ratio_from_life(p["load_fraction"], signs.failure_travel_m / 1e3, p["rating_distance_km"])
+    return lm.c_ratio_from_life(p.load_fraction, signs.failure_travel_m / 1e3, p.rating_distance_km)
 
 
-def weibull_of_specimens(intervals_km: list[tuple[float, float]], p: dict, confidence: float = 0.90) -> dict:
+def weibull_of_specimens(intervals_km: list[tuple[float, float]], p: Any, confidence: float = 0.90) -> dict:
     """Interval-censored Weibull fit of several specimens' (lower, upper] failure travels [km] (upper inf: the
     specimen survived to lower), B10 and C_test / C of B10 (seed 004 Sec. 3.2, Eq. 5)."""
     lo = np.array([a for a, _ in intervals_km], dtype=float)
@@ -89,8 +92,8 @@ def weibull_of_specimens(intervals_km: list[tuple[float, float]], p: dict, confi
     fit = weibull.fit_weibull(lo, up, np.ones(lo.size), confidence=confidence)
     return {"n": fit.n, "failures": fit.failures, "shape": fit.shape, "scale_km": fit.scale_km,
             "b10_km": fit.b_life_km, "b10_ci_km": list(fit.b_life_ci_km),
-            "c_ratio": lm.c_ratio_from_life(p["load_fraction"], fit.b_life_km, p["rating_distance_km"]),
-            "c_ratio_ci": [lm.c_ratio_from_life(p["load_fraction"], b, p["rating_distance_km"])
+            "c_ratio": lm.c_ratio_from_life(p.load_fraction, fit.b_life_km, p.rating_distance_km),
+            "c_ratio_ci": [lm.c_ratio_from_life(p.load_fraction, b, p.rating_distance_km)
                            for b in fit.b_life_ci_km]}
 
 
@@ -127,21 +130,21 @@ def read_life_test_bag(path) -> dict:
     return out
 
 
-def life_test_from_bag(path, p: dict) -> dict:
+def life_test_from_bag(path, p: Any) -> dict:
     """The seed's chain from a bag: failure travel from the recorded signs -> C_test / C (seed 004 Eq. 5)."""
     return life_test_from_data(path, read_life_test_bag(path), p)
 
 
-def life_test_from_data(path, d: dict, p: dict) -> dict:
+def life_test_from_data(path, d: dict, p: Any) -> dict:
     """:func:`life_test_from_bag` on data already read by :func:`read_life_test_bag` (``path`` names it)."""
-    if d["sample_rate_hz"] and abs(d["sample_rate_hz"] - p["sample_rate_hz"]) > 1e-6 * p["sample_rate_hz"]:
-        raise InputError(f"{path}: blocks at {d['sample_rate_hz']:g} Hz, sample_rate_hz is {p['sample_rate_hz']:g}")
+    if d["sample_rate_hz"] and abs(d["sample_rate_hz"] - p.sample_rate_hz) > 1e-6 * p.sample_rate_hz:
+        raise InputError(f"{path}: blocks at {d['sample_rate_hz']:g} Hz, sample_rate_hz is {p.sample_rate_hz:g}")
     try:
         signs = detect_life_signs(p, np.array(d["block_t_ns"]), d["blocks"], np.array(d["level_t_ns"]),
                                   np.array(d["level_db"]))
     except ValueError as exc:
         raise InputError(f"{path}: {exc}") from None
-    return signs.summary() | {"c_ratio": c_ratio_of(signs, p), "load_fraction": p["load_fraction"]}
+    return signs.summary() | {"c_ratio": c_ratio_of(signs, p), "load_fraction": p.load_fraction}
 
 
 def specimen_interval_km(summary: dict) -> tuple[float, float]:

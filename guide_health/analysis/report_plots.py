@@ -111,8 +111,9 @@ def plot_slewing_contact_series(path: Path, t_s: np.ndarray, series: np.ndarray,
     _save_figure(plt, fig, path)
 
 
-def plot_rolling_contact_vs_speed(params: dict[str, Any], report: dict[str, Any], path: str) -> None:
-    """Film (central, min), lambda and contact-area ratio vs carriage speed at the report's ball load."""
+def plot_rolling_contact_vs_speed(params: Any, report: dict[str, Any], path: str) -> None:
+    """Film (central, min), lambda and contact-area ratio vs carriage speed at the report's ball load
+    (``params``: the guide's GuideParams)."""
     from guide_health.models.rolling import ball_contact as bc
 
     plt = _pyplot()
@@ -145,21 +146,22 @@ def plot_rolling_contact_vs_speed(params: dict[str, Any], report: dict[str, Any]
         ax.grid(True, which="both", lw=0.3)
         ax.legend(fontsize=8)
     fig.suptitle(f"ball contact {report['contact_load_n']:.0f} N, p_max {report['p_max_MPa']:.0f} MPa, "
-                 f"eta0 {params['oil_viscosity_pa_s']} Pa s, sigma {report['composite_roughness_nm']:.0f} nm")
+                 f"eta0 {params.oil_viscosity_pa_s} Pa s, sigma {report['composite_roughness_nm']:.0f} nm")
     fig.tight_layout()
     _save_figure(plt, fig, path)
 
 
-def plot_slewing_roller_stresses(params: dict[str, Any], report: dict[str, Any], path: str) -> None:
-    """Pressure along the roller (Fig. 5) and von Mises / max shear vs depth at centre and end (Figs. 7-8)."""
+def plot_slewing_roller_stresses(params: Any, report: dict[str, Any], path: str) -> None:
+    """Pressure along the roller (Fig. 5) and von Mises / max shear vs depth at centre and end (Figs. 7-8)
+    (``params``: SlewingMonitorParams)."""
     from guide_health.models.slewing import finite_roller, mcewen
 
     load = float(report["roller_load_max_n"])
     if load <= 0:
         raise InputError("nothing to plot: no roller is loaded")
     plt = _pyplot()
-    contact = finite_roller.finite_roller_contact(load, params["roller_length_m"], params["roller_diameter_m"],
-                                                  params["youngs_modulus_pa"], params["poisson"])
+    contact = finite_roller.finite_roller_contact(load, params.roller_length_m, params.roller_diameter_m,
+                                                  params.youngs_modulus_pa, params.poisson)
     s = contact.scalars
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.5))
     ax = axes[0]
@@ -174,11 +176,11 @@ def plot_slewing_roller_stresses(params: dict[str, Any], report: dict[str, Any],
         for name, a, p0 in (("end", s.end_half_width_m, s.p0_end_pa), ("centre", s.centre_half_width_m, s.p0_centre_pa),
                             ("ideal Hertz", s.hertz.half_width_m, s.hertz.p0_pa)):
             z = np.linspace(0.0, 3.0 * a, 301)
-            field = mcewen.mcewen_stress_field(np.zeros_like(z), z, a, p0, params["friction"], params["poisson"])
+            field = mcewen.mcewen_stress_field(np.zeros_like(z), z, a, p0, params.friction, params.poisson)
             ax.plot(z * 1e3, getattr(field, key) * 1e-6, label=f"{name} (x = 0)")
         ax.set_xlabel("depth z [mm]")
         ax.set_ylabel(f"{label} [MPa]")
-        ax.set_title(f"{label}, f = {params['friction']}")
+        ax.set_title(f"{label}, f = {params.friction}")
         ax.legend(fontsize=8)
     fig.tight_layout()
     _save_figure(plt, fig, path)

@@ -7,13 +7,15 @@ import numpy as np
 
 from guide_health.models.levels import ERROR, OK, WARN
 from guide_health.models.slewing.monitor import SlewingMonitor
+from guide_health.params.typed import slewing_monitor_params
 
 
 def analyse_slewing_run(run, params: dict, progress=None) -> tuple[SlewingMonitor, dict]:
     """Every load sample of a SlewingLoadRun through SlewingMonitor (the node's rules); returns the
     monitor and a report: the worst roller of the whole run (its loads and time), counts of samples per
-    level, and `p_max_MPa` per sample for plots (key `series`)."""
-    monitor = SlewingMonitor(params)
+    level, and `p_max_MPa` per sample for plots (key `series`). ``params``: the slewing_monitor section as
+    loaded (a dict), made the typed, validated SlewingMonitorParams here as the node does."""
+    monitor = SlewingMonitor(slewing_monitor_params(params))
     n = int(np.asarray(run.t_ns).size)
     p_max = np.full(n, np.nan)
     levels = {OK: 0, WARN: 0, ERROR: 0}

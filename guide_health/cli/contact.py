@@ -29,7 +29,8 @@ from guide_health.analysis.report_plots import plot_rolling_contact_vs_speed, pl
 from guide_health.cli.command import Command, value_errors_as_input_errors
 from guide_health.errors import InputError
 from guide_health.models.rolling import ball_contact as bc
-from guide_health.params import SLEWING_MONITOR_DEFAULTS, load_node_params, validate_slewing_params, wear_monitor_params
+from guide_health.params import SLEWING_MONITOR_DEFAULTS, load_node_params, wear_monitor_params
+from guide_health.params.typed import guide_params, slewing_monitor_params
 
 DEFAULT_SPEED_M_S = 0.1
 
@@ -41,11 +42,10 @@ def _add_params_and_load(parser: argparse.ArgumentParser, section: str, load_met
     parser.add_argument("--load-n", type=float, default=None, metavar=load_metavar, help=load_help)
 
 
-def _named_report(report: dict[str, Any], params: dict[str, Any], names: tuple[str, ...], plot_path: str | None,
-                  plot: Callable[[dict, dict, str], None]) -> dict[str, Any]:
+def _named_report(report: dict[str, Any], params: Any, names: dict[str, str], plot_path: str | None,
+                  plot: Callable[[Any, dict, str], None]) -> dict[str, Any]:
     """The report with the parameters that name the machine (``names``), and the plot when asked for."""
-    for name in names:
-        report[name] = params[name]
+    report.update(names)
     if plot_path:
         plot(params, report, plot_path)
         report["plot"] = plot_path
@@ -79,8 +79,7 @@ def run_slewing(args: argparse.Namespace) -> dict[str, Any]:
     """Compute the report (INTERFACES.md `contact slewing --json` keys)."""
     from guide_health.models.slewing import monitor as rc
 
-    params = load_node_params(args.params, "slewing_monitor", SLEWING_MONITOR_DEFAULTS)
-    validate_slewing_params(params)
+    params = slewing_monitor_params(load_node_params(args.params, "slewing_monitor", SLEWING_MONITOR_DEFAULTS))
     load = _finite("--load-n", args.load_n, allow_negative=False)
     axial = _finite("--axial-n", args.axial_n, allow_negative=True)
     radial = _finite("--radial-n", args.radial_n, allow_negative=False)
@@ -95,7 +94,8 @@ def run_slewing(args: argparse.Namespace) -> dict[str, Any]:
         else:
             report = rc.slewing_contact_report(params, rc.SEED003_EXAMPLE_ROLLER_LOAD_N)
             report["load_source"] = "seed003_example"
-    return _named_report(report, params, ("bearing", "machine_id"), args.plot, plot_slewing_roller_stresses)
+    return _named_report(report, params, {"bearing": params.bearing, "machine_id": params.machine_id}, args.plot,
+                         plot_slewing_roller_stresses)
 
 
 def format_slewing(result: dict[str, Any]) -> str:
@@ -130,13 +130,14 @@ def add_rolling_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run_rolling(args: argparse.Namespace) -> dict[str, Any]:
     """Compute the report (INTERFACES.md `contact rolling --json` keys)."""
-    params = wear_monitor_params(args.params)
+    loaded = wear_monitor_params(args.params)
+    params = guide_params(loaded)
     if args.load_n is not None and not (math.isfinite(args.load_n) and args.load_n > 0):
         raise InputError(f"--load-n must be a finite number > 0, got {args.load_n!r}")
     if not math.isfinite(args.speed) or args.speed < 0:
         raise InputError(f"--speed must be a finite number >= 0, got {args.speed!r}")
-    if params["guide_type"] != "rolling":
-        print(f"guide-health: note: guide_type is {params['guide_type']!r}; using its rolling-guide parameters",
+    if params.guide_type != "rolling":
+        print(f"guide-health: note: guide_type is {params.guide_type!r}; using its rolling-guide parameters",
               file=sys.stderr)
     if not math.isfinite(args.carriage_load_n):
         raise InputError(f"--carriage-load-n must be a finite number, got {args.carriage_load_n!r}")
@@ -144,7 +145,8 @@ def run_rolling(args: argparse.Namespace) -> dict[str, Any]:
         report = bc.rolling_contact_report(params, args.load_n, args.speed, args.carriage_load_n,
                                            args.temperature_c)
     report["load_source"] = "--load-n" if args.load_n is not None else "max ball load (preload + carriage load)"
-    return _named_report(report, params, ("machine_id", "joint"), args.plot, plot_rolling_contact_vs_speed)
+    return _named_report(report, params, {"machine_id": loaded["machine_id"], "joint": loaded["joint"]}, args.plot,
+                         plot_rolling_contact_vs_speed)
 
 
 def format_rolling(result: dict[str, Any]) -> str:

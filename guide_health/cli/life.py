@@ -31,6 +31,7 @@ from guide_health.models.rolling import rating_life as lm
 from guide_health.models.rolling import weibull
 from guide_health.models.rolling.iso_rating import B_M, LAMBDA_REDUCTION, ball_guide_dynamic_rating_n
 from guide_health.params import SCHEMAS, WEAR_MONITOR_DEFAULTS, load_node_params
+from guide_health.params.typed import typed_params
 
 
 class _OneLineParser(argparse.ArgumentParser):
@@ -124,17 +125,17 @@ def _positive(value: float | None, name: str) -> float:
 
 def _rating_setup(args, from_params: bool) -> dict:
     """C, element, exponent, L_ref, factors from the options (over --params when given)."""
-    params = {}
+    loaded = {}
     if from_params and getattr(args, "params", None):
-        params = load_node_params(args.params, "wear_monitor", WEAR_MONITOR_DEFAULTS)
-    element = args.element or params.get("rolling_element", lm.BALL)
+        loaded = load_node_params(args.params, "wear_monitor", WEAR_MONITOR_DEFAULTS)
+    params = typed_params("wear_monitor", loaded, validate=False)     # without --params: the schema defaults
+    element = args.element or params.rolling_element
     if element not in (lm.BALL, lm.ROLLER):
         raise InputError(f"rolling_element must be 'ball' or 'roller', got {element!r}")
-    l_ref = args.rating_distance_km if args.rating_distance_km is not None else params.get(
-        "rating_distance_km", lm.CATALOGUE_RATING_DISTANCE_KM)
+    l_ref = args.rating_distance_km if args.rating_distance_km is not None else params.rating_distance_km
     l_ref = _positive(l_ref, "--rating-distance-km")
     exponent = lm.life_exponent(element) if args.exponent is None else _positive(args.exponent, "--exponent")
-    factors = args.factors if args.factors is not None else params.get("life_factors", [1.0, 1.0, 1.0, 1.0])
+    factors = args.factors if args.factors is not None else params.life_factors
     factors = [float(f) for f in factors]
     if len(factors) != 4 or not all(math.isfinite(f) and f > 0 for f in factors):
         raise InputError(f"life factors fh ft fc fw must be 4 numbers > 0, got {factors}")
@@ -142,7 +143,7 @@ def _rating_setup(args, from_params: bool) -> dict:
     if hasattr(args, "c_n"):
         if args.c_n is not None:
             _positive(args.c_n, "--c-n")
-        c = args.c_n if args.c_n is not None else params.get("dynamic_load_rating_n", 0.0)
+        c = args.c_n if args.c_n is not None else params.dynamic_load_rating_n
         if c is None or not c > 0:
             raise InputError("dynamic load rating needed: --c-n N or dynamic_load_rating_n > 0 in --params")
         out["c_n"] = _positive(c, "--c-n")
@@ -207,9 +208,10 @@ def _run_test_bag(args) -> dict:
     )
 
     section = SCHEMAS["vibration_monitor"]
-    p = load_node_params(args.params, section.section, section.defaults()) if args.params else section.defaults()
+    loaded = load_node_params(args.params, section.section, section.defaults()) if args.params else {}
     if args.load_fraction is not None:
-        p["load_fraction"] = _positive(args.load_fraction, "--load-fraction")
+        loaded["load_fraction"] = _positive(args.load_fraction, "--load-fraction")
+    p = typed_params(section.section, loaded, validate=False)
     out_dir = None if args.out is None else Path(args.out)
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)
@@ -226,7 +228,7 @@ def _run_test_bag(args) -> dict:
     if len(specimens) == 1:
         out = {"mode": "test"} | specimens[0]
         if out.get("failure_travel_km") is not None:
-            out |= life_test_readings(p["load_fraction"], out["failure_travel_km"], [1.0] * 4, _shape(args))
+            out |= life_test_readings(p.load_fraction, out["failure_travel_km"], [1.0] * 4, _shape(args))
         return out | _geometry_check(args)
     intervals = [specimen_interval_km(s) for s in specimens]
     if not any(math.isfinite(u) for _, u in intervals):
@@ -234,7 +236,7 @@ def _run_test_bag(args) -> dict:
     fit = weibull_of_specimens(intervals, p)
     return {"mode": "test", "specimens": specimens, "intervals_km": [list(i) for i in intervals],
             "weibull": fit, "c_ratio": fit["c_ratio"], "c_ratio_ci": fit["c_ratio_ci"],
-            "load_fraction": p["load_fraction"]} | _geometry_check(args)
+            "load_fraction": p.load_fraction} | _geometry_check(args)
 
 
 def _shape(args) -> float:
@@ -246,15 +248,16 @@ def _geometry_check(args) -> dict:
     """C from the wear_monitor geometry of --params (when the file has that section) next to its catalogue C."""
     if not args.params:
         return {}
-    g = load_node_params(args.params, "wear_monitor", WEAR_MONITOR_DEFAULTS, required=False)
-    if g.get("guide_type") != "rolling" or g.get("rolling_element", lm.BALL) != lm.BALL:
+    g = typed_params("wear_monitor", load_node_params(args.params, "wear_monitor", WEAR_MONITOR_DEFAULTS,
+                                                      required=False), validate=False)
+    if g.guide_type != "rolling" or g.rolling_element != lm.BALL:
         return {}
-    l_ref = g["rating_distance_km"]
-    c_geo = ball_guide_dynamic_rating_n(2 * g["ball_radius_m"], g["groove_conformity"], g["contact_angle_deg"],
-                                        g["balls_per_row"], l_ref)
-    c_low = ball_guide_dynamic_rating_n(2 * g["ball_radius_m"], g["groove_conformity"], g["contact_angle_deg"],
-                                        g["balls_per_row"], l_ref, lam=0.7)
-    catalogue = float(g["dynamic_load_rating_n"])
+    l_ref = g.rating_distance_km
+    c_geo = ball_guide_dynamic_rating_n(2 * g.ball_radius_m, g.groove_conformity, g.contact_angle_deg,
+                                        g.balls_per_row, l_ref)
+    c_low = ball_guide_dynamic_rating_n(2 * g.ball_radius_m, g.groove_conformity, g.contact_angle_deg,
+                                        g.balls_per_row, l_ref, lam=0.7)
+    catalogue = float(g.dynamic_load_rating_n)
     return {"c_geometry_n": c_geo, "c_geometry_lambda_0p7_n": c_low, "c_geometry_b_m": B_M,
             "c_geometry_lambda": LAMBDA_REDUCTION, "c_geometry_rating_distance_km": l_ref,
             "c_catalogue_n": catalogue,

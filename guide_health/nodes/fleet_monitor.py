@@ -27,6 +27,7 @@ from guide_health.nodes.common import run_node
 from guide_health.nodes.live_params import PeriodicTimers, apply_fleet_changes
 from guide_health.nodes.status import StatusTask, StatusUpdater, status_name
 from guide_health.params import FLEET_MONITOR_SCHEMA, declare_parameters
+from guide_health.params.typed import fleet_monitor_params
 
 
 class FleetMonitorNode(Node):
@@ -34,19 +35,18 @@ class FleetMonitorNode(Node):
         super().__init__("fleet_monitor", **kwargs)
         self.params = declare_parameters(self, FLEET_MONITOR_SCHEMA,   # validated: periods > 0
                                          on_applied=self._apply_params)
+        p = fleet_monitor_params(self.params)
         self.periodic = PeriodicTimers(self)
-        own = status_name(self.params["machine_id"], self.get_name(), "")     # its own statuses
-        self.board = FleetBoard(self.params["stale_after_s"], ignore_prefix=own,
-                                forget_after_s=self.params["forget_after_s"],
-                                max_statuses=self.params["max_statuses"])
-        self.history = (FleetHistory(self.params["history_file"], self.params["history_period_s"],
-                                     self.params["history_retention_days"])
-                        if self.params["history_file"] else None)
+        own = status_name(p.machine_id, self.get_name(), "")     # its own statuses
+        self.board = FleetBoard(p.stale_after_s, ignore_prefix=own, forget_after_s=p.forget_after_s,
+                                max_statuses=p.max_statuses)
+        self.history = (FleetHistory(p.history_file, p.history_period_s, p.history_retention_days)
+                        if p.history_file else None)
         self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 100)
         # the board ages silent machines to STALE itself: the task has no stale inputs
-        self.updater = StatusUpdater(self, self.params["machine_id"])
+        self.updater = StatusUpdater(self, p.machine_id)
         self.updater.add(StatusTask("fleet", self._fleet_report, SUMMARY_KEYS))
-        self.periodic.create("diagnostics_period_s", self.params["diagnostics_period_s"], self.publish_diagnostics)
+        self.periodic.create("diagnostics_period_s", p.diagnostics_period_s, self.publish_diagnostics)
 
     def _apply_params(self, changed: dict) -> None:
         """An accepted ``ros2 param set`` (guide_health.nodes.live_params)."""

@@ -5,7 +5,8 @@ change with the loader's rules (type, range, cross-checks) and refuses a bad one
 the node's ``on_applied({name: value})``. The functions here carry an accepted change into the objects
 that use it, so that the next status is judged with it:
 
-- thresholds (levels, alarm clear margin): the monitors read them from their ``params`` dict at each report;
+- thresholds (levels, alarm clear margin): the monitors read them from their ``params`` (a dict, or a frozen
+  parameter object replaced by one with the change, guide_health.params.typed) at each report;
 - plausibility limits of the inputs: the monitor's InputLimits rebuilt (guide_health.models.wear.input_rules);
 - ``straightness_noise_m``: the K estimator's measurement noise (the posterior is recomputed per report);
 - windows: ``input_align_window_s`` (StampAlignedFeed), ``rejected_window_samples`` (the recent-sample
@@ -22,6 +23,7 @@ from collections import deque
 from collections.abc import Callable, Iterable
 
 from guide_health.models.wear.input_rules import InputLimits
+from guide_health.params.typed import with_changes
 
 #: wear_monitor parameters whose change rebuilds the input plausibility limits
 LIMIT_PARAMS = ("travel_margin_m", "load_max_n", "load_max_rating_multiple", "straightness_max_multiple")
@@ -51,7 +53,7 @@ def apply_to_precision_monitor(monitor, changed: dict) -> None:
     """A PrecisionMonitor (guide_health.models.wear.precision) takes the accepted changes (module text)."""
     monitor.params.update(changed)
     if monitor.rolling is not None:
-        monitor.rolling.params.update(changed)
+        monitor.rolling.params = with_changes(monitor.rolling.params, changed)
     if any(name in changed for name in LIMIT_PARAMS):
         monitor.limits = InputLimits.from_params(monitor.params)
     if "straightness_noise_m" in changed:
@@ -83,9 +85,9 @@ def apply_common(changed: dict, updater, timers: PeriodicTimers, alarms: Iterabl
 
 def apply_slewing_changes(changed: dict, core, updater, timers: PeriodicTimers, alarms: Iterable = ()) -> None:
     """slewing_monitor: the allowable stress and warn fraction of the contact model (cached floats)."""
-    core.params.update(changed)
+    core.params = with_changes(core.params, changed)
     model = core.model
-    model.params.update(changed)
+    model.params = with_changes(model.params, changed)
     if "allowable_contact_stress_pa" in changed:
         model.allowable_pa = float(changed["allowable_contact_stress_pa"])
     if "warn_fraction" in changed:

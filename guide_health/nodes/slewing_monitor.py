@@ -20,6 +20,7 @@ from guide_health.nodes.live_params import PeriodicTimers, apply_slewing_changes
 from guide_health.nodes.qos import SensorSubscriptions
 from guide_health.nodes.status import StatusTask, StatusUpdater
 from guide_health.params import SLEWING_MONITOR_SCHEMA, declare_parameters
+from guide_health.params.typed import slewing_monitor_params
 
 # data QoS: parameter sensor_qos (guide_health/nodes/qos.py: reliable back-pressure vs best-effort loss)
 # status keys (README "Diagnostics"): ROLLER_CONTACT_KEYS always, 'nan' until known; EXTRA_KEYS when known
@@ -44,16 +45,17 @@ class SlewingMonitorNode(Node):
     def __init__(self, **kwargs):
         super().__init__("slewing_monitor", **kwargs)
         params = declare_parameters(self, SLEWING_MONITOR_SCHEMA, on_applied=self._apply_params)
+        p = slewing_monitor_params(params)
         self.periodic = PeriodicTimers(self)
-        self.core = SlewingMonitor(params)
+        self.core = SlewingMonitor(p)
         self.params = params
-        self.updater = StatusUpdater(self, params["machine_id"], params["input_timeout_s"], alarms=True)
-        self.updater.add(StatusTask(f"{params['bearing']} roller contact", self._report,
+        self.updater = StatusUpdater(self, p.machine_id, p.input_timeout_s, alarms=True)
+        self.updater.add(StatusTask(f"{p.bearing} roller contact", self._report,
                                     ROLLER_CONTACT_KEYS, EXTRA_KEYS, stale_inputs=("slewing/load",)))
         self.diag_pub = self.updater.publisher
-        self.sensors = SensorSubscriptions(self, params["sensor_qos"], params["sensor_queue_depth"], with_info=True)
+        self.sensors = SensorSubscriptions(self, p.sensor_qos, p.sensor_queue_depth, with_info=True)
         self.sensors.subscribe(WrenchStamped, "slewing/load", self._on_load)
-        self.periodic.create("diagnostics_period_s", params["diagnostics_period_s"], self.publish_diagnostics)
+        self.periodic.create("diagnostics_period_s", p.diagnostics_period_s, self.publish_diagnostics)
 
     def _apply_params(self, changed: dict) -> None:
         """An accepted ``ros2 param set`` (guide_health.nodes.live_params)."""
@@ -79,7 +81,7 @@ class SlewingMonitorNode(Node):
             return level
         model = self.core.model
         return max(level, contact_level(p_max_pa, model.allowable_pa, model.warn_fraction,
-                                        self.params["alarm_clear_margin"]))
+                                        self.core.params.alarm_clear_margin))
 
     def publish_diagnostics(self) -> None:
         self.updater.update()

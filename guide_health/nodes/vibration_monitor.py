@@ -34,6 +34,7 @@ from guide_health.nodes.common import run_node
 from guide_health.nodes.live_params import PeriodicTimers, apply_common
 from guide_health.nodes.status import RejectionLog, StatusTask, StatusUpdater
 from guide_health.params import VIBRATION_MONITOR_SCHEMA, declare_parameters
+from guide_health.params.typed import vibration_monitor_params
 
 # reliable keep_all: a block is never dropped silently (a lagging node pushes back on the writer)
 DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1, reliability=ReliabilityPolicy.RELIABLE)
@@ -95,20 +96,21 @@ class VibrationMonitorNode(Node):
     def __init__(self, **kwargs):
         super().__init__("vibration_monitor", **kwargs)
         params = declare_parameters(self, VIBRATION_MONITOR_SCHEMA, on_applied=self._apply_params)
-        self.params = params
+        self.params = vibration_monitor_params(params)     # a run-time change goes to the model, not here
+        p = self.params
         self.periodic = PeriodicTimers(self)
-        self.feed = StampedLifeTest(signs_from_params(params), params["carriage_speed_m_s"])
+        self.feed = StampedLifeTest(signs_from_params(p), p.carriage_speed_m_s)
         self.rejections = RejectionLog(self.get_logger())
         self._callback_s = 0.0
         self._model_s = 0.0
         self._blocks_in = 0
-        self.updater = StatusUpdater(self, params["machine_id"], params["input_timeout_s"])
-        self.task = f"{params['joint_name']} vibration"
+        self.updater = StatusUpdater(self, p.machine_id, p.input_timeout_s)
+        self.task = f"{p.joint_name} vibration"
         self.updater.add(StatusTask(self.task, self.report, VIBRATION_KEYS, EXTRA_KEYS, stale_inputs=INPUTS))
         self.diag_pub = self.updater.publisher
         self.create_subscription(LaserScan, "guide/acceleration", self._on_block_raw, DATA_QOS, raw=True)
         self.create_subscription(FluidPressure, "guide/sound_pressure", self._on_pressure, DATA_QOS)
-        self.periodic.create("status_period_s", params["status_period_s"], self.publish_diagnostics)
+        self.periodic.create("status_period_s", p.status_period_s, self.publish_diagnostics)
 
     def _apply_params(self, changed: dict) -> None:
         """An accepted ``ros2 param set`` (validated by the schema) reaches the running model: next block/level."""
@@ -126,7 +128,7 @@ class VibrationMonitorNode(Node):
             self.feed.rejected_blocks += 1
             self.rejections.log(f"guide/acceleration: {exc}")
             return
-        fs = self.params["sample_rate_hz"]
+        fs = self.params.sample_rate_hz
         if not (dt_s > 0 and abs(1.0 / dt_s - fs) <= 1e-6 * fs):
             self.feed.rejected_blocks += 1
             self.rejections.log(f"guide/acceleration: block at {1.0 / dt_s if dt_s > 0 else 0.0:g} Hz, "

@@ -8,6 +8,7 @@ node and ``guide-health ... --params FILE``, so live and offline results come fr
 * ``wear_monitor.py``, ``slewing_monitor.py``, ``fleet_monitor.py``, ``simulation.py``: the schemas.
 * ``schemas.py``: every schema by section name.
 * ``loader.py``: YAML files (the only file I/O); ``ros.py``: descriptors and ``declare_parameters``.
+* ``typed.py``: the frozen, typed parameter objects generated from the schemas (what the models take).
 
 The ``*_DEFAULTS`` dicts are views of the schemas ({name: default}) for the call sites that merge over them.
 """

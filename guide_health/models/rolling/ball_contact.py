@@ -43,8 +43,6 @@ from guide_health.models.rolling.carriage import (
 )
 from guide_health.models.rolling.lubrication import (
     HD_CENTRAL_U_EXP,
-    LAMBDA_BOUNDARY,
-    LAMBDA_FULL_FILM,
     MixedLubrication,
     entrainment_speed,
     greenwood_tripp_f52_table,
@@ -53,7 +51,7 @@ from guide_health.models.rolling.lubrication import (
     jgp_greenwood_tripp,
     lubrication_regime,
 )
-from guide_health.models.rolling.oil import WaltherOil, oil_from_params, oil_viscosity_pa_s
+from guide_health.models.rolling.oil import WaltherOil, catalogue_oil
 
 ROWS_SUPPORTED = 4
 _isfinite = math.isfinite
@@ -106,63 +104,49 @@ class RollingGuideContact:
     oil_temperature_c: float = math.nan
 
     @classmethod
-    def from_params(cls, params: dict[str, Any]) -> RollingGuideContact:
-        """Validate and convert wear_monitor parameters (a complete set: the schema's defaults merged in, as
-        guide_health.params loads them); raises ValueError with a one-line reason."""
-        def number(name: str, default: Any = None) -> float:
-            value = params.get(name, default)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise ValueError(f"parameter {name} must be a finite number, got {value!r}")
-            return float(value)
-
-        def positive(name: str, default: Any = None) -> float:
-            value = number(name, default)
-            if not value > 0:
-                raise ValueError(f"parameter {name} must be > 0, got {value!r}")
-            return value
-
-        def integer(name: str, default: Any = None) -> int:
-            value = params.get(name, default)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ValueError(f"parameter {name} must be a positive integer, got {value!r}")
-            return value
-
-        radius = positive("ball_radius_m")
-        conformity = number("groove_conformity")
+    def from_params(cls, params: Any) -> RollingGuideContact:
+        """The contact of a guide's parameters (GuideParams, guide_health.params.typed: its fields by their
+        parameter names), checked for the physics; raises ValueError with a one-line reason."""
+        radius = _positive("ball_radius_m", params.ball_radius_m)
+        conformity = _number("groove_conformity", params.groove_conformity)
         if not conformity > 0.5:
             raise ValueError(f"parameter groove_conformity must be > 0.5, got {conformity!r}")
-        angle = number("contact_angle_deg")
+        angle = _number("contact_angle_deg", params.contact_angle_deg)
         if not 0.0 < angle < 90.0:
             raise ValueError(f"parameter contact_angle_deg must be in (0, 90), got {angle!r}")
-        rows = integer("rows")
+        rows = _integer("rows", params.rows)
         if rows != ROWS_SUPPORTED:
             raise ValueError(f"parameter rows: only 4-row carriages are modelled, got {rows!r}")
-        preload = number("preload_n")
+        preload = _number("preload_n", params.preload_n)
         if preload < 0:
             raise ValueError(f"parameter preload_n must be >= 0, got {preload!r}")
-        poisson = number("poisson")
+        poisson = _number("poisson", params.poisson)
         if not 0.0 <= poisson < 0.5:
             raise ValueError(f"parameter poisson must be in [0, 0.5), got {poisson!r}")
-        youngs = positive("youngs_modulus_pa")
+        youngs = _positive("youngs_modulus_pa", params.youngs_modulus_pa)
         e_star = effective_modulus_pa(youngs, poisson)
-        lam_b = positive("lambda_boundary", LAMBDA_BOUNDARY)
-        lam_f = positive("lambda_full_film", LAMBDA_FULL_FILM)
+        lam_b = _positive("lambda_boundary", params.lambda_boundary)
+        lam_f = _positive("lambda_full_film", params.lambda_full_film)
         if not lam_f > lam_b:
             raise ValueError("lambda_full_film must be > lambda_boundary")
         r_x, r_y = groove_contact_radii(radius, conformity)
+        balls_per_row = _integer("balls_per_row", params.balls_per_row)
+        constant_viscosity = _positive("oil_viscosity_pa_s", params.oil_viscosity_pa_s)
+        oil = _oil(params)
         return cls(
             ball_radius_m=radius, groove_conformity=conformity, contact_angle_deg=angle,
-            balls_per_row=integer("balls_per_row"), rows=rows, preload_per_ball_n=preload,
-            viscosity_pa_s=_oil_viscosity(params, positive("oil_viscosity_pa_s")),
-            pressure_viscosity_pa_inv=positive("pressure_viscosity_pa_inv"),
-            composite_rms_m=positive("roughness_rms_m"), youngs_modulus_pa=youngs, poisson=poisson,
-            asperity_radius_m=positive("asperity_radius_m"),
-            asperity_density_per_m2=positive("asperity_density_per_m2"),
-            carriages=integer("carriages"),
+            balls_per_row=balls_per_row, rows=rows, preload_per_ball_n=preload,
+            viscosity_pa_s=(constant_viscosity if oil is None
+                            else oil.dynamic_viscosity_pa_s(float(params.oil_temperature_c))),
+            pressure_viscosity_pa_inv=_positive("pressure_viscosity_pa_inv", params.pressure_viscosity_pa_inv),
+            composite_rms_m=_positive("roughness_rms_m", params.roughness_rms_m), youngs_modulus_pa=youngs,
+            poisson=poisson, asperity_radius_m=_positive("asperity_radius_m", params.asperity_radius_m),
+            asperity_density_per_m2=_positive("asperity_density_per_m2", params.asperity_density_per_m2),
+            carriages=_integer("carriages", params.carriages),
             lambda_boundary=lam_b, lambda_full_film=lam_f,
             radius_x_m=r_x, radius_y_m=r_y, effective_modulus_pa=e_star,
             ball_stiffness=ball_stiffness_n_per_m15(r_x, r_y, e_star),
-            oil=_oil(params), oil_temperature_c=float(params.get("oil_temperature_c", math.nan)),
+            oil=oil, oil_temperature_c=float(params.oil_temperature_c),
         )
 
     def at_temperature(self, temperature_c: float) -> RollingGuideContact:
@@ -203,18 +187,34 @@ class RollingGuideContact:
                                           self.balls_per_row, self.ball_stiffness)
 
 
-def _oil(params: dict[str, Any]) -> WaltherOil | None:
+def _number(name: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ValueError(f"parameter {name} must be a finite number, got {value!r}")
+    return float(value)
+
+
+def _positive(name: str, value: Any) -> float:
+    value = _number(name, value)
+    if not value > 0:
+        raise ValueError(f"parameter {name} must be > 0, got {value!r}")
+    return value
+
+
+def _integer(name: str, value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise ValueError(f"parameter {name} must be a positive integer, got {value!r}")
+    return value
+
+
+def _oil(params: Any) -> WaltherOil | None:
     try:
-        return oil_from_params(params)
+        return catalogue_oil(params.oil_viscosity_40c_mm2_s, params.oil_viscosity_100c_mm2_s,
+                             params.oil_density_15c_kg_m3)
     except ValueError as exc:
         raise ValueError(f"parameters oil_viscosity_*: {exc}") from None
 
 
-def _oil_viscosity(params: dict[str, Any], constant_pa_s: float) -> float:
-    return constant_pa_s if _oil(params) is None else oil_viscosity_pa_s(params)
-
-
-def rolling_contact_report(params: dict[str, Any], load_n: float | None, speed_m_s: float,
+def rolling_contact_report(params: Any, load_n: float | None, speed_m_s: float,
                            carriage_load_n: float = 0.0, temperature_c: float | None = None) -> dict[str, Any]:
     """Contact, film, lambda and regime of one ball contact (INTERFACES.md ``contact rolling --json`` keys).
 
@@ -234,7 +234,7 @@ def rolling_contact_report(params: dict[str, Any], load_n: float | None, speed_m
     if not math.isfinite(carriage):
         raise ValueError(f"carriage load must be finite, got {carriage!r}")
     distribution = guide.load_distribution(carriage)
-    reverse_factor = float(params.get("reverse_load_rating_factor", 1.0))
+    reverse_factor = float(params.reverse_load_rating_factor)
     fatigue_load = equivalent_fatigue_load_n(distribution, reverse_factor)
     load = distribution.max_ball_load_n if load_n is None else float(load_n)
     if not (math.isfinite(load) and load > 0):
@@ -284,7 +284,7 @@ def rolling_contact_report(params: dict[str, Any], load_n: float | None, speed_m
     }
 
 
-def speed_sweep(params: dict[str, Any], load_n: float | None, speeds_m_s: np.ndarray) -> dict[str, np.ndarray]:
+def speed_sweep(params: Any, load_n: float | None, speeds_m_s: np.ndarray) -> dict[str, np.ndarray]:
     """Film, lambda and JGP shares over carriage speeds [m/s] at one ball load (for plots and checks)."""
     guide = RollingGuideContact.from_params(params)
     load = guide.preload_per_ball_n if load_n is None else float(load_n)
@@ -326,7 +326,7 @@ class LubricationRegimeEstimator:
     _LAMBDA_LOG_GRID = np.linspace(-3.5, 1.0, 46)
     _LOAD_LOG_SPAN = (0.5, 5.0)       # ball loads 3.2 N .. 100 kN on the share table
 
-    def __init__(self, params: dict[str, Any]) -> None:
+    def __init__(self, params: Any) -> None:
         guide = RollingGuideContact.from_params(params)
         self.guide = guide
         self._preload = guide.preload_per_ball_n

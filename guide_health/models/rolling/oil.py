@@ -67,21 +67,11 @@ class WaltherOil:
         return self.kinematic_viscosity_mm2_s(temperature_c) * 1e-6 * self.density_kg_m3(temperature_c)
 
 
-def oil_from_params(params: dict) -> WaltherOil | None:
-    """The Walther oil of wear_monitor parameters, None when ``oil_viscosity_40c_mm2_s`` is 0 (constant
+def catalogue_oil(nu_40c_mm2_s: float, nu_100c_mm2_s: float, density_15c_kg_m3: float) -> WaltherOil | None:
+    """The Walther oil of the catalogue viscosities (the wear_monitor parameters ``oil_viscosity_40c_mm2_s``,
+    ``oil_viscosity_100c_mm2_s``, ``oil_density_15c_kg_m3``), None when the 40 degC value is 0 (a constant
     ``oil_viscosity_pa_s`` at every temperature)."""
-    nu40 = float(params.get("oil_viscosity_40c_mm2_s", 0.0) or 0.0)
+    nu40 = float(nu_40c_mm2_s or 0.0)
     if nu40 == 0.0:
         return None
-    return WaltherOil.from_catalogue(nu40, float(params.get("oil_viscosity_100c_mm2_s", 0.0)),
-                                     float(params.get("oil_density_15c_kg_m3", 880.0)))
-
-
-def oil_viscosity_pa_s(params: dict, temperature_c: float | None = None) -> float:
-    """The dynamic viscosity the film uses [Pa s]: Walther at ``temperature_c`` (default: the parameter
-    ``oil_temperature_c``) when catalogue viscosities are given, else ``oil_viscosity_pa_s``."""
-    oil = oil_from_params(params)
-    if oil is None:
-        return float(params["oil_viscosity_pa_s"])
-    t = float(params.get("oil_temperature_c", 40.0)) if temperature_c is None else float(temperature_c)
-    return oil.dynamic_viscosity_pa_s(t)
+    return WaltherOil.from_catalogue(nu40, float(nu_100c_mm2_s), float(density_15c_kg_m3))

@@ -31,20 +31,22 @@ from guide_health.models.wear.input_rules import reading_in_force_index
 class RollingGuideMonitor:
     STATE_VERSION = 2       # 2: fatigue sums with preload and reverse loads; 1 had neither
 
-    def __init__(self, params: dict[str, Any]):
-        self.params = dict(params)
-        self.carriages = int(params.get("carriages", 1))
+    def __init__(self, params: Any):
+        """``params``: the guide's GuideParams (guide_health.params.typed); the thresholds are read from it at
+        each report (a run-time change replaces it)."""
+        self.params = params
+        self.carriages = int(params.carriages)
         if self.carriages < 1:
             raise ValueError("carriages must be >= 1")
-        if not params["dynamic_load_rating_n"] > 0:
+        if not params.dynamic_load_rating_n > 0:
             raise ValueError("guide_type rolling needs dynamic_load_rating_n (C) > 0")
         self.regime_model = LubricationRegimeEstimator(params)
-        self.window_m = float(params.get("boundary_window_m", 100.0))
-        self.reverse_factor = float(params.get("reverse_load_rating_factor", 1.0))
+        self.window_m = float(params.boundary_window_m)
+        self.reverse_factor = float(params.reverse_load_rating_factor)
         if not (math.isfinite(self.reverse_factor) and self.reverse_factor > 0):
             raise ValueError("reverse_load_rating_factor must be > 0")
-        self.fatigue = FatigueAccumulator(params["dynamic_load_rating_n"], params["rolling_element"],
-                                          params["rating_distance_km"], params["life_factors"],
+        self.fatigue = FatigueAccumulator(params.dynamic_load_rating_n, params.rolling_element,
+                                          params.rating_distance_km, params.life_factors,
                                           recent_window_m=self.window_m)
         self.last_t_ns: int | None = None
         self.last_position_m: float | None = None
@@ -173,7 +175,7 @@ class RollingGuideMonitor:
 
     def lubrication_level(self) -> tuple[Level, str]:
         share = self.boundary_share
-        limit = self.params["boundary_share_warn"]
+        limit = self.params.boundary_share_warn
         if math.isfinite(share) and share > limit:
             return WARN, (f"{share:.0%} of the recent travel in boundary lubrication (> {limit:.0%}): "
                           f"too slow or too little oil for a film")
@@ -191,9 +193,9 @@ class RollingGuideMonitor:
         p = self.params
         if not math.isfinite(used):
             level, message = OK, "no travel yet"
-        elif used >= p["life_used_error"]:
+        elif used >= p.life_used_error:
             level, message = ERROR, f"rating life used up: {used:.0%} of {values['rating_life_km']:.0f} km"
-        elif used >= p["life_used_warn"]:
+        elif used >= p.life_used_warn:
             level, message = WARN, f"{used:.0%} of the rating life used"
         else:
             level = OK
@@ -220,8 +222,8 @@ class RollingGuideMonitor:
                              "summed fatigue without preload and reverse loads: start a new state)")
         p = self.params
         self.fatigue = FatigueAccumulator.from_state(
-            state["fatigue"], dynamic_load_rating_n=p["dynamic_load_rating_n"],
-            rating_distance_km=p["rating_distance_km"], life_factors=p["life_factors"])
+            state["fatigue"], dynamic_load_rating_n=p.dynamic_load_rating_n,
+            rating_distance_km=p.rating_distance_km, life_factors=p.life_factors)
         for key in ("last_t_ns", "last_position_m", "boundary_travel_m", "window_travel_m", "reverse_travel_m",
                     "last_regime",
                     "last_lambda", "last_asperity_share", "last_speed_m_s"):

@@ -1,7 +1,10 @@
 """Slewing-bearing monitor core (no ROS): the roller/raceway contact report of the worst roller
 (``slewing_contact_report``, direct and uncached, and ``SlewingContactModel``, geometry-only work done once so
 that a report costs microseconds; INTERFACES.md ``contact slewing --json`` keys), its level against the
-allowable contact stress, and ``SlewingMonitor``: validation and the worst roller per reporting period.
+allowable contact stress, and ``SlewingMonitor``: the worst roller per reporting period.
+
+``params`` everywhere: the frozen slewing_monitor parameter object (``SlewingMonitorParams``, validated where it
+is built, guide_health.params.typed); fields are read by their parameter names.
 
 The offline analysis of a whole load history with the same object is
 :func:`guide_health.analysis.slewing_replay.analyse_slewing_run`.
@@ -27,9 +30,8 @@ from guide_health.models.wear.stream_gaps import StampGaps
 #: seed 003 Sec. 4 example: 131.32.2000.00Z, E = 210 GPa, nu = 0.3, d = 32 mm, l = 31.3 mm, f = 0.1
 SEED003_EXAMPLE_ROLLER_LOAD_N: float = 103_400.0
 
-# Parameters, their defaults and validation: guide_health.params.SLEWING_MONITOR_SCHEMA. Every function and class
-# here takes a complete, validated parameter set (guide_health.params loads and validates it; models never
-# import params).
+# Parameters: guide_health.params.SLEWING_MONITOR_SCHEMA; every function and class here takes the validated,
+# typed SlewingMonitorParams (guide_health.params.typed); models never import params.
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -114,7 +116,7 @@ def _assemble(scalars: FiniteRollerScalars | None, maxima: McEwenMaxima, half_le
     }
 
 
-def _numerical_report(params: dict[str, Any], load_n: float, pressures: dict | None = None) -> dict[str, Any]:
+def _numerical_report(params: Any, load_n: float, pressures: dict | None = None) -> dict[str, Any]:
     """stress_model 'numerical': pressures from numerical_roller (solved now, or `pressures` from a
     RollerContactTable lookup), subsurface maxima by McEwen under p_max."""
     if pressures is None:
@@ -124,16 +126,16 @@ def _numerical_report(params: dict[str, Any], load_n: float, pressures: dict | N
             raise ValueError(f"stress_model 'numerical' is not available in this build ({exc})") from exc
         pressures = numerical_contact_report(params, load_n)
     report = dict(pressures)
-    maxima = cached_mcewen_maxima(float(params["friction"]), float(params["poisson"]))
-    e_star = effective_modulus_pa(params["youngs_modulus_pa"], params["poisson"])
-    radius = effective_radius_m(params["roller_diameter_m"])
+    maxima = cached_mcewen_maxima(float(params.friction), float(params.poisson))
+    e_star = effective_modulus_pa(params.youngs_modulus_pa, params.poisson)
+    radius = effective_radius_m(params.roller_diameter_m)
     p_max_mpa = float(report["p_max_MPa"])
     local_a_mm = 2.0 * radius * p_max_mpa * 1e6 / e_star * 1e3   # Hertz: p0 = E* a / (2 R)
-    report.setdefault("p0_hertz_MPa", hertz_line_contact(load_n, params["roller_length_m"],
-                                                         params["roller_diameter_m"], params["youngs_modulus_pa"],
-                                                         params["poisson"]).p0_pa * 1e-6)
-    allowable = float(params["allowable_contact_stress_pa"])
-    level = contact_level(p_max_mpa * 1e6, allowable, float(params["warn_fraction"]))
+    report.setdefault("p0_hertz_MPa", hertz_line_contact(load_n, params.roller_length_m,
+                                                         params.roller_diameter_m, params.youngs_modulus_pa,
+                                                         params.poisson).p0_pa * 1e-6)
+    allowable = float(params.allowable_contact_stress_pa)
+    level = contact_level(p_max_mpa * 1e6, allowable, float(params.warn_fraction))
     report.update(
         roller_load_max_n=load_n,
         von_mises_max_MPa=maxima.von_mises.value_over_p0 * p_max_mpa,
@@ -151,10 +153,10 @@ def _numerical_report(params: dict[str, Any], load_n: float, pressures: dict | N
     return report
 
 
-def slewing_contact_report(params: dict[str, Any], roller_load_n: float | None = None) -> dict[str, Any]:
+def slewing_contact_report(params: Any, roller_load_n: float | None = None) -> dict[str, Any]:
     """Direct (uncached) roller/raceway report for one roller load [N] (INTERFACES.md keys).
 
-    ``params``: slewing_monitor parameters (validated by the caller); ``roller_load_n`` None = the seed 003
+    ``params``: the slewing_monitor parameters (SlewingMonitorParams); ``roller_load_n`` None = the seed 003
     example load, 103 400 N. The highest pressure (``p_max_MPa``) of the seed model is p0 at the roller
     end (Eq. 5); ``von_mises_max_MPa`` (= ``von_mises_subsurface_max_MPa``)/``shear_max_MPa`` are the
     subsurface maxima of the McEwen field (over x and z, friction included) under that pressure, depths in mm
@@ -166,16 +168,16 @@ def slewing_contact_report(params: dict[str, Any], roller_load_n: float | None =
     # seed 003 Eqs. 2-24
     """
     load = SEED003_EXAMPLE_ROLLER_LOAD_N if roller_load_n is None else checked_load_n("roller load", roller_load_n)
-    if params["stress_model"] == "numerical":
+    if params.stress_model == "numerical":
         return _numerical_report(params, load)
-    half_length = 0.5 * params["roller_length_m"]
-    maxima = mcewen_maxima(float(params["friction"]), float(params["poisson"]))
+    half_length = 0.5 * params.roller_length_m
+    maxima = mcewen_maxima(float(params.friction), float(params.poisson))
     if load == 0:
-        return _assemble(None, maxima, half_length, params["allowable_contact_stress_pa"], params["warn_fraction"], 0.0)
-    contact = finite_roller_contact(load, params["roller_length_m"], params["roller_diameter_m"],
-                                    params["youngs_modulus_pa"], params["poisson"])
-    report = _assemble(contact.scalars, maxima, half_length, params["allowable_contact_stress_pa"],
-                       params["warn_fraction"], load)
+        return _assemble(None, maxima, half_length, params.allowable_contact_stress_pa, params.warn_fraction, 0.0)
+    contact = finite_roller_contact(load, params.roller_length_m, params.roller_diameter_m,
+                                    params.youngs_modulus_pa, params.poisson)
+    report = _assemble(contact.scalars, maxima, half_length, params.allowable_contact_stress_pa,
+                       params.warn_fraction, load)
     report["load_balance_ratio"] = contact.load_balance_ratio
     return report
 
@@ -195,7 +197,7 @@ def _loads_extra(rows: AxialRowLoads, radial_max: float) -> tuple[float, dict[st
     return max(candidates[worst], 0.0), extra
 
 
-def slewing_contact_report_from_loads(params: dict[str, Any], axial_load_n: float, radial_load_n: float,
+def slewing_contact_report_from_loads(params: Any, axial_load_n: float, radial_load_n: float,
                                       tilting_moment_nm: float) -> dict[str, Any]:
     """Report for the worst roller under F_a [N], F_r [N] and M_T [N m] (direct path).  # seed 003 Eq. 1
 
@@ -203,8 +205,8 @@ def slewing_contact_report_from_loads(params: dict[str, Any], axial_load_n: floa
     radial row is ASSUMED to have the axial rollers' size (the seed does not give it), n_r =
     ``radial_roller_count`` or ``roller_count`` when 0.
     """
-    rows = axial_row_roller_loads(axial_load_n, tilting_moment_nm, params["roller_count"], params["raceway_diameter_m"])
-    n_radial = params["radial_roller_count"] or params["roller_count"]
+    rows = axial_row_roller_loads(axial_load_n, tilting_moment_nm, params.roller_count, params.raceway_diameter_m)
+    n_radial = params.radial_roller_count or params.roller_count
     load, extra = _loads_extra(rows, radial_row_roller_load_max_n(radial_load_n, n_radial))
     report = slewing_contact_report(params, load)
     report.update(extra)
@@ -222,28 +224,27 @@ class SlewingContactModel:
     ``load_balance_ratio``, which needs a quadrature).
     """
 
-    def __init__(self, params: dict[str, Any]) -> None:
-        self.params = dict(params)
-        self.numerical = params["stress_model"] == "numerical"
-        self.roller_count = int(params["roller_count"])
-        self.radial_roller_count = int(params["radial_roller_count"] or params["roller_count"])
-        self.raceway_diameter_m = float(params["raceway_diameter_m"])
-        self.length_m = float(params["roller_length_m"])
+    def __init__(self, params: Any) -> None:
+        self.params = params
+        self.numerical = params.stress_model == "numerical"
+        self.roller_count = int(params.roller_count)
+        self.radial_roller_count = int(params.radial_roller_count or params.roller_count)
+        self.raceway_diameter_m = float(params.raceway_diameter_m)
+        self.length_m = float(params.roller_length_m)
         self.half_length_m = 0.5 * self.length_m
-        self.effective_modulus_pa = effective_modulus_pa(params["youngs_modulus_pa"], params["poisson"])
-        self.radius_m = effective_radius_m(params["roller_diameter_m"])
+        self.effective_modulus_pa = effective_modulus_pa(params.youngs_modulus_pa, params.poisson)
+        self.radius_m = effective_radius_m(params.roller_diameter_m)
         self.k1 = palmgren_line_stiffness(self.length_m)
-        self.allowable_pa = float(params["allowable_contact_stress_pa"])
-        self.warn_fraction = float(params["warn_fraction"])
-        self.maxima = cached_mcewen_maxima(float(params["friction"]), float(params["poisson"]))
+        self.allowable_pa = float(params.allowable_contact_stress_pa)
+        self.warn_fraction = float(params.warn_fraction)
+        self.maxima = cached_mcewen_maxima(float(params.friction), float(params.poisson))
         self.table = None
         if self.numerical:
             from guide_health.models.slewing.numerical_roller import build_roller_contact_table
 
             self.table = build_roller_contact_table(
-                self.params, float(params["numerical_table_min_load_n"]), float(params["numerical_table_max_load_n"]),
-                n_loads=int(params["numerical_table_loads"]),
-                check_midpoints=2)
+                self.params, float(params.numerical_table_min_load_n), float(params.numerical_table_max_load_n),
+                n_loads=int(params.numerical_table_loads), check_midpoints=2)
 
     def report_for_roller_load(self, roller_load_n: float) -> dict[str, Any]:
         """Report for one roller load Q [N] (>= 0, finite)."""
@@ -275,7 +276,7 @@ class SlewingContactModel:
 class SlewingMonitor:
     """ROS-free core of the node: worst case per publish period, input validation, levels."""
 
-    def __init__(self, params: dict):
+    def __init__(self, params: Any):
         self.params = params
         self.model = SlewingContactModel(params)
         self.worst: dict | None = None

@@ -31,7 +31,7 @@ import math
 import time
 import timeit
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -390,15 +390,15 @@ def mesh_convergence_study(
 # ---------------------------------------------------------------------------------------------
 # Slewing-monitor entry points
 # ---------------------------------------------------------------------------------------------
-def _profile_from_params(params: dict[str, Any], roller_load_n: float) -> dict[str, Any]:
-    """Resolve the roller-profile parameters (INTERFACES.md names) into solver keyword args."""
-    d = float(params["roller_diameter_m"])
-    length = float(params["roller_length_m"])
-    e_star = effective_modulus_pa(float(params["youngs_modulus_pa"]), float(params["poisson"]))
-    profile = str(params.get("roller_profile", "straight"))
+def _profile_from_params(params: Any, roller_load_n: float) -> dict[str, Any]:
+    """Resolve the roller-profile parameters (SlewingMonitorParams fields) into solver keyword args."""
+    d = float(params.roller_diameter_m)
+    length = float(params.roller_length_m)
+    e_star = effective_modulus_pa(float(params.youngs_modulus_pa), float(params.poisson))
+    profile = str(params.roller_profile)
     if profile not in PROFILES:
         raise ValueError(f"roller_profile must be one of {PROFILES}, got {profile!r}")
-    log_coeff = float(params.get("log_profile_coeff_m", 0.0))
+    log_coeff = float(params.log_profile_coeff_m)
     if profile == "logarithmic" and log_coeff <= 0.0:
         log_coeff = lundberg_log_profile_coefficient(roller_load_n / length, e_star)
     return {
@@ -406,21 +406,21 @@ def _profile_from_params(params: dict[str, Any], roller_load_n: float) -> dict[s
         "roller_length_m": length,
         "effective_modulus_pa": e_star,
         "profile": profile,
-        "end_radius_m": float(params.get("roller_end_radius_m", 0.0)),
-        "crown_drop_m": float(params.get("crown_drop_m", 0.0)),
+        "end_radius_m": float(params.roller_end_radius_m),
+        "crown_drop_m": float(params.crown_drop_m),
         "log_coeff_m": log_coeff,
     }
 
 
 def numerical_contact_report(
-    params: dict[str, Any], roller_load_n: float, nx: int = 64, ny: int = 512
+    params: Any, roller_load_n: float, nx: int = 64, ny: int = 512
 ) -> dict[str, Any]:
     """Numerical roller/raceway contact for the slewing monitor (roller on a flat raceway).
 
-    ``params`` uses the slewing_monitor names: ``roller_diameter_m``, ``roller_length_m``,
-    ``youngs_modulus_pa``, ``poisson`` (both bodies the same steel), ``roller_profile``
+    ``params``: the slewing_monitor parameters (SlewingMonitorParams), of which ``roller_diameter_m``,
+    ``roller_length_m``, ``youngs_modulus_pa``, ``poisson`` (both bodies the same steel), ``roller_profile``
     ('straight' | 'crowned' | 'logarithmic'), ``roller_end_radius_m``, ``crown_drop_m``,
-    ``log_profile_coeff_m`` (0 = Lundberg 2P'/(pi E*) for this load). ``roller_load_n`` [N].
+    ``log_profile_coeff_m`` (0 = Lundberg 2P'/(pi E*) for this load) are read. ``roller_load_n`` [N].
 
     Returns p_max_MPa, p_max_position_mm (|y| from mid-length), p0_center_MPa, p0_end_MPa (max
     of the peak pressure in the end zones |y| >= L/4), end_stress_ratio, p0_hertz_MPa (mean line
@@ -484,7 +484,7 @@ class RollerContactTable:
 
     loads_n: np.ndarray
     values: dict[str, np.ndarray]
-    resolved_params: dict[str, Any]
+    resolved_params: Any        # the parameters with a Lundberg log profile resolved to its coefficient
     end_stress_reliable: bool
     solve_time_per_load_s: float
     interpolation_error: dict[str, float]
@@ -504,7 +504,7 @@ class RollerContactTable:
 
 
 def build_roller_contact_table(
-    params: dict[str, Any],
+    params: Any,
     load_min_n: float,
     load_max_n: float,
     n_loads: int = 24,
@@ -524,30 +524,31 @@ def build_roller_contact_table(
     """
     if not (0 < load_min_n < load_max_n):
         raise ValueError("need 0 < load_min_n < load_max_n")
-    p = dict(params)
-    if str(p.get("roller_profile", "straight")) == "logarithmic" and float(p.get("log_profile_coeff_m", 0.0)) <= 0:
+    resolved = params
+    if str(resolved.roller_profile) == "logarithmic" and float(resolved.log_profile_coeff_m) <= 0:
         wd = math.sqrt(load_min_n * load_max_n) if design_load_n is None else float(design_load_n)
-        e_star = effective_modulus_pa(float(p["youngs_modulus_pa"]), float(p["poisson"]))
-        p["log_profile_coeff_m"] = lundberg_log_profile_coefficient(wd / float(p["roller_length_m"]), e_star)
+        e_star = effective_modulus_pa(float(resolved.youngs_modulus_pa), float(resolved.poisson))
+        resolved = replace(resolved, log_profile_coeff_m=lundberg_log_profile_coefficient(
+            wd / float(resolved.roller_length_m), e_star))
     loads = np.geomspace(load_min_n, load_max_n, n_loads)
     rows = []
     t0 = time.perf_counter()
     for w in loads:
-        rows.append(numerical_contact_report(p, float(w), nx=nx, ny=ny))
+        rows.append(numerical_contact_report(resolved, float(w), nx=nx, ny=ny))
     per_load = (time.perf_counter() - t0) / n_loads
     values = {k: np.array([r[k] for r in rows], dtype=float) for k in _TABLE_KEYS}
     reliable = all(bool(r["end_stress_reliable"]) for r in rows)
-    table = RollerContactTable(loads, values, p, reliable, per_load, {}, (nx, ny))
+    table = RollerContactTable(loads, values, resolved, reliable, per_load, {}, (nx, ny))
     mids = np.sqrt(loads[:-1] * loads[1:])
     if check_midpoints is not None and check_midpoints < mids.size:
         mids = mids[np.linspace(0, mids.size - 1, check_midpoints).round().astype(int)]
     err = {k: 0.0 for k in _TABLE_KEYS}
     for w in mids:
-        direct = numerical_contact_report(p, float(w), nx=nx, ny=ny)
+        direct = numerical_contact_report(resolved, float(w), nx=nx, ny=ny)
         interp = table.lookup(float(w))
         for k in _TABLE_KEYS:
             ref = direct[k]
-            scale = abs(ref) if k != "p_max_position_mm" else 1e3 * float(p["roller_length_m"]) / 2
+            scale = abs(ref) if k != "p_max_position_mm" else 1e3 * float(resolved.roller_length_m) / 2
             if scale > 0:
                 err[k] = max(err[k], abs(interp[k] - ref) / scale)
     table.interpolation_error = err

@@ -107,8 +107,9 @@ class PrecisionMonitor:
         self.rolling = None
         if params.get("guide_type") == "rolling":
             from guide_health.models.rolling.rolling_guide import RollingGuideMonitor
+            from guide_health.params.typed import guide_params  # the rolling model takes typed parameters
 
-            self.rolling = RollingGuideMonitor(params)
+            self.rolling = RollingGuideMonitor(guide_params(params))
 
     # --- input validation + live updates (O(1) per sample) ---------------------------------------
     def validate_joint(self, t_ns: int, position_m: float, velocity_m_s: float = 0.0) -> str | None:
