@@ -45,12 +45,12 @@ def analyse_bag(bag, params: dict, namespace: str | None = None, progress=None,
     from guide_health.io.maintenance_msgs import read_events
     from guide_health.models.wear.axis import AxisMonitor
 
-    model = AxisMonitor(params)      # one guide: the PrecisionMonitor, plus the bag's maintenance events
+    model = AxisMonitor(params)      # one guide, plus the bag's maintenance events
     events = read_events(bag, namespace)
     for event in events:
         if event.axis == model.axis:
             model.schedule(event)
-    monitor = model.primary
+    monitor = model.guide()
     messages = 0
     t_first = t_last = None
     t_model = 0.0
