@@ -139,6 +139,11 @@ class AxisMonitor:
     def rolling(self):
         return self.guides[self.primary_name].rolling
 
+    @property
+    def primary(self) -> GuideView:
+        """The first guide seen whole."""
+        return self.guide()
+
     def guide(self, name: str | None = None) -> GuideView:
         """One guide seen whole (its physics, this axis's gate and life functions); None: the first."""
         return GuideView(self, self.primary_name if name is None else name)
@@ -453,6 +458,12 @@ class GuideView:
             raise AttributeError(attr)
         return getattr(self.axis.guides[self.name], attr)
 
+    def __setattr__(self, attr: str, value) -> None:
+        if attr in ("axis", "name") or isinstance(getattr(type(self), attr, None), property):
+            object.__setattr__(self, attr, value)
+        else:
+            setattr(self.axis.guides[self.name], attr, value)
+
     # the axis gate's (read and set through the view)
     rejected = _gate_attribute("rejected")
     recent = _gate_attribute("recent")
@@ -461,11 +472,17 @@ class GuideView:
     load_t_ns = _gate_attribute("load_t_ns")
     joint_base = _gate_attribute("joint_base")
     load_base = _gate_attribute("load_base")
+    stream_gaps = _gate_attribute("stream_gaps")
 
     @property
     def load_n(self) -> float:
         """The latest accepted load of this guide [N] (its share of the axis load)."""
         return self.axis._guide_load(self.name, self.axis.gate.load_n)
+
+    @load_n.setter
+    def load_n(self, value: float) -> None:
+        share = self.axis.shares[self.name]
+        self.axis.gate.load_n = value if share == 1.0 else value / share
 
     def recent_rejected_share(self) -> tuple[float, str, str]:
         return self.axis.gate.recent_rejected_share()
