@@ -156,7 +156,7 @@ class AxisMonitor:
     def validate_joint(self, t_ns: int, position_m: float, velocity_m_s: float = 0.0) -> str | None:
         """The joint rules of an axis sample (counted) without integrating it; the reason or None (the
         caller integrates it later: :meth:`integrate_joint`)."""
-        return self.gate.joint(t_ns, position_m, velocity_m_s)
+        return self.gate.accept_joint(t_ns, position_m, velocity_m_s)
 
     def integrate_joint(self, t_ns: int, position_m: float, load_n: float | None = None) -> None:
         """An accepted sample; ``load_n``: the axis load [N] to integrate it with (None: the latest)."""
@@ -175,7 +175,7 @@ class AxisMonitor:
 
     def accept_joints(self, t_ns, position_m, velocity_m_s):
         """:meth:`validate_joint` of arrays (input_rules.Acceptance)."""
-        return self.gate.joints(t_ns, position_m, velocity_m_s)
+        return self.gate.accept_joints(t_ns, position_m, velocity_m_s)
 
     def check_load(self, t_ns: int, load_n: float) -> str | None:
         """The rejection reason :meth:`on_load` would give (nothing counted or changed)."""
@@ -183,11 +183,11 @@ class AxisMonitor:
 
     def on_load(self, t_ns: int, load_n: float) -> str | None:
         """Axis load sample [N]; returns the rejection reason or None when accepted."""
-        return self.gate.load(t_ns, load_n)
+        return self.gate.accept_load(t_ns, load_n)
 
     def accept_loads(self, t_ns, load_n):
         """:meth:`on_load` of arrays: (input_rules.Acceptance, the latest axis load before them)."""
-        return self.gate.loads(t_ns, load_n)
+        return self.gate.accept_loads(t_ns, load_n)
 
     def integrate_many(self, t_ns, position_m, load_n, own=None) -> None:
         """:meth:`integrate_joint` of accepted samples in stamp order (each guide's batch path), split at the
@@ -223,7 +223,7 @@ class AxisMonitor:
         names = list(self.guides) if guides is None else list(guides)
         if self.last_t_ns is None:   # before any integrated joint sample (discrepancy/duty.py alike)
             return self.gate.reject(STRAIGHTNESS_WITHOUT_TIME_BASE)
-        reason = self.gate.straightness(t_ns, straightness_m, self.guides[names[0]].last_measurement_t_ns)
+        reason = self.gate.accept_straightness(t_ns, straightness_m, self.guides[names[0]].last_measurement_t_ns)
         if reason is not None:
             return reason
         reasons = [self.guides[name].measure(t_ns, straightness_m) for name in names]
@@ -232,7 +232,7 @@ class AxisMonitor:
     def on_temperature(self, t_ns: int, temperature_c: float) -> str | None:
         """A guide/temperature reading: every rolling guide's oil viscosity from its stamp on (Walther oil),
         every guide's thermal_drift correction; the rejection reason of an implausible one, else None."""
-        reason = self.gate.temperature(temperature_c)
+        reason = self.gate.accept_temperature(temperature_c)
         if reason is None:
             for guide in self.guides.values():
                 guide.add_temperature(t_ns, temperature_c)
@@ -261,11 +261,11 @@ class AxisMonitor:
         """Samples filtered by the gate (vectorised), each accepted joint sample with the load in force at
         its stamp, the integration split at the measurement times so each measurement sees the wear state
         at its own time."""
-        temp_t, temp_c = self.gate.temperatures(getattr(run, "temperature_t_ns", np.zeros(0, np.int64)),
+        temp_t, temp_c = self.gate.accept_temperatures(getattr(run, "temperature_t_ns", np.zeros(0, np.int64)),
                                                 getattr(run, "temperature_c", np.zeros(0)))
         for guide in self.guides.values():
             guide.add_temperatures(temp_t, temp_c)   # the record's readings while its measurements are applied
-        accepted = self.gate.run(run)
+        accepted = self.gate.accept_run(run)
         jt, jx, load_at_joint = accepted.joint_t_ns, accepted.joint_position_m, accepted.load_at_joint_n
         total, done, start = int(jt.size), 0, 0
         for t_meas, value in zip(np.asarray(run.straightness_t_ns, dtype=np.int64).tolist(),

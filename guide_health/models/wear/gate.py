@@ -65,7 +65,7 @@ class InputGate:
         return load_n if self.load_share == 1.0 else load_n * self.load_share
 
     # --- one sample (live) ---------------------------------------------------------------------------
-    def joint(self, t_ns: int, position_m: float, velocity_m_s: float = 0.0) -> str | None:
+    def accept_joint(self, t_ns: int, position_m: float, velocity_m_s: float = 0.0) -> str | None:
         """The joint rules of one axis sample (counted; the time base moves on when accepted); the reason."""
         reason, self.joint_base = check_joint_sample(t_ns, position_m, velocity_m_s, self.joint_base, self.limits)
         if reason is None:
@@ -73,10 +73,10 @@ class InputGate:
         return self.record("joint_states", reason)
 
     def check_load(self, t_ns: int, load_n: float) -> str | None:
-        """The rejection reason :meth:`load` would give (nothing counted or changed)."""
+        """The rejection reason :meth:`accept_load` would give (nothing counted or changed)."""
         return check_load_sample(t_ns, self.judged_load_n(load_n), self.load_base, self.limits)[0]
 
-    def load(self, t_ns: int, load_n: float) -> str | None:
+    def accept_load(self, t_ns: int, load_n: float) -> str | None:
         """The load rules of one axis load [N]; an accepted one becomes the latest load. The reason."""
         reason, self.load_base = check_load_sample(t_ns, self.judged_load_n(load_n), self.load_base, self.limits)
         if reason is not None:
@@ -88,13 +88,13 @@ class InputGate:
         self.load_samples += 1
         return None
 
-    def straightness(self, t_ns: int, straightness_m: float, last_measurement_t_ns: int | None) -> str | None:
+    def accept_straightness(self, t_ns: int, straightness_m: float, last_measurement_t_ns: int | None) -> str | None:
         """The straightness rules (``last_measurement_t_ns``: the stamp of the last applied measurement);
         a rejection is counted. The reason, or None."""
         reason = check_straightness_sample(t_ns, straightness_m, last_measurement_t_ns, self.limits)
         return None if reason is None else self.rejected.reject(reason)
 
-    def temperature(self, temperature_c: float) -> str | None:
+    def accept_temperature(self, temperature_c: float) -> str | None:
         """An implausible guide/temperature reading is a counted rejection; the reason, or None."""
         return None if plausible_temperature(temperature_c) else self.rejected.reject(TEMPERATURE_IMPLAUSIBLE)
 
@@ -116,16 +116,16 @@ class InputGate:
         window = self.recent[stream]
         window.extend(REASON_CODES[c] for c in acceptance.codes[-window.maxlen:].tolist())
 
-    def joints(self, t_ns, position_m, velocity_m_s) -> Acceptance:
-        """:meth:`joint` of every sample in turn (vectorised)."""
+    def accept_joints(self, t_ns, position_m, velocity_m_s) -> Acceptance:
+        """:meth:`accept_joint` of every sample in turn (vectorised)."""
         acc = accept_joint_samples(t_ns, position_m, velocity_m_s, self.joint_base, self.limits)
         self.joint_base = acc.base
         self._record_many("joint_states", acc)
         self.stream_gaps.joint.add_many(np.asarray(t_ns, dtype=np.int64)[acc.accepted])
         return acc
 
-    def loads(self, t_ns, load_n) -> tuple[Acceptance, float]:
-        """:meth:`load` of every axis load in turn (vectorised); (acceptance, the latest load before them)."""
+    def accept_loads(self, t_ns, load_n) -> tuple[Acceptance, float]:
+        """:meth:`accept_load` of every axis load in turn (vectorised); (acceptance, the latest load before them)."""
         t_ns = np.asarray(t_ns, dtype=np.int64)
         load_n = np.asarray(load_n, dtype=float)
         before = self.load_n
@@ -139,14 +139,14 @@ class InputGate:
             self.load_samples += int(ok.size)
         return acc, before
 
-    def run(self, run) -> AcceptedRun:
+    def accept_run(self, run) -> AcceptedRun:
         """The joint and load rules over a :class:`~guide_health.runs.MachineRun` chunk, each accepted joint
         sample with the axis load in force at its stamp (input_rules.load_at_joint_samples)."""
         prior_t, prior_n = self.load_base.last_t_ns, self.load_n
         jt = np.asarray(run.joint_t_ns, dtype=np.int64)
-        joints = self.joints(jt, run.joint_position_m, run.joint_velocity_m_s)
+        joints = self.accept_joints(jt, run.joint_position_m, run.joint_velocity_m_s)
         lt_all = np.asarray(run.load_t_ns, dtype=np.int64)
-        loads, _ = self.loads(lt_all, run.load_n)
+        loads, _ = self.accept_loads(lt_all, run.load_n)
         jt = jt[joints.accepted]
         lt = lt_all[loads.accepted]
         lw = np.asarray(run.load_n, dtype=float)[loads.accepted]
@@ -155,7 +155,7 @@ class InputGate:
                            load_at_joint_n=load_at_joint_samples(jt, lt, lw, prior_t, prior_n), load_t_ns=lt,
                            load_n=lw, rejected={**joints.rejected, **loads.rejected}, joints=joints, loads=loads)
 
-    def temperatures(self, t_ns, temperature_c) -> tuple[np.ndarray, np.ndarray]:
+    def accept_temperatures(self, t_ns, temperature_c) -> tuple[np.ndarray, np.ndarray]:
         """The plausible readings of arrays (the others counted as rejected)."""
         t = np.asarray(t_ns, dtype=np.int64)
         c = np.asarray(temperature_c, dtype=float)
