@@ -289,9 +289,12 @@ class AxisMonitor:
 
     # --- results ----------------------------------------------------------------------------------
     def _life(self, name: str) -> tuple[LifeNow, tuple[float, float, float]]:
+        """One guide's :class:`~guide_health.models.wear.life.LifeNow` and its (life, low, high) [s]: with the
+        effects effect_life.life_interval_s (delta method), else life.remaining_life_interval_s."""
         guide = self.guides[name]
         p = guide.params
-        loss_per_k, rate_per_k, (k_low, k, k_high) = guide.life_now()
+        k_low, k, k_high = guide.estimator.interval90(guide.measurement_losses_per_k_m())
+        loss_per_k, rate_per_k = guide.loss_per_k_m(), guide.integrator.straightness_rate_per_k_m_s()
         now = LifeNow(p["straightness_initial_m"], p["straightness_limit_m"], loss_per_k, rate_per_k, k, k_low, k_high)
         if guide.effect_wear is not None and math.isfinite(loss_per_k) and math.isfinite(rate_per_k):
             return now, guide.effect_life_interval_s(k)

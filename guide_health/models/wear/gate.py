@@ -32,10 +32,10 @@ from guide_health.models.wear.input_rules import (
     StampBase,
     accept_joint_samples,
     accept_load_samples,
+    accept_run,
     check_joint_sample,
     check_load_sample,
     check_straightness_sample,
-    load_at_joint_samples,
     plausible_temperature,
 )
 from guide_health.models.wear.stream_gaps import StreamGaps
@@ -141,19 +141,19 @@ class InputGate:
 
     def accept_run(self, run) -> AcceptedRun:
         """The joint and load rules over a :class:`~guide_health.runs.MachineRun` chunk, each accepted joint
-        sample with the axis load in force at its stamp (input_rules.load_at_joint_samples)."""
-        prior_t, prior_n = self.load_base.last_t_ns, self.load_n
-        jt = np.asarray(run.joint_t_ns, dtype=np.int64)
-        joints = self.accept_joints(jt, run.joint_position_m, run.joint_velocity_m_s)
-        lt_all = np.asarray(run.load_t_ns, dtype=np.int64)
-        loads, _ = self.accept_loads(lt_all, run.load_n)
-        jt = jt[joints.accepted]
-        lt = lt_all[loads.accepted]
-        lw = np.asarray(run.load_n, dtype=float)[loads.accepted]
-        jx = np.asarray(run.joint_position_m, dtype=float)[joints.accepted]
-        return AcceptedRun(joint_t_ns=jt, joint_position_m=jx,
-                           load_at_joint_n=load_at_joint_samples(jt, lt, lw, prior_t, prior_n), load_t_ns=lt,
-                           load_n=lw, rejected={**joints.rejected, **loads.rejected}, joints=joints, loads=loads)
+        sample with the axis load in force at its stamp (input_rules.accept_run)."""
+        accepted = accept_run(run, self.joint_base, self.load_base, self.load_n, self.limits, self.load_share)
+        self.rejected.count_all(accepted.rejected)
+        self.joint_base, self.load_base = accepted.joints.base, accepted.loads.base
+        for stream, acceptance in (("joint_states", accepted.joints), ("guide/load", accepted.loads)):
+            window = self.recent[stream]
+            window.extend(REASON_CODES[c] for c in acceptance.codes[-window.maxlen:].tolist())
+        self.stream_gaps.joint.add_many(accepted.joint_t_ns)
+        self.stream_gaps.load.add_many(accepted.load_t_ns)
+        if accepted.load_t_ns.size:
+            self.load_n, self.load_t_ns = float(accepted.load_n[-1]), int(accepted.load_t_ns[-1])
+            self.load_samples += int(accepted.load_t_ns.size)
+        return accepted
 
     def accept_temperatures(self, t_ns, temperature_c) -> tuple[np.ndarray, np.ndarray]:
         """The plausible readings of arrays (the others counted as rejected)."""

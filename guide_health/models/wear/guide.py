@@ -279,11 +279,6 @@ class GuideWear:
         unit K ``g`` [m] (a number or an array, e.g. :meth:`measurement_losses_per_k_m`)."""
         return self.params["straightness_initial_m"] + wear_coefficient * loss_per_k_m
 
-    def life_now(self) -> tuple:
-        """(loss per unit K now [m], its rate [m/s], K's (low, estimate, high)) for models/wear/life.py."""
-        k_low, k, k_high = self.estimator.interval90(self.measurement_losses_per_k_m())
-        return self.loss_per_k_m(), self.integrator.straightness_rate_per_k_m_s(), (k_low, k, k_high)
-
     def running_in(self, wear_coefficient: float) -> RunningIn | None:
         """The effect-aware forecast's inputs (running-in or lubrication_interval), None without them."""
         f = self.effect_forecast() if self.effect_wear is not None else {}
