@@ -148,7 +148,8 @@ class AxisMonitor:
         """One guide seen whole (its physics, this axis's gate and life functions); None: the first."""
         return GuideView(self, self.primary_name if name is None else name)
 
-    def _guide_load(self, name: str, load_n):
+    def guide_load(self, name: str, load_n):
+        """Guide ``name``'s share of an axis load [N] (scalar or array)."""
         share = self.shares[name]
         return load_n if share == 1.0 else load_n * share
 
@@ -164,7 +165,7 @@ class AxisMonitor:
             self.apply_due(t_ns)
         load = self.gate.load_n if load_n is None else load_n
         for name, guide in self.guides.items():
-            guide.advance(t_ns, position_m, self._guide_load(name, load))
+            guide.advance(t_ns, position_m, self.guide_load(name, load))
 
     def on_joint(self, t_ns: int, position_m: float, velocity_m_s: float = 0.0) -> str | None:
         """Axis sample; returns the rejection reason or None when accepted (and integrated)."""
@@ -208,12 +209,12 @@ class AxisMonitor:
         if hi <= lo:
             return
         for name, guide in self.guides.items():
-            w = self._guide_load(name, load_n[lo:hi])
+            w = self.guide_load(name, load_n[lo:hi])
             if own is not None:
                 sel = (own[0] >= lo) & (own[0] < hi)
                 if sel.any():
                     w = w.copy()
-                    w[own[0][sel] - lo] = self._guide_load(name, own[1][sel])
+                    w[own[0][sel] - lo] = self.guide_load(name, own[1][sel])
             guide.advance_many(t_ns[lo:hi], position_m[lo:hi], w)
 
     def on_straightness(self, t_ns: int, straightness_m: float, guides=None) -> str | None:
@@ -338,7 +339,7 @@ class AxisMonitor:
             **{rejected_key(r): n for r, n in gate.rejected.items()},
             **gate.stream_gaps.values(),
         }
-        if guide._thermal():
+        if guide.thermal_drift:
             # straightness_measured_um is the corrected reading; this is what was taken off the last one
             result["straightness_thermal_correction_um"] = guide.thermal_correction_m * 1e6
         judged = PrecisionNow(result["straightness_um"], result["straightness_limit_um"], result["remaining_life_h"],
@@ -426,7 +427,7 @@ class AxisMonitor:
     def guide_state(self, name: str) -> dict:
         """The saved state of one guide: its physics and the gate's latest load (the guide's share of it)."""
         gate = self.gate
-        return self.guides[name].state(self._guide_load(name, gate.load_n), gate.load_t_ns, gate.load_samples)
+        return self.guides[name].state(self.guide_load(name, gate.load_n), gate.load_t_ns, gate.load_samples)
 
     def restore_guide(self, name: str, state: dict) -> None:
         """One guide from a :meth:`guide_state`; the gate takes the latest load (back to the axis load), its
@@ -480,7 +481,7 @@ class GuideView:
     @property
     def load_n(self) -> float:
         """The latest accepted load of this guide [N] (its share of the axis load)."""
-        return self.axis._guide_load(self.name, self.axis.gate.load_n)
+        return self.axis.guide_load(self.name, self.axis.gate.load_n)
 
     @load_n.setter
     def load_n(self, value: float) -> None:

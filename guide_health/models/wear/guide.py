@@ -112,12 +112,14 @@ class GuideWear:
     def trim_temperatures(self) -> None:
         del self.temperature_t_ns[:-TEMPERATURE_HISTORY], self.temperature_c[:-TEMPERATURE_HISTORY]
 
-    def _thermal(self) -> bool:
+    @property
+    def thermal_drift(self) -> bool:
+        """The thermal_drift effect is on (its readings are kept, measurements corrected)."""
         return self.effects is not None and self.effects.thermal_drift_m_per_k != 0.0
 
     def _keep_temperatures(self, t_ns: np.ndarray, temperature_c: np.ndarray, keep: int = TEMPERATURE_HISTORY) -> None:
         """Add readings (non-finite ones dropped), sorted by stamp, keeping the last ``keep``."""
-        if not self._thermal() or t_ns.size == 0:
+        if not self.thermal_drift or t_ns.size == 0:
             return
         ok = np.isfinite(temperature_c)
         t = np.concatenate((np.asarray(self.temperature_t_ns, dtype=np.int64), t_ns[ok]))
@@ -128,7 +130,7 @@ class GuideWear:
     def thermal_offset_at_k(self, t_ns: int) -> float | None:
         """T - T_ref [K] of the temperature reading in force at ``t_ns`` (thermal_drift; 0 without the
         effect); None when no reading is stamped at or before it."""
-        if not self._thermal():
+        if not self.thermal_drift:
             return 0.0
         i = reading_in_force_index(self.temperature_t_ns, int(t_ns))
         if i < 0:
@@ -150,7 +152,7 @@ class GuideWear:
         offset = self.thermal_offset_at_k(t_ns)
         if offset is None:
             return STRAIGHTNESS_WITHOUT_TEMPERATURE
-        correction = self.effects.thermal_drift_m_per_k * offset if self._thermal() else 0.0   # c_T (T - T_ref)
+        correction = self.effects.thermal_drift_m_per_k * offset if self.thermal_drift else 0.0   # c_T (T - T_ref)
         self.thermal_correction_m = correction
         self.estimator.add(t_ns, straightness_m - correction, self.loss_per_k_m(), self.work_nm())
         if self.effect_wear is not None:
@@ -243,7 +245,7 @@ class GuideWear:
             dy = np.zeros_like(dg)
             dy[:, A0_INDEX] = -1.0
             offsets = np.asarray(self.effect_wear.measurement_temperature_offset_k, dtype=float)
-            if self._thermal() and offsets.size == n and np.all(np.isfinite(offsets)):
+            if self.thermal_drift and offsets.size == n and np.all(np.isfinite(offsets)):
                 dy[:, C_T_INDEX] = -offsets
                 dy[:, OFFSET_INDEX] = -1.0
             k_sens = online_k_sensitivity(g, np.asarray(est.measurement_m) - est.straightness_initial_m,
@@ -304,7 +306,7 @@ class GuideWear:
             "rolling": None if self.rolling is None else self.rolling.state(),
             **({} if self.effect_wear is None else {"effects": self.effect_wear.state()}),
             # thermal_drift: the readings a later measurement may take (by stamp)
-            **({} if not self._thermal() else {"temperatures": {"reading_t_ns": list(self.temperature_t_ns),
+            **({} if not self.thermal_drift else {"temperatures": {"reading_t_ns": list(self.temperature_t_ns),
                                                                  "reading_c": list(self.temperature_c)}}),
         }
 
@@ -331,7 +333,7 @@ class GuideWear:
         self.estimator.prior_rel_sd = self.params["wear_coefficient_prior_rel_sd"]
         self.estimator.noise_sd_m = self.params["straightness_noise_m"]
         self.estimator.straightness_initial_m = self.params["straightness_initial_m"]
-        if self._thermal() and self.effect_wear is not None and self.temperature_t_ns:   # a state before stop 12
+        if self.thermal_drift and self.effect_wear is not None and self.temperature_t_ns:   # a state before stop 12
             self.effect_wear.rebuild_temperature_offsets(self.estimator.measurement_t_ns, self.temperature_t_ns[0],
                                                          self.thermal_offset_at_k)
         if self.rolling is not None and state.get("rolling"):

@@ -25,9 +25,11 @@ class PrecisionMonitor(GuideView):
 
     STATE_VERSION = GuideWear.STATE_VERSION
 
-    def __init__(self, params: dict[str, Any]):
-        axis = AxisMonitor(params, guides=("guide",))
-        super().__init__(axis, "guide")
+    def __init__(self, params: dict[str, Any] | None = None, axis: AxisMonitor | None = None):
+        """``params``: a guide of its own (an axis of one guide); ``axis``: the first guide of that axis, its
+        inputs going to the whole axis (the single-joint node's ``monitor``)."""
+        axis = AxisMonitor(params, guides=("guide",)) if axis is None else axis
+        super().__init__(axis, axis.primary_name)
 
     def on_joint(self, t_ns: int, position_m: float, velocity_m_s: float = 0.0) -> str | None:
         """Axis sample; returns the rejection reason or None when accepted."""
