@@ -51,9 +51,9 @@ class AxisMonitor:
         self.params = dict(params)
         self.axis = params.get("axis", params["joint"])
         names = list(params.get("guides", ["guide"]) if guides is None else guides)
-        shares = list(params.get("guide_load_shares", [1.0 / len(names)] * len(names)))
-        if guides is not None and len(shares) != len(names):
-            shares = [1.0 / len(names)] * len(names)
+        shares = [1.0 / len(names)] * len(names)          # named guides: equal shares
+        if guides is None:
+            shares = list(params.get("guide_load_shares", shares))
         self.shares = dict(zip(names, shares))
         self.gate = InputGate(params, self.shares[names[0]])     # every input rule, once per sample
         self.guides = {name: GuideWear(params) for name in names}   # physics only
