@@ -376,7 +376,7 @@ class AxisMonitor:
     def report(self) -> dict[str, Any]:
         """The `<axis> precision` numbers: those of the worst guide (highest level, then lowest remaining
         life), with ``guide`` naming it when the axis has several."""
-        reports = self.guide_reports()
+        reports = {name: self.guide_report(name) for name in self.guides}
         name = min(reports, key=lambda n: (-int(reports[n]["level"]), _life_key(reports[n]["remaining_life_h"])))
         report = dict(reports[name])
         if len(reports) > 1:
