@@ -102,7 +102,7 @@ def batch(run: MachineRun, pieces: int = 1, restart: bool = False) -> PrecisionM
 def live(run: MachineRun) -> PrecisionMonitor:
     """Sample by sample through StampAlignedFeed (window 0.5 s) in bag order."""
     monitor = PrecisionMonitor(PARAMS)
-    feed = StampAlignedFeed(monitor, 0.5)
+    feed = StampAlignedFeed(monitor.axis, 0.5)
     v = run.joint_velocity_m_s if run.joint_velocity_m_s.size else np.zeros(run.joint_t_ns.size)
     for n, (t, kind, i) in enumerate(bag_order(run)):
         now = n * 1e-3

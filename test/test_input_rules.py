@@ -138,7 +138,7 @@ def live(run: MachineRun, window_s: float):
     handles it (flush, then the monitor), all pending samples flushed at the end."""
     monitor = PrecisionMonitor(PARAMS)
     seen = record_integration(monitor)
-    feed = StampAlignedFeed(monitor, window_s)
+    feed = StampAlignedFeed(monitor.axis, window_s)
     reasons = []
     velocity = run.joint_velocity_m_s if run.joint_velocity_m_s.size else np.zeros(run.joint_t_ns.size)
     for n, (kind, i) in enumerate(arrival_order(run)):

@@ -108,16 +108,16 @@ def test_carriage_replacement_resets_fatigue_and_keeps_the_rail_wear():
     model = AxisMonitor(params)
     model.process_run(run)
     used = {n: g.fatigue_report()["life_used_fraction"] for n, g in model.guides.items()}
-    straight = {n: g.report()["straightness_um"] for n, g in model.guides.items()}
+    straight = {n: model.guide(n).report()["straightness_um"] for n in model.guides}
     assert all(u > 0 for u in used.values())
     model.schedule(MaintenanceEvent(model.last_t_ns, "replace_carriage", "x", "left"))
     assert model.guides["left"].fatigue_report()["life_used_fraction"] == 0.0
     assert model.guides["right"].fatigue_report()["life_used_fraction"] == used["right"]
-    assert {n: g.report()["straightness_um"] for n, g in model.guides.items()} == straight
+    assert {n: model.guide(n).report()["straightness_um"] for n in model.guides} == straight
     # relubrication: the recent boundary share restarts, the whole-history share stays
-    total = model.guides["left"].report()["boundary_share_total"]
+    total = model.guide("left").report()["boundary_share_total"]
     model.schedule(MaintenanceEvent(model.last_t_ns, "relubricate", "x"))
-    assert model.guides["left"].report()["boundary_share_total"] == total
+    assert model.guide("left").report()["boundary_share_total"] == total
 
 
 def test_maintenance_state_survives_a_restart():

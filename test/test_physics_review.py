@@ -64,7 +64,7 @@ def live(monitor: PrecisionMonitor, run: MachineRun) -> PrecisionMonitor:
 
 
 def fed(monitor: PrecisionMonitor, run: MachineRun) -> PrecisionMonitor:
-    feed = StampAlignedFeed(monitor, window_s=0.5)
+    feed = StampAlignedFeed(monitor.axis, window_s=0.5)
     events = [(int(t), 0, float(w)) for t, w in zip(run.load_t_ns, run.load_n)]
     events += [(int(t), 1, float(x)) for t, x in zip(run.joint_t_ns, run.joint_position_m)]
     for k, (t, kind, value) in enumerate(sorted(events)):

@@ -246,7 +246,7 @@ def test_stamp_aligned_feed_gives_the_offline_load_rule_whatever_the_arrival_ord
     def live(window_s, lag):
         """Loads delivered `lag` joint samples late (another writer), arrival clock 1 ms per message."""
         monitor = PrecisionMonitor(params)
-        feed = StampAlignedFeed(monitor, window_s)
+        feed = StampAlignedFeed(monitor.axis, window_s)
         events = [(i, "j") for i in range(t.size)] + [(k * 10 + lag, "l") for k in range(lt.size)]
         now = 0.0
         for order, (i, kind) in enumerate(sorted(events, key=lambda e: (e[0], e[1] == "j"))):
@@ -268,7 +268,7 @@ def test_stamp_aligned_feed_gives_the_offline_load_rule_whatever_the_arrival_ord
     assert live(0.0, lag=-3) == pytest.approx(offline.integrator.archard_work_nm, rel=1e-12)
     # a load stream slower than the window: samples go with the latest load after the window
     monitor = PrecisionMonitor(params)
-    feed = StampAlignedFeed(monitor, window_s=0.5)
+    feed = StampAlignedFeed(monitor.axis, window_s=0.5)
     feed.load(int(T0_NS), 6000.0, 0.0)
     feed.joint(int(T0_NS + 1e8), 0.10, 0.0, 0.1)
     feed.joint(int(T0_NS + 2e8), 0.11, 0.0, 0.2)
@@ -300,7 +300,7 @@ def test_first_load_overtaking_the_first_joint_samples_leaves_them_unloaded():
     assert offline.integrator.archard_work_nm == pytest.approx(6000.0 * 0.005 * 15, rel=1e-12)   # t0+0.6 s on
     for window_s in (0.5, 0.0):
         monitor = PrecisionMonitor(params)
-        feed = StampAlignedFeed(monitor, window_s)
+        feed = StampAlignedFeed(monitor.axis, window_s)
         assert feed.joint(int(t[0]), float(x[0]), 0.0, 0.0) == []
         assert feed.load(int(lt[0]), float(lw[0]), 0.01) == []       # overtakes samples 1..4
         for i in range(1, 20):

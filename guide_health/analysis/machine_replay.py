@@ -83,7 +83,7 @@ def write_machine_outputs(out: Path, models: dict[str, AxisMonitor], report: dic
     out.mkdir(parents=True, exist_ok=True)
     files = {"json": str(out / "report.json")}
     for axis, model in models.items():
-        guide = model.guides.get(report["axes"][axis].get("guide", model.primary_name))
+        guide = model.guide(report["axes"][axis].get("guide", model.primary_name))
         t_h, measured, fitted = model_curve(guide)
         files[f"csv_{axis}"] = str(out / f"straightness_{axis}.csv")
         with open_output(files[f"csv_{axis}"]) as handle:

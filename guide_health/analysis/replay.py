@@ -49,7 +49,7 @@ def analyse_bag(bag, params: dict, namespace: str | None = None, progress=None,
     for event in events:
         if event.axis == model.axis:
             model.schedule(event)
-    monitor = model.primary
+    monitor = model.guide()
     messages = 0
     t_first = t_last = None
     t_model = 0.0

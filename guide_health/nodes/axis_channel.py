@@ -303,7 +303,7 @@ class AxisChannel:
     def states(self, machine_id: str) -> dict[str, dict]:
         """{state key: state} of every guide of the axis, and the axis's maintenance log."""
         keys = self.model.state_keys(machine_id)
-        states = {keys[name]: guide.state() for name, guide in self.model.guides.items()}
+        states = {keys[name]: self.model.guide_state(name) for name in self.model.guides}
         states[self.maintenance_key(machine_id)] = self.model.maintenance_state()
         return states
 
@@ -316,6 +316,6 @@ class AxisChannel:
         for name, key in self.model.state_keys(machine_id).items():
             saved = store.load(key)
             if saved is not None:
-                self.model.guides[name].restore(saved)
-                resumed.append((key, self.model.guides[name]))
+                self.model.restore_guide(name, saved)
+                resumed.append((key, self.model.guide(name)))
         return resumed

@@ -19,10 +19,8 @@ and it is not written back to the parameters file: an offline replay with the fi
 """
 from __future__ import annotations
 
-from collections import deque
 from collections.abc import Callable, Iterable
 
-from guide_health.models.wear.input_rules import InputLimits
 from guide_health.params.typed import with_changes
 
 #: wear_monitor parameters whose change rebuilds the input plausibility limits
@@ -49,25 +47,12 @@ class PeriodicTimers:
                 timer.reset()
 
 
-def apply_to_precision_monitor(monitor, changed: dict) -> None:
-    """A PrecisionMonitor (guide_health.models.wear.precision) takes the accepted changes (module text)."""
-    monitor.params.update(changed)
-    if monitor.rolling is not None:
-        monitor.rolling.params = with_changes(monitor.rolling.params, changed)
-    if any(name in changed for name in LIMIT_PARAMS):
-        monitor.limits = InputLimits.from_params(monitor.params)
-    if "straightness_noise_m" in changed:
-        monitor.estimator.noise_sd_m = float(changed["straightness_noise_m"])
-    if "rejected_window_samples" in changed:
-        window = int(changed["rejected_window_samples"])
-        monitor.recent = {name: deque(recent, maxlen=window) for name, recent in monitor.recent.items()}
-
-
-def apply_wear_changes(changed: dict, monitors: Iterable, feeds: Iterable, updater, timers: PeriodicTimers,
+def apply_wear_changes(changed: dict, axes: Iterable, feeds: Iterable, updater, timers: PeriodicTimers,
                        alarms: Iterable = ()) -> None:
-    """wear_monitor: every guide's monitor, every axis's feed, the STALE rule, the timers, the alarms."""
-    for monitor in monitors:
-        apply_to_precision_monitor(monitor, changed)
+    """wear_monitor: every axis's model (AxisMonitor.apply_params: its guides and its input gate), every
+    axis's feed, the STALE rule, the timers, the alarms."""
+    for axis in axes:
+        axis.apply_params(changed, LIMIT_PARAMS)
     if "input_align_window_s" in changed:
         for feed in feeds:
             feed.window_s = float(changed["input_align_window_s"])

@@ -36,6 +36,7 @@ from sensor_msgs.msg import JointState
 from guide_health.errors import InputError
 from guide_health.io.bag.maintenance import MAINTENANCE_TOPIC, event_from_status, event_values
 from guide_health.io.state_store import StateStore, resolve_state_path, resume_monitor, resume_with
+from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.models.wear.state_schema import state_fingerprint
 from guide_health.nodes.axis_channel import (  # noqa: F401 - the status keys are part of this module's API
     EXTRA_FATIGUE_KEYS,
@@ -97,7 +98,7 @@ class WearMonitorNode(Node):
         self.by_axis = {channel.name: channel for channel in self.channels}
         first = self.channels[0]
         # the single-joint names of old (tests, tools): the first axis's model, feed and log
-        self.joint, self.monitor, self.feed = first.joint, first.model.primary, first.feed
+        self.joint, self.monitor, self.feed = first.joint, PrecisionMonitor(axis=first.model), first.feed
         self.rejections, self.precision_task = first.rejections, first.precision_task
         self.state_key = next(iter(first.model.state_keys(params["machine_id"]).values()))
         self.state_path = resolve_state_path(params["state_file"], params["machine_id"], self.get_name())
@@ -126,15 +127,15 @@ class WearMonitorNode(Node):
         if not changed or not hasattr(self, "channels"):
             return
         self.process_inputs()
-        monitors = [guide for channel in self.channels for guide in channel.model.guides.values()]
-        apply_wear_changes(changed, monitors, [channel.feed for channel in self.channels], self.updater,
+        apply_wear_changes(changed, [channel.model for channel in self.channels],
+                           [channel.feed for channel in self.channels], self.updater,
                            self.periodic)
 
     def _resume(self) -> None:
         for channel in self.channels:
             fingerprint = state_fingerprint(channel.params)
             for name, key in channel.model.state_keys(self.params["machine_id"]).items():
-                guide = channel.model.guides[name]
+                guide = channel.model.guide(name)
                 if not resume_monitor(self.store, key, fingerprint, guide):     # validated whole, one line
                     continue
                 self.get_logger().info(

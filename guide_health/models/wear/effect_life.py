@@ -16,6 +16,7 @@ later measurements and whatever stroke range maps the work to straightness (K's 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import brentq
@@ -166,14 +167,35 @@ def online_k_sensitivity(loss_per_k_m: np.ndarray, rise_m: np.ndarray, loss_grad
     return k_sd ** 2 / sigma_m ** 2 * (dg[ok].T @ (y[ok] - 2.0 * k * g[ok]) + dy[ok].T @ g[ok])
 
 
-def life_interval_s(k: float, k_sd: float, e: LiveEffects, now: dict, z: float) -> tuple[float, float, float]:
+@dataclass(frozen=True)
+class EffectLifeNow:
+    """The present state :func:`life_interval_s` starts from (SI units; field meanings in its docstring)."""
+
+    margin0: float                       # A_max - A0 [m]
+    work: float                          # effective work G [N m]
+    loss_work: float                     # straightness per unit K and G [m / (N m)]
+    loss_pass: float                     # straightness per unit K and P [m / N]
+    work_gradient: np.ndarray            # d G / d phi
+    rate_work_per_k: float               # [m/s]
+    dln_rate: np.ndarray                 # d ln rate / d(rho, v_lift, n, g, f, b)
+    s_now: float                         # [m]
+    v_s: float                           # [m/s]
+    pass_work: float = 0.0               # P [N]
+    rate_pass_per_k: float = 0.0         # [m/s]
+    k_sensitivity: np.ndarray | None = None   # d K / d phi (None: zeros)
+    lubrication: dict | None = None
+    a0_measured: bool = False
+
+
+def life_interval_s(k: float, k_sd: float, e: LiveEffects, now: EffectLifeNow, z: float) -> tuple[float, float, float]:
     """(life, low, high) [s] of remaining life with the effects, and its interval: the delta method on ln life
     with K profiled (module text): the effect parameters phi = (r, s0, rho, v_lift, n, g, f, b, w, c_T, e, dA0;
     ``LiveEffects.phi``; the change time t_c, the interval T and the rail's x_ref are held) vary with the model
-    file's marginal covariance, K follows as the online update would (``now["k_sensitivity"]`` = dK / dphi),
+    file's marginal covariance, K follows as the online update would (``now.k_sensitivity`` = dK / dphi),
     and K's own spread given phi is the online posterior sd ``k_sd``.
 
-    ``now``: margin0 = A_max - A0 [m]; work G = effective work [N m] and pass_work P [N] (stroke_distribution),
+    ``now`` (:class:`EffectLifeNow`): margin0 = A_max - A0 [m]; work G = effective work [N m] and pass_work
+    P [N] (stroke_distribution),
     with straightness per unit K and G, loss_work = 2 / (H b (l_min + l_max)) [m / (N m)], and per unit K and
     P, loss_pass = 1 / (H b) [m / N] (effects.straightness_wear_m: loss = (1 - w) loss_work G + w loss_pass P);
     work_gradient (d G / d phi; P moves in proportion), k_sensitivity (d K / d phi), rate_work_per_k and
@@ -184,31 +206,31 @@ def life_interval_s(k: float, k_sd: float, e: LiveEffects, now: dict, z: float) 
     by a measurement after a regrind or a new rail: the file's A0 variance no longer applies). A change of phi
     moves the straightness now (through the past effective work and K, and A0 directly) and the rate."""
     phi0 = e.phi()
-    dk = np.asarray(now.get("k_sensitivity", np.zeros(phi0.size)), dtype=float)
-    work0, pass0 = now["work"], now.get("pass_work", 0.0)
+    dk = np.asarray(np.zeros(phi0.size) if now.k_sensitivity is None else now.k_sensitivity, dtype=float)
+    work0, pass0 = now.work, now.pass_work
 
     def life(k_: float, phi: np.ndarray) -> float:
         d = phi - phi0
         kk = k_ + float(np.dot(dk, d))
         w = phi[W_INDEX]
-        work = work0 + float(np.dot(now["work_gradient"], d))
+        work = work0 + float(np.dot(now.work_gradient, d))
         passes = pass0 * work / work0 if work0 > 0 else pass0
-        loss = (1.0 - w) * now["loss_work"] * work + w * now["loss_pass"] * passes
-        rate_per_k = (1.0 - w) * now["rate_work_per_k"] + w * now.get("rate_pass_per_k", 0.0)
-        rate = kk * rate_per_k * (1.0 + float(np.dot(now["dln_rate"], d[RATE_PHI])))
-        return remaining_life_with_running_in_s(now["margin0"] - d[A0_INDEX] - kk * loss, rate, phi[0],
-                                                max(phi[1], 1e-9), now["s_now"], now["v_s"], schedule(phi, d))
+        loss = (1.0 - w) * now.loss_work * work + w * now.loss_pass * passes
+        rate_per_k = (1.0 - w) * now.rate_work_per_k + w * now.rate_pass_per_k
+        rate = kk * rate_per_k * (1.0 + float(np.dot(now.dln_rate, d[RATE_PHI])))
+        return remaining_life_with_running_in_s(now.margin0 - d[A0_INDEX] - kk * loss, rate, phi[0],
+                                                max(phi[1], 1e-9), now.s_now, now.v_s, schedule(phi, d))
 
     def schedule(phi: np.ndarray, d: np.ndarray) -> tuple | None:
         """The lubrication schedule with b moved: the window's mean multiplier moves with the window's rate
         (d ln rate / d b), the future multiplier with b itself."""
-        return schedule_tuple(now.get("lubrication"), phi[B_INDEX], 1.0 + now["dln_rate"][B_RATE_INDEX] * d[B_INDEX])
+        return schedule_tuple(now.lubrication, phi[B_INDEX], 1.0 + now.dln_rate[B_RATE_INDEX] * d[B_INDEX])
 
     centre = life(k, phi0)
     if not (math.isfinite(centre) and centre > 0):
         return centre, centre, centre
     cov = e.covariance_matrix()[1:, 1:].copy()
-    if now.get("a0_measured", False):   # A0 measured after a regrind or a new rail: the file's A0 is not used
+    if now.a0_measured:   # A0 measured after a regrind or a new rail: the file's A0 is not used
         cov[A0_INDEX, :] = cov[:, A0_INDEX] = 0.0
 
     def dln(h: float, i: int | None) -> float:

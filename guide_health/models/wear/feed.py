@@ -6,8 +6,8 @@ from collections import deque
 
 import numpy as np
 
-from guide_health.models.wear.input_rules import REASON_CODES, accept_joint_samples, accept_load_samples
-from guide_health.models.wear.precision import PrecisionMonitor
+from guide_health.models.wear.axis import AxisMonitor
+from guide_health.models.wear.input_rules import REASON_CODES
 
 
 class StampAlignedFeed:
@@ -28,21 +28,21 @@ class StampAlignedFeed:
     wear), as :func:`~guide_health.models.wear.input_rules.load_at_joint_samples` does offline. So the
     result does not depend on the arrival order of loads and joint samples, except for a load that comes
     more than `window_s` after the joint samples stamped after it.
-    Validation (:mod:`guide_health.models.wear.input_rules`) happens on arrival,
-    so bad samples are rejected at once and counted in the monitor's ``rejected``.
-    Every method returns the rejection reasons of the samples it handled.
+    Validation (the axis's input gate, models/wear/gate.py) happens on arrival, so bad samples are rejected
+    at once and counted in the axis's ``rejected``. The feed talks to its AxisMonitor only. Every method
+    returns the rejection reasons of the samples it handled.
 
-    Batches (:meth:`process`): the live node only copies messages in its callbacks and hands
-    the feed the joint and load samples that arrived since the last batch, in arrays, with their arrival
-    times and their interleaving. The feed validates them with the vectorised input rules (every guide its
-    own counters, recent windows, time bases and stamp gaps, as on arrival), replays the decisions above
+    Batches (:meth:`process`): the live node only copies messages in its callbacks and hands the feed the
+    joint and load samples that arrived since the last batch, in arrays, with their arrival times and their
+    interleaving. The axis's gate judges them with the vectorised input rules (its counters, recent windows,
+    time bases and stamp gaps, as on arrival), the feed replays the decisions above
     event by event in arrival order (which samples wait, which are integrated when, with which load in
     force at their stamp) and integrates the result with the model's batch path (AxisMonitor.integrate_many:
     split at pending maintenance events, each guide its share of the load). The numbers equal those of
     :meth:`joint` / :meth:`load` one by one (test_live_batch.py).
     """
 
-    def __init__(self, monitor: PrecisionMonitor, window_s: float = 0.5):
+    def __init__(self, monitor: AxisMonitor, window_s: float = 0.5):
         if window_s < 0:
             raise ValueError("window_s must be >= 0")
         self.monitor = monitor
@@ -112,7 +112,7 @@ class StampAlignedFeed:
             x = np.array([s[1] for s in samples], dtype=float)
             loads = [self.load_at(int(s[0])) for s in samples]
             if None not in loads:        # (None: no load through the feed yet, each guide its latest)
-                _integrate_many(self.monitor, t, x, np.array(loads, dtype=float))
+                self.monitor.integrate_many(t, x, np.array(loads, dtype=float))
                 return []
             for ti, xi, w in zip(t.tolist(), x.tolist(), loads):
                 self.monitor.integrate_joint(ti, xi, w)
@@ -131,33 +131,31 @@ class StampAlignedFeed:
         jt = np.asarray(joint_t_ns, dtype=np.int64)
         lt = np.asarray(load_t_ns, dtype=np.int64)
         lw = np.asarray(load_n, dtype=float)
-        guides = _guides(self.monitor)
-        primary = guides[0][0]
-        start_t, start_n = primary.load_t_ns, primary.load_n       # the primary's load before the batch
-        joints = [_accept_joints(g, jt, position_m, velocity_m_s) for g, _ in guides][0]
-        loads = [_accept_loads(g, share, lt, lw) for g, share in guides]
+        axis = self.monitor
+        start_t = axis.load_t_ns                       # the axis load before the batch
+        joints = axis.accept_joints(jt, position_m, velocity_m_s)
+        loads, start_n = axis.accept_loads(lt, lw)
         fast = self._align_fast(joints.accepted, jt, np.asarray(position_m, dtype=float),
-                                np.asarray(joint_now_s, dtype=float), loads[0][0].accepted, lt, lw,
+                                np.asarray(joint_now_s, dtype=float), loads.accepted, lt, lw,
                                 np.asarray(load_now_s, dtype=float), start_t)
         if fast is not None:
             self.batches[0] += 1
             if fast[0].size:
-                _integrate_many(self.monitor, *fast)
-            return _reasons(joints.codes, loads[0][0].codes, load_after)
+                axis.integrate_many(*fast)
+            return _reasons(joints.codes, loads.codes, load_after)
         self.batches[1] += 1
         out_t, out_x, out_w, own = self._align(
             joints.accepted.tolist(), jt.tolist(), np.asarray(position_m, dtype=float).tolist(),
-            list(joint_now_s), loads[0][0].accepted.tolist(), lt.tolist(), lw.tolist(), list(load_now_s),
-            list(load_after), start_t, start_n, guides[0][1])
+            list(joint_now_s), loads.accepted.tolist(), lt.tolist(), lw.tolist(), list(load_now_s),
+            list(load_after), start_t, start_n)
         if out_t:
             t, x, w = np.array(out_t, dtype=np.int64), np.array(out_x, dtype=float), np.array(out_w, dtype=float)
             own_loads = None
             if own:
                 at, counts = np.array([a for a, _ in own]), np.array([c for _, c in own])
-                own_loads = (at, [_latest_after(acc.accepted, scaled, before, counts)
-                                  for acc, scaled, before in loads])
-            _integrate_many(self.monitor, t, x, w, own_loads)
-        return _reasons(joints.codes, loads[0][0].codes, load_after)
+                own_loads = (at, _latest_after(loads.accepted, lw, start_n, counts))
+            axis.integrate_many(t, x, w, own_loads)
+        return _reasons(joints.codes, loads.codes, load_after)
 
     def _align_fast(self, ok_j, jt, jx, jnow, ok_l, lt, lw, lnow, load_t):
         """What :meth:`_align` gives, without the event loop, in the steady state: the feed keeps a load,
@@ -192,7 +190,7 @@ class StampAlignedFeed:
         self.pending = deque(zip(t[k:].tolist(), x[k:].tolist(), [0.0] * (t.size - k), now[k:]))
         return t[:k], x[:k], w
 
-    def _align(self, ok_j, jt, jx, jnow, ok_l, lt, lw, lnow, lpos, load_t, prim_n, share):
+    def _align(self, ok_j, jt, jx, jnow, ok_l, lt, lw, lnow, lpos, load_t, axis_n):
         """joint()/load()/flush_aged() decisions in arrival order, the integration deferred: the samples
         in integration order with the axis load at their stamp (NaN when it is the guides' own latest:
         ``own`` lists (index, loads handled before) of those)."""
@@ -234,73 +232,23 @@ class StampAlignedFeed:
                     pt, px = pending.popleft()[:2]
                     emit(pt, px, i)
                 if not loads and load_t is not None:
-                    loads.append((load_t, prim_n if share == 1.0 else prim_n / share))   # AxisMonitor.load_n
+                    loads.append((load_t, axis_n))          # the axis's latest load before this feed's first
                 loads.append((t, lw[i]))
-                load_t, prim_n = t, (lw[i] if share == 1.0 else lw[i] * share)
+                load_t, axis_n = t, lw[i]
                 if pending and now - pending[0][3] > window:
                     aged(now, i + 1)
         return out_t, out_x, out_w, own
 
 
-def _guides(monitor) -> list:
-    """[(guide PrecisionMonitor, load share)] of a monitor, the primary (whose verdicts count) first."""
-    if isinstance(monitor, PrecisionMonitor):
-        return [(monitor, 1.0)]
-    return [(guide, monitor.shares[name]) for name, guide in monitor.guides.items()]
-
-
-def _record(guide: PrecisionMonitor, stream: str, acceptance) -> None:
-    """What PrecisionMonitor._record does sample by sample: the counts and the recent window."""
-    guide.rejected.count_all(acceptance.rejected)
-    window = guide.recent.get(stream)
-    if window is not None:
-        window.extend(REASON_CODES[c] for c in acceptance.codes[-window.maxlen:].tolist())
-
-
-def _accept_joints(guide: PrecisionMonitor, t_ns, position_m, velocity_m_s):
-    """PrecisionMonitor.validate_joint of every sample in turn (vectorised)."""
-    acc = accept_joint_samples(t_ns, position_m, velocity_m_s, guide.joint_base, guide.limits)
-    guide.joint_base = acc.base
-    _record(guide, "joint_states", acc)
-    guide.stream_gaps.joint.add_many(t_ns[acc.accepted])
-    return acc
-
-
-def _accept_loads(guide: PrecisionMonitor, share: float, t_ns, load_n):
-    """PrecisionMonitor.on_load of every sample in turn with the guide's share (vectorised); (acceptance,
-    the guide's loads, its latest load before them)."""
-    scaled = load_n if share == 1.0 else load_n * share
-    before = guide.load_n
-    acc = accept_load_samples(t_ns, scaled, guide.load_base, guide.limits)
-    guide.load_base = acc.base
-    _record(guide, "guide/load", acc)
-    ok = np.flatnonzero(acc.accepted)
-    if ok.size:
-        guide.stream_gaps.load.add_many(t_ns[ok])
-        guide.load_n, guide.load_t_ns = float(scaled[ok[-1]]), int(t_ns[ok[-1]])
-        guide.load_samples += int(ok.size)
-    return acc, scaled, before
-
-
-def _latest_after(accepted, scaled, before: float, counts):
-    """A guide's latest accepted load once the first ``counts`` loads of the batch were handled."""
+def _latest_after(accepted, load_n, before: float, counts):
+    """The axis's latest accepted load [N] once the first ``counts`` loads of the batch were handled."""
     ok = np.flatnonzero(accepted)
     k = np.searchsorted(ok, counts, side="left") - 1
-    return np.where(k >= 0, scaled[ok[np.maximum(k, 0)]] if ok.size else math.nan, before)
-
-
-def _integrate_many(monitor, t_ns, position_m, load_n, own=None) -> None:
-    if isinstance(monitor, PrecisionMonitor):
-        if own is not None:
-            load_n = load_n.copy()
-            load_n[own[0]] = own[1][0]
-        monitor._advance_many(t_ns, position_m, load_n)
-    else:
-        monitor.integrate_many(t_ns, position_m, load_n, own)
+    return np.where(k >= 0, load_n[ok[np.maximum(k, 0)]] if ok.size else math.nan, before)
 
 
 def _reasons(joint_codes, load_codes, load_after) -> list[str]:
-    """The rejection reasons of a batch in arrival order (the primary's, as joint()/load() return)."""
+    """The rejection reasons of a batch in arrival order (as joint()/load() return them)."""
     bad = [(j, 1, REASON_CODES[c]) for j, c in zip(np.flatnonzero(joint_codes).tolist(),
                                                      joint_codes[joint_codes != 0].tolist())]
     bad += [(load_after[i], 0, REASON_CODES[c]) for i, c in zip(np.flatnonzero(load_codes).tolist(),

@@ -3,9 +3,9 @@
 Every consumer of a machine's inputs applies these rules, so the live node, the offline replay and the
 discrepancy workflow see the same data:
 
-- :class:`~guide_health.models.wear.precision.PrecisionMonitor`, sample by sample (live callbacks) and
-  over whole arrays (``process_run``, vectorised);
-- :class:`~guide_health.models.wear.feed.StampAlignedFeed`, on the arrival of a live message;
+- :class:`~guide_health.models.wear.gate.InputGate`, the one gate of an axis, sample by sample (live
+  callbacks, through :class:`~guide_health.models.wear.feed.StampAlignedFeed` on the arrival of a live
+  message) and over whole arrays (the live batch and ``process_run``, vectorised);
 - :class:`~guide_health.analysis.discrepancy.duty.DutyCellAccumulator` (``guide-health diagnose``).
 
 The rules, applied in this order (so a rejected sample has exactly one reason); the limits are
@@ -425,14 +425,16 @@ class AcceptedRun:
 
 
 def accept_run(run, last_joint_t_ns, last_load_t_ns, last_load_n: float,
-               limits: InputLimits = NO_LIMITS) -> AcceptedRun:
+               limits: InputLimits = NO_LIMITS, load_share: float = 1.0) -> AcceptedRun:
     """Apply the joint and load rules to a chunk, given the time bases (:class:`StampBase` or last
     accepted stamps) and the load carried from the samples before it, and align every accepted joint
-    sample with its load."""
+    sample with its load. ``load_share``: the load rule judges that share of each load (an axis judges
+    its first guide's share); the loads returned are the run's own."""
     jt = np.asarray(run.joint_t_ns, dtype=np.int64)
     joints = accept_joint_samples(jt, run.joint_position_m, run.joint_velocity_m_s, last_joint_t_ns, limits)
     lt = np.asarray(run.load_t_ns, dtype=np.int64)
-    loads = accept_load_samples(lt, run.load_n, last_load_t_ns, limits)
+    judged = run.load_n if load_share == 1.0 else np.asarray(run.load_n, dtype=float) * load_share
+    loads = accept_load_samples(lt, judged, last_load_t_ns, limits)
     jt = jt[joints.accepted]
     lt = lt[loads.accepted]
     lw = np.asarray(run.load_n, dtype=float)[loads.accepted]
