@@ -128,7 +128,7 @@ def live_effect_parameters(effects: dict[str, dict[str, Any]]) -> dict[str, Any]
     ``effect_covariance`` with the predictive variances on the diagonal (K's entry 0: the K prior covers K).
     {} when none qualifies."""
     from guide_health.analysis.discrepancy.model_file import EFFECT_PARAMETERS, MATERIAL_EFFECTS
-    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
+    from guide_health.models.wear.effects.registry import COVARIANCE_NAMES
 
     chosen = [e for e, names in EFFECT_PARAMETERS.items() if e in MATERIAL_EFFECTS
               and all(f"{e}.{n}" in effects and 2 * effects[f"{e}.{n}"]["machines"] >= effects[f"{e}.{n}"]["of_bags"]

@@ -22,7 +22,7 @@ from scipy.optimize import least_squares
 from guide_health.analysis.discrepancy.duty import DutyCells
 from guide_health.models.wear.effects import (
     CANDIDATE_IDS,
-    WearEffects,
+    EffectParameters,
     load_along_rail_factor,
     lubrication_interval_factor,
     measured_straightness_m,
@@ -262,7 +262,7 @@ class WearProblem:
     def predict_m(self, values: dict[str, float]) -> np.ndarray:
         """Measured straightness [m] at every measurement for physical parameter values."""
         c = self.cells
-        eff = WearEffects(
+        eff = EffectParameters(
             running_in_ratio=values.get("running_in_ratio", 0.0),
             running_in_distance_m=values.get("running_in_distance_m", 1.0),
             retract_wear_factor=values.get("retract_wear_factor", 1.0),

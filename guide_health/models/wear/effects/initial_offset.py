@@ -1,0 +1,15 @@
+"""``initial_offset`` (delta [m]): a measurement term. The initial straightness is A0 + delta, not the A0 of the
+parameters. The live model has no term of its own: the model file folds delta into A0 (its covariance row is
+A0's)."""
+from __future__ import annotations
+
+from guide_health.models.wear.effects.base import Effect, SimulateValue
+
+EFFECT = Effect(
+    id="initial_offset",
+    meaning="initial offset: the initial straightness is not the A0 of the parameters",
+    separating_duty="a straightness measurement before the first motion",
+    simulate=SimulateValue("initial_offset_m", "m", 0.0, "[-1e-3, 1e-3]"),
+    live=False,
+    fitted_aliases=(("initial_offset_m", "straightness_initial_m"),),     # the model file's A0 = A0 + delta
+)
