@@ -6,7 +6,7 @@ draws the effect strength and the measurement noise from the ranges below (docs/
 effect name is never passed to the workflow.
 
 The acceptance's truth is test/reference_wear.py, written separately from the candidate terms
-(models/wear/effects.py, analysis/discrepancy/): the bag's motion, load and temperature come from the
+(models/wear/effects/, analysis/discrepancy/): the bag's motion, load and temperature come from the
 simulator, the straightness from the reference integration over the bag's samples, plus the simulator's
 noise. The hidden s0 and W_ref are never handed to the fit. test_candidate_model_is_the_simulated_physics
 keeps the shared-function consistency check beside it.

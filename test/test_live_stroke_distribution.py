@@ -1,6 +1,6 @@
 """stroke_distribution live (issue 15: the live model integrates every effect diagnose names).
 
-The straightness of a worn guide is A0 + K / (H b) [(1 - w) 2 G / (l_min + l_max) + w P] (models/wear/effects.py
+The straightness of a worn guide is A0 + K / (H b) [(1 - w) 2 G / (l_min + l_max) + w P] (models/wear/effects/
 straightness_wear_m): G the effective work, P the work of each pass over max(pass length, slider length),
 w the weight. Live, EffectWear keeps P pass by pass (a pass ends at a change of direction; the open pass counts
 with its length so far), the duty window's pass work for the rate, and P at each measurement for the K update.

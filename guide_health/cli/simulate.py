@@ -38,7 +38,7 @@ def add_arguments(parser) -> None:
                              "applied before --rate and --hours)")
     parser.add_argument("--namespace", default="", help="topic namespace, e.g. /m1")
     parser.add_argument("--effect", action="append", metavar="NAME=VALUE",
-                        help="physics the baseline model lacks, hidden in the truth (models/wear/effects.py), "
+                        help="physics the baseline model lacks, hidden in the truth (models/wear/effects/), "
                              "VALUE in SI: running_in=r (K starts at (1+r) K, s0 = running_in_distance_m), "
                              "retract_asymmetry=rho, speed_dependent_wear=v_lift [m/s], load_exponent=n, "
                              "stroke_distribution=w, thermal_drift=c_T [m/K], initial_offset=delta [m], "

@@ -66,9 +66,9 @@ SLIDING_GUIDE_PARAMS = (
     Param("straightness_noise_m", 0.5e-6, "m", "[0, 0.01]",
           "1-sigma noise of a straightness measurement (prior of the K update)", dynamic=True),
     Param("wear_coefficient_prior_rel_sd", 0.5, "-", "(0, 100]", "prior sd of K relative to the configured K"),
-    # wear effects learnt by `guide-health diagnose` (its DIR/model.yaml; models/wear/effects.py); the defaults
+    # wear effects learnt by `guide-health diagnose` (its DIR/model.yaml; models/wear/effects/); the defaults
     # are the plain Archard model
-    Param("effects", "", "", "", "effects the live model integrates, comma-separated ids of models/wear/effects.py "
+    Param("effects", "", "", "", "effects the live model integrates, comma-separated ids of models/wear/effects/ "
           "(written by diagnose --out DIR as DIR/model.yaml; '' = plain Archard wear)"),
     # the effects' own parameters (name, default, unit, range, meaning: the effect registry's)
     *(Param(e.name, e.default, e.unit, e.range_text, e.meaning, choices=e.choices) for e in LIVE_PARAMETERS),

@@ -270,7 +270,7 @@ def true_straightness_loss_per_k_m(params: dict[str, Any], knot_t: np.ndarray, k
 def effective_work_at(knots: MachineKnots, at_s: np.ndarray, effects: EffectParameters,
                       slider_length_m: float, new_surface_t_s=()) -> tuple[np.ndarray, np.ndarray]:
     """Effective Archard work G = sum W ds m [N m] and pass work P = sum W ds m / max(L, L_s) [N] of the
-    exact motion at times ``at_s`` (models/wear/effects.py; m = 1 without effects). Running-in counts the
+    exact motion at times ``at_s`` (models/wear/effects/; m = 1 without effects). Running-in counts the
     sliding distance from the last of ``new_surface_t_s`` [s] before each segment (a reground surface runs
     in again)."""
     ds = np.abs(np.diff(knots.x_m))
@@ -301,7 +301,7 @@ def effective_work_at(knots: MachineKnots, at_s: np.ndarray, effects: EffectPara
 
 
 def duty_factor(effects: EffectParameters, knots: MachineKnots) -> np.ndarray | float:
-    """The duty effects' multiplier of each move (models/wear/effects.py): load_along_rail at its mid-position
+    """The duty effects' multiplier of each move (models/wear/effects/): load_along_rail at its mid-position
     (exact: linear in x, the work uniform in x), wear_rate_change by the share of its time after t_c,
     lubrication_interval at its mid-time (time since the last relubrication before it)."""
     t_a, t_b = knots.t_s[:-1], knots.t_s[1:]

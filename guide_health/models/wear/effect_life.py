@@ -72,7 +72,7 @@ def running_in_extra_m_per_rate(horizon_s, ratio: float, distance_m: float, s_no
 
 
 def lubrication_multiplier_integral_s(horizon_s, growth_per_s: float, tau_now_s: float, interval_s: float):
-    """int_0^T max(1 + b tau(u), 0) du [s]: lubrication_interval's wear multiplier (effects.py, m = max(1 + b
+    """int_0^T max(1 + b tau(u), 0) du [s]: lubrication_interval's wear multiplier (its live form, m = max(1 + b
     tau, 0)) over a horizon T from now. tau(u) = tau_now + u until the next relubrication, due at interval -
     tau_now (now, when overdue), then 0 .. interval, every interval; interval 0: none expected. Closed form
     per relubrication cycle (the multiplier is linear in tau, clipped at 0 for a negative b)."""

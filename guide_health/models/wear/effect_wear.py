@@ -1,6 +1,6 @@
-"""The wear effects ``diagnose`` learnt, integrated live (pure numpy, SI; the terms of effects.py).
+"""The wear effects ``diagnose`` learnt, integrated live (pure numpy, SI; the terms of models/wear/effects/).
 
-With effects the wear volume is V = K/H sum_i W_i ds_i m_i (models/wear/effects.py, the same functions the
+With effects the wear volume is V = K/H sum_i W_i ds_i m_i (models/wear/effects/, the same functions the
 discrepancy workflow fits and the simulator hides), m_i = K(s)/K x asperity share x (W/W_ref)^(n-1) x rho on
 retract strokes. :class:`EffectWear` receives every sliding segment of the
 :class:`~guide_health.models.wear.archard.WearIntegrator` (its ``segment_sink``, the live per-sample path and

@@ -62,14 +62,17 @@ class Effect:
     """One entry of the registry (models/wear/effects/registry.py).
 
     ``duty``: a multiplier of the work by when and where it is done (the second group of candidates);
-    ``live``: the live model integrates it (else diagnose names it but the model file leaves it out);
-    ``material``: a property of the material pair and lubricant, pooled by the fleet prior; ``requires``: what
-    the live effect needs of its parameters;
-    ``parameters``: the wear_monitor parameters it owns; ``fitted_to_file``: the fitted values the model file
-    carries under the same name; ``fitted_aliases``: {fitted name: covariance row} when the names differ;
-    ``meaning`` and ``separating_duty``: the report's words (what it is; the duty that tells it apart)."""
+    ``live``: the live model integrates it (else diagnose names it but the model file leaves it out, or folds
+    its fitted value into a row of its own: ``fitted_aliases``); ``material``: a property of the material pair
+    and lubricant, pooled by the fleet prior; ``parameters``: the wear_monitor parameters it owns;
+    ``fitted_to_file``: the fitted values the model file carries under the same name; ``fitted_aliases``:
+    {fitted name: covariance row} when the names differ; ``covariance_rows``: its rows in the model file;
+    ``requires``: what the live effect needs of its parameters; ``term``: its formula (the docs table);
+    ``meaning`` and ``separating_duty``: the report's words (what it is; the duty that tells it apart). Its
+    module also holds ``fit_parameters`` (the discrepancy fit's bounds and starts for a record)."""
 
     id: str
+    term: str
     meaning: str
     separating_duty: str
     simulate: SimulateValue
@@ -81,3 +84,30 @@ class Effect:
     fitted_aliases: tuple[tuple[str, str], ...] = ()
     covariance_rows: tuple[CovarianceRow, ...] = ()
     requires: LiveRequirement | None = None
+
+
+@dataclass(frozen=True)
+class FitParameter:
+    """One parameter the discrepancy fit frees: physical name and unit, bounds, log-scaled or not, start values."""
+
+    name: str
+    unit: str
+    lower: float
+    upper: float
+    log: bool = False
+    starts: tuple = ()
+
+
+@dataclass(frozen=True)
+class FitContext:
+    """What an effect's fit bounds and starts depend on (analysis/discrepancy/model.py WearProblem): the
+    record's sliding distance [m], the feed speed [m/s], the end of the fit span [s from the start], the
+    largest distance of the work from x_ref [m], the longest time without relubrication [s] (None: no
+    recorded relubrications) and whether A0 is fitted."""
+
+    total_distance_m: float
+    feed_speed_m_s: float
+    fit_end_s: float
+    position_spread_m: float
+    relubrication_gap_s: float | None
+    a0_free: bool

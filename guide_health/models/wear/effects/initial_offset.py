@@ -3,13 +3,24 @@ parameters. The live model has no term of its own: the model file folds delta in
 A0's)."""
 from __future__ import annotations
 
-from guide_health.models.wear.effects.base import Effect, SimulateValue
+from guide_health.models.wear.effects.base import (
+    Effect,
+    FitContext,
+    FitParameter,
+    SimulateValue,
+)
 
 EFFECT = Effect(
     id="initial_offset",
+    term="A0 is A0 + delta",
     meaning="initial offset: the initial straightness is not the A0 of the parameters",
     separating_duty="a straightness measurement before the first motion",
     simulate=SimulateValue("initial_offset_m", "m", 0.0, "[-1e-3, 1e-3]"),
     live=False,
     fitted_aliases=(("initial_offset_m", "straightness_initial_m"),),     # the model file's A0 = A0 + delta
 )
+
+
+def fit_parameters(c: FitContext) -> list[FitParameter]:
+    """delta."""
+    return [FitParameter("initial_offset_m", "m", -1e-3, 1e-3, False, (0.0,))]

@@ -5,10 +5,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from guide_health.models.wear.effects.base import CovarianceRow, Effect, EffectParameter, SimulateValue
+from guide_health.models.wear.effects.base import (
+    CovarianceRow,
+    Effect,
+    EffectParameter,
+    FitContext,
+    FitParameter,
+    SimulateValue,
+)
 
 EFFECT = Effect(
     id="load_along_rail",
+    term="m = max(1 + g (x - x_ref), 0), x_ref the work-weighted mean position",
     meaning="load along the rail: the load varies along the travel (misalignment, foundation)",
     separating_duty="jobs confined to different sections of the rail",
     simulate=SimulateValue("load_gradient_per_m", "1/m", 0.0),       # x_ref: the run's work-weighted mean position
@@ -33,3 +41,9 @@ def live_factor(x_m: np.ndarray, gradient_per_m: float, reference_m: float) -> t
     """(m, dm/dg) at segment mid-positions x [m] (dm/dg = x - x_ref, 0 where m is clipped at 0)."""
     rail = 1.0 + gradient_per_m * (x_m - reference_m)
     return np.maximum(rail, 0.0), np.where(rail > 0, x_m - reference_m, 0.0)
+
+
+def fit_parameters(c: FitContext) -> list[FitParameter]:
+    """g within +-1 / (the largest distance of the work from x_ref)."""
+    g_max = 1.0 / max(c.position_spread_m, 1e-3)
+    return [FitParameter("load_gradient_per_m", "1/m", -g_max, g_max, False, (0.0,))]

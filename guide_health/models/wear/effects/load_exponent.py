@@ -5,10 +5,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from guide_health.models.wear.effects.base import CovarianceRow, Effect, EffectParameter, SimulateValue
+from guide_health.models.wear.effects.base import (
+    CovarianceRow,
+    Effect,
+    EffectParameter,
+    FitContext,
+    FitParameter,
+    SimulateValue,
+)
 
 EFFECT = Effect(
     id="load_exponent",
+    term="wear rate ∝ W^n: factor (W/W_ref)^(n-1)",
     meaning="load exponent: wear grows faster (or slower) than linearly with the load",
     separating_duty="jobs at two or more loads at the same feed speed",
     simulate=SimulateValue("load_exponent", "-", 1.0),
@@ -35,3 +43,8 @@ def load_exponent_factor(load_n: np.ndarray, exponent: float, reference_load_n: 
 def live_gradient(effective_work_nm: np.ndarray, load_n: np.ndarray, reference_load_n: float) -> np.ndarray:
     """d(effective work)/dn [N m]: m' / m = ln(W / W_ref)."""
     return effective_work_nm * np.log(np.maximum(load_n, 1e-12) / reference_load_n)
+
+
+def fit_parameters(c: FitContext) -> list[FitParameter]:
+    """n."""
+    return [FitParameter("load_exponent", "-", 0.0, 4.0, False, (0.7, 1.5))]

@@ -8,10 +8,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from guide_health.models.wear.effects.base import CovarianceRow, Effect, EffectParameter, SimulateValue
+from guide_health.models.wear.effects.base import (
+    CovarianceRow,
+    Effect,
+    EffectParameter,
+    FitContext,
+    FitParameter,
+    SimulateValue,
+)
 
 EFFECT = Effect(
     id="lubrication_interval",
+    term=("recorded relubrications: m = 1 + b tau, tau the time since the last `relubricate` event (the "
+          "record's start before the first); else m = 1 + a (t mod T) / T"),
     meaning="lubrication interval: wear grows with the time since the last relubrication",
     separating_duty="relubrication at recorded times (maintenance events) at another interval",
     # b per second of the time since the last relubricate event (simulation relubrication_interval_h, or
@@ -76,3 +85,16 @@ def live_factor(tau_s: np.ndarray, growth: float, interval_s: float) -> tuple[np
     d_b = tau_s / interval_s if interval_s > 0 else tau_s
     lube = 1.0 + growth * d_b
     return np.maximum(lube, 0.0), np.where(lube > 0, d_b, 0.0)
+
+
+def fit_parameters(c: FitContext) -> list[FitParameter]:
+    """Recorded relubrications: b of m = 1 + b tau (m >= 0.1 over the longest gap); else an interval T from the
+    record's start and a."""
+    if c.relubrication_gap_s is not None:
+        gap = c.relubrication_gap_s
+        return [FitParameter("lubrication_wear_growth_per_s", "1/s", -0.9 / gap, 20.0 / gap, False, (0.5 / gap,))]
+    t_fit = c.fit_end_s
+    return [FitParameter("lubrication_interval_s", "s", 1800.0, max(t_fit, 3600.0), True,
+                         tuple(h * 3600.0 for h in (1.5, 2.0, 3.0, 4.0, 5.5, 7.0, 9.0, 12.0, 16.0)
+                               if h * 3600.0 < t_fit) or (t_fit / 2,)),
+            FitParameter("lubrication_wear_growth", "-", -0.9, 20.0, False, (1.0,))]

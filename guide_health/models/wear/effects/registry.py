@@ -28,10 +28,12 @@ from guide_health.models.wear.effects.base import CovarianceRow, Effect, EffectP
 
 #: the catalogue, in the order simulate and diagnose list (and diagnose tries) the effects: the wear-rate and
 #: measurement terms first, then the duty effects
-EFFECTS: tuple[Effect, ...] = tuple(m.EFFECT for m in (
-    running_in, retract_asymmetry, speed_dependent_wear, load_exponent, stroke_distribution, thermal_drift,
-    initial_offset, wear_rate_change, lubrication_interval, load_along_rail))
+MODULES = (running_in, retract_asymmetry, speed_dependent_wear, load_exponent, stroke_distribution, thermal_drift,
+           initial_offset, wear_rate_change, lubrication_interval, load_along_rail)
+EFFECTS: tuple[Effect, ...] = tuple(m.EFFECT for m in MODULES)
 BY_ID = {e.id: e for e in EFFECTS}
+#: each effect's fitted parameters for a record (base.FitContext -> base.FitParameter list), catalogue order
+FIT_PARAMETERS = {m.EFFECT.id: m.fit_parameters for m in MODULES}
 
 EFFECT_IDS = tuple(e.id for e in EFFECTS if not e.duty)
 #: duty effects: multipliers of the work by when and where it is done (the simulator hides them too, with a
@@ -103,13 +105,13 @@ def simulate_field(value_name: str) -> str:
 
 def docs_table() -> str:
     """The markdown table of the effects (docs/discrepancy.md and docs/model_file.md carry it verbatim)."""
-    rows = ["| effect | meaning | `--effect` value | live | model-file parameters | covariance rows |",
-            "|---|---|---|---|---|---|"]
+    rows = ["| effect | term | `simulate --effect` value | live: wear_monitor parameters | covariance rows |",
+            "|---|---|---|---|---|"]
     for e in EFFECTS:
         value = e.simulate
         no_effect = "inf" if math.isinf(value.no_effect) else f"{value.no_effect:g}"
-        params = ", ".join(f"`{p.name}`" for p in e.parameters) or "(folded into A0)"
-        covariance = ", ".join(f"`{r.name}`" for r in e.covariance_rows) or "(A0's)"
-        rows.append(f"| `{e.id}` | {e.meaning} | `{value.name}` [{value.unit}], none = {no_effect} | "
-                    f"{'yes' if e.live else 'no'} | {params} | {covariance} |")
+        params = ", ".join(f"`{p.name}`" for p in e.parameters) if e.live else "not live (folded into A0)"
+        covariance = ", ".join(f"`{r.name}`" for r in e.covariance_rows) or "A0's"
+        rows.append(f"| `{e.id}` | {e.term} | `{value.name}` [{value.unit}] (none: {no_effect}) | {params} | "
+                    f"{covariance} |")
     return "\n".join(rows) + "\n"

@@ -5,10 +5,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from guide_health.models.wear.effects.base import CovarianceRow, Effect, EffectParameter, SimulateValue
+from guide_health.models.wear.effects.base import (
+    CovarianceRow,
+    Effect,
+    EffectParameter,
+    FitContext,
+    FitParameter,
+    SimulateValue,
+)
 
 EFFECT = Effect(
     id="retract_asymmetry",
+    term="the retract stroke wears rho x the feed per unit Archard work",
     meaning="feed/retract asymmetry: the retract stroke wears less per unit Archard work",
     separating_duty="retract strokes at another speed or load than the feed (or feed-only passes)",
     simulate=SimulateValue("retract_wear_factor", "-", 1.0),
@@ -33,3 +41,8 @@ def live_gradient(effective_work_nm: np.ndarray, work_nm: np.ndarray, retract: n
     """d(effective work)/d rho [N m]: the retract segments' effective work over rho (their plain work with the
     other multipliers when rho = 0)."""
     return np.where(retract, effective_work_nm / factor if factor else work_nm, 0.0)
+
+
+def fit_parameters(c: FitContext) -> list[FitParameter]:
+    """rho."""
+    return [FitParameter("retract_wear_factor", "-", 0.0, 5.0, False, (0.5,))]

@@ -5,10 +5,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from guide_health.models.wear.effects.base import CovarianceRow, Effect, EffectParameter, SimulateValue
+from guide_health.models.wear.effects.base import (
+    CovarianceRow,
+    Effect,
+    EffectParameter,
+    FitContext,
+    FitParameter,
+    SimulateValue,
+)
 
 EFFECT = Effect(
     id="running_in",
+    term="K(s) = K (1 + r e^(-s/s0)) over the sliding distance s",
     meaning="running-in: K starts high and decays over the sliding distance",
     separating_duty="a longer record (running-in decays with sliding distance and is over after 3 s0)",
     simulate=SimulateValue("running_in_ratio", "-", 0.0),     # s0 = simulation running_in_distance_m
@@ -62,3 +70,11 @@ def live_gradients(effective_work_nm: np.ndarray, s_start_m: np.ndarray, ds_m: n
     decay = np.exp(-(s_start_m + 0.5 * ds_m) / distance_m)
     return (effective_work_nm * decay,
             effective_work_nm * ratio * decay * (s_start_m + 0.5 * ds_m) / distance_m ** 2)
+
+
+def fit_parameters(c: FitContext) -> list[FitParameter]:
+    """r and s0 (s0 between a thousandth and all of the record's sliding distance, log-scaled)."""
+    dist = max(c.total_distance_m, 1.0)
+    return [FitParameter("running_in_ratio", "-", 0.0, 100.0, False, (1.0,)),
+            FitParameter("running_in_distance_m", "m", dist * 1e-3, dist, True,
+                         tuple(dist * f for f in (0.01, 0.04, 0.15)))]

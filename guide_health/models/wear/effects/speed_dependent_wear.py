@@ -12,6 +12,8 @@ from guide_health.models.wear.effects.base import (
     CovarianceRow,
     Effect,
     EffectParameter,
+    FitContext,
+    FitParameter,
     LiveRequirement,
     SimulateValue,
 )
@@ -20,6 +22,7 @@ LUBRICATION_SPEED_EXPONENT = 0.7     # lambda ~ v^0.7 (Hamrock-Dowson film thick
 
 EFFECT = Effect(
     id="speed_dependent_wear",
+    term="asperity share of the load 1/(1 + lambda²), lambda = (v/v_lift)^0.7 (seed 001's film-speed exponent)",
     meaning="speed-dependent wear: the lubricant film lifts the load off the asperities at speed",
     separating_duty="jobs at two or more feed speeds under the same load",
     simulate=SimulateValue("lift_speed_m_s", "m/s", math.inf, "(0, 100]"),
@@ -47,3 +50,9 @@ def live_gradient(effective_work_nm: np.ndarray, share: np.ndarray, lift_speed_m
     if not math.isfinite(lift_speed_m_s):
         return np.zeros_like(effective_work_nm)
     return effective_work_nm * (1.0 - share) * 2.0 * LUBRICATION_SPEED_EXPONENT / lift_speed_m_s
+
+
+def fit_parameters(c: FitContext) -> list[FitParameter]:
+    """v_lift (log-scaled, started around the feed speed)."""
+    return [FitParameter("lift_speed_m_s", "m/s", 1e-5, 100.0, True,
+                         tuple(c.feed_speed_m_s * f for f in (0.5, 2.0, 8.0)))]

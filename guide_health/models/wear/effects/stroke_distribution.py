@@ -8,10 +8,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from guide_health.models.wear.effects.base import CovarianceRow, Effect, EffectParameter, SimulateValue
+from guide_health.models.wear.effects.base import (
+    CovarianceRow,
+    Effect,
+    EffectParameter,
+    FitContext,
+    FitParameter,
+    SimulateValue,
+)
 
 EFFECT = Effect(
     id="stroke_distribution",
+    term=("the always-travelled zone gets K W/(H b) per pass whatever the stroke length (Eq. 6); weight w "
+          "between that and Eq. 5's j = 1/2"),
     meaning="stroke distribution: the observed strokes, not Eq. 5's j = 1/2, set the wear depth",
     separating_duty="separate jobs of short and of long strokes",
     simulate=SimulateValue("stroke_distribution_weight", "-", 0.0, "[0, 1]"),
@@ -40,3 +49,8 @@ def straightness_wear_m(wear_coefficient: float, hardness_pa: float, contact_wid
     p = np.asarray(effective_pass_work_n, dtype=float)
     w = stroke_distribution_weight
     return wear_coefficient / (hardness_pa * contact_width_m) * ((1.0 - w) * 2.0 * g / stroke_sum_m + w * p)
+
+
+def fit_parameters(c: FitContext) -> list[FitParameter]:
+    """w in [-1, 2]."""
+    return [FitParameter("stroke_distribution_weight", "-", -1.0, 2.0, False, (0.5,))]

@@ -12,12 +12,16 @@ from guide_health.models.wear.effects.base import (
     CovarianceRow,
     Effect,
     EffectParameter,
+    FitContext,
+    FitParameter,
     LiveRequirement,
     SimulateValue,
 )
 
 EFFECT = Effect(
     id="thermal_drift",
+    term=("the measurement reads c_T (T - T_ref) more (needs `guide/temperature`), fitted linearly as c_T (T - "
+          "T_0) + b, dT_ref = -b / c_T"),
     meaning="thermal drift: the straightness measurement follows the guide temperature",
     separating_duty="straightness measured at rest across a temperature change (a warm-up without motion)",
     simulate=SimulateValue("thermal_drift_m_per_k", "m/K", 0.0),
@@ -39,3 +43,9 @@ EFFECT = Effect(
 def gauge_term_m(temperature_change_k, drift_m_per_k: float) -> np.ndarray:
     """c_T (T - T_0) [m]: the gauge's reading beyond the straightness at the temperature changes T - T_0 [K]."""
     return drift_m_per_k * np.asarray(temperature_change_k, dtype=float)
+
+
+def fit_parameters(c: FitContext) -> list[FitParameter]:
+    """c_T, and the offset b at T_0 when A0 is given (with A0 fitted, b is one with A0)."""
+    return [FitParameter("thermal_drift_m_per_k", "m/K", -1e-4, 1e-4, False, (0.0,))] + (
+        [] if c.a0_free else [FitParameter("thermal_offset_m", "m", -1e-3, 1e-3, False, (0.0,))])

@@ -10,12 +10,15 @@ from guide_health.models.wear.effects.base import (
     CovarianceRow,
     Effect,
     EffectParameter,
+    FitContext,
+    FitParameter,
     LiveRequirement,
     SimulateValue,
 )
 
 EFFECT = Effect(
     id="wear_rate_change",
+    term="m = f after t_c (share of the interval's work after t_c)",
     meaning="wear-rate change: the wear coefficient changed by a factor at a time (contamination, "
             "a damaged wiper, another lubricant)",
     separating_duty="the same duty before and after a suspected event, with the event logged",
@@ -48,3 +51,11 @@ def live_factor(t_s: np.ndarray, change_time_s: float, factor: float) -> tuple[n
     """(m, after) at segment mid-times t [s, the clock of t_c]: f from t_c on, 1 before; dm/df = 1 where after."""
     after = t_s >= change_time_s
     return np.where(after, factor, 1.0), after
+
+
+def fit_parameters(c: FitContext) -> list[FitParameter]:
+    """t_c within the fit span, f (log-scaled)."""
+    t_fit = c.fit_end_s
+    return [FitParameter("wear_rate_change_time_s", "s", 0.0, t_fit, False,
+                         tuple(t_fit * f for f in (0.2, 0.4, 0.6, 0.8))),
+            FitParameter("wear_rate_change_factor", "-", 0.05, 20.0, True, (0.5, 2.0))]
