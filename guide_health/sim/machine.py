@@ -102,7 +102,7 @@ def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
     load_t_s, load_n = load_samples(knots, sim, rng, load_clock_rng)
     measurement_t_s = np.arange(0.0, knots.t_s[-1] + 1e-9, sim["measurement_interval_h"] * 3600.0)
     temperature_t_s, temperature_c, temperature_at_measurements_c = temperature_records(
-        knots, sim, "thermal_drift" in effects, measurement_t_s, rng)
+        knots, sim, any(BY_ID[e].needs_temperature for e in effects), measurement_t_s, rng)
     truth_k = params["wear_coefficient"] * sim["wear_coefficient_factor"]
     resets = np.sort(np.asarray(new_surface_t_s, dtype=float))
     wear_all = true_straightness_wear_m(params, geometry, knots, wear_effects, truth_k,

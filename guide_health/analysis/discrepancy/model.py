@@ -34,7 +34,7 @@ from guide_health.models.wear.effects import (
 )
 from guide_health.models.wear.effects.base import FitContext
 from guide_health.models.wear.effects.base import FitParameter as ParamSpec
-from guide_health.models.wear.effects.registry import FIT_PARAMETERS
+from guide_health.models.wear.effects.registry import BY_ID, FIT_PARAMETERS
 from guide_health.models.wear.input_rules import reading_in_force_index
 
 UM = 1e6
@@ -186,14 +186,11 @@ class WearProblem:
 
     # --- candidates ---------------------------------------------------------------------------
     def available_effects(self) -> list[str]:
-        """Effect ids that can be tried on this data: thermal drift only with a temperature record, an
-        initial offset only when A0 is given (with A0 = 0 the baseline fits A0 itself)."""
-        ids = list(CANDIDATE_IDS)
-        if self.temperature_change_k is None:
-            ids.remove("thermal_drift")
-        if self.a0_free:
-            ids.remove("initial_offset")
-        return ids
+        """Effect ids that can be tried on this data: those that need a temperature record only with one, those
+        that need a given A0 only when A0 is given (with A0 = 0 the baseline fits A0 itself)."""
+        return [e for e in CANDIDATE_IDS
+                if not (BY_ID[e].needs_temperature and self.temperature_change_k is None)
+                and not (BY_ID[e].needs_given_a0 and self.a0_free)]
 
     # --- prediction ----------------------------------------------------------------------------
     def _param_list(self, effects: tuple[str, ...]) -> list[ParamSpec]:

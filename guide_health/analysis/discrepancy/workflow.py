@@ -18,7 +18,7 @@ from guide_health.analysis.discrepancy.fit_pool import FitPool
 from guide_health.analysis.discrepancy.model import FitResult, WearProblem, rel_errors
 from guide_health.analysis.discrepancy.model_file import model_parameters
 from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD, forward_selection
-from guide_health.models.wear.effects.registry import EFFECTS
+from guide_health.models.wear.effects.registry import BY_ID, EFFECTS
 
 # what each effect means, and the duty variation that makes its signature distinct from the others' (for
 # near-ties), for the report: the effect registry's words
@@ -78,9 +78,8 @@ def fit_forecast(problem: WearProblem, fit: FitResult, limit_m: float, points: i
 
 
 def _names(problem: WearProblem, effect: str) -> list[str]:
-    """The reported parameters of an effect (thermal_drift: also its reference temperature)."""
-    extra = ["thermal_reference_offset_k"] if effect == "thermal_drift" else []
-    return [s.name for s in problem.specs[effect]] + extra
+    """The reported parameters of an effect (with the derived ones its registry entry names)."""
+    return [s.name for s in problem.specs[effect]] + list(BY_ID[effect].reported_extra)
 
 
 def _tie(tie: dict) -> dict[str, Any]:

@@ -68,7 +68,9 @@ class Effect:
     ``fitted_to_file``: the fitted values the model file carries under the same name; ``fitted_aliases``:
     {fitted name: covariance row} when the names differ; ``covariance_rows``: its rows in the model file;
     ``requires``: what the live effect needs of its parameters; ``term``: its formula (the docs table);
-    ``meaning`` and ``separating_duty``: the report's words (what it is; the duty that tells it apart). Its
+    ``meaning`` and ``separating_duty``: the report's words (what it is; the duty that tells it apart);
+    ``needs_temperature`` / ``needs_given_a0``: when it can be a candidate; ``reported_extra``: derived values
+    the report lists with its fitted ones. Its
     module also holds ``fit_parameters`` (the discrepancy fit's bounds and starts for a record)."""
 
     id: str
@@ -84,6 +86,9 @@ class Effect:
     fitted_aliases: tuple[tuple[str, str], ...] = ()
     covariance_rows: tuple[CovarianceRow, ...] = ()
     requires: LiveRequirement | None = None
+    needs_temperature: bool = False          # a candidate only with a temperature record
+    needs_given_a0: bool = False             # a candidate only when the parameters give A0 (else A0 is fitted)
+    reported_extra: tuple[str, ...] = ()     # values the report adds to its fitted parameters
 
 
 @dataclass(frozen=True)

@@ -17,6 +17,7 @@ EFFECT = Effect(
     separating_duty="a straightness measurement before the first motion",
     simulate=SimulateValue("initial_offset_m", "m", 0.0, "[-1e-3, 1e-3]"),
     live=False,
+    needs_given_a0=True,         # with A0 = 0 the baseline fits A0 itself
     fitted_aliases=(("initial_offset_m", "straightness_initial_m"),),     # the model file's A0 = A0 + delta
 )
 

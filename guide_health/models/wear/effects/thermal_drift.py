@@ -37,6 +37,8 @@ EFFECT = Effect(
     fitted_to_file=("thermal_drift_m_per_k",),
     covariance_rows=(CovarianceRow("thermal_drift_m_per_k", 10, 4), CovarianceRow("thermal_gauge_offset_m", 11, 4)),
     requires=LiveRequirement("thermal_drift_m_per_k", "!= 0"),
+    needs_temperature=True,
+    reported_extra=("thermal_reference_offset_k",),      # dT_ref = -b / c_T (analysis/discrepancy/model.py)
 )
 
 
