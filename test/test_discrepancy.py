@@ -6,7 +6,7 @@ draws the effect strength and the measurement noise from the ranges below (docs/
 effect name is never passed to the workflow.
 
 The acceptance's truth is test/reference_wear.py, written separately from the candidate terms
-(models/wear/effects.py, analysis/discrepancy/): the bag's motion, load and temperature come from the
+(models/wear/effects/, analysis/discrepancy/): the bag's motion, load and temperature come from the
 simulator, the straightness from the reference integration over the bag's samples, plus the simulator's
 noise. The hidden s0 and W_ref are never handed to the fit. test_candidate_model_is_the_simulated_physics
 keeps the shared-function consistency check beside it.
@@ -145,7 +145,7 @@ def test_effect_multipliers_limits():
     assert we.load_exponent_factor(np.array([4000.0]), 2.0, 2000.0)[0] == pytest.approx(2.0)
     # a full pass of any length >= the slider adds W per unit of Archard work / L
     assert we.pass_weight_per_m(np.array([0.3, 0.05]), 0.1).tolist() == pytest.approx([1 / 0.3, 1 / 0.1])
-    m = we.wear_rate_multiplier(we.WearEffects(retract_wear_factor=0.25), np.array([0.1, 0.1]),
+    m = we.wear_rate_multiplier(we.EffectParameters(retract_wear_factor=0.25), np.array([0.1, 0.1]),
                                 np.array([1e3, 1e3]), np.array([False, True]))
     assert m.tolist() == [1.0, 0.25]
 
@@ -157,7 +157,7 @@ def test_truth_without_effects_is_eq7_of_the_monitor_family():
     at = np.arange(0.0, knots.t_s[-1], 1800.0)
     per_k = true_straightness_loss_per_k_m(params, knots.t_s, knots.x_m, knots.load_n, at, knots.strokes_m)
     from guide_health.sim.machine import effective_work_at
-    g, _ = effective_work_at(knots, at, we.WearEffects(), params["slider_length_m"])
+    g, _ = effective_work_at(knots, at, we.EffectParameters(), params["slider_length_m"])
     eq7 = we.straightness_wear_m(1.0, params["hardness_pa"], params["contact_width_m"], g, g,
                                  float(knots.strokes_m.min() + knots.strokes_m.max()))
     assert np.allclose(eq7, per_k, rtol=1e-9, atol=1e-15)

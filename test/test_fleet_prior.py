@@ -151,7 +151,8 @@ def test_fleet_prior_bad_input_is_one_line(tmp_path, capsys):
 def test_named_effects_of_most_machines_go_into_the_prior_file(tmp_path):
     """Effect populations (diagnose) -> the live model's effect parameters and covariance diagonal."""
     from guide_health.analysis.fleet_prior import write_prior_params
-    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES, LiveEffects
+    from guide_health.models.wear.effects import EffectParameters
+    from guide_health.models.wear.effects.registry import COVARIANCE_NAMES
     from guide_health.params import wear_monitor_params
 
     cfg = Path(__file__).resolve().parents[1] / "config" / "bench_000.yaml"
@@ -166,7 +167,7 @@ def test_named_effects_of_most_machines_go_into_the_prior_file(tmp_path):
     out = tmp_path / "prior.yaml"
     write_prior_params(out, prior, str(cfg))
     p = wear_monitor_params(out)
-    live = LiveEffects.from_params(p)
+    live = EffectParameters.from_params(p)
     assert live.effects == ("running_in",)
     assert (live.running_in_ratio, live.running_in_distance_m, live.load_exponent) == (0.8, 250.0, 1.0)
     cov = live.covariance_matrix()

@@ -381,7 +381,7 @@ def test_the_life_interval_carries_the_gauge_terms_as_a_rerun_moves_the_life():
     T_ref moved by that sd (finite difference of the whole monitor, not of the delta method's terms): 5 %.
     Measured on seeds 0-9 of the hidden thermal case (20 h, noise 0.3 um): without these terms the 90 %
     interval held the oracle's life 8/10 (z sd 1.4), with them 9/10 (z sd 0.85)."""
-    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
+    from guide_health.models.wear.effects.registry import COVARIANCE_NAMES
 
     params, run, wear, t_ref, _ = thermal_case(2, 6.0, 5.0, 0.3e-6, 1.2e-6, -4.0)
     c, n = 1.2e-6, len(COVARIANCE_NAMES)
@@ -425,7 +425,7 @@ def test_the_model_file_carries_the_gauge_offset_at_t_ref_by_its_jacobian():
     from types import SimpleNamespace
 
     from guide_health.analysis.discrepancy.model_file import live_parameter_text, model_parameters
-    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
+    from guide_health.models.wear.effects.registry import COVARIANCE_NAMES
 
     c, b, t0 = 1.2e-6, 4.8e-6, 21.5                  # T_ref = T_0 - b / c = 17.5 degC
     names = ["wear_coefficient", "thermal_drift_m_per_k", "thermal_offset_m"]
@@ -484,7 +484,7 @@ def test_thermal_drift_life_interval_10_seeds():
 def test_an_unbounded_linearisation_gives_an_unbounded_interval():
     """When a hundredth of a parameter's sd already takes the life to the limit or to no wear, the delta
     method has no answer: the interval is [0, inf), never NaN (found with an absurd 1 cm gauge-offset sd)."""
-    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
+    from guide_health.models.wear.effects.registry import COVARIANCE_NAMES
 
     params, run, wear, t_ref, _ = thermal_case(2, 3.0, 5.0, 0.3e-6, 1.2e-6, -4.0)
     n = len(COVARIANCE_NAMES)
@@ -643,7 +643,7 @@ def test_a_thermal_state_saved_before_the_offsets_were_kept_rebuilds_them_from_t
     gauge offset out of the interval. They are rebuilt from the kept readings: the same offsets (1e-12) and the
     same interval as the monitor that kept them. Where the kept readings do not reach back to a measurement
     (trimmed), it stays NaN and the interval leaves the gauge terms out, as before."""
-    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
+    from guide_health.models.wear.effects.registry import COVARIANCE_NAMES
 
     params, run, _, t_ref, _ = thermal_case(2, 3.0, 5.0, 0.3e-6, 1.2e-6, -4.0)
     n = len(COVARIANCE_NAMES)
@@ -755,7 +755,7 @@ def test_the_interval_carries_the_lubrication_growth_as_a_rerun_moves_the_life()
     with b moved by that sd (5 %): b moves the past effective work (K refitted), the duty window's rate and the
     schedule's future multiplier."""
     from guide_health.models.wear.axis import split_run
-    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
+    from guide_health.models.wear.effects.registry import COVARIANCE_NAMES
 
     params, sim, run, _ = lubricated_bench(4)
     t0 = int(run.joint_t_ns[0])

@@ -1,6 +1,6 @@
 """stroke_distribution live (issue 15: the live model integrates every effect diagnose names).
 
-The straightness of a worn guide is A0 + K / (H b) [(1 - w) 2 G / (l_min + l_max) + w P] (models/wear/effects.py
+The straightness of a worn guide is A0 + K / (H b) [(1 - w) 2 G / (l_min + l_max) + w P] (models/wear/effects/
 straightness_wear_m): G the effective work, P the work of each pass over max(pass length, slider length),
 w the weight. Live, EffectWear keeps P pass by pass (a pass ends at a change of direction; the open pass counts
 with its length so far), the duty window's pass work for the rate, and P at each measurement for the K update.
@@ -110,14 +110,15 @@ def test_pass_work_is_the_same_whatever_the_segments_chunking(steps, cuts, slide
     """Any sequence of sliding steps (reversals anywhere, any lengths), fed to EffectWear all at once, one
     segment per call (the node) or in arbitrary chunks: the same P, open pass and window pass sums (1e-12),
     and P equals the closed form sum over passes of work / max(L, L_s) with the passes cut at sign changes."""
-    from guide_health.models.wear.effect_wear import PASS_SUM, EffectWear, LiveEffects
+    from guide_health.models.wear.effect_wear import PASS_SUM, EffectWear
+    from guide_health.models.wear.effects import EffectParameters
 
     dx = np.asarray(steps)
     x = np.concatenate(([0.0], np.cumsum(dx)))
     n = dx.size
     t = 1_700_000_000 * 10 ** 9 + np.arange(n + 1, dtype=np.int64) * 700_000_000   # 0.7 s: several buckets
     load = 1000.0 + 500.0 * np.sin(np.arange(n))
-    effects = LiveEffects(effects=("stroke_distribution",), stroke_distribution_weight=0.5, slider_length_m=slider)
+    effects = EffectParameters(effects=("stroke_distribution",), stroke_distribution_weight=0.5, slider_length_m=slider)
 
     def fed(bounds) -> EffectWear:
         ew = EffectWear(effects, 2.0, 1000)

@@ -237,7 +237,7 @@ def test_a_fitted_a0_goes_into_the_model_file_with_its_covariance():
     from types import SimpleNamespace
 
     from guide_health.analysis.discrepancy.model_file import live_parameter_text, model_parameters
-    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
+    from guide_health.models.wear.effects.registry import COVARIANCE_NAMES
 
     n = len(COVARIANCE_NAMES)
     k, r, a = (COVARIANCE_NAMES.index(x) for x in ("wear_coefficient", "running_in_ratio", "straightness_initial_m"))
@@ -275,7 +275,7 @@ def test_the_life_interval_carries_a0_as_a_rerun_moves_the_life():
     """A0's share of the interval (its variance alone in the covariance, less the interval with none) equals
     the life's change when the whole monitor is rerun with A0 moved by that sd (5 %): A0 moves the straightness
     now and every measured rise over A0, so the K update moves with it."""
-    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
+    from guide_health.models.wear.effects.registry import COVARIANCE_NAMES
 
     params, run = bench_running_in(2, rate_hz=5.0)
     n, a = len(COVARIANCE_NAMES), COVARIANCE_NAMES.index("straightness_initial_m")
@@ -311,7 +311,7 @@ def test_a_fitted_a0_life_interval_is_calibrated_on_noise_redraws():
     192/200); seed 9 0.0220, 0.0217, 183/200 (0.0297, 192/200)."""
     from guide_health.analysis.discrepancy.model import WearProblem
     from guide_health.analysis.discrepancy.model_file import model_parameters
-    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
+    from guide_health.models.wear.effects.registry import COVARIANCE_NAMES
 
     n, a = len(COVARIANCE_NAMES), COVARIANCE_NAMES.index("straightness_initial_m")
     for seed in (0, 9):
@@ -498,7 +498,7 @@ def test_a_model_file_from_before_the_duty_effects_still_loads(tmp_path):
 def test_a_model_file_covariance_that_is_no_covariance_is_one_line(tmp_path, entries, message):
     """A negative variance, an asymmetric matrix or correlations beyond +-1 (a hand-edited file) would give a
     narrowed or NaN interval without a word: one line naming the parameters, from the loader and the CLI."""
-    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
+    from guide_health.models.wear.effects.registry import COVARIANCE_NAMES
 
     n = len(COVARIANCE_NAMES)
     cov = np.zeros((n, n))
@@ -521,7 +521,7 @@ def test_covariance_rule_accepts_every_covariance_and_refuses_a_negative_directi
     """covariance_problem: A A' (any rank, scales from 1e-14 to 1e4 as K's and s0's) passes; the same with
     one eigenvalue made negative by more than the tolerance is refused."""
     from guide_health.models.wear.effect_life import covariance_problem
-    from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
+    from guide_health.models.wear.effects.registry import COVARIANCE_NAMES
 
     n = len(COVARIANCE_NAMES)
     rng = np.random.default_rng(seed)

@@ -9,6 +9,7 @@ from guide_health.cli.command import Command
 from guide_health.errors import InputError
 from guide_health.io.bag.maintenance import DIAGNOSTIC_ARRAY, MAINTENANCE_TOPIC, encode_events
 from guide_health.io.bag.writer import write_life_test_bag, write_machine_axes_bag, write_machine_bag, write_slewing_bag
+from guide_health.models.wear.effects.registry import BY_ID, EFFECTS
 from guide_health.models.wear.maintenance import MaintenanceEvent
 from guide_health.params import (
     SCHEMAS,
@@ -52,14 +53,13 @@ def add_arguments(parser) -> None:
                              "applied before --rate and --hours)")
     parser.add_argument("--namespace", default="", help="topic namespace, e.g. /m1")
     parser.add_argument("--effect", action="append", metavar="NAME=VALUE",
-                        help="physics the baseline model lacks, hidden in the truth (models/wear/effects.py), "
-                             "VALUE in SI: running_in=r (K starts at (1+r) K, s0 = running_in_distance_m), "
-                             "retract_asymmetry=rho, speed_dependent_wear=v_lift [m/s], load_exponent=n, "
-                             "stroke_distribution=w, thermal_drift=c_T [m/K], initial_offset=delta [m], "
-                             "wear_rate_change=f (at wear_rate_change_h), lubrication_interval=b [1/s] (wear x "
-                             "(1 + b tau), tau since the last relubrication: every relubrication_interval_h and "
-                             "--maintenance relubricate events), load_along_rail=g [1/m] (load W (1 + g (x - "
-                             "x_ref)), x_ref the work-weighted mean position)")
+                        help="physics the baseline model lacks, hidden in the truth (models/wear/effects/, "
+                             "docs/discrepancy.md's table), VALUE in SI: " + ", ".join(
+                                 f"{e.id}={e.simulate.name}" + (f" [{e.simulate.unit}]" if e.simulate.unit != "-"
+                                                                else "") for e in EFFECTS)
+                             + "; running_in's s0 is running_in_distance_m, wear_rate_change's t_c "
+                             "wear_rate_change_h, lubrication_interval's relubrications every relubrication_interval_h "
+                             "and the --maintenance relubricate events")
     parser.add_argument("--maintenance", action="append", metavar="KIND:AXIS[.GUIDE]@TIME[=VALUE]",
                         help="a maintenance event on maintenance/events (docs/machine.md): KIND regrind, "
                              "replace_rail, replace_carriage, relubricate or measure; TIME from the start in h "
@@ -122,8 +122,8 @@ def run(args) -> dict:
     _check_axis_free(args, sim)
     _override_duration(args, sim)
     effects = parse_effects(args.effect)
-    if "thermal_drift" in effects and not sim["temperature_rate_hz"] > 0:
-        print("guide-health simulate: thermal_drift needs a temperature record: guide/temperature at 0.1 Hz",
+    for name in (e for e in effects if BY_ID[e].needs_temperature and not sim["temperature_rate_hz"] > 0):
+        print(f"guide-health simulate: {name} needs a temperature record: guide/temperature at 0.1 Hz",
               file=sys.stderr)
     out = new_bag_path(args.out)
     t0 = time.perf_counter()

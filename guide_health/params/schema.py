@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from guide_health.errors import InputError
+from guide_health.models.wear.effects.registry import COVARIANCE_SIZES
 
 
 def _parse_interval(text: str) -> tuple[float, float, bool, bool]:
@@ -104,10 +105,9 @@ def _square_block_padded(values: list, size: int) -> list:
 
 
 #: numeric-list parameters that grew, with the older lengths a file may still hold and how it widens (every
-#: loader goes through coerce_value): the effect_covariance of model files written without the duty effects
-#: (6 x 6), without stroke_distribution (9 x 9), without thermal_drift's terms (10 x 10), without A0's
-#: variance (12 x 12)
-LIST_UPGRADES = {"effect_covariance": ((36, 81, 100, 144), _square_block_padded)}
+#: loader goes through coerce_value): the effect_covariance of older model files (the effect registry's
+#: generations of covariance rows: 6 x 6, 9 x 9, 10 x 10, 12 x 12)
+LIST_UPGRADES = {"effect_covariance": (tuple(n * n for n in COVARIANCE_SIZES[:-1]), _square_block_padded)}
 
 
 def coerce_value(name: str, value: Any, default: Any) -> Any:

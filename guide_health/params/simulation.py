@@ -35,7 +35,7 @@ MACHINE_SIMULATION_PARAMS = (
     Param("retract_load_max_n", 0.0, "N", "[0, inf)", "per job uniform retract_load_n .. min(this, feed load)"),
     Param("stroke_mean_max_m", 0.0, "m", "[0, inf)", "per job uniform stroke_mean_m .. this"),
     Param("stroke_skew_max", 0.0, "-", "[0, inf)", "per job stroke_skew + uniform(-this, this)"),
-    Param("running_in_distance_m", 100.0, "m", "(0, inf)", "s0 of the running_in effect (models/wear/effects.py)"),
+    Param("running_in_distance_m", 100.0, "m", "(0, inf)", "s0 of the running_in effect (models/wear/effects/)"),
     Param("load_reference_n", 1000.0, "N", "(0, inf)", "W_ref of the load_exponent effect"),
     Param("wear_rate_change_h", 10.0, "h", "[0, inf)", "t_c of the wear_rate_change effect, from the start"),
     Param("relubrication_interval_h", 0.0, "h", "[0, inf)",

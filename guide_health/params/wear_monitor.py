@@ -10,9 +10,17 @@ from typing import Any
 from guide_health.errors import InputError
 from guide_health.models.rolling.lubrication import LAMBDA_BOUNDARY, LAMBDA_FULL_FILM  # the one source
 from guide_health.models.wear.effect_life import covariance_problem
-from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
+from guide_health.models.wear.effects.registry import (
+    BY_ID,
+    COVARIANCE_NAMES,
+    COVARIANCE_SIZES,
+    LIVE_EFFECT_IDS,
+    LIVE_PARAMETERS,
+)
 from guide_health.params.machine import AXES_PARAM, MAINTENANCE_PARAMS
 from guide_health.params.schema import NodeSchema, Param, alarm_and_sensor_qos_params
+
+_N = len(COVARIANCE_NAMES)
 
 #: the wear profile's bins (rail_length_m / profile_bin_m) at most: 1e6 bins = 8 MB per profile array
 MAX_PROFILE_BINS = 1_000_000
@@ -58,56 +66,18 @@ SLIDING_GUIDE_PARAMS = (
     Param("straightness_noise_m", 0.5e-6, "m", "[0, 0.01]",
           "1-sigma noise of a straightness measurement (prior of the K update)", dynamic=True),
     Param("wear_coefficient_prior_rel_sd", 0.5, "-", "(0, 100]", "prior sd of K relative to the configured K"),
-    # wear effects learnt by `guide-health diagnose` (its DIR/model.yaml; models/wear/effects.py); the defaults
+    # wear effects learnt by `guide-health diagnose` (its DIR/model.yaml; models/wear/effects/); the defaults
     # are the plain Archard model
-    Param("effects", "", "", "", "effects the live model integrates, comma-separated ids of models/wear/effects.py "
+    Param("effects", "", "", "", "effects the live model integrates, comma-separated ids of models/wear/effects/ "
           "(written by diagnose --out DIR as DIR/model.yaml; '' = plain Archard wear)"),
-    Param("running_in_ratio", 0.0, "-", "[0, 100]", "running_in r: K(s) = K (1 + r exp(-s / s0))"),
-    Param("running_in_distance_m", 100.0, "m", "(0, 1e9]", "running_in s0, sliding distance of the decay"),
-    Param("retract_wear_factor", 1.0, "-", "[0, 10]", "retract_asymmetry rho: retract wear per unit work / feed's"),
-    Param("retract_direction", "-x", "", "", "direction of the retract stroke (retract_asymmetry)",
-          choices=("-x", "+x")),
-    Param("lift_speed_m_s", 0.0, "m/s", "[0, 100]",
-          "speed_dependent_wear v_lift: asperity share 1 / (1 + (v / v_lift)^1.4); 0 = no effect"),
-    Param("load_exponent", 1.0, "-", "[0, 4]", "load_exponent n: wear rate proportional to (W / W_ref)^n W_ref"),
-    Param("load_reference_n", 1000.0, "N", "(0, 1e9]", "load_exponent W_ref (diagnose: the geometric mean load)"),
-    Param("load_gradient_per_m", 0.0, "1/m", "[-1e3, 1e3]",
-          "load_along_rail g: load W (1 + g (x - x_ref)) along the rail (misalignment, foundation)"),
-    Param("load_reference_position_m", 0.0, "m", "[-1e3, 1e3]",
-          "load_along_rail x_ref (diagnose: the work-weighted mean position, axis frame)"),
-    Param("wear_rate_change_factor", 1.0, "-", "(0, 100]",
-          "wear_rate_change f: K x f from wear_rate_change_stamp_s on"),
-    Param("wear_rate_change_stamp_s", 0.0, "s", "[0, 1e11]",
-          "wear_rate_change t_c: when the wear rate changed, seconds since the epoch of the message stamps"),
-    Param("lubrication_wear_growth", 0.0, "-", "[-1, 1e3]",
-          "lubrication_interval growth: b [1/s] in m = max(1 + b tau, 0) (tau since the last relubricate "
-          "event, lubrication_interval_s = 0), or a [-] in m = 1 + a ((t - t_ref) mod T) / T; diagnose fits "
-          "it down to -0.9 per interval (wear falling after a relubrication)"),
-    Param("lubrication_interval_s", 0.0, "s", "[0, 1e9]",
-          "lubrication_interval T: relubricated every T from lubrication_reference_stamp_s; 0 = the recorded "
-          "relubricate maintenance events are the time base"),
-    Param("lubrication_reference_stamp_s", 0.0, "s", "[0, 1e11]",
-          "lubrication_interval t_ref [s since the stamps' epoch]: the first assumed relubrication (interval), "
-          "or the last recorded one of the diagnosed record (events)"),
-    Param("lubrication_forecast_interval_s", 0.0, "s", "[0, 1e9]",
-          "lubrication_interval with recorded relubrications: the interval of the future ones the remaining life "
-          "assumes (diagnose: the record's mean gap); 0 = none expected (the time since the last keeps growing)"),
-    Param("thermal_drift_m_per_k", 0.0, "m/K", "[-1e-4, 1e-4]",
-          "thermal_drift c_T: the straightness gauge reads A + c_T (T - T_ref); each measurement is corrected "
-          "with the guide/temperature reading in force at its stamp"),
-    Param("thermal_reference_c", 20.0, "degC", "[-1e6, 1e6]",
-          "thermal_drift T_ref: the guide temperature at which the gauge reads the true straightness (diagnose's "
-          "T_0 - b / c_T: far from the guide's temperatures when the drift is mostly a constant offset)"),
-    Param("stroke_distribution_weight", 0.0, "-", "[-1, 2]",
-          "stroke_distribution w: A_wear = K / (H b) [(1 - w) 2 G / (l_min + l_max) + w P], P the work of each pass "
-          "over max(pass length, slider length) (Eq. 5's j = 1/2 at w = 0); diagnose fits it in [-1, 2]"),
+    # the effects' own parameters (name, default, unit, range, meaning: the effect registry's)
+    *(Param(e.name, e.default, e.unit, e.range_text, e.meaning, choices=e.choices) for e in LIVE_PARAMETERS),
     Param("effect_covariance", [0.0] * len(COVARIANCE_NAMES) ** 2, "SI", "",
-          "covariance (row-major 13 x 13) of the fitted wear_coefficient, running_in_ratio, running_in_distance_m, "
-          "retract_wear_factor, lift_speed_m_s, load_exponent, load_gradient_per_m, wear_rate_change_factor, "
-          "lubrication_wear_growth, stroke_distribution_weight, thermal_drift_m_per_k, thermal_gauge_offset_m "
-          "(the gauge's offset at thermal_reference_c, 0 at the fitted values) and straightness_initial_m (A0 when "
-          "fitted) (SI); widens the remaining-life interval (the 6 x 6, 9 x 9, 10 x 10 or 12 x 12 of an older "
-          "model file loads as the leading block)"),
+          f"covariance (row-major {_N} x {_N}) of the fitted {', '.join(COVARIANCE_NAMES[:-1])} and "
+          f"{COVARIANCE_NAMES[-1]} (SI; thermal_gauge_offset_m: the gauge's offset at thermal_reference_c, 0 at the "
+          "fitted values; straightness_initial_m: A0 when fitted); widens the remaining-life interval (the "
+          f"{' or '.join(f'{n} x {n}' for n in COVARIANCE_SIZES[:-1])} of an older model file loads as the "
+          "leading block)"),
     Param("life_warn_h", 500.0, "h", "(0, 1e7]", "WARN when the remaining precision life drops below this",
           dynamic=True),
     Param("life_error_h", 100.0, "h", "[0, 1e7]",
@@ -205,11 +175,6 @@ ROLLING_GUIDE_PARAMS = (
 )
 
 
-#: effect ids the live model integrates (models/wear/effect_wear.py); initial_offset is folded into A0
-LIVE_EFFECT_IDS = ("running_in", "retract_asymmetry", "speed_dependent_wear", "load_exponent", "load_along_rail",
-                   "wear_rate_change", "lubrication_interval", "thermal_drift", "stroke_distribution")
-
-
 def effect_ids(p: dict[str, Any]) -> list[str]:
     """The ``effects`` parameter as a list of ids ('' = none)."""
     return [e.strip() for e in str(p.get("effects", "")).split(",") if e.strip()]
@@ -222,12 +187,10 @@ def _effect_checks(p: dict[str, Any]) -> None:
                              f"(live: {', '.join(LIVE_EFFECT_IDS)})")
     if effect_ids(p) and p["straightness_model"] != "eq7":
         raise InputError("parameter effects: the live wear effects need straightness_model eq7")
-    if "speed_dependent_wear" in effect_ids(p) and not p["lift_speed_m_s"] > 0:
-        raise InputError("parameter effects: speed_dependent_wear needs lift_speed_m_s > 0")
-    if "thermal_drift" in effect_ids(p) and p.get("thermal_drift_m_per_k", 0.0) == 0.0:
-        raise InputError("parameter effects: thermal_drift needs thermal_drift_m_per_k != 0")
-    if "wear_rate_change" in effect_ids(p) and not p.get("wear_rate_change_stamp_s", 0.0) > 0:
-        raise InputError("parameter effects: wear_rate_change needs wear_rate_change_stamp_s > 0 (when it changed)")
+    for e in effect_ids(p):
+        need = BY_ID[e].requires
+        if need is not None and not need.holds(p[need.parameter]):
+            raise InputError(f"parameter effects: {e} needs {need.parameter} {need.condition}{need.note}")
     problem = covariance_problem(p["effect_covariance"])
     if problem:
         raise InputError(f"parameter effect_covariance {problem}")

@@ -16,10 +16,7 @@ import numpy as np
 from guide_health.errors import InputError
 from guide_health.models.wear.archard import WearGeometry, WearIntegrator, straightness_from_wear_volume_m
 from guide_health.models.wear.effects import (
-    DUTY_EFFECT_IDS,
-    EFFECT_IDS,
-    EFFECT_VALUE,
-    WearEffects,
+    EffectParameters,
     asperity_load_share,
     load_along_rail_factor,
     measured_straightness_m,
@@ -29,6 +26,11 @@ from guide_health.models.wear.effects import (
     straightness_wear_m,
     wear_rate_change_factor,
     wear_rate_multiplier,
+)
+from guide_health.models.wear.effects.registry import (
+    BY_ID,
+    CANDIDATE_IDS,
+    simulate_field,
 )
 from guide_health.models.wear.maintenance import KINDS, MaintenanceEvent, check_event
 from guide_health.params.schema import Param
@@ -44,7 +46,14 @@ from guide_health.sim.motion import (
 )
 from guide_health.sim.thermal import temperature_records
 
-EFFECTS = EFFECT_IDS + DUTY_EFFECT_IDS
+EFFECTS = CANDIDATE_IDS
+#: the bag metadata's ``effect_parameters``: the hidden truth under the names and in the order bags have recorded
+#: it (a stored format: the ``--effect`` values of the registry, their references and change time)
+RECORDED_EFFECT_PARAMETERS = (
+    "running_in_ratio", "running_in_distance_m", "retract_wear_factor", "lift_speed_m_s", "load_exponent",
+    "load_reference_n", "stroke_distribution_weight", "thermal_drift_m_per_k", "initial_offset_m",
+    "wear_rate_change_factor", "wear_rate_change_time_s", "lubrication_wear_growth_per_s", "load_gradient_per_m",
+    "load_reference_position_m")
 START_TIME_NS = 1_700_000_000 * 10**9
 
 
@@ -84,7 +93,7 @@ def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
     geometry = WearGeometry.from_params(params)
     if effects and geometry.straightness_model != "eq7":
         raise InputError("--effect needs straightness_model: eq7 (the baseline the effects are defined against)")
-    wear_effects = WearEffects.from_values(
+    wear_effects = EffectParameters.from_values(
         effects, running_in_distance_m=sim["running_in_distance_m"], load_reference_n=sim["load_reference_n"],
         wear_rate_change_time_s=sim["wear_rate_change_h"] * 3600.0,
         relubrication_t_s=tuple(float(t) for t in relubrication_times_s(sim, relubrication_t_s, float(knots.t_s[-1]))),
@@ -96,7 +105,7 @@ def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
     load_t_s, load_n = load_samples(knots, sim, rng, load_clock_rng)
     measurement_t_s = np.arange(0.0, knots.t_s[-1] + 1e-9, sim["measurement_interval_h"] * 3600.0)
     temperature_t_s, temperature_c, temperature_at_measurements_c = temperature_records(
-        knots, sim, "thermal_drift" in effects, measurement_t_s, rng)
+        knots, sim, any(BY_ID[e].needs_temperature for e in effects), measurement_t_s, rng)
     truth_k = params["wear_coefficient"] * sim["wear_coefficient_factor"]
     resets = np.sort(np.asarray(new_surface_t_s, dtype=float))
     wear_all = true_straightness_wear_m(params, geometry, knots, wear_effects, truth_k,
@@ -125,8 +134,7 @@ def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
             "generator": "guide_health.simulate",    # the name bags record (kept when simulate.py became sim/)
             "seed": seed,
             "effects": effects,
-            "effect_parameters": {k: v for k, v in vars(wear_effects).items()
-                                  if isinstance(v, float) and math.isfinite(v)},
+            "effect_parameters": recorded_effect_parameters(wear_effects),
             "relubrication_t_s": list(wear_effects.relubrication_t_s),
             "jobs": knots.jobs,
             "simulation": dict(sim),
@@ -135,18 +143,18 @@ def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
     )
 
 
-#: the allowed range of an --effect value that is not a wear_monitor parameter of the same name (those take
-#: the wear_monitor schema's range), or whose hidden value must differ from the parameter's "no effect"
-EFFECT_VALUE_RANGES = {"stroke_distribution_weight": "[0, 1]", "initial_offset_m": "[-1e-3, 1e-3]",
-                       "lubrication_wear_growth_per_s": "[0, 0.01]", "lift_speed_m_s": "(0, 100]"}
+def recorded_effect_parameters(effects: EffectParameters) -> dict[str, float]:
+    """{name: value} of :data:`RECORDED_EFFECT_PARAMETERS` that are finite (the bag metadata's record)."""
+    values = {name: getattr(effects, simulate_field(name)) for name in RECORDED_EFFECT_PARAMETERS}
+    return {k: v for k, v in values.items() if isinstance(v, float) and math.isfinite(v)}
 
 
 def effect_value_range(name: str):
     """The Param whose range an --effect value must be in (``name``: the effect id)."""
-    field, unit, _ = EFFECT_VALUE[name]
-    if field in EFFECT_VALUE_RANGES or field not in WEAR_MONITOR_SCHEMA.by_name:
-        return Param(field, 0.0, unit, EFFECT_VALUE_RANGES[field], "")
-    return WEAR_MONITOR_SCHEMA[field]
+    value = BY_ID[name].simulate
+    if value.range_text or value.name not in WEAR_MONITOR_SCHEMA.by_name:
+        return Param(value.name, 0.0, value.unit, value.range_text, "")
+    return WEAR_MONITOR_SCHEMA[value.name]
 
 
 def checked_effects(effects: dict[str, float] | None) -> dict[str, float]:
@@ -199,7 +207,7 @@ def load_samples(knots: MachineKnots, sim: dict[str, Any], rng: np.random.Genera
 
 
 def true_straightness_wear_m(params: dict[str, Any], geometry: WearGeometry, knots: MachineKnots,
-                             effects: WearEffects, truth_k: float, at_s: np.ndarray,
+                             effects: EffectParameters, truth_k: float, at_s: np.ndarray,
                              new_surface_t_s=()) -> np.ndarray:
     """True straightness loss by wear [m] at times ``at_s``: Eq. 7 with the effects' work, or (other
     straightness models, no effects) the true K times the monitor's loss per unit K of the exact motion."""
@@ -259,10 +267,10 @@ def true_straightness_loss_per_k_m(params: dict[str, Any], knot_t: np.ndarray, k
     return out
 
 
-def effective_work_at(knots: MachineKnots, at_s: np.ndarray, effects: WearEffects,
+def effective_work_at(knots: MachineKnots, at_s: np.ndarray, effects: EffectParameters,
                       slider_length_m: float, new_surface_t_s=()) -> tuple[np.ndarray, np.ndarray]:
     """Effective Archard work G = sum W ds m [N m] and pass work P = sum W ds m / max(L, L_s) [N] of the
-    exact motion at times ``at_s`` (models/wear/effects.py; m = 1 without effects). Running-in counts the
+    exact motion at times ``at_s`` (models/wear/effects/; m = 1 without effects). Running-in counts the
     sliding distance from the last of ``new_surface_t_s`` [s] before each segment (a reground surface runs
     in again)."""
     ds = np.abs(np.diff(knots.x_m))
@@ -292,8 +300,8 @@ def effective_work_at(knots: MachineKnots, at_s: np.ndarray, effects: WearEffect
             p[seg - 1] + (p[seg] - p[seg - 1]) * share_of_move)
 
 
-def duty_factor(effects: WearEffects, knots: MachineKnots) -> np.ndarray | float:
-    """The duty effects' multiplier of each move (models/wear/effects.py): load_along_rail at its mid-position
+def duty_factor(effects: EffectParameters, knots: MachineKnots) -> np.ndarray | float:
+    """The duty effects' multiplier of each move (models/wear/effects/): load_along_rail at its mid-position
     (exact: linear in x, the work uniform in x), wear_rate_change by the share of its time after t_c,
     lubrication_interval at its mid-time (time since the last relubrication before it)."""
     t_a, t_b = knots.t_s[:-1], knots.t_s[1:]
@@ -304,9 +312,9 @@ def duty_factor(effects: WearEffects, knots: MachineKnots) -> np.ndarray | float
     if effects.wear_rate_change_factor != 1.0:
         m = m * wear_rate_change_factor(0.5 * (t_a + t_b), t_b - t_a, effects.wear_rate_change_time_s,
                                         effects.wear_rate_change_factor)
-    if effects.lubrication_wear_growth_per_s != 0.0:
+    if effects.lubrication_wear_growth != 0.0:
         m = m * relubrication_growth_factor(0.5 * (t_a + t_b), np.asarray(effects.relubrication_t_s, dtype=float),
-                                            effects.lubrication_wear_growth_per_s)
+                                            effects.lubrication_wear_growth)
     return m
 
 

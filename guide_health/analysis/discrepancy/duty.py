@@ -8,7 +8,7 @@ load W = the latest accepted load
 stamped at or before the segment's end sample, direction, and the length L of the pass (monotone run of
 the axis) it belongs to; before the first accepted load the distance counts and the wear does not.
 Segments are summed into cells of (time block, direction, speed bin, load bin): bins 10 % wide in log
-speed and log load and blocks of ``block_s`` seconds, so every effect multiplier (models/wear/effects.py),
+speed and log load and blocks of ``block_s`` seconds, so every effect multiplier (models/wear/effects/),
 evaluated at a cell's work-weighted means, is the segment sum to well below the measurement noise. A fine
 cell belongs to the measurement interval of its work-weighted mean time (an error of at most half a block
 of wear at a measurement); cells of one interval with the same direction and bins are then merged,

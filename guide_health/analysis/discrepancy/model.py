@@ -1,7 +1,7 @@
 """The wear model with any set of effects, evaluated over duty cells at the measurement times, and its
 least-squares fit (scipy.optimize.least_squares) with parameter uncertainty.
 
-Prediction of the measured straightness at measurement j (models/wear/effects.py, seed 000 Eq. 7/10):
+Prediction of the measured straightness at measurement j (models/wear/effects/, seed 000 Eq. 7/10):
 
     y_j = A0 + delta + c_T (T_j - T_0)
           + K / (H b) [(1 - w) 2 G_j / (l_min + l_max) + w P_j],
@@ -22,7 +22,7 @@ from scipy.optimize import least_squares
 from guide_health.analysis.discrepancy.duty import DutyCells
 from guide_health.models.wear.effects import (
     CANDIDATE_IDS,
-    WearEffects,
+    EffectParameters,
     load_along_rail_factor,
     lubrication_interval_factor,
     measured_straightness_m,
@@ -32,56 +32,25 @@ from guide_health.models.wear.effects import (
     wear_rate_change_factor,
     wear_rate_multiplier,
 )
+from guide_health.models.wear.effects.base import FitContext
+from guide_health.models.wear.effects.base import FitParameter as ParamSpec
+from guide_health.models.wear.effects.registry import BY_ID, FIT_PARAMETERS
 from guide_health.models.wear.input_rules import reading_in_force_index
 
 UM = 1e6
 MICRO_UNITS = ("m", "m/K")       # fitted in um and um/K
 
 
-@dataclass(frozen=True)
-class ParamSpec:
-    """One fitted parameter: physical name and unit, bounds, log-scaled or not, start values."""
-
-    name: str
-    unit: str
-    lower: float
-    upper: float
-    log: bool = False
-    starts: tuple = ()
-
-
 def _effect_specs(problem: WearProblem) -> dict[str, list[ParamSpec]]:
-    dist = max(problem.cells.total_distance_m, 1.0)
-    v_feed = problem.feed_speed_m_s
-    t_fit = float(problem.t_s[problem.fit_mask][-1])
-    spread = float(np.max(np.abs(problem.cells.position_m - problem.position_ref_m))) if problem.cells.cells else 0.0
-    g_max = 1.0 / max(spread, 1e-3)
-    if problem.relubrication_t_s is not None:   # recorded relubrications: b of m = 1 + b tau (m >= 0.1 over the gap)
-        gap = problem.relubrication_gap_s
-        lube = [ParamSpec("lubrication_wear_growth_per_s", "1/s", -0.9 / gap, 20.0 / gap, False, (0.5 / gap,))]
-    else:                                       # an interval T from the record's start, and a
-        lube = [ParamSpec("lubrication_interval_s", "s", 1800.0, max(t_fit, 3600.0), True,
-                          tuple(h * 3600.0 for h in (1.5, 2.0, 3.0, 4.0, 5.5, 7.0, 9.0, 12.0, 16.0)
-                                if h * 3600.0 < t_fit) or (t_fit / 2,)),
-                ParamSpec("lubrication_wear_growth", "-", -0.9, 20.0, False, (1.0,))]
-    return {
-        "running_in": [ParamSpec("running_in_ratio", "-", 0.0, 100.0, False, (1.0,)),
-                       ParamSpec("running_in_distance_m", "m", dist * 1e-3, dist, True,
-                                 tuple(dist * f for f in (0.01, 0.04, 0.15)))],
-        "retract_asymmetry": [ParamSpec("retract_wear_factor", "-", 0.0, 5.0, False, (0.5,))],
-        "speed_dependent_wear": [ParamSpec("lift_speed_m_s", "m/s", 1e-5, 100.0, True,
-                                           tuple(v_feed * f for f in (0.5, 2.0, 8.0)))],
-        "load_exponent": [ParamSpec("load_exponent", "-", 0.0, 4.0, False, (0.7, 1.5))],
-        "stroke_distribution": [ParamSpec("stroke_distribution_weight", "-", -1.0, 2.0, False, (0.5,))],
-        "thermal_drift": [ParamSpec("thermal_drift_m_per_k", "m/K", -1e-4, 1e-4, False, (0.0,))]
-        + ([] if problem.a0_free else [ParamSpec("thermal_offset_m", "m", -1e-3, 1e-3, False, (0.0,))]),
-        "initial_offset": [ParamSpec("initial_offset_m", "m", -1e-3, 1e-3, False, (0.0,))],
-        "wear_rate_change": [ParamSpec("wear_rate_change_time_s", "s", 0.0, t_fit, False,
-                                       tuple(t_fit * f for f in (0.2, 0.4, 0.6, 0.8))),
-                             ParamSpec("wear_rate_change_factor", "-", 0.05, 20.0, True, (0.5, 2.0))],
-        "lubrication_interval": lube,
-        "load_along_rail": [ParamSpec("load_gradient_per_m", "1/m", -g_max, g_max, False, (0.0,))],
-    }
+    """Each candidate's fitted parameters (bounds and starts from the effect's module, for this record)."""
+    context = FitContext(
+        total_distance_m=problem.cells.total_distance_m, feed_speed_m_s=problem.feed_speed_m_s,
+        fit_end_s=float(problem.t_s[problem.fit_mask][-1]),
+        position_spread_m=(float(np.max(np.abs(problem.cells.position_m - problem.position_ref_m)))
+                           if problem.cells.cells else 0.0),
+        relubrication_gap_s=problem.relubrication_gap_s if problem.relubrication_t_s is not None else None,
+        a0_free=problem.a0_free)
+    return {effect: fit(context) for effect, fit in FIT_PARAMETERS.items()}
 
 
 def _thermal_reference(values: dict, se: dict, cov: np.ndarray, specs: list) -> None:
@@ -217,14 +186,11 @@ class WearProblem:
 
     # --- candidates ---------------------------------------------------------------------------
     def available_effects(self) -> list[str]:
-        """Effect ids that can be tried on this data: thermal drift only with a temperature record, an
-        initial offset only when A0 is given (with A0 = 0 the baseline fits A0 itself)."""
-        ids = list(CANDIDATE_IDS)
-        if self.temperature_change_k is None:
-            ids.remove("thermal_drift")
-        if self.a0_free:
-            ids.remove("initial_offset")
-        return ids
+        """Effect ids that can be tried on this data: those that need a temperature record only with one, those
+        that need a given A0 only when A0 is given (with A0 = 0 the baseline fits A0 itself)."""
+        return [e for e in CANDIDATE_IDS
+                if not (BY_ID[e].needs_temperature and self.temperature_change_k is None)
+                and not (BY_ID[e].needs_given_a0 and self.a0_free)]
 
     # --- prediction ----------------------------------------------------------------------------
     def _param_list(self, effects: tuple[str, ...]) -> list[ParamSpec]:
@@ -262,7 +228,7 @@ class WearProblem:
     def predict_m(self, values: dict[str, float]) -> np.ndarray:
         """Measured straightness [m] at every measurement for physical parameter values."""
         c = self.cells
-        eff = WearEffects(
+        eff = EffectParameters(
             running_in_ratio=values.get("running_in_ratio", 0.0),
             running_in_distance_m=values.get("running_in_distance_m", 1.0),
             retract_wear_factor=values.get("retract_wear_factor", 1.0),
@@ -290,7 +256,7 @@ class WearProblem:
         return y + values.get("thermal_offset_m", 0.0) if temp is not None else y
 
     def _duty_factors(self, values: dict[str, float]) -> np.ndarray | float:
-        """The multipliers of wear_rate_change, lubrication_interval and load_along_rail (effects.py)."""
+        """The multipliers of wear_rate_change, lubrication_interval and load_along_rail (models/wear/effects/)."""
         c = self.cells
         m = 1.0
         if "wear_rate_change_factor" in values:

@@ -2,7 +2,7 @@
 
 A ROS 2 parameters file (``wear_monitor: ros__parameters:``) with the calibrated K, the A0 the fit used,
 the named effects the live model integrates (``effects`` and their parameters, params/wear_monitor.py) and
-the covariance of the fitted K, effect parameters and A0 (13 x 13, models/wear/effect_wear.COVARIANCE_NAMES;
+the covariance of the fitted K, effect parameters and A0 (models/wear/effects/registry.COVARIANCE_NAMES;
 the gauge offset at T_ref is a linear function of the fitted c_T and offset at T_0, its rows by that Jacobian;
 A0's row is the fitted A0's, or initial_offset's delta's, when the fit freed them, else zero).
 The duty effects' times become absolute (seconds since the stamps' epoch): the change time of
@@ -28,26 +28,23 @@ import numpy as np
 import yaml
 
 from guide_health.io.outputs.files import write_text
-from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
-from guide_health.params import validate_wear_params
-from guide_health.params.wear_monitor import LIVE_EFFECT_IDS
 
-#: the fitted parameters each live effect carries into the model file (same names as the wear_monitor's)
-EFFECT_PARAMETERS = {
-    "running_in": ("running_in_ratio", "running_in_distance_m"),
-    "retract_asymmetry": ("retract_wear_factor",),
-    "speed_dependent_wear": ("lift_speed_m_s",),
-    "load_exponent": ("load_exponent",),
-    "load_along_rail": ("load_gradient_per_m",),
-    "wear_rate_change": ("wear_rate_change_factor",),
-    "thermal_drift": ("thermal_drift_m_per_k",),
-    "stroke_distribution": ("stroke_distribution_weight",),
-}
-#: effects of the material pair and lubricant, shared by machines of a type (the fleet prior pools them);
-#: the others belong to one machine's history or mounting (a change time, a relubrication plan, a rail)
-MATERIAL_EFFECTS = ("running_in", "retract_asymmetry", "speed_dependent_wear", "load_exponent")
-#: a fitted parameter's row in the covariance when its name differs from the live one
-COVARIANCE_ALIASES = {"lubrication_wear_growth_per_s": "lubrication_wear_growth"}
+# the model file's keys and covariance rows come from the effect registry: EFFECT_PARAMETERS (the fitted
+# parameters each live effect carries, same names as the wear_monitor's), MATERIAL_EFFECTS (shared by machines
+# of a type: the fleet prior pools them; the others belong to one machine's history or mounting),
+# COVARIANCE_ALIASES (a fitted parameter's row when its name differs from the live one)
+from guide_health.models.wear.effects.registry import (
+    BY_ID,
+    COVARIANCE_ALIASES,
+    COVARIANCE_INDEX,
+    COVARIANCE_NAMES,
+    EFFECT_PARAMETERS,
+    LIVE_EFFECT_IDS,
+    MATERIAL_EFFECTS,
+)
+from guide_health.params import validate_wear_params
+
+__all__ = ["COVARIANCE_ALIASES", "EFFECT_PARAMETERS", "MATERIAL_EFFECTS", "model_parameters", "write_model_file"]
 
 
 def duty_effect_parameters(problem, v: dict[str, float], live: list[str]) -> dict[str, Any]:
@@ -98,17 +95,16 @@ def model_parameters(problem, final, named: list[str]) -> dict[str, Any]:
     n = len(COVARIANCE_NAMES)
     matrix = np.zeros((n, n))
     if cov is not None:
-        # the file's parameters as linear functions of the fitted ones (jac), then jac Sigma jac'
+        # the file's parameters as linear functions of the fitted ones (jac), then jac Sigma jac' (a fitted
+        # name the registry aliases takes its row: initial_offset's delta is A0's, A0 = the given A0 + delta)
         index = {COVARIANCE_ALIASES.get(name, name): i for i, name in enumerate(cov["names"])}
         jac = np.zeros((n, len(cov["names"])))
         for name in COVARIANCE_NAMES:
             if name in index and (name == "wear_coefficient" or name in out):
-                jac[COVARIANCE_NAMES.index(name), index[name]] = 1.0
-        if "initial_offset_m" in index:     # A0 = the given A0 + delta (initial_offset named)
-            jac[COVARIANCE_NAMES.index("straightness_initial_m"), index["initial_offset_m"]] = 1.0
+                jac[COVARIANCE_INDEX[name], index[name]] = 1.0
         if "thermal_drift" in live:
             # the gauge's offset at T_ref: e = dc_T (T_ref - T_0) + db (b the fitted offset at T_0, when fitted)
-            row = COVARIANCE_NAMES.index("thermal_gauge_offset_m")
+            row = COVARIANCE_INDEX["thermal_gauge_offset_m"]
             jac[row, index["thermal_drift_m_per_k"]] = out["thermal_reference_c"] - problem.temperature_first_c
             if "thermal_offset_m" in index:
                 jac[row, index["thermal_offset_m"]] = 1.0
@@ -128,20 +124,21 @@ def live_parameter_text(model: dict[str, Any]) -> str:
     names = ["wear_coefficient"] + [p for e in effects for p in EFFECT_PARAMETERS.get(e, ())]
     if "thermal_drift" in effects:       # T_ref, and the gauge's offset there (0 at the fitted values)
         names += ["thermal_reference_c", "thermal_gauge_offset_m"]
-    a0 = COVARIANCE_NAMES.index("straightness_initial_m")
+    a0 = COVARIANCE_INDEX["straightness_initial_m"]
     if cov[a0, a0] > 0:                  # A0 was fitted
         names.append("straightness_initial_m")
     parts = []
     for name in names:
-        i = COVARIANCE_NAMES.index(name) if name in COVARIANCE_NAMES else None
+        i = COVARIANCE_INDEX[name] if name in COVARIANCE_NAMES else None
         sd = math.sqrt(cov[i, i]) if i is not None and cov[i, i] > 0 else None
         parts.append(f"{name} = {model.get(name, 0.0):.4g}" + (f" ± {sd:.2g}" if sd is not None else ""))
     return ", ".join(parts)
 
 
 def not_live_effects(named: list[str]) -> list[str]:
-    """The named effects the live model does not apply (initial_offset is folded into A0)."""
-    return [e for e in named if e not in LIVE_EFFECT_IDS and e != "initial_offset"]
+    """The named effects the live model does not apply (one whose fitted value the file folds into a row of
+    its own, as initial_offset into A0, is applied)."""
+    return [e for e in named if e not in LIVE_EFFECT_IDS and not BY_ID[e].fitted_aliases]
 
 
 def write_model_file(path: Path, base_params: dict[str, Any], model: dict[str, Any], named: list[str],

@@ -18,35 +18,12 @@ from guide_health.analysis.discrepancy.fit_pool import FitPool
 from guide_health.analysis.discrepancy.model import FitResult, WearProblem, rel_errors
 from guide_health.analysis.discrepancy.model_file import model_parameters
 from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD, forward_selection
+from guide_health.models.wear.effects.registry import BY_ID, EFFECTS
 
-# what each effect means, for the report
-EFFECT_MEANING = {
-    "running_in": "running-in: K starts high and decays over the sliding distance",
-    "retract_asymmetry": "feed/retract asymmetry: the retract stroke wears less per unit Archard work",
-    "speed_dependent_wear": "speed-dependent wear: the lubricant film lifts the load off the asperities at speed",
-    "load_exponent": "load exponent: wear grows faster (or slower) than linearly with the load",
-    "stroke_distribution": "stroke distribution: the observed strokes, not Eq. 5's j = 1/2, set the wear depth",
-    "thermal_drift": "thermal drift: the straightness measurement follows the guide temperature",
-    "initial_offset": "initial offset: the initial straightness is not the A0 of the parameters",
-    "wear_rate_change": "wear-rate change: the wear coefficient changed by a factor at a time (contamination, "
-                        "a damaged wiper, another lubricant)",
-    "lubrication_interval": "lubrication interval: wear grows with the time since the last relubrication",
-    "load_along_rail": "load along the rail: the load varies along the travel (misalignment, foundation)",
-}
-
-# the duty variation that makes an effect's signature distinct from the others' (for near-ties)
-SEPARATING_DUTY = {
-    "running_in": "a longer record (running-in decays with sliding distance and is over after 3 s0)",
-    "retract_asymmetry": "retract strokes at another speed or load than the feed (or feed-only passes)",
-    "speed_dependent_wear": "jobs at two or more feed speeds under the same load",
-    "load_exponent": "jobs at two or more loads at the same feed speed",
-    "stroke_distribution": "separate jobs of short and of long strokes",
-    "thermal_drift": "straightness measured at rest across a temperature change (a warm-up without motion)",
-    "initial_offset": "a straightness measurement before the first motion",
-    "wear_rate_change": "the same duty before and after a suspected event, with the event logged",
-    "lubrication_interval": "relubrication at recorded times (maintenance events) at another interval",
-    "load_along_rail": "jobs confined to different sections of the rail",
-}
+# what each effect means, and the duty variation that makes its signature distinct from the others' (for
+# near-ties), for the report: the effect registry's words
+EFFECT_MEANING = {e.id: e.meaning for e in EFFECTS}
+SEPARATING_DUTY = {e.id: e.separating_duty for e in EFFECTS}
 
 # what the JSON keeps of the residual analysis after the final fit
 RESIDUALS_AFTER_KEYS = ("residual_rms_um", "runs_test", "lag1_autocorrelation", "ljung_box", "systematic_in_time",
@@ -101,9 +78,8 @@ def fit_forecast(problem: WearProblem, fit: FitResult, limit_m: float, points: i
 
 
 def _names(problem: WearProblem, effect: str) -> list[str]:
-    """The reported parameters of an effect (thermal_drift: also its reference temperature)."""
-    extra = ["thermal_reference_offset_k"] if effect == "thermal_drift" else []
-    return [s.name for s in problem.specs[effect]] + extra
+    """The reported parameters of an effect (with the derived ones its registry entry names)."""
+    return [s.name for s in problem.specs[effect]] + list(BY_ID[effect].reported_extra)
 
 
 def _tie(tie: dict) -> dict[str, Any]:

@@ -21,17 +21,15 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
-from guide_health.models.wear.effect_wear import (
-    A0_INDEX,
-    B_INDEX,
-    B_RATE_INDEX,
-    COVARIANCE_NAMES,
-    RATE_PHI,
-    W_INDEX,
-    EffectWear,
-    LiveEffects,
-    time_since_relubrication_s,
-)
+from guide_health.models.wear.effect_wear import EffectWear, time_since_relubrication_s
+from guide_health.models.wear.effects.parameters import EffectParameters
+from guide_health.models.wear.effects.registry import COVARIANCE_NAMES, PHI_INDEX, RATE_NAMES, RATE_PHI
+
+#: places in phi (registry.PHI_NAMES) the life reads by name: w, A0's deviation, b and b among the rate terms
+W_INDEX, A0_INDEX, B_INDEX = (PHI_INDEX[n] for n in ("stroke_distribution_weight", "straightness_initial_m",
+                                                     "lubrication_wear_growth"))
+B_RATE_INDEX = RATE_NAMES.index("lubrication_wear_growth")
+R_INDEX, S0_INDEX = PHI_INDEX["running_in_ratio"], PHI_INDEX["running_in_distance_m"]
 
 
 def covariance_problem(values) -> str:
@@ -75,7 +73,7 @@ def running_in_extra_m_per_rate(horizon_s, ratio: float, distance_m: float, s_no
 
 
 def lubrication_multiplier_integral_s(horizon_s, growth_per_s: float, tau_now_s: float, interval_s: float):
-    """int_0^T max(1 + b tau(u), 0) du [s]: lubrication_interval's wear multiplier (effects.py, m = max(1 + b
+    """int_0^T max(1 + b tau(u), 0) du [s]: lubrication_interval's wear multiplier (its live form, m = max(1 + b
     tau, 0)) over a horizon T from now. tau(u) = tau_now + u until the next relubrication, due at interval -
     tau_now (now, when overdue), then 0 .. interval, every interval; interval 0: none expected. Closed form
     per relubrication cycle (the multiplier is linear in tau, clipped at 0 for a negative b)."""
@@ -187,10 +185,11 @@ class EffectLifeNow:
     a0_measured: bool = False
 
 
-def life_interval_s(k: float, k_sd: float, e: LiveEffects, now: EffectLifeNow, z: float) -> tuple[float, float, float]:
+def life_interval_s(k: float, k_sd: float, e: EffectParameters, now: EffectLifeNow,
+                    z: float) -> tuple[float, float, float]:
     """(life, low, high) [s] of remaining life with the effects, and its interval: the delta method on ln life
     with K profiled (module text): the effect parameters phi = (r, s0, rho, v_lift, n, g, f, b, w, c_T, e, dA0;
-    ``LiveEffects.phi``; the change time t_c, the interval T and the rail's x_ref are held) vary with the model
+    ``EffectParameters.phi``; the change time t_c, the interval T and the rail's x_ref are held) vary with the model
     file's marginal covariance, K follows as the online update would (``now.k_sensitivity`` = dK / dphi),
     and K's own spread given phi is the online posterior sd ``k_sd``.
 
@@ -218,8 +217,8 @@ def life_interval_s(k: float, k_sd: float, e: LiveEffects, now: EffectLifeNow, z
         loss = (1.0 - w) * now.loss_work * work + w * now.loss_pass * passes
         rate_per_k = (1.0 - w) * now.rate_work_per_k + w * now.rate_pass_per_k
         rate = kk * rate_per_k * (1.0 + float(np.dot(now.dln_rate, d[RATE_PHI])))
-        return remaining_life_with_running_in_s(now.margin0 - d[A0_INDEX] - kk * loss, rate, phi[0],
-                                                max(phi[1], 1e-9), now.s_now, now.v_s, schedule(phi, d))
+        return remaining_life_with_running_in_s(now.margin0 - d[A0_INDEX] - kk * loss, rate, phi[R_INDEX],
+                                                max(phi[S0_INDEX], 1e-9), now.s_now, now.v_s, schedule(phi, d))
 
     def schedule(phi: np.ndarray, d: np.ndarray) -> tuple | None:
         """The lubrication schedule with b moved: the window's mean multiplier moves with the window's rate
@@ -250,13 +249,13 @@ def life_interval_s(k: float, k_sd: float, e: LiveEffects, now: EffectLifeNow, z
     return float(centre), float(centre * math.exp(-z * sd)), float(centre * math.exp(z * sd))
 
 
-def lubrication_schedule(e: LiveEffects, wear: EffectWear, now_ns: int | None, dln_b: float) -> dict | None:
+def lubrication_schedule(e: EffectParameters, wear: EffectWear, now_ns: int | None, dln_b: float) -> dict | None:
     """lubrication_interval's schedule from now (:func:`wear_time_s`): the time since the last relubrication,
     the interval of the next ones (the fitted T; recorded events: lubrication_forecast_interval_s, 0 = none
     expected), the growth per unit of the file's b (1, or 1 / T) and the duty window's mean multiplier
     m_w = 1 / (1 - b dln_b), dln_b = d ln(window rate) / d b (the window's effective work without the
     multiplier is eff (1 - b dln_b)). None without the effect or before any sample."""
-    if "lubrication_interval" not in e.effects or e.lubrication_growth == 0.0 or now_ns is None:
+    if "lubrication_interval" not in e.effects or e.lubrication_wear_growth == 0.0 or now_ns is None:
         return None
     now_s = np.array([now_ns * 1e-9])
     tau = float(time_since_relubrication_s(e, now_s, wear.relubrication_base_s(now_s))[0])
@@ -264,7 +263,7 @@ def lubrication_schedule(e: LiveEffects, wear: EffectWear, now_ns: int | None, d
         interval, per_unit = e.lubrication_interval_s, 1.0 / e.lubrication_interval_s
     else:
         interval, per_unit = e.lubrication_forecast_interval_s, 1.0
-    lubfree_share = 1.0 - e.lubrication_growth * dln_b
+    lubfree_share = 1.0 - e.lubrication_wear_growth * dln_b
     if not (math.isfinite(lubfree_share) and lubfree_share > 0.05 and math.isfinite(tau)):
         return None
     return {"growth_per_unit": per_unit, "tau_now_s": tau, "interval_s": interval, "window_mean": 1.0 / lubfree_share}

@@ -1,6 +1,6 @@
-"""The wear effects ``diagnose`` learnt, integrated live (pure numpy, SI; the terms of effects.py).
+"""The wear effects ``diagnose`` learnt, integrated live (pure numpy, SI; the terms of models/wear/effects/).
 
-With effects the wear volume is V = K/H sum_i W_i ds_i m_i (models/wear/effects.py, the same functions the
+With effects the wear volume is V = K/H sum_i W_i ds_i m_i (models/wear/effects/, the same functions the
 discrepancy workflow fits and the simulator hides), m_i = K(s)/K x asperity share x (W/W_ref)^(n-1) x rho on
 retract strokes. :class:`EffectWear` receives every sliding segment of the
 :class:`~guide_health.models.wear.archard.WearIntegrator` (its ``segment_sink``, the live per-sample path and
@@ -24,156 +24,50 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from guide_health.models.wear.effects import (
-    LUBRICATION_SPEED_EXPONENT,
-    WearEffects,
-    asperity_load_share,
-    running_in_factor_mean,
-    wear_rate_multiplier,
+    load_along_rail,
+    load_exponent,
+    lubrication_interval,
+    retract_asymmetry,
+    running_in,
+    speed_dependent_wear,
+    wear_rate_change,
+)
+from guide_health.models.wear.effects.multiplier import wear_rate_multiplier
+from guide_health.models.wear.effects.parameters import EffectParameters
+from guide_health.models.wear.effects.registry import (
+    BUCKET_ROW_LENGTHS,
+    BUCKET_SUMS,
+    PHI_INDEX,
+    PHI_LENGTHS,
+    PHI_NAMES,
+    SUM_INDEX,
 )
 
-#: the order of the model file's effect_covariance rows (13 x 13, SI; the 6 x 6, 9 x 9, 10 x 10 or 12 x 12 of
-#: an older file is widened on loading, params/schema.py LIST_UPGRADES). ``lubrication_wear_growth`` is b [1/s]
-#: (recorded relubrications) or a [-] (interval). thermal_drift's gauge term c_T (T - T_ref) enters as c_T and
-#: the offset e of the gauge at T_ref (0 at the fitted values; its variance is the fit's uncertainty of the
-#: gauge term where the temperature is T_ref): the correction with both moved is (c_T + dc) (T - T_ref) + de.
-#: ``straightness_initial_m`` is A0 when the fit freed it (A0 not given, or initial_offset named): A0 + dA0
-#: moves the straightness now and every measured rise over A0 (y_j - A0)
-COVARIANCE_NAMES = ("wear_coefficient", "running_in_ratio", "running_in_distance_m", "retract_wear_factor",
-                    "lift_speed_m_s", "load_exponent", "load_gradient_per_m", "wear_rate_change_factor",
-                    "lubrication_wear_growth", "stroke_distribution_weight", "thermal_drift_m_per_k",
-                    "thermal_gauge_offset_m", "straightness_initial_m")
-_PHI = len(COVARIANCE_NAMES) - 1       # effect parameters phi (all but K)
-#: where w, c_T, the gauge offset at T_ref and A0's deviation sit in phi
-W_INDEX, C_T_INDEX, OFFSET_INDEX, A0_INDEX, B_INDEX = (COVARIANCE_NAMES.index(n) - 1 for n in (
-    "stroke_distribution_weight", "thermal_drift_m_per_k", "thermal_gauge_offset_m", "straightness_initial_m",
-    "lubrication_wear_growth"))
-#: the phi whose multipliers set the present rate, in bucket-sum order (sums[3:9]), and b's place among them
-RATE_PHI = slice(2, 8)
-B_RATE_INDEX = B_INDEX - RATE_PHI.start
-#: per bucket: work, effective work w/o running-in, distance, d(effective work)/d(rho, v_lift, n, g, f, b),
-#: the pass work sum W ds m / max(L, L_s) w/o running-in (stroke_distribution)
-_SUMS = 10
-PASS_SUM = 9
+_PHI = len(PHI_NAMES)       # effect parameters phi (every covariance row but K)
+_SUMS = len(BUCKET_SUMS)
+PASS_SUM = SUM_INDEX["pass_work_n"]
 #: lengths of the saved lists (a work gradient, a bucket row: index then sums, a measurement's gradient):
 #: (now, earlier ones); a state of an earlier length is zero-padded on restore (the terms added since were zero
 #: then: w, c_T, e and A0 have no work gradient, and the pass sums only count for stroke_distribution)
-STATE_LIST_LENGTHS = {"work_gradient": (_PHI, 11, 9, 8, 5), "buckets": (1 + _SUMS, 10, 7),
-                      "measurement_gradients": (_PHI, 11, 9, 8, 5), "pass_open_buckets": (2,)}
+STATE_LIST_LENGTHS = {"work_gradient": PHI_LENGTHS, "buckets": BUCKET_ROW_LENGTHS,
+                      "measurement_gradients": PHI_LENGTHS, "pass_open_buckets": (2,)}
 
 
-@dataclass(frozen=True)
-class LiveEffects:
-    """Effect parameters of the live model (wear_monitor parameters written by ``diagnose --out``)."""
-
-    effects: tuple[str, ...]
-    running_in_ratio: float = 0.0
-    running_in_distance_m: float = 100.0
-    retract_wear_factor: float = 1.0
-    retract_sign: int = -1
-    lift_speed_m_s: float = math.inf
-    load_exponent: float = 1.0
-    load_reference_n: float = 1000.0
-    # load_along_rail: m = max(1 + g (x - x_ref), 0)
-    load_gradient_per_m: float = 0.0
-    load_reference_position_m: float = 0.0
-    # wear_rate_change: m = f from the stamp t_c on [s since the epoch of the stamps]
-    wear_rate_change_factor: float = 1.0
-    wear_rate_change_stamp_s: float = math.inf
-    # lubrication_interval: m = max(1 + b tau, 0) (tau: time since the last relubricate event, interval_s = 0)
-    # or m = 1 + a ((t - t_ref) mod T) / T (relubricated every T from t_ref); lubrication_growth is b or a
-    lubrication_growth: float = 0.0
-    lubrication_interval_s: float = 0.0
-    lubrication_reference_stamp_s: float = 0.0
-    lubrication_forecast_interval_s: float = 0.0     # recorded form: the future relubrications' interval
-    # thermal_drift (a term of the gauge reading): y = A + c_T (T - T_ref); the live model corrects each
-    # straightness measurement by it before the K update
-    thermal_drift_m_per_k: float = 0.0
-    thermal_reference_c: float = 20.0
-    # stroke_distribution: A_wear = K / (H b) [(1 - w) 2 G / (l_min + l_max) + w P], P = sum W ds m / max(L, L_s)
-    # over passes of length L (effects.straightness_wear_m; L_s the slider length)
-    stroke_distribution_weight: float = 0.0
-    slider_length_m: float = 0.0
-    covariance: tuple = ()             # len(COVARIANCE_NAMES)^2 numbers, row-major in that order
-
-    @classmethod
-    def from_params(cls, p: dict) -> LiveEffects | None:
-        ids = tuple(e.strip() for e in str(p.get("effects", "")).split(",") if e.strip())
-        if not ids:
-            return None
-        return cls(
-            effects=ids,
-            running_in_ratio=float(p["running_in_ratio"]) if "running_in" in ids else 0.0,
-            running_in_distance_m=float(p["running_in_distance_m"]),
-            retract_wear_factor=float(p["retract_wear_factor"]) if "retract_asymmetry" in ids else 1.0,
-            retract_sign=1 if p.get("retract_direction", "-x") == "+x" else -1,
-            lift_speed_m_s=(float(p["lift_speed_m_s"]) if "speed_dependent_wear" in ids and p["lift_speed_m_s"] > 0
-                            else math.inf),
-            load_exponent=float(p["load_exponent"]) if "load_exponent" in ids else 1.0,
-            load_reference_n=float(p["load_reference_n"]),
-            load_gradient_per_m=float(p.get("load_gradient_per_m", 0.0)) if "load_along_rail" in ids else 0.0,
-            load_reference_position_m=float(p.get("load_reference_position_m", 0.0)),
-            wear_rate_change_factor=(float(p.get("wear_rate_change_factor", 1.0)) if "wear_rate_change" in ids
-                                     else 1.0),
-            wear_rate_change_stamp_s=(float(p.get("wear_rate_change_stamp_s", math.inf))
-                                      if "wear_rate_change" in ids else math.inf),
-            lubrication_growth=(float(p.get("lubrication_wear_growth", 0.0)) if "lubrication_interval" in ids
-                                else 0.0),
-            lubrication_interval_s=float(p.get("lubrication_interval_s", 0.0)),
-            lubrication_reference_stamp_s=float(p.get("lubrication_reference_stamp_s", 0.0)),
-            lubrication_forecast_interval_s=float(p.get("lubrication_forecast_interval_s", 0.0)),
-            thermal_drift_m_per_k=float(p.get("thermal_drift_m_per_k", 0.0)) if "thermal_drift" in ids else 0.0,
-            thermal_reference_c=float(p.get("thermal_reference_c", 20.0)),
-            stroke_distribution_weight=(float(p.get("stroke_distribution_weight", 0.0))
-                                        if "stroke_distribution" in ids else 0.0),
-            slider_length_m=float(p.get("slider_length_m", 0.0)),
-            covariance=tuple(float(v) for v in p.get("effect_covariance", ())),
-        )
-
-    def phi(self) -> np.ndarray:
-        """The effect parameters in COVARIANCE_NAMES order after K (v_lift 0 when absent; the gauge offset and
-        A0 as deviations, 0)."""
-        return np.array([self.running_in_ratio, self.running_in_distance_m, self.retract_wear_factor,
-                         self.lift_speed_m_s if math.isfinite(self.lift_speed_m_s) else 0.0, self.load_exponent,
-                         self.load_gradient_per_m, self.wear_rate_change_factor, self.lubrication_growth,
-                         self.stroke_distribution_weight, self.thermal_drift_m_per_k, 0.0, 0.0])
-
-    def wear_effects(self) -> WearEffects:
-        return WearEffects(retract_wear_factor=self.retract_wear_factor, lift_speed_m_s=self.lift_speed_m_s,
-                           load_exponent=self.load_exponent, load_reference_n=self.load_reference_n)
-
-    def covariance_matrix(self) -> np.ndarray:
-        n = len(COVARIANCE_NAMES)
-        c = np.asarray(self.covariance, dtype=float)
-        if c.size == 0:
-            return np.zeros((n, n))
-        if c.size != n * n:       # the schema widens an older file's (params/schema.py LIST_UPGRADES)
-            raise ValueError(f"effect_covariance has {c.size} numbers, not {n * n}")
-        return c.reshape(n, n)
+def time_since_relubrication_s(e: EffectParameters, t_s, last_relubrication_s):
+    """lubrication_interval's live tau [s] at times t [s since the stamps' epoch]
+    (lubrication_interval.live_time_since_relubrication_s with the parameters of ``e``)."""
+    return lubrication_interval.live_time_since_relubrication_s(
+        t_s, e.lubrication_interval_s, e.lubrication_reference_stamp_s, last_relubrication_s)
 
 
-def time_since_relubrication_s(e: LiveEffects, t_s, last_relubrication_s):
-    """lubrication_interval's tau [s] at times t [s since the stamps' epoch]: (t - t_ref) mod T in the interval
-    form, t - the last relubrication (``last_relubrication_s``, EffectWear.relubrication_base_s) in the
-    recorded form; 0 before the reference."""
-    if e.lubrication_interval_s > 0:
-        return np.mod(np.maximum(t_s - e.lubrication_reference_stamp_s, 0.0), e.lubrication_interval_s)
-    return np.maximum(t_s - last_relubrication_s, 0.0)
-
-
-def duty_factor_terms(e: LiveEffects, t_s: np.ndarray, x_m: np.ndarray, last_relubrication_s: np.ndarray):
-    """The duty multipliers of load_along_rail, wear_rate_change and lubrication_interval (effects.py) at
+def duty_factor_terms(e: EffectParameters, t_s: np.ndarray, x_m: np.ndarray, last_relubrication_s: np.ndarray):
+    """The duty multipliers of load_along_rail, wear_rate_change and lubrication_interval (their live forms) at
     segment mid-times t [s since the stamps' epoch] and mid-positions x [m]: (m, dm/dg, dm/df, dm/db)
     (``last_relubrication_s``: the recorded form's time base per segment)."""
-    rail = 1.0 + e.load_gradient_per_m * (x_m - e.load_reference_position_m)
-    m_rail = np.maximum(rail, 0.0)
-    d_g = np.where(rail > 0, x_m - e.load_reference_position_m, 0.0)
-    after = t_s >= e.wear_rate_change_stamp_s
-    m_change = np.where(after, e.wear_rate_change_factor, 1.0)
+    m_rail, d_g = load_along_rail.live_factor(x_m, e.load_gradient_per_m, e.load_reference_position_m)
+    m_change, after = wear_rate_change.live_factor(t_s, e.wear_rate_change_time_s, e.wear_rate_change_factor)
     tau = time_since_relubrication_s(e, t_s, last_relubrication_s)
-    d_b = tau / e.lubrication_interval_s if e.lubrication_interval_s > 0 else tau
-    lube = 1.0 + e.lubrication_growth * d_b
-    m_lube = np.maximum(lube, 0.0)          # a negative growth past the fitted gap: no negative wear
-    d_b = np.where(lube > 0, d_b, 0.0)
+    m_lube, d_b = lubrication_interval.live_factor(tau, e.lubrication_wear_growth, e.lubrication_interval_s)
     m = m_rail * m_change * m_lube
     dm_g = m_change * m_lube * d_g                  # d_g is 0 where the rail factor is clipped
     dm_f = np.where(after, m_rail * m_lube, 0.0)
@@ -183,9 +77,9 @@ def duty_factor_terms(e: LiveEffects, t_s: np.ndarray, x_m: np.ndarray, last_rel
 
 @dataclass
 class EffectWear:
-    """Effective Archard work of a guide with :class:`LiveEffects` (state persisted with the monitor)."""
+    """Effective Archard work of a guide with live :class:`EffectParameters` (state persisted with the monitor)."""
 
-    effects: LiveEffects
+    effects: EffectParameters
     duty_bucket_s: float
     duty_buckets: int
     effective_work_nm: float = 0.0
@@ -233,7 +127,7 @@ class EffectWear:
         e = self.effects
         retract = np.sign(xb - xa) == e.retract_sign
         s_a = np.maximum(np.asarray(s_start_m, dtype=float) - self.surface_start_m, 0.0)   # on this surface
-        m = wear_rate_multiplier(e.wear_effects(), speed, np.maximum(w, 1e-12), retract)
+        m = wear_rate_multiplier(e, speed, np.maximum(w, 1e-12), retract)
         # the duty effects at the segment's middle (time in s since the stamps' epoch, position)
         t_mid_s = 0.5 * (ta_ns + tb_ns) * 1e-9
         m_duty, dm_g, dm_f, dm_b = duty_factor_terms(e, t_mid_s, 0.5 * (xa + xb),
@@ -241,28 +135,28 @@ class EffectWear:
         work = w * ds
         base = work * m                                      # without the duty factors
         eff = base * m_duty
-        ri = running_in_factor_mean(s_a, s_a + ds, e.running_in_ratio, e.running_in_distance_m)
+        ri = running_in.running_in_factor_mean(s_a, s_a + ds, e.running_in_ratio, e.running_in_distance_m)
         self.effective_work_nm += float((eff * ri).sum())
-        share = asperity_load_share(speed, e.lift_speed_m_s)
-        d_rho = np.where(retract, eff / e.retract_wear_factor if e.retract_wear_factor else work * m_duty, 0.0)
-        d_vl = (eff * (1.0 - share) * 2.0 * LUBRICATION_SPEED_EXPONENT / e.lift_speed_m_s
-                if math.isfinite(e.lift_speed_m_s) else np.zeros_like(eff))
-        d_n = eff * np.log(np.maximum(w, 1e-12) / e.load_reference_n)
-        d_g, d_f, d_b = base * dm_g, base * dm_f, base * dm_b
-        s0 = e.running_in_distance_m
-        decay = np.exp(-(s_a + 0.5 * ds) / s0)               # at the segment's middle (a gradient only)
-        grads = (eff * decay, eff * e.running_in_ratio * decay * (s_a + 0.5 * ds) / s0 ** 2,
-                 d_rho * ri, d_vl * ri, d_n * ri, d_g * ri, d_f * ri, d_b * ri)
-        for j, g in enumerate(grads):
-            self.work_gradient[j] += float(g.sum())
+        share = speed_dependent_wear.asperity_load_share(speed, e.lift_speed_m_s)
+        # d(effective work)/d(each rate parameter) without running-in (the duty buckets' sums)
+        rate = {"retract_wear_factor": retract_asymmetry.live_gradient(eff, work * m_duty, retract,
+                                                                       e.retract_wear_factor),
+                "lift_speed_m_s": speed_dependent_wear.live_gradient(eff, share, e.lift_speed_m_s),
+                "load_exponent": load_exponent.live_gradient(eff, w, e.load_reference_n),
+                "load_gradient_per_m": base * dm_g, "wear_rate_change_factor": base * dm_f,
+                "lubrication_wear_growth": base * dm_b}
+        d_r, d_s0 = running_in.live_gradients(eff, s_a, ds, e.running_in_ratio, e.running_in_distance_m)
+        grads = {"running_in_ratio": d_r, "running_in_distance_m": d_s0} | {n: g * ri for n, g in rate.items()}
+        for name, g in grads.items():
+            self.work_gradient[PHI_INDEX[name]] += float(g.sum())
         bucket = (tb_ns * 1e-9 // self.duty_bucket_s).astype(np.int64)
         uniq, inverse = np.unique(bucket, return_inverse=True)
-        sums = [np.bincount(inverse, weights=v, minlength=uniq.size)
-                for v in (work, eff, ds, d_rho, d_vl, d_n, d_g, d_f, d_b)]
+        columns = {"work_nm": work, "effective_work_nm": eff, "distance_m": ds} | {f"d_{n}": g for n, g in rate.items()}
+        sums = {SUM_INDEX[n]: np.bincount(inverse, weights=v, minlength=uniq.size) for n, v in columns.items()}
         for i, b in enumerate(uniq.tolist()):
             row = self.buckets.setdefault(int(b), [0.0] * _SUMS)
-            for j in range(len(sums)):
-                row[j] += float(sums[j][i])
+            for j, column in sums.items():
+                row[j] += float(column[i])
         self._add_passes(np.sign(xb - xa).astype(np.int64), ds, eff * ri, eff, bucket)
         newest = max(self.buckets)
         for b in [b for b in self.buckets if b <= newest - self.duty_buckets]:
@@ -334,7 +228,7 @@ class EffectWear:
         weight = 1.0 / length if length > 0 else 0.0
         self.pass_work_n = self.effective_work_nm * weight
         for row in self.buckets.values():
-            row[PASS_SUM] = row[1] * weight
+            row[PASS_SUM] = row[SUM_INDEX["effective_work_nm"]] * weight
 
     def relubrication_base_s(self, t_s: np.ndarray) -> np.ndarray:
         """The recorded form's last relubrication at each time t [s since the epoch]: the latest of the last

@@ -31,17 +31,10 @@ from guide_health.models.wear.effect_life import (
     online_k_sensitivity,
     schedule_tuple,
 )
-from guide_health.models.wear.effect_wear import (
-    A0_INDEX,
-    B_RATE_INDEX,
-    C_T_INDEX,
-    OFFSET_INDEX,
-    PASS_SUM,
-    W_INDEX,
-    EffectWear,
-    LiveEffects,
-)
+from guide_health.models.wear.effect_wear import EffectWear
 from guide_health.models.wear.effects import straightness_wear_m
+from guide_health.models.wear.effects.parameters import EffectParameters
+from guide_health.models.wear.effects.registry import PHI_INDEX, RATE_NAMES, RATE_SUMS, SUM_INDEX
 from guide_health.models.wear.input_rules import (
     MEASUREMENT_ALREADY_APPLIED,
     STRAIGHTNESS_TIME_BACKWARDS,
@@ -66,7 +59,7 @@ class GuideWear:
         self.geometry = WearGeometry.from_params(params)
         self.integrator = WearIntegrator(self.geometry)
         # the effects diagnose learnt (DIR/model.yaml): K stays linear over the effective work
-        self.effects = LiveEffects.from_params(params)
+        self.effects = EffectParameters.from_params(params)
         self.effect_wear = None
         self._attach_effects()
         self.estimator = WearCoefficientEstimator(
@@ -209,21 +202,22 @@ class GuideWear:
         rho, v_lift, n, g, f and b."""
         sums = self.effect_wear.window_sums(self.integrator.last_t_ns)
         rate_plain = self.integrator.straightness_rate_per_k_m_s()      # Archard work rate, Eq. 7
-        work, eff, dist, passes = sums[0], sums[1], sums[2], sums[PASS_SUM]
+        work, eff, dist, passes = (sums[SUM_INDEX[n]] for n in ("work_nm", "effective_work_nm", "distance_m",
+                                                                 "pass_work_n"))
         ratio = eff / work if work > 0 else 1.0
         duty = self.integrator.duty_work_rate_w()
         w = self.effects.stroke_distribution_weight
         # stroke_distribution: dP/dt per K over H b, dP/dt = (W v) x the window's pass work per work
         rate_pass = (duty * passes / work / (self.geometry.hardness_pa * self.geometry.contact_width_m)
                      if work > 0 and math.isfinite(duty) else 0.0)
-        dln_rate = [sums[j] / eff if eff > 0 else 0.0 for j in range(3, PASS_SUM)]
+        dln_rate = [v / eff if eff > 0 else 0.0 for v in sums[RATE_SUMS]]
         return {"steady_rate_per_k_m_s": (1.0 - w) * rate_plain * ratio + w * rate_pass,
                 "rate_work_per_k_m_s": rate_plain * ratio, "rate_pass_per_k_m_s": rate_pass,
                 "sliding_speed_m_s": duty * dist / work if work > 0 and math.isfinite(duty) else math.nan,
                 "sliding_distance_m": self.integrator.sliding_distance_m - self.effect_wear.surface_start_m,
                 "dln_rate": dln_rate, "lubrication": lubrication_schedule(self.effects, self.effect_wear,
                                                                          self.integrator.last_t_ns,
-                                                                         dln_rate[B_RATE_INDEX])}
+                                                                         dln_rate[RATE_NAMES.index("lubrication_wear_growth")])}
 
     def effect_life_interval_s(self, k: float):
         """(life, low, high) [s] with the effects (models/wear/effect_life.life_interval_s): K's online spread
@@ -245,15 +239,16 @@ class GuideWear:
             work_j = np.asarray(est.measurement_work_nm, dtype=float)
             per_work = np.divide(g, work_j, out=np.zeros(n), where=work_j > 0)
             dg = per_work[:, None] * grads
-            dg[:, W_INDEX] = loss_pass * self.measurement_pass_work_n() - loss_work * work_j
+            w_row = PHI_INDEX["stroke_distribution_weight"]
+            dg[:, w_row] = loss_pass * self.measurement_pass_work_n() - loss_work * work_j
             # A0 + dA0: every rise over A0 falls by dA0; thermal_drift: each reading corrected by
             # (c_T + dc) (T_j - T_ref) + de
             dy = np.zeros_like(dg)
-            dy[:, A0_INDEX] = -1.0
+            dy[:, PHI_INDEX["straightness_initial_m"]] = -1.0
             offsets = np.asarray(self.effect_wear.measurement_temperature_offset_k, dtype=float)
             if self.thermal_drift and offsets.size == n and np.all(np.isfinite(offsets)):
-                dy[:, C_T_INDEX] = -offsets
-                dy[:, OFFSET_INDEX] = -1.0
+                dy[:, PHI_INDEX["thermal_drift_m_per_k"]] = -offsets
+                dy[:, PHI_INDEX["thermal_gauge_offset_m"]] = -1.0
             k_sens = online_k_sensitivity(g, np.asarray(est.measurement_m) - est.straightness_initial_m,
                                           dg, k, k_sd, sigma, dy)
         else:                           # no measurement yet, or a state saved before the gradients were kept
@@ -294,7 +289,7 @@ class GuideWear:
             return None
         return RunningIn(wear_coefficient * f["steady_rate_per_k_m_s"] * 1e6, self.effects.running_in_ratio,
                          self.effects.running_in_distance_m, f["sliding_distance_m"], f["sliding_speed_m_s"],
-                         schedule_tuple(f["lubrication"], self.effects.lubrication_growth))
+                         schedule_tuple(f["lubrication"], self.effects.lubrication_wear_growth))
 
     def fatigue_report(self) -> dict[str, Any] | None:
         """The `<joint> fatigue` numbers, level and message (rolling guides; None for sliding)."""

@@ -1,0 +1,27 @@
+"""``initial_offset`` (delta [m]): a measurement term. The initial straightness is A0 + delta, not the A0 of the
+parameters. The live model has no term of its own: the model file folds delta into A0 (its covariance row is
+A0's)."""
+from __future__ import annotations
+
+from guide_health.models.wear.effects.base import (
+    Effect,
+    FitContext,
+    FitParameter,
+    SimulateValue,
+)
+
+EFFECT = Effect(
+    id="initial_offset",
+    term="A0 is A0 + delta",
+    meaning="initial offset: the initial straightness is not the A0 of the parameters",
+    separating_duty="a straightness measurement before the first motion",
+    simulate=SimulateValue("initial_offset_m", "m", 0.0, "[-1e-3, 1e-3]"),
+    live=False,
+    needs_given_a0=True,         # with A0 = 0 the baseline fits A0 itself
+    fitted_aliases=(("initial_offset_m", "straightness_initial_m"),),     # the model file's A0 = A0 + delta
+)
+
+
+def fit_parameters(c: FitContext) -> list[FitParameter]:
+    """delta."""
+    return [FitParameter("initial_offset_m", "m", -1e-3, 1e-3, False, (0.0,))]

@@ -1,0 +1,49 @@
+"""``load_along_rail`` (g [1/m]): a duty effect. The load varies along the rail (a misaligned rail or a non-uniform
+foundation): W(x) = W (1 + g (x - x_ref)), x_ref the work-weighted mean position of the run (so K stays the
+mean): m = max(1 + g (x - x_ref), 0)."""
+from __future__ import annotations
+
+import numpy as np
+
+from guide_health.models.wear.effects.base import (
+    CovarianceRow,
+    Effect,
+    EffectParameter,
+    FitContext,
+    FitParameter,
+    SimulateValue,
+)
+
+EFFECT = Effect(
+    id="load_along_rail",
+    term="m = max(1 + g (x - x_ref), 0), x_ref the work-weighted mean position",
+    meaning="load along the rail: the load varies along the travel (misalignment, foundation)",
+    separating_duty="jobs confined to different sections of the rail",
+    simulate=SimulateValue("load_gradient_per_m", "1/m", 0.0),       # x_ref: the run's work-weighted mean position
+    duty=True,
+    parameters=(
+        EffectParameter("load_gradient_per_m", 0.0, "1/m", "[-1e3, 1e3]",
+                        "load_along_rail g: load W (1 + g (x - x_ref)) along the rail (misalignment, foundation)"),
+        EffectParameter("load_reference_position_m", 0.0, "m", "[-1e3, 1e3]",
+                        "load_along_rail x_ref (diagnose: the work-weighted mean position, axis frame)"),
+    ),
+    fitted_to_file=("load_gradient_per_m",),
+    covariance_rows=(CovarianceRow("load_gradient_per_m", 6, 2, rate=True),),
+)
+
+
+def load_along_rail_factor(position_m: np.ndarray, gradient_per_m: float, reference_m: float) -> np.ndarray:
+    """m of ``load_along_rail``: max(1 + g (x - x_ref), 0) [-]."""
+    return np.maximum(1.0 + gradient_per_m * (np.asarray(position_m, dtype=float) - reference_m), 0.0)
+
+
+def live_factor(x_m: np.ndarray, gradient_per_m: float, reference_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """(m, dm/dg) at segment mid-positions x [m] (dm/dg = x - x_ref, 0 where m is clipped at 0)."""
+    rail = 1.0 + gradient_per_m * (x_m - reference_m)
+    return np.maximum(rail, 0.0), np.where(rail > 0, x_m - reference_m, 0.0)
+
+
+def fit_parameters(c: FitContext) -> list[FitParameter]:
+    """g within +-1 / (the largest distance of the work from x_ref)."""
+    g_max = 1.0 / max(c.position_spread_m, 1e-3)
+    return [FitParameter("load_gradient_per_m", "1/m", -g_max, g_max, False, (0.0,))]

@@ -1,0 +1,50 @@
+"""``load_exponent`` (n [-]): wear rate proportional to W^n instead of W (seed 000 Table 2 tests this):
+m = (W / W_ref)^(n - 1). W_ref only scales K; the simulator uses ``load_reference_n``, the workflow the
+work-weighted geometric mean load of the run, so its fitted K stays comparable with the baseline's."""
+from __future__ import annotations
+
+import numpy as np
+
+from guide_health.models.wear.effects.base import (
+    CovarianceRow,
+    Effect,
+    EffectParameter,
+    FitContext,
+    FitParameter,
+    SimulateValue,
+)
+
+EFFECT = Effect(
+    id="load_exponent",
+    term="wear rate ∝ W^n: factor (W/W_ref)^(n-1)",
+    meaning="load exponent: wear grows faster (or slower) than linearly with the load",
+    separating_duty="jobs at two or more loads at the same feed speed",
+    simulate=SimulateValue("load_exponent", "-", 1.0),
+    material=True,
+    parameters=(
+        EffectParameter("load_exponent", 1.0, "-", "[0, 4]",
+                        "load_exponent n: wear rate proportional to (W / W_ref)^n W_ref"),
+        EffectParameter("load_reference_n", 1000.0, "N", "(0, 1e9]",
+                        "load_exponent W_ref (diagnose: the geometric mean load)"),
+    ),
+    fitted_to_file=("load_exponent",),
+    covariance_rows=(CovarianceRow("load_exponent", 5, 1, rate=True),),
+)
+
+
+def load_exponent_factor(load_n: np.ndarray, exponent: float, reference_load_n: float) -> np.ndarray:
+    """(W / W_ref)^(n - 1): wear rate proportional to W^n [-]."""
+    w = np.asarray(load_n, dtype=float)
+    if exponent == 1.0:
+        return np.ones_like(w)
+    return (np.maximum(w, 1e-12) / reference_load_n) ** (exponent - 1.0)
+
+
+def live_gradient(effective_work_nm: np.ndarray, load_n: np.ndarray, reference_load_n: float) -> np.ndarray:
+    """d(effective work)/dn [N m]: m' / m = ln(W / W_ref)."""
+    return effective_work_nm * np.log(np.maximum(load_n, 1e-12) / reference_load_n)
+
+
+def fit_parameters(c: FitContext) -> list[FitParameter]:
+    """n."""
+    return [FitParameter("load_exponent", "-", 0.0, 4.0, False, (0.7, 1.5))]

@@ -1,0 +1,100 @@
+"""``lubrication_interval`` (T [s], a [-]; or b [1/s] with recorded relubrications): a duty effect. Wear grows with
+the time since the last relubrication (the lubricant film thins and is contaminated between services). When
+the bag records the relubrications (``relubricate`` maintenance events, models/wear/maintenance.py) tau is the
+time since the last recorded one (the record's start before the first) and m = 1 + b tau; else they are assumed
+every interval T from the start of the record (relubricated at t = 0, T, 2T, ...): m = 1 + a tau / T,
+tau = t mod T. Live: m = max(1 + b tau, 0) (recorded form) or 1 + a ((t - t_ref) mod T) / T (interval form)."""
+from __future__ import annotations
+
+import numpy as np
+
+from guide_health.models.wear.effects.base import (
+    CovarianceRow,
+    Effect,
+    EffectParameter,
+    FitContext,
+    FitParameter,
+    SimulateValue,
+)
+
+EFFECT = Effect(
+    id="lubrication_interval",
+    term=("recorded relubrications: m = 1 + b tau, tau the time since the last `relubricate` event (the "
+          "record's start before the first); else m = 1 + a (t mod T) / T"),
+    meaning="lubrication interval: wear grows with the time since the last relubrication",
+    separating_duty="relubrication at recorded times (maintenance events) at another interval",
+    # b per second of the time since the last relubricate event (simulation relubrication_interval_h, or
+    # --maintenance relubricate events)
+    simulate=SimulateValue("lubrication_wear_growth_per_s", "1/s", 0.0, "[0, 0.01]", field="lubrication_wear_growth"),
+    duty=True,
+    parameters=(
+        EffectParameter("lubrication_wear_growth", 0.0, "-", "[-1, 1e3]",
+                        "lubrication_interval growth: b [1/s] in m = max(1 + b tau, 0) (tau since the last "
+                        "relubricate event, lubrication_interval_s = 0), or a [-] in m = 1 + a ((t - t_ref) mod T) / "
+                        "T; diagnose fits it down to -0.9 per interval (wear falling after a relubrication)"),
+        EffectParameter("lubrication_interval_s", 0.0, "s", "[0, 1e9]",
+                        "lubrication_interval T: relubricated every T from lubrication_reference_stamp_s; 0 = the "
+                        "recorded relubricate maintenance events are the time base"),
+        EffectParameter("lubrication_reference_stamp_s", 0.0, "s", "[0, 1e11]",
+                        "lubrication_interval t_ref [s since the stamps' epoch]: the first assumed relubrication "
+                        "(interval), or the last recorded one of the diagnosed record (events)"),
+        EffectParameter("lubrication_forecast_interval_s", 0.0, "s", "[0, 1e9]",
+                        "lubrication_interval with recorded relubrications: the interval of the future ones the "
+                        "remaining life assumes (diagnose: the record's mean gap); 0 = none expected (the time since "
+                        "the last keeps growing)"),
+    ),
+    # the model file's growth, interval and reference come from the fit's form (model_file.duty_effect_parameters)
+    fitted_aliases=(("lubrication_wear_growth_per_s", "lubrication_wear_growth"),),
+    covariance_rows=(CovarianceRow("lubrication_wear_growth", 8, 2, rate=True),),
+)
+
+
+def lubrication_interval_factor(time_s: np.ndarray, interval_s: float, growth: float) -> np.ndarray:
+    """m of ``lubrication_interval``: 1 + a (t mod T) / T [-] (relubricated at t = 0, T, 2T, ...)."""
+    t = np.asarray(time_s, dtype=float)
+    return 1.0 + growth * np.mod(t, interval_s) / interval_s
+
+
+def time_since_relubrication_s(time_s: np.ndarray, relubrication_t_s: np.ndarray) -> np.ndarray:
+    """tau = t - (the last relubrication at or before t; the record's start t = 0 before the first) [s]."""
+    t = np.asarray(time_s, dtype=float)
+    events = np.sort(np.asarray(relubrication_t_s, dtype=float))
+    i = np.searchsorted(events, t, side="right") - 1
+    last = np.where(i >= 0, events[np.clip(i, 0, None)] if events.size else 0.0, 0.0)
+    return t - np.minimum(last, t)
+
+
+def relubrication_growth_factor(time_s: np.ndarray, relubrication_t_s: np.ndarray, growth_per_s: float) -> np.ndarray:
+    """m of ``lubrication_interval`` with recorded relubrications: 1 + b tau [-] (tau: time since the last)."""
+    return 1.0 + growth_per_s * time_since_relubrication_s(time_s, relubrication_t_s)
+
+
+def live_time_since_relubrication_s(t_s, interval_s: float, reference_s: float, last_relubrication_s):
+    """The live tau [s] at times t [s since the stamps' epoch]: (t - t_ref) mod T in the interval form
+    (``interval_s`` > 0), t - the last relubrication (``last_relubrication_s``, EffectWear.relubrication_base_s)
+    in the recorded form; 0 before the reference."""
+    if interval_s > 0:
+        return np.mod(np.maximum(t_s - reference_s, 0.0), interval_s)
+    return np.maximum(t_s - last_relubrication_s, 0.0)
+
+
+def live_factor(tau_s: np.ndarray, growth: float, interval_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """(m, dm/db) at the times since relubrication tau [s]: m = max(1 + b tau', 0), tau' = tau / T (interval
+    form) or tau (recorded form); dm/db = tau', 0 where m is clipped (a negative growth past the fitted gap:
+    no negative wear)."""
+    d_b = tau_s / interval_s if interval_s > 0 else tau_s
+    lube = 1.0 + growth * d_b
+    return np.maximum(lube, 0.0), np.where(lube > 0, d_b, 0.0)
+
+
+def fit_parameters(c: FitContext) -> list[FitParameter]:
+    """Recorded relubrications: b of m = 1 + b tau (m >= 0.1 over the longest gap); else an interval T from the
+    record's start and a."""
+    if c.relubrication_gap_s is not None:
+        gap = c.relubrication_gap_s
+        return [FitParameter("lubrication_wear_growth_per_s", "1/s", -0.9 / gap, 20.0 / gap, False, (0.5 / gap,))]
+    t_fit = c.fit_end_s
+    return [FitParameter("lubrication_interval_s", "s", 1800.0, max(t_fit, 3600.0), True,
+                         tuple(h * 3600.0 for h in (1.5, 2.0, 3.0, 4.0, 5.5, 7.0, 9.0, 12.0, 16.0)
+                               if h * 3600.0 < t_fit) or (t_fit / 2,)),
+            FitParameter("lubrication_wear_growth", "-", -0.9, 20.0, False, (1.0,))]

@@ -1,0 +1,40 @@
+"""The effects together: the wear-rate multiplier of a segment (or cell) and the measured straightness.
+
+m = K_effective / K = asperity share (speed_dependent_wear) x (W / W_ref)^(n - 1) (load_exponent) x rho on
+retract strokes (retract_asymmetry) x K(s)/K (running_in); the duty effects multiply it by when and where the
+work is done (their modules). y = A0 + delta + c_T (T - T_0) + A_wear (initial_offset, thermal_drift).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from guide_health.models.wear.effects.load_exponent import load_exponent_factor
+from guide_health.models.wear.effects.parameters import EffectParameters
+from guide_health.models.wear.effects.retract_asymmetry import retract_factor
+from guide_health.models.wear.effects.speed_dependent_wear import asperity_load_share
+from guide_health.models.wear.effects.thermal_drift import gauge_term_m
+
+
+def wear_rate_multiplier(effects: EffectParameters, speed_m_s: np.ndarray, load_n: np.ndarray,
+                         retract: np.ndarray, running_in: np.ndarray | None = None) -> np.ndarray:
+    """m = K_effective / K for segments (or cells) with the given speed, load and direction.
+
+    ``running_in`` is K(s)/K of each segment (from running_in.running_in_factor_mean or running_in_factor);
+    None means none.
+    """
+    m = asperity_load_share(speed_m_s, effects.lift_speed_m_s)
+    m = m * load_exponent_factor(load_n, effects.load_exponent, effects.load_reference_n)
+    if effects.retract_wear_factor != 1.0:
+        m = m * retract_factor(retract, effects.retract_wear_factor)
+    if running_in is not None:
+        m = m * running_in
+    return m
+
+
+def measured_straightness_m(wear_straightness_m: np.ndarray, straightness_initial_m: float,
+                            temperature_change_k: np.ndarray | None, effects: EffectParameters) -> np.ndarray:
+    """y = A0 + delta + c_T (T - T_0) + A_wear [m] (what a straightness measurement reads)."""
+    y = straightness_initial_m + effects.initial_offset_m + np.asarray(wear_straightness_m, dtype=float)
+    if effects.thermal_drift_m_per_k != 0.0 and temperature_change_k is not None:
+        y = y + gauge_term_m(temperature_change_k, effects.thermal_drift_m_per_k)
+    return y

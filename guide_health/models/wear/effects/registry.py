@@ -1,0 +1,117 @@
+"""The effect registry: every wear effect of guide_health, one module each, and what is derived from them.
+
+An effect's module (this package) holds its parameters, its wear-rate multiplier (or straightness term) and
+gradient, its live form and the report's words (base.Effect). Everything that lists effects is derived here,
+by name: the candidates of ``diagnose`` and the ``--effect`` values of ``simulate`` (catalogue order below),
+the live effect ids, the wear_monitor parameters of the effects (params/wear_monitor.py), the model file's
+keys and the rows of its effect_covariance (with the sizes older files had), the lengths of the saved live
+state's lists, and the docs table (:func:`docs_table`). test/test_effect_registry.py holds every derived place
+to the registry. docs/adding_an_effect.md: how to add one.
+"""
+from __future__ import annotations
+
+import math
+
+from guide_health.models.wear.effects import (
+    initial_offset,
+    load_along_rail,
+    load_exponent,
+    lubrication_interval,
+    retract_asymmetry,
+    running_in,
+    speed_dependent_wear,
+    stroke_distribution,
+    thermal_drift,
+    wear_rate_change,
+)
+from guide_health.models.wear.effects.base import CovarianceRow, Effect, EffectParameter
+
+#: the catalogue, in the order simulate and diagnose list (and diagnose tries) the effects: the wear-rate and
+#: measurement terms first, then the duty effects
+MODULES = (running_in, retract_asymmetry, speed_dependent_wear, load_exponent, stroke_distribution, thermal_drift,
+           initial_offset, wear_rate_change, lubrication_interval, load_along_rail)
+EFFECTS: tuple[Effect, ...] = tuple(m.EFFECT for m in MODULES)
+BY_ID = {e.id: e for e in EFFECTS}
+#: each effect's fitted parameters for a record (base.FitContext -> base.FitParameter list), catalogue order
+FIT_PARAMETERS = {m.EFFECT.id: m.fit_parameters for m in MODULES}
+
+EFFECT_IDS = tuple(e.id for e in EFFECTS if not e.duty)
+#: duty effects: multipliers of the work by when and where it is done (the simulator hides them too, with a
+#: recorded relubrication plan for lubrication_interval)
+DUTY_EFFECT_IDS = tuple(e.id for e in EFFECTS if e.duty)
+#: the discrepancy workflow's candidates
+CANDIDATE_IDS = EFFECT_IDS + DUTY_EFFECT_IDS
+#: the effects the live model integrates (initial_offset is folded into A0)
+LIVE_EFFECT_IDS = tuple(e.id for e in EFFECTS if e.live)
+#: effects of the material pair and lubricant, shared by machines of a type (the fleet prior pools them)
+MATERIAL_EFFECTS = tuple(e.id for e in EFFECTS if e.material)
+#: what `guide-health simulate --effect NAME=VALUE` sets, its unit, and the no-effect value
+EFFECT_VALUE = {e.id: (e.simulate.name, e.simulate.unit, e.simulate.no_effect) for e in EFFECTS}
+#: the allowed range of an --effect value that is not a wear_monitor parameter of the same name (those take
+#: the wear_monitor schema's range), or whose hidden value must differ from the parameter's "no effect"
+EFFECT_VALUE_RANGES = {e.simulate.name: e.simulate.range_text for e in EFFECTS if e.simulate.range_text}
+#: the fitted parameters each live effect carries into the model file (same names as the wear_monitor's)
+EFFECT_PARAMETERS = {e.id: e.fitted_to_file for e in EFFECTS if e.live and e.fitted_to_file}
+#: a fitted parameter's row in the covariance when its name differs from the live one
+COVARIANCE_ALIASES = {fitted: row for e in EFFECTS for fitted, row in e.fitted_aliases}
+#: the wear_monitor parameters the effects own, in catalogue order
+LIVE_PARAMETERS: tuple[EffectParameter, ...] = tuple(p for e in EFFECTS for p in e.parameters)
+PARAMETER_OWNER = {p.name: e.id for e in EFFECTS for p in e.parameters}
+
+#: the rows of the baseline model: K first, A0 (when the fit freed it, or initial_offset's delta) last
+BASELINE_ROWS = (CovarianceRow("wear_coefficient", 0, 1), CovarianceRow("straightness_initial_m", 12, 5))
+COVARIANCE_ROWS: tuple[CovarianceRow, ...] = tuple(sorted(
+    BASELINE_ROWS + tuple(r for e in EFFECTS for r in e.covariance_rows), key=lambda r: r.row))
+if [r.row for r in COVARIANCE_ROWS] != list(range(len(COVARIANCE_ROWS))):      # pragma: no cover
+    raise ValueError("the effects' covariance rows must number 0 .. n-1, each once")
+#: the model file's effect_covariance rows (row-major, SI). ``lubrication_wear_growth`` is b [1/s] (recorded
+#: relubrications) or a [-] (interval); ``thermal_gauge_offset_m`` the gauge's offset at T_ref;
+#: ``straightness_initial_m`` A0 when the fit freed it
+COVARIANCE_NAMES = tuple(r.name for r in COVARIANCE_ROWS)
+COVARIANCE_INDEX = {name: i for i, name in enumerate(COVARIANCE_NAMES)}
+#: the effect parameters phi (every row but K) and their places in phi
+PHI_NAMES = COVARIANCE_NAMES[1:]
+PHI_INDEX = {name: i for i, name in enumerate(PHI_NAMES)}
+_GENERATIONS = sorted({r.since for r in COVARIANCE_ROWS})
+#: the number of rows of the model files of each generation, oldest first (the last is today's)
+COVARIANCE_SIZES = tuple(sum(r.since <= g for r in COVARIANCE_ROWS) for g in _GENERATIONS)
+#: the parameters whose multiplier sets the present rate (the live duty buckets carry d(work)/d(each)), in
+#: row order; they sit together in phi
+RATE_NAMES = tuple(r.name for r in COVARIANCE_ROWS if r.rate)
+RATE_PHI = slice(PHI_INDEX[RATE_NAMES[0]], PHI_INDEX[RATE_NAMES[-1]] + 1)
+if PHI_NAMES[RATE_PHI] != RATE_NAMES:                                              # pragma: no cover
+    raise ValueError("the rate rows of the covariance must be consecutive")
+
+#: the sums of a live duty bucket: the work, the effective work without running-in, the sliding distance, the
+#: effective work's derivative by each rate parameter, stroke_distribution's pass work sum W ds m / max(L, L_s)
+BUCKET_SUMS = ("work_nm", "effective_work_nm", "distance_m") + tuple(f"d_{n}" for n in RATE_NAMES) + ("pass_work_n",)
+SUM_INDEX = {name: i for i, name in enumerate(BUCKET_SUMS)}
+RATE_SUMS = slice(SUM_INDEX[f"d_{RATE_NAMES[0]}"], SUM_INDEX[f"d_{RATE_NAMES[-1]}"] + 1)
+_PASS_SINCE = next(r.since for r in COVARIANCE_ROWS if r.name == "stroke_distribution_weight")
+#: lengths of a saved work gradient and bucket row (index then sums) for each generation, today's first: a state
+#: of an older length is zero-padded on restore (the terms added since were zero then)
+PHI_LENGTHS = tuple(sorted({n - 1 for n in COVARIANCE_SIZES}, reverse=True))
+BUCKET_ROW_LENGTHS = tuple(sorted({1 + 3 + sum(r.rate and r.since <= g for r in COVARIANCE_ROWS)
+                                   + (g >= _PASS_SINCE) for g in _GENERATIONS}, reverse=True))
+
+
+_SIMULATE_FIELDS = {e.simulate.name: e.simulate.field for e in EFFECTS if e.simulate.field}
+
+
+def simulate_field(value_name: str) -> str:
+    """The EffectParameters field an ``--effect`` value sets (the value's name unless the effect says)."""
+    return _SIMULATE_FIELDS.get(value_name, value_name)
+
+
+def docs_table() -> str:
+    """The markdown table of the effects (docs/discrepancy.md and docs/model_file.md carry it verbatim)."""
+    rows = ["| effect | term | `simulate --effect` value | live: wear_monitor parameters | covariance rows |",
+            "|---|---|---|---|---|"]
+    for e in EFFECTS:
+        value = e.simulate
+        no_effect = "inf" if math.isinf(value.no_effect) else f"{value.no_effect:g}"
+        params = ", ".join(f"`{p.name}`" for p in e.parameters) if e.live else "not live (folded into A0)"
+        covariance = ", ".join(f"`{r.name}`" for r in e.covariance_rows) or "A0's"
+        rows.append(f"| `{e.id}` | {e.term} | `{value.name}` [{value.unit}] (none: {no_effect}) | {params} | "
+                    f"{covariance} |")
+    return "\n".join(rows) + "\n"

@@ -1,0 +1,58 @@
+"""``speed_dependent_wear`` (v_lift [m/s]): mixed lubrication. The film grows with speed, lambda =
+(v / v_lift)^0.7 (the speed exponent of Hamrock-Dowson film formulas, seed 001), and the asperities carry the
+share 1 / (1 + lambda^2) of the load, so m = 1 / (1 + (v / v_lift)^1.4). v_lift is the speed at which film and
+asperities share the load equally (the seed's boundary-to-mixed transition)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from guide_health.models.wear.effects.base import (
+    CovarianceRow,
+    Effect,
+    EffectParameter,
+    FitContext,
+    FitParameter,
+    LiveRequirement,
+    SimulateValue,
+)
+
+LUBRICATION_SPEED_EXPONENT = 0.7     # lambda ~ v^0.7 (Hamrock-Dowson film thickness, seed 001)
+
+EFFECT = Effect(
+    id="speed_dependent_wear",
+    term="asperity share of the load 1/(1 + lambda²), lambda = (v/v_lift)^0.7 (seed 001's film-speed exponent)",
+    meaning="speed-dependent wear: the lubricant film lifts the load off the asperities at speed",
+    separating_duty="jobs at two or more feed speeds under the same load",
+    simulate=SimulateValue("lift_speed_m_s", "m/s", math.inf, "(0, 100]"),
+    material=True,
+    parameters=(
+        EffectParameter("lift_speed_m_s", 0.0, "m/s", "[0, 100]",
+                        "speed_dependent_wear v_lift: asperity share 1 / (1 + (v / v_lift)^1.4); 0 = no effect"),
+    ),
+    fitted_to_file=("lift_speed_m_s",),
+    covariance_rows=(CovarianceRow("lift_speed_m_s", 4, 1, rate=True),),
+    requires=LiveRequirement("lift_speed_m_s", "> 0"),
+)
+
+
+def asperity_load_share(speed_m_s: np.ndarray, lift_speed_m_s: float) -> np.ndarray:
+    """Share of the load on asperities, 1 / (1 + lambda^2), lambda = (v / v_lift)^0.7 [-]."""
+    v = np.abs(np.asarray(speed_m_s, dtype=float))
+    if not math.isfinite(lift_speed_m_s):
+        return np.ones_like(v)
+    return 1.0 / (1.0 + (v / lift_speed_m_s) ** (2.0 * LUBRICATION_SPEED_EXPONENT))
+
+
+def live_gradient(effective_work_nm: np.ndarray, share: np.ndarray, lift_speed_m_s: float) -> np.ndarray:
+    """d(effective work)/d v_lift [N m / (m/s)]: m' / m = (1 - share) 1.4 / v_lift."""
+    if not math.isfinite(lift_speed_m_s):
+        return np.zeros_like(effective_work_nm)
+    return effective_work_nm * (1.0 - share) * 2.0 * LUBRICATION_SPEED_EXPONENT / lift_speed_m_s
+
+
+def fit_parameters(c: FitContext) -> list[FitParameter]:
+    """v_lift (log-scaled, started around the feed speed)."""
+    return [FitParameter("lift_speed_m_s", "m/s", 1e-5, 100.0, True,
+                         tuple(c.feed_speed_m_s * f for f in (0.5, 2.0, 8.0)))]

@@ -1,0 +1,53 @@
+"""``thermal_drift`` (c_T [m/K], dT_ref [K]): a measurement term. The straightness measurement bends with the
+guide temperature: y = A + c_T (T - T_ref), T_ref = T_0 + dT_ref the temperature at which the guide is
+straight to A0 (T_0 that of the first measurement). dT_ref is fitted when A0 is given (otherwise it is one
+with A0). Reversible, unlike wear. The live model corrects each measurement by c_T (T - T_ref) before the K
+update; its covariance rows are c_T and the gauge's offset e at T_ref (0 at the fitted values): the
+correction with both moved is (c_T + dc) (T - T_ref) + de."""
+from __future__ import annotations
+
+import numpy as np
+
+from guide_health.models.wear.effects.base import (
+    CovarianceRow,
+    Effect,
+    EffectParameter,
+    FitContext,
+    FitParameter,
+    LiveRequirement,
+    SimulateValue,
+)
+
+EFFECT = Effect(
+    id="thermal_drift",
+    term=("the measurement reads c_T (T - T_ref) more (needs `guide/temperature`), fitted linearly as c_T (T - "
+          "T_0) + b, dT_ref = -b / c_T"),
+    meaning="thermal drift: the straightness measurement follows the guide temperature",
+    separating_duty="straightness measured at rest across a temperature change (a warm-up without motion)",
+    simulate=SimulateValue("thermal_drift_m_per_k", "m/K", 0.0),
+    parameters=(
+        EffectParameter("thermal_drift_m_per_k", 0.0, "m/K", "[-1e-4, 1e-4]",
+                        "thermal_drift c_T: the straightness gauge reads A + c_T (T - T_ref); each measurement is "
+                        "corrected with the guide/temperature reading in force at its stamp"),
+        EffectParameter("thermal_reference_c", 20.0, "degC", "[-1e6, 1e6]",
+                        "thermal_drift T_ref: the guide temperature at which the gauge reads the true straightness "
+                        "(diagnose's T_0 - b / c_T: far from the guide's temperatures when the drift is mostly a "
+                        "constant offset)"),
+    ),
+    fitted_to_file=("thermal_drift_m_per_k",),
+    covariance_rows=(CovarianceRow("thermal_drift_m_per_k", 10, 4), CovarianceRow("thermal_gauge_offset_m", 11, 4)),
+    requires=LiveRequirement("thermal_drift_m_per_k", "!= 0"),
+    needs_temperature=True,
+    reported_extra=("thermal_reference_offset_k",),      # dT_ref = -b / c_T (analysis/discrepancy/model.py)
+)
+
+
+def gauge_term_m(temperature_change_k, drift_m_per_k: float) -> np.ndarray:
+    """c_T (T - T_0) [m]: the gauge's reading beyond the straightness at the temperature changes T - T_0 [K]."""
+    return drift_m_per_k * np.asarray(temperature_change_k, dtype=float)
+
+
+def fit_parameters(c: FitContext) -> list[FitParameter]:
+    """c_T, and the offset b at T_0 when A0 is given (with A0 fitted, b is one with A0)."""
+    return [FitParameter("thermal_drift_m_per_k", "m/K", -1e-4, 1e-4, False, (0.0,))] + (
+        [] if c.a0_free else [FitParameter("thermal_offset_m", "m", -1e-3, 1e-3, False, (0.0,))])

@@ -1,0 +1,182 @@
+"""The effect registry (models/wear/effects/registry.py) is the one list of effects: every entry appears in each
+place derived from it (candidates, simulate's values, live ids, wear_monitor parameters, model-file keys,
+covariance rows, saved-state lengths, the older model files' sizes, the report's words, the docs table), and
+no module outside the effects package lists effect ids or covariance rows by hand."""
+import ast
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from guide_health.models.wear.effects import registry
+from guide_health.models.wear.effects.parameters import EffectParameters
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = ROOT / "guide_health"
+IDS = [e.id for e in registry.EFFECTS]
+#: literals that name several covariance rows outside the effects package, and why they may: the bag metadata's
+#: record of the simulator's truth is a stored format (its names and order are what bags hold)
+ALLOWED_ROW_LISTS = {("sim/machine.py", "RECORDED_EFFECT_PARAMETERS")}
+
+
+def test_ids_are_unique_and_each_has_its_module():
+    assert len(set(IDS)) == len(IDS) == len(registry.MODULES)
+    for module, effect in zip(registry.MODULES, registry.EFFECTS):
+        assert module.__name__.rsplit(".", 1)[-1] == effect.id
+        assert effect.term and effect.meaning and effect.separating_duty
+
+
+def test_candidates_and_simulate_values_are_every_entry():
+    from guide_health.analysis.discrepancy.model import _effect_specs  # noqa: F401  (the fit's view)
+    from guide_health.sim.machine import EFFECTS as SIMULATED
+
+    assert list(registry.CANDIDATE_IDS) == [e.id for e in registry.EFFECTS if not e.duty] + [
+        e.id for e in registry.EFFECTS if e.duty]
+    assert sorted(registry.CANDIDATE_IDS) == sorted(IDS) == sorted(SIMULATED)
+    assert sorted(registry.EFFECT_VALUE) == sorted(IDS) == sorted(registry.FIT_PARAMETERS)
+
+
+def test_the_report_words_are_the_registry_s():
+    from guide_health.analysis.discrepancy.workflow import EFFECT_MEANING, SEPARATING_DUTY
+
+    assert EFFECT_MEANING == {e.id: e.meaning for e in registry.EFFECTS}
+    assert SEPARATING_DUTY == {e.id: e.separating_duty for e in registry.EFFECTS}
+
+
+def test_every_live_parameter_is_a_wear_monitor_parameter_with_the_registry_s_range():
+    from guide_health.params.wear_monitor import WEAR_MONITOR_SCHEMA
+
+    for effect in registry.EFFECTS:
+        for p in effect.parameters:
+            param = WEAR_MONITOR_SCHEMA[p.name]
+            assert (param.default, param.unit, param.range_text or "", param.description) == (
+                p.default, p.unit, " | ".join(p.choices) if p.choices else p.range_text, p.meaning), p.name
+        for name in effect.fitted_to_file:           # the model file's keys load as wear_monitor parameters
+            assert name in WEAR_MONITOR_SCHEMA.by_name, (effect.id, name)
+        if effect.requires is not None:
+            assert effect.requires.parameter in {p.name for p in effect.parameters}
+    # running_in_distance_m: declared once (its module), the schema's and the parameter type's default from it
+    assert WEAR_MONITOR_SCHEMA["running_in_distance_m"].default == EffectParameters().running_in_distance_m == 100.0
+
+
+def test_model_file_keys_and_live_ids_are_derived():
+    from guide_health.analysis.discrepancy import model_file
+
+    assert model_file.EFFECT_PARAMETERS == {e.id: e.fitted_to_file for e in registry.EFFECTS
+                                            if e.live and e.fitted_to_file}
+    assert model_file.MATERIAL_EFFECTS == tuple(e.id for e in registry.EFFECTS if e.material)
+    assert set(registry.LIVE_EFFECT_IDS) | {"initial_offset"} == set(IDS)
+    assert model_file.not_live_effects(IDS) == []    # initial_offset is folded into A0, the rest are live
+
+
+def test_covariance_rows_sizes_and_state_lengths_are_derived():
+    from guide_health.models.wear.effect_wear import STATE_LIST_LENGTHS
+    from guide_health.params.schema import LIST_UPGRADES
+
+    names = registry.COVARIANCE_NAMES
+    owned = [r.name for e in registry.EFFECTS for r in e.covariance_rows]
+    assert sorted(owned + ["wear_coefficient", "straightness_initial_m"]) == sorted(names)
+    assert len(set(names)) == len(names) == 13
+    # every live effect has a row (its own or, through fitted_aliases, another's)
+    for e in registry.EFFECTS:
+        assert e.covariance_rows or any(row in names for _, row in e.fitted_aliases), e.id
+    # the model files that exist: 6 x 6, 9 x 9, 10 x 10, 12 x 12, 13 x 13 (today)
+    assert registry.COVARIANCE_SIZES == (6, 9, 10, 12, 13)
+    assert LIST_UPGRADES["effect_covariance"][0] == (36, 81, 100, 144)
+    # the saved live state: phi and bucket rows of each generation (the padding history, derived)
+    assert STATE_LIST_LENGTHS["work_gradient"] == STATE_LIST_LENGTHS["measurement_gradients"] == (12, 11, 9, 8, 5)
+    assert STATE_LIST_LENGTHS["buckets"] == (11, 10, 7)
+    assert registry.PHI_NAMES[registry.RATE_PHI] == registry.RATE_NAMES
+    assert registry.BUCKET_SUMS[registry.RATE_SUMS] == tuple(f"d_{n}" for n in registry.RATE_NAMES)
+
+
+def test_phi_is_the_parameter_type_s_fields_in_row_order():
+    e = EffectParameters(running_in_ratio=2.0, retract_wear_factor=0.5, lift_speed_m_s=0.3, load_exponent=1.4,
+                         load_gradient_per_m=0.2, wear_rate_change_factor=1.5, lubrication_wear_growth=0.01,
+                         stroke_distribution_weight=0.4, thermal_drift_m_per_k=1e-6)
+    phi = dict(zip(registry.PHI_NAMES, e.phi()))
+    for name, value in phi.items():
+        assert value == getattr(e, name, 0.0), name
+    assert EffectParameters().phi()[registry.PHI_INDEX["lift_speed_m_s"]] == 0.0     # v_lift inf: no effect
+
+
+def test_the_live_integration_fills_every_rate_row_by_name():
+    """EffectWear's gradient and bucket sums: one column per rate row of the registry, each non-zero when its
+    effect acts (a name missing from the live integration would leave its column zero)."""
+    from guide_health.models.wear.effect_wear import EffectWear
+
+    e = EffectParameters(effects=tuple(registry.LIVE_EFFECT_IDS), running_in_ratio=1.0, retract_wear_factor=0.5,
+                         lift_speed_m_s=0.05, load_exponent=1.3, load_gradient_per_m=0.5, wear_rate_change_factor=2.0,
+                         wear_rate_change_time_s=1.0, lubrication_wear_growth=1e-3, stroke_distribution_weight=0.5,
+                         slider_length_m=0.05)
+    ew = EffectWear(e, duty_bucket_s=10.0, duty_buckets=6)
+    t = np.arange(0, 41) * 1_000_000_000
+    x = 0.2 * np.abs(((np.arange(41) % 8) - 4) / 4.0)
+    ew.add_segments(t[:-1], t[1:], x[:-1], x[1:], np.full(40, 1500.0), np.cumsum(np.abs(np.diff(x))) - np.abs(
+        np.diff(x)))
+    for name in ("running_in_ratio", "running_in_distance_m") + registry.RATE_NAMES:
+        assert ew.work_gradient[registry.PHI_INDEX[name]] != 0.0, name
+    sums = ew.window_sums(int(t[-1]))
+    for name in registry.BUCKET_SUMS:
+        assert sums[registry.SUM_INDEX[name]] != 0.0, name
+
+
+@pytest.mark.parametrize("doc", ["docs/discrepancy.md", "docs/model_file.md"])
+def test_the_docs_carry_the_registry_s_table(doc):
+    assert registry.docs_table() in (ROOT / doc).read_text(), f"paste registry.docs_table() into {doc}"
+
+
+def _hand_lists(tree: ast.AST):
+    """(line, assigned name, effect ids, covariance rows) of each literal naming >= 2 effect ids or >= 3 rows."""
+    ids, rows = set(IDS), set(registry.COVARIANCE_NAMES) - {"wear_coefficient", "straightness_initial_m"}
+    targets = {}
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Assign, ast.AnnAssign)):
+            for target in (node.targets if isinstance(node, ast.Assign) else [node.target]):
+                if isinstance(target, ast.Name):
+                    targets[id(node.value)] = target.id
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Tuple, ast.List, ast.Set)):
+            elts = node.elts
+        elif isinstance(node, ast.Dict):
+            elts = [k for k in node.keys if k is not None]
+        else:
+            continue
+        words = {e.value for e in elts if isinstance(e, ast.Constant) and isinstance(e.value, str)}
+        if len(words & ids) >= 2 or len(words & rows) >= 3:
+            yield node.lineno, targets.get(id(node), ""), sorted(words & ids), sorted(words & rows)
+
+
+def test_no_module_outside_the_registry_lists_effects_by_hand():
+    """A tuple, list, set or dict of effect ids (two or more) or covariance rows (three or more) outside
+    models/wear/effects/ is a list the registry should derive. EffectWear's named live terms are checked by
+    test_the_live_integration_fills_every_rate_row_by_name instead."""
+    found = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        rel = path.relative_to(PACKAGE).as_posix()
+        if rel.startswith("models/wear/effects/"):
+            continue
+        for line, name, ids, rows in _hand_lists(ast.parse(path.read_text())):
+            if (rel, name) in ALLOWED_ROW_LISTS or (rel == "models/wear/effect_wear.py" and not ids[1:]):
+                continue
+            found.append(f"{rel}:{line} {name} {ids or ''} {rows or ''}")
+    assert not found, "\n".join(found)
+
+
+def test_the_hand_list_check_can_fail():
+    tree = ast.parse('X = ("running_in", "thermal_drift")\nY = {"running_in_ratio": 1, "load_exponent": 2, '
+                     '"lift_speed_m_s": 3}\n')
+    assert [n for _, n, _, _ in _hand_lists(tree)] == ["X", "Y"]
+
+
+def test_simulate_values_set_the_parameter_type_s_fields():
+    """Every --effect value lands on a field of EffectParameters (lubrication_interval's b on
+    lubrication_wear_growth), the no-effect value leaving the baseline's."""
+    for effect in registry.EFFECTS:
+        value = effect.simulate
+        e = EffectParameters.from_values({effect.id: 0.5})
+        field = registry.simulate_field(value.name)
+        assert getattr(e, field) == 0.5, effect.id
+        base = getattr(EffectParameters(), field)
+        assert base == value.no_effect or (math.isinf(value.no_effect) and math.isinf(base)), effect.id
