@@ -316,8 +316,8 @@ MODELS_IMPORTING_PARAMS = ("wear/axis.py", "wear/guide.py")
 #: analysis, being rewritten; the node start-up's QoS choice): a known, shrinking list. Every other module outside
 #: params/ takes the typed objects of guide_health.params.typed (or plain numbers).
 UNCONVERTED_PARAMETER_DICTS = (
-    "models/wear/axis.py", "models/wear/effect_wear.py", "models/wear/input_rules.py", "models/wear/guide.py",
-    "models/wear/life.py",
+    "models/wear/axis.py", "models/wear/input_rules.py", "models/wear/guide.py",
+    "models/wear/life.py", "models/wear/effects/parameters.py",
     "analysis/discrepancy/model.py", "analysis/discrepancy/model_file.py", "analysis/discrepancy/report.py",
     "sim/machine.py", "nodes/qos.py",
 )
