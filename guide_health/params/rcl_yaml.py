@@ -129,10 +129,11 @@ class _Reader:
     def fail(self, node, what: str) -> InputError:
         return InputError(f"parameters file {self.path}: line {node.start_mark.line + 1}: {what}")
 
-    def value(self, node) -> Any:
+    def value(self, node, where=None) -> Any:
+        """``where``: the node that refers to ``node`` (its line is the alias's, not the anchor's)."""
         if id(node) in self.seen:
-            raise self.fail(node, "YAML aliases (*name) are not supported: rcl refuses them "
-                                  "(\"Will not support aliasing\"); write the value out")
+            raise self.fail(where or node, "YAML aliases (*name) are not supported: rcl refuses them "
+                                           "(\"Will not support aliasing\"); write the value out")
         self.seen.add(id(node))
         if isinstance(node, yaml.ScalarNode):
             if node.value == "" and node.style in (None, "", ":"):
@@ -143,7 +144,7 @@ class _Reader:
         return self.mapping(node)
 
     def sequence(self, node) -> list:
-        items = [self.value(item) for item in node.value]
+        items = [self.value(item, node) for item in node.value]
         if not items:
             raise self.fail(node, "an empty list has no type: rcl leaves the parameter unset")
         kinds = {type(item) for item in items}
@@ -163,7 +164,7 @@ class _Reader:
                 raise self.fail(key_node, f"duplicate key {short(key)} (lines {lines[key]} and "
                                           f"{key_node.start_mark.line + 1}; rcl keeps the last one silently)")
             lines[key] = key_node.start_mark.line + 1
-            out[key] = self.value(value_node)
+            out[key] = self.value(value_node, key_node)
         return out
 
 
