@@ -1,6 +1,6 @@
 """``diagnose --out DIR`` writes DIR/model.yaml: what the workflow learnt, as wear_monitor parameters.
 
-A ROS 2 parameters file (``/**/wear_monitor: ros__parameters:``, applied in any namespace) with the calibrated K, the A0 the fit used,
+A ROS 2 parameters file (``/**/wear_monitor: ros__parameters:``) with the calibrated K, the A0 the fit used,
 the named effects the live model integrates (``effects`` and their parameters, params/wear_monitor.py) and
 the covariance of the fitted K, effect parameters and A0 (13 x 13, models/wear/effect_wear.COVARIANCE_NAMES;
 the gauge offset at T_ref is a linear function of the fitted c_T and offset at T_0, its rows by that Jacobian;
