@@ -150,8 +150,9 @@ class _Reader:
         kinds = {type(item) for item in items}
         if len(kinds) > 1 or kinds & {list, dict}:
             names = ", ".join(sorted(kind.__name__ for kind in kinds))
+            hint = "; a bare y, n, yes, no, on, off is a bool: quote it" if kinds == {bool, str} else ""
             raise self.fail(node, f"a list must hold one type (rcl: \"Sequence should be of same type\"), "
-                                  f"got {names}: {short(items)}")
+                                  f"got {names}: {short(items)}{hint}")
         return items
 
     def mapping(self, node) -> dict:
