@@ -114,6 +114,12 @@ def test_error_messages_show_at_most_80_characters_of_a_value(tmp_path, capsys, 
     assert VALUE_CHARS == 80
 
 
+def test_a_long_minus_p_value_is_clipped_too():
+    with pytest.raises(InputError) as err:
+        check_ros_args(WEAR_MONITOR_SCHEMA, ["wm", "--ros-args", "-p", "life_warn_h:=" + "9x" * 5000])
+    assert "life_warn_h" in str(err.value) and len(str(err.value)) < 400, str(err.value)
+
+
 def test_minus_p_values_are_typed_as_rcl_types_them(tmp_path):
     params = check_ros_args(WEAR_MONITOR_SCHEMA, ["wm", "--ros-args", "-p", "machine_id:=1_000", "-p",
                                                   "life_warn_h:=1e3", "-p", "life_error_h:=0x1F"])

@@ -88,7 +88,7 @@ def _generic(section_name: str) -> bool:
     return section_name.rstrip("/").split("/")[-1] in ("*", "**", "")
 
 
-def _clip_values(exc: InputError, values: list) -> InputError:
+def clip_values(exc: InputError, values: list) -> InputError:
     """``exc`` with every long value it quotes cut to rcl_yaml.VALUE_CHARS characters."""
     message = str(exc)
     for value in values:
@@ -115,7 +115,7 @@ def load_node_params(path: str | Path | None, node_name: str, defaults: dict[str
         try:
             _section_values(path, node_name, key, section, params, defaults, strict)
         except InputError as exc:
-            exc = _clip_values(exc, list(section.values()))
+            exc = clip_values(exc, [*section.values(), *section])
             raise exc if str(path) in str(exc) else InputError(f"{path}: section '{key}': {exc}") from None
     return params
 
@@ -186,6 +186,7 @@ def _validate_from(path, section: str, validate, params: dict) -> None:
     try:
         validate(params)
     except InputError as exc:
+        exc = clip_values(exc, list(params.values()))
         if path is None or str(exc).startswith(str(path)):
-            raise
+            raise exc from None
         raise InputError(f"{path}: section '{section}': {exc}") from None

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from guide_health.errors import InputError
-from guide_health.params.loader import ROS_NODE_PARAMS, load_node_params
+from guide_health.params.loader import ROS_NODE_PARAMS, clip_values, load_node_params
 from guide_health.params.machine import axes_params, axis_default, check_axis_keys, coerce_axis_value
 from guide_health.params.rcl_yaml import read_value_text
 from guide_health.params.schema import NodeSchema, coerce_value
@@ -97,14 +97,17 @@ def read_ros_args(schema: NodeSchema, argv: list[str]) -> RosArgs:
             raise InputError("--params-file needs a file name")
         # over the files before it, as rcl does
         params = load_node_params(path, node_name, params, fqn=result.fqn, applied=result.applied)
-    _apply_overrides(schema, node_name, overrides, params, result)
+    try:
+        _apply_overrides(schema, node_name, overrides, params, result)
+    except InputError as exc:
+        raise clip_values(exc, [text for _, text in overrides] + [f"{i}:={t}" for i, t in overrides]) from None
     try:
         schema.validate(params)
         if schema.section == "wear_monitor":
             axes_params(params, schema.validate)
     except InputError as exc:
         where = ", ".join(files) if files else "-p"
-        raise InputError(f"{where}: {exc}") from None
+        raise InputError(f"{where}: {clip_values(exc, list(params.values()))}") from None
     result.params = params
     return result
 
