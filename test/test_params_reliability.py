@@ -17,12 +17,12 @@ import pytest
 from guide_health.cli.app import main as cli_main
 from guide_health.errors import InputError
 from guide_health.params import WEAR_MONITOR_SCHEMA, wear_monitor_params
-from guide_health.params.rcl_yaml import MAX_PARAMS_FILE_BYTES, VALUE_CHARS
 from guide_health.params.ros_args import check_ros_args
 
 ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT / "config" / "bench_000.yaml"
 SECTION = "/**/wear_monitor:\n  ros__parameters:\n"
+MAX_PARAMS_FILE_BYTES = 1 << 20          # docs/interfaces.md: a parameters file above 1 MiB is refused
 
 
 def _cli_line(capsys, argv: list[str]) -> str:
@@ -111,7 +111,10 @@ def test_error_messages_show_at_most_80_characters_of_a_value(tmp_path, capsys, 
     path.write_text(SECTION + f"    life_warn_h: {value}\n")
     for line in (_cli_line(capsys, ["replay", str(tmp_path / "no_bag"), "--params", str(path)]), _node_error(path)):
         assert "life_warn_h" in line and "characters)" in line and len(line) < 200 + len(str(path)), line
-    assert VALUE_CHARS == 80
+    from guide_health.params.rcl_yaml import MAX_PARAMS_FILE_BYTES as LIMIT
+    from guide_health.params.rcl_yaml import VALUE_CHARS
+
+    assert (VALUE_CHARS, LIMIT) == (80, MAX_PARAMS_FILE_BYTES)
 
 
 def test_a_long_minus_p_value_is_clipped_too():
