@@ -310,3 +310,57 @@ def test_node_help_prints_usage_without_starting_ros(tmp_path, node):
                           text=True, timeout=30, env=env, cwd=home)
     assert proc.returncode == 0 and proc.stdout.startswith(f"usage: {node}"), proc.stderr
     assert list(home.rglob("*")) == []                       # no state database, no log directory
+
+
+# --- the documented command lines and the launch files ------------------------------------------------------
+
+NODE_SCRIPTS = ("wear_monitor", "slewing_monitor", "vibration_monitor", "fleet_monitor")
+
+
+def documented_node_commands() -> list[tuple[str, str, list[str]]]:
+    """(doc, node, argv) of every command line in README.md, docs/machine.md, docs/fleet.md, docs/ros.md
+    that starts a node with shipped files (``ros2 run guide_health NODE ...`` or the console script)."""
+    import shlex
+
+    found = []
+    for doc in ("README.md", "docs/machine.md", "docs/fleet.md", "docs/ros.md"):
+        for line in (ROOT / doc).read_text().splitlines():
+            words = shlex.split(line.split(" #")[0].strip(" `")) if "--ros-args" in line else []
+            words = words[3:] if words[:2] == ["ros2", "run"] else words
+            if words and words[0] in NODE_SCRIPTS:
+                argv = [w.replace("install/guide_health/share/guide_health/", "") for w in words]
+                files = [argv[i + 1] for i, w in enumerate(argv) if w == "--params-file"]
+                if all((ROOT / f).is_file() for f in files):
+                    found.append((doc, argv[0], argv))
+    return found
+
+
+def test_documented_node_commands_apply_their_files_in_their_namespace(monkeypatch):
+    """Each documented node command line, checked as the node checks its arguments (full name from its
+    -r __ns): every --params-file has a section for the node there, so none runs on defaults."""
+    from guide_health.params import SCHEMAS
+    from guide_health.params.ros_args import read_ros_args
+
+    monkeypatch.chdir(ROOT)
+    commands = documented_node_commands()
+    assert sum("__ns:=" in " ".join(argv) for _, _, argv in commands) >= 4, commands
+    for doc, node, argv in commands:
+        result = read_ros_args(SCHEMAS[node], argv)
+        files = [argv[i + 1] for i, w in enumerate(argv) if w == "--params-file"]
+        assert sorted({path for path, _ in result.applied}) == sorted(set(files)), (doc, argv, result.applied)
+
+
+@pytest.mark.parametrize("launch", ["machine.launch.py", "fleet.launch.py"])
+def test_launch_default_files_apply_in_the_launch_namespace(launch):
+    """The launch files pass their params file to rcl as it is, in the machine's namespace: its section
+    must apply there (launch_ros is not on PyPI: the file is checked as the node would check it)."""
+    import re
+
+    from guide_health.params import SCHEMAS
+    from guide_health.params.ros_args import read_ros_args
+
+    defaults = re.findall(r'os\.path\.join\(share, "config", "([^"]+)"\)', (ROOT / "launch" / launch).read_text())
+    assert defaults
+    for name in defaults:
+        argv = ["wear_monitor", "--ros-args", "-r", "__ns:=/m1", "--params-file", str(CONFIG / name)]
+        assert read_ros_args(SCHEMAS["wear_monitor"], argv).applied == [(str(CONFIG / name), "/**/wear_monitor")]
