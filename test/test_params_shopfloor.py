@@ -250,27 +250,33 @@ def test_each_shipped_config_reaches_the_node_under_a_namespace(tmp_path, ros_te
         assert "axes " in start[0] and f"{machine}/wear_monitor.db (new)" in start[0]
 
 
+def _start_line(cmd: list[str], env: dict, log: Path, timeout: float = 60.0) -> str:
+    """The node's ``start:`` line ('' when it logs none within ``timeout``); the node is stopped (SIGINT)."""
+    with open(log, "w") as out:
+        proc = subprocess.Popen(cmd, env=env, stdout=out, stderr=subprocess.STDOUT)
+    end = time.monotonic() + timeout
+    while time.monotonic() < end and proc.poll() is None and "start: " not in log.read_text():
+        time.sleep(0.1)
+    proc.send_signal(2)
+    try:
+        proc.wait(30)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+    return next((line for line in log.read_text().splitlines() if "start: " in line), "")
+
+
 @pytest.mark.ros
 def test_start_up_line_says_resumed_and_fleet_monitor_has_one(tmp_path, ros_test_env):
     env = ros_test_env()
     cmd = [sys.executable, "-m", "guide_health.nodes.wear_monitor", "--ros-args", "-r", "__ns:=/m1",
            "--params-file", str(CONFIG / "machine_xyz.yaml")]
-    lines = []
-    for _ in range(2):
-        proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        line = next(line for line in proc.stdout if "start: " in line or "error" in line)
-        proc.send_signal(2)
-        proc.communicate(timeout=30)
-        lines.append(line)
+    lines = [_start_line(cmd, env, tmp_path / f"wear{i}.log") for i in range(2)]
     assert "axes x, y, z" in lines[0] and lines[0].strip().endswith("wear_monitor.db (new)"), lines
     assert lines[1].strip().endswith("wear_monitor.db (resumed)"), lines
     history = tmp_path / "fleet.db"
-    proc = subprocess.Popen([sys.executable, "-m", "guide_health.nodes.fleet_monitor", "--ros-args", "-r",
-                             "__ns:=/plant", "-p", f"history_file:={history}"], env=env, stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True)
-    line = next(line for line in proc.stdout if "start: " in line or "error" in line)
-    proc.send_signal(2)
-    proc.communicate(timeout=30)
+    line = _start_line([sys.executable, "-m", "guide_health.nodes.fleet_monitor", "--ros-args", "-r", "__ns:=/plant",
+                        "-p", f"history_file:={history}"], env, tmp_path / "fleet.log")
     assert "start: machine_id fleet, node /plant/fleet_monitor, axes none, params -p history_file:=" in line, line
     assert f"history {history}" in line
 
