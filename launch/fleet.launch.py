@@ -3,6 +3,8 @@
     ros2 launch guide_health fleet.launch.py machines:=m1,m2,m3 params_file:=/path/to/machine.yaml \
         history_file:=/var/lib/guide_health/fleet.db
 
+The params file goes to every machine's node as it is: its section must apply in any namespace
+(``/**/wear_monitor:``, as in every shipped config); machine_id and state_file are set per machine on top.
 Each machine's state file is $ROS_HOME/guide_health/<machine>/wear_monitor.db (state_file auto, machine_id =
 the namespace), or <state_dir>/<machine>.db with state_dir:=DIR, so the monitors never share a checkpoint (a
 second process on one state file is refused by its lock).

@@ -3,6 +3,9 @@
     ros2 launch guide_health machine.launch.py namespace:=m1 params_file:=/path/to/machine.yaml \
         [slewing_params_file:=/path/to/slewing.yaml]
 
+The params files are passed to rcl as they are: their sections must apply in the namespace
+(``/**/wear_monitor:``, ``/**/slewing_monitor:`` as in every shipped config; a ``wear_monitor:`` section is
+the root namespace's only, and the node exits 2 naming the file, its sections and its full name).
 Topics resolve in the namespace (/m1/joint_states, /m1/guide/load, ...); /diagnostics is absolute, so a
 fleet_monitor sees every machine. The state file is the params file's state_file (shipped configs: auto =
 $ROS_HOME/guide_health/<machine_id>/wear_monitor.db). Needs a ROS 2 installation with `launch_ros` (not on

@@ -878,7 +878,7 @@ def test_simulate_diagnose_replay_with_an_automatic_lubricator(tmp_path):
     fitted = report["effects"]["lubrication_interval"]["parameters"]["lubrication_wear_growth_per_s"]["value"]
     print(f"lubrication_interval named {report['named_effects']}, b fitted {fitted / b:.3f} x the hidden one")
     assert fitted == pytest.approx(b, rel=0.25)
-    model = yaml.safe_load((tmp_path / "diag" / "model.yaml").read_text())["wear_monitor"]["ros__parameters"]
+    model = yaml.safe_load((tmp_path / "diag" / "model.yaml").read_text())["/**/wear_monitor"]["ros__parameters"]
     assert "lubrication_interval" in model["effects"] and model["lubrication_interval_s"] == 0.0
     out = json.loads(cli("replay", str(bag), "--params", str(params_file), "--params", str(tmp_path / "diag" /
                                                                                            "model.yaml"),

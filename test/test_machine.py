@@ -69,7 +69,8 @@ def test_single_joint_config_is_one_axis_on_the_root_topics():
 
 
 @pytest.mark.parametrize("text,needle", [
-    ("axes: [x, y]\n    q: {contact_width_m: 0.05}", "'q' is not one of axes"),
+    ("axes: [x, z]\n    q: {contact_width_m: 0.05}", "'q' is not one of axes"),
+    ("axes: [x, y]", "a bare y, n, yes, no, on, off is a bool: quote it"),     # rcl reads y as true
     ("axes: [x]\n    x: {contact_widht_m: 0.05}", "did you mean 'contact_width_m'"),
     ("axes: [x]\n    x: {contact_width_m: -1.0}", "axis 'x'"),
     ("axes: [x]\n    x: {machine_id: m2}", "unknown parameter 'machine_id'"),

@@ -437,7 +437,7 @@ def test_diagnose_writes_a_model_file_that_replay_loads(tmp_path):
         "--effect", "running_in=2.5")
     out = tmp_path / "diag"
     text = cli("diagnose", str(bag), "--params", str(BENCH), "--out", str(out), "--no-plot").stdout
-    model = yaml.safe_load((out / "model.yaml").read_text())["wear_monitor"]["ros__parameters"]
+    model = yaml.safe_load((out / "model.yaml").read_text())["/**/wear_monitor"]["ros__parameters"]
     # what goes live, with its standard errors, in the text and in report.md
     sd = math.sqrt(model["effect_covariance"][14])     # [1, 1] of the 13 x 13
     line = f"running_in_ratio = {model['running_in_ratio']:.4g} ± {sd:.2g}"

@@ -81,14 +81,16 @@ def test_node_process_exits_2_with_one_line(tmp_path, name):
 
 
 def test_rcl_parse_error_of_a_file_pyyaml_accepts_is_one_line(tmp_path):
-    """A file only rcl's parser refuses (a mixed-type list in another tool's section) ends in one line."""
+    """A file rcl's parser refuses (a mixed-type list in another tool's section) ends in one line: the
+    loader reads files as rcl does (params/rcl_yaml.py) and gives rcl's reason before rcl is reached."""
     path = _write(tmp_path, "rcl", "other_tool:\n  ros__parameters:\n    mixed: [1.0, \"a\"]\n" + SECTION
                   + "    state_file: ''\n")
     env = dict(os.environ, PYTHONPATH=str(ROOT), ROS_HOME=str(tmp_path))
     proc = subprocess.run([sys.executable, "-m", "guide_health.nodes.wear_monitor", "--ros-args",
                            "--params-file", str(path)], capture_output=True, text=True, timeout=60, env=env)
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
-    assert "Traceback" not in proc.stderr and "rcl refused the arguments" in proc.stderr
+    assert "Traceback" not in proc.stderr and "Sequence should be of same type" in proc.stderr
+    assert cli_main(["replay", str(tmp_path / "no_bag"), "--params", str(path)]) == 2
 
 
 def test_ros_args_parsing_follows_rcl_order_and_remapping(tmp_path):
@@ -108,9 +110,9 @@ def test_ros_args_parsing_follows_rcl_order_and_remapping(tmp_path):
 
 def test_wildcard_section_keys_are_checked_against_every_schema(tmp_path):
     ok = _write(tmp_path, "ok", "/**:\n  ros__parameters:\n    use_sim_time: true\n    stale_after_s: 5.0\n"
-                + SECTION + "    joint: y\n")
+                + SECTION + "    joint: 'y'\n")      # quoted: rcl (and the loader) read a bare y as true
     assert wear_monitor_params(ok)["joint"] == "y"
-    bad = _write(tmp_path, "bad", "/**:\n  ros__parameters:\n    stale_afer_s: 5.0\n" + SECTION)
+    bad = _write(tmp_path, "bad", "/**:\n  ros__parameters:\n    stale_afer_s: 5.0\n" + SECTION + "    joint: x\n")
     with pytest.raises(InputError, match=r"section '/\*\*': unknown parameter 'stale_afer_s'"):
         wear_monitor_params(bad)
 

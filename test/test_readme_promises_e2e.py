@@ -54,7 +54,7 @@ def test_replay_end_to_end_files_and_eq7_numbers(tmp_path):
     from guide_health.sim.machine import simulate_machine
 
     doc = yaml.safe_load(BENCH.read_text())
-    doc["wear_monitor"]["ros__parameters"]["wear_coefficient_prior_rel_sd"] = 1e-9
+    doc["/**/wear_monitor"]["ros__parameters"]["wear_coefficient_prior_rel_sd"] = 1e-9
     params_file = tmp_path / "bench_fixed_k.yaml"
     params_file.write_text(yaml.safe_dump(doc))
     p = wear_monitor_params(params_file)

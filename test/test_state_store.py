@@ -268,7 +268,7 @@ def test_every_shipped_wear_monitor_config_persists_by_default():
     import yaml
 
     for path in sorted((ROOT / "config").glob("*.yaml")):
-        section = (yaml.safe_load(path.read_text()) or {}).get("wear_monitor")
+        section = (yaml.safe_load(path.read_text()) or {}).get("/**/wear_monitor")
         if section is not None:
             assert section["ros__parameters"].get("state_file", "auto") == "auto", path
     for path in sorted((ROOT / "launch").glob("*.py")):

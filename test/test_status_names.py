@@ -12,7 +12,7 @@ AGGREGATOR = ROOT / "config" / "diagnostic_aggregator.yaml"
 
 
 def analyzers():
-    params = yaml.safe_load(AGGREGATOR.read_text())["analyzers"]["ros__parameters"]
+    params = yaml.safe_load(AGGREGATOR.read_text())["/**/analyzers"]["ros__parameters"]
     return params["path"], {k: v for k, v in params.items() if isinstance(v, dict)}
 
 

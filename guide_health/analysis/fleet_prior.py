@@ -154,7 +154,7 @@ def write_prior_params(path: Path, prior: dict[str, Any], base_params: str | Non
     data: dict = {}
     if base_params:
         data = yaml.safe_load(Path(base_params).read_text()) or {}
-    key = next((k for k in data if str(k).rstrip("/").split("/")[-1] == "wear_monitor"), "wear_monitor")
+    key = next((k for k in data if str(k).rstrip("/").split("/")[-1] == "wear_monitor"), "/**/wear_monitor")
     section = data.setdefault(key, {}).setdefault("ros__parameters", {})
     section.update(machine_type=prior["machine_type"], wear_coefficient=float(f"{prior['wear_coefficient']:.6g}"),
                    wear_coefficient_prior_rel_sd=float(f"{prior['wear_coefficient_prior_rel_sd']:.4g}"),

@@ -14,7 +14,7 @@ import os
 import sys
 import warnings
 
-from guide_health.cli.command import Command
+from guide_health.cli.command import FILE_OUTPUTS, Command, check_out_path
 from guide_health.cli.text import format_key_values, jsonable
 from guide_health.errors import InputError
 from guide_health.io.outputs.json_text import json_text
@@ -103,6 +103,8 @@ def main(argv: list[str] | None = None) -> int:
     command = load_command(args._command)
     warnings.showwarning = _warning_line
     try:
+        if getattr(args, "out", None):
+            check_out_path(args.out, directory=args._command not in FILE_OUTPUTS)
         result = command.run(args)
     except InputError as exc:
         print(f"guide-health: error: {exc}", file=sys.stderr)

@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 
 from guide_health.analysis.discrepancy.duty_process import start_duty_cells
-from guide_health.cli.command import Command
+from guide_health.cli.command import Command, check_out_path
 from guide_health.errors import InputError
 from guide_health.io.outputs.progress import ProgressBar
 from guide_health.params import wear_monitor_params
@@ -89,7 +89,7 @@ def _diagnose(args, params: dict, bag: Path, pending, bar, threshold, t0: float)
         raise InputError(f"{bag}: {exc}") from None
     result["messages"] = messages
     result["read_s"] = t_read
-    out = Path(args.out) if args.out else bag.with_name(bag.name + ".diagnose")
+    out = check_out_path(args.out if args.out else bag.with_name(bag.name + ".diagnose"))
     return result, out, time.perf_counter()
 
 

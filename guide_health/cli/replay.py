@@ -40,7 +40,9 @@ def is_slewing_bag(bag: Path) -> bool:
 
 def report_dir(args, bag: Path) -> Path:
     """--out, else <bag>.report beside the bag."""
-    return Path(args.out) if args.out else bag.with_name(bag.name + ".report")
+    from guide_health.cli.command import check_out_path
+
+    return check_out_path(args.out if args.out else bag.with_name(bag.name + ".report"))
 
 
 def run_slewing(args, bag: Path) -> dict:

@@ -1,6 +1,8 @@
 """`guide-health simulate`: write a rosbag2 bag of a simulated machine run."""
 from __future__ import annotations
 
+import math
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -32,6 +34,12 @@ from guide_health.sim.machine import (
 )
 from guide_health.sim.slewing import simulate_slewing
 
+#: bag bytes per message (sqlite3, one joint: 105 measured on a 2 h bench bag; mcap is smaller); the
+#: simulation holds about as much in memory while it writes
+BYTES_PER_MESSAGE = 110
+#: the default size limit of a simulated bag (--max-bag-gb)
+DEFAULT_MAX_BAG_GB = 4.0
+
 
 def add_arguments(parser) -> None:
     parser.add_argument("--params", required=True,
@@ -46,6 +54,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--hours", type=float, help="duration [h] (default: duration_h of the params file)")
     parser.add_argument("--rate", type=float, help="JointState rate [Hz] (default: joint_state_rate_hz)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (strokes, noise)")
+    parser.add_argument("--max-bag-gb", type=float, default=DEFAULT_MAX_BAG_GB, metavar="GB",
+                        help=f"refuse a bag estimated above this size (duration x rates x {BYTES_PER_MESSAGE} "
+                             f"bytes per message; default {DEFAULT_MAX_BAG_GB:g} GB) or above the free disk space")
     parser.add_argument("--motion", choices=("file", "realistic"), default="file",
                         help="file: the params file's motion (constant-speed moves unless motion_profile says "
                              "otherwise); realistic: jerk-limited moves, joint_states at 250 Hz with 1 um encoder "
@@ -68,11 +79,38 @@ def add_arguments(parser) -> None:
 
 
 def new_bag_path(path: str) -> Path:
-    """The bag directory to create; InputError when it exists (a bag is never overwritten)."""
+    """The bag directory to create; InputError when it exists (a bag is never overwritten) or a part of
+    its parent is a file."""
+    from guide_health.cli.command import check_out_path
+
     out = Path(path)
     if out.exists():
         raise InputError(f"output bag {out} already exists")
-    return out
+    return check_out_path(out)
+
+
+def messages_per_second(sims: list[dict], shared_joint_states: bool = True) -> float:
+    """Messages per simulated second of a machine bag: joint_states (one topic for every axis), and per axis
+    guide/load, guide/temperature and the straightness measurements."""
+    joint = max(sim["joint_state_rate_hz"] for sim in sims) if shared_joint_states else 0.0
+    return joint + sum(sim["load_rate_hz"] + sim.get("temperature_rate_hz", 0.0)
+                       + 1.0 / (3600.0 * sim["measurement_interval_h"]) for sim in sims)
+
+
+def check_bag_budget(args, duration_h: float, rate_per_s: float, out: Path) -> None:
+    """Refuse, before anything is allocated, a bag estimated above --max-bag-gb or the free disk space."""
+    if not (math.isfinite(args.max_bag_gb) and args.max_bag_gb > 0):
+        raise InputError(f"--max-bag-gb must be a finite number > 0, got {args.max_bag_gb!r}")
+    messages = duration_h * 3600.0 * rate_per_s
+    estimate = messages * BYTES_PER_MESSAGE
+    budget = args.max_bag_gb * 1e9
+    parent = next((p for p in [out.parent, *out.parent.parents] if p.exists()), Path("."))
+    free = shutil.disk_usage(parent).free
+    what = f"{duration_h:g} h x {rate_per_s:.4g} messages/s = {messages:.3g} messages, about {estimate / 1e9:.3g} GB"
+    if estimate > budget:
+        raise InputError(f"simulate: {what}, above --max-bag-gb {args.max_bag_gb:g} (raise it to allow more)")
+    if estimate > free:
+        raise InputError(f"simulate: {what}, above the {free / 1e9:.3g} GB free on {parent}")
 
 
 def run_slewing(args) -> dict:
@@ -80,11 +118,9 @@ def run_slewing(args) -> dict:
         raise InputError("--effect applies to machine bags only")
     sim = load_node_params(args.params, "guide_health_slewing_simulation", SLEWING_SIMULATION_DEFAULTS,
                            required=False)     # the scenario section is optional: its defaults are a crane
-    if args.hours is not None:
-        sim["duration_h"] = args.hours
-    if args.rate is not None:
-        sim["load_rate_hz"] = args.rate
+    _override_duration(args, sim, "load_rate_hz")
     out = new_bag_path(args.out)
+    check_bag_budget(args, sim["duration_h"], sim["load_rate_hz"], out)
     t0 = time.perf_counter()
     run = simulate_slewing(sim, seed=args.seed)
     write_slewing_bag(run, out, storage=args.storage, namespace=args.namespace)
@@ -126,6 +162,7 @@ def run(args) -> dict:
         print(f"guide-health simulate: {name} needs a temperature record: guide/temperature at 0.1 Hz",
               file=sys.stderr)
     out = new_bag_path(args.out)
+    check_bag_budget(args, sim["duration_h"], messages_per_second([sim]), out)
     t0 = time.perf_counter()
     events = parse_maintenance(args.maintenance, {params["joint"]: params})
     resets = [(e.t_ns - START_TIME_NS) * 1e-9 for e in events if e.kind in ("regrind", "replace_rail")]
@@ -178,15 +215,17 @@ def event_series(events: list, machine_id: str) -> list:
     return [(MAINTENANCE_TOPIC, DIAGNOSTIC_ARRAY, [e.t_ns for e in events], lambda i: [encoded[k] for k in i])]
 
 
-def _override_duration(args, sim: dict) -> None:
+def _positive_finite(value, flag: str) -> float:
+    if not (math.isfinite(value) and value > 0):
+        raise InputError(f"{flag} must be a finite number > 0, got {value!r}")
+    return value
+
+
+def _override_duration(args, sim: dict, rate_name: str = "joint_state_rate_hz") -> None:
     if args.hours is not None:
-        if not args.hours > 0:
-            raise InputError("--hours must be > 0")
-        sim["duration_h"] = args.hours
+        sim["duration_h"] = _positive_finite(args.hours, "--hours")
     if args.rate is not None:
-        if not args.rate > 0:
-            raise InputError("--rate must be > 0")
-        sim["joint_state_rate_hz"] = args.rate
+        sim[rate_name] = _positive_finite(args.rate, "--rate")
 
 
 def run_machine_axes(args, params: dict, sim: dict) -> dict:
@@ -206,6 +245,7 @@ def run_machine_axes(args, params: dict, sim: dict) -> dict:
         except InputError as exc:
             raise InputError(f"{args.params}: guide_health_simulation axis '{axis}': {exc}") from None
     out = new_bag_path(args.out)
+    check_bag_budget(args, sim["duration_h"], messages_per_second(list(sims.values())), out)
     t0 = time.perf_counter()
     events = parse_maintenance(args.maintenance, axes)
     runs = simulate_axes(axes, sims, seed=args.seed)

@@ -1,30 +1,34 @@
 """ROS 2 parameters YAML files, read strictly (the only file I/O of guide_health.params).
 
-One file (``<node>: ros__parameters: {...}``, ``/**`` wildcard allowed) drives both the node and
-``guide-health ... --params FILE``, so live and offline results come from the same numbers. The node checks
-its ``--params-file`` arguments with the same loader before rcl reads them (``ros_args.py``).
+One file (``/**/<node>: ros__parameters: {...}``) drives both the node and ``guide-health ... --params FILE``,
+so live and offline results come from the same numbers. The file is read as rcl reads it (``rcl_yaml.py``:
+libyaml, rcl's scalar typing, aliases refused, plus a size limit and duplicate keys refused), and a section
+applies to a node as rcl applies it (``rcl_yaml.applies``): ``/**`` and ``/**/wear_monitor`` everywhere,
+``wear_monitor`` (= ``/wear_monitor``) only in the root namespace, ``/m1/wear_monitor`` only in ``/m1``.
+The CLI reads a file as the node in the root namespace would; the node (``ros_args.py``) with its full
+name, before rcl reads the files. Sections apply in file order, the later overriding, as in rcl.
 
 Strict by default, so that a typo never goes unnoticed:
 
 * the node's own section may hold only the node's declared parameters (and ROS's own, e.g. ``use_sim_time``):
   an unknown name is an error naming the closest declared one;
-* a ``/**`` section may hold only names some guide_health schema declares (it applies to every node);
-* a section for the node (or ``/**``) whose only key is not ``ros__parameters`` (``ros__parameter``) is an
-  error; other tools' sections in the same file are left alone;
+* a wildcard section (``/**``, ``/**/*``) may hold only names some guide_health schema declares;
+* a section for the node whose key beside ``ros__parameters`` is neither a nested node nor it
+  (``ros__parameter``) is an error; other tools' sections in the same file are left alone;
 * a file with no section for the node is an error where the command needs that node's parameters
-  (``required``), naming a close section name if there is one (``wear_monitr``).
+  (``required``), naming the file, its sections and the node's full name;
+* a section whose node name is within edit distance 2 of a guide_health node's (``wear_monitr``) is
+  warned about: rcl applies it to no node.
 """
 from __future__ import annotations
 
-import difflib
 import logging
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from guide_health.errors import InputError
 from guide_health.params.machine import axes_params, axis_default, check_axis_keys, coerce_axis_value, flatten
+from guide_health.params.rcl_yaml import VALUE_CHARS, applies, edit_distance, sections, short
 from guide_health.params.schema import check_unknown_keys, coerce_value
 from guide_health.params.schemas import SCHEMAS, schema_for
 from guide_health.params.simulation import SIMULATION_SCHEMA
@@ -32,85 +36,99 @@ from guide_health.params.wear_monitor import WEAR_MONITOR_SCHEMA, hardness_units
 
 #: parameters every rclpy node has (or reads) besides its schema's: accepted in any section, not returned
 ROS_NODE_PARAMS = ("use_sim_time", "start_type_description_service", "qos_overrides")
-
-
-def _load_yaml(path: str | Path) -> dict:
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"parameters file not found: {path}")
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf8"))
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"parameters file {path} cannot be read: {exc}".splitlines()[0]) from None
-    except yaml.YAMLError as exc:
-        raise InputError(" ".join(f"parameters file {path} is not valid YAML: {exc}".split())) from None
-    if not isinstance(data, dict):
-        raise InputError(f"parameters file {path} holds no '<node>: ros__parameters:' mapping")
-    return data
-
-
-def _section_params(path: Path, key: str, section: Any) -> dict:
-    """The ``ros__parameters`` mapping of one section for this node; InputError for a misspelt key."""
-    if not isinstance(section, dict):
-        raise InputError(f"{path}: section '{key}' has no 'ros__parameters' mapping")
-    extra = [str(k) for k in section if k != "ros__parameters"]
-    if extra:
-        close = difflib.get_close_matches(extra[0], ["ros__parameters"], n=1, cutoff=0.6)
-        hint = " (did you mean 'ros__parameters'?)" if close else ""
-        raise InputError(f"{path}: section '{key}' has an unknown key '{extra[0]}'{hint}")
-    params = section.get("ros__parameters", {})
-    if params is None:
-        params = {}
-    if not isinstance(params, dict):
-        raise InputError(f"{path}: section '{key}': 'ros__parameters' is not a mapping")
-    return params
+#: node names within this edit distance of a guide_health node's are warned about as likely typos
+TYPO_DISTANCE = 2
+_LOG = logging.getLogger("guide_health.params")
+_warned: set[tuple[str, str]] = set()
 
 
 def _all_known_names() -> set[str]:
     return {name for schema in SCHEMAS.values() for name in schema.by_name}
 
 
-def node_sections(path: str | Path, node_name: str, required: bool = True) -> list[tuple[str, dict]]:
-    """The (section key, ros__parameters) entries of ``path`` that apply to ``node_name``, ``/**`` first.
+def _warn_typos(path: Path, names: list[str]) -> None:
+    """One warning per (file, section) whose last name part is a near miss of a guide_health node name."""
+    for name in names:
+        base = name.rstrip("/").split("/")[-1]
+        if base in SCHEMAS or "*" in base or (str(path), name) in _warned:
+            continue
+        close = sorted((edit_distance(base, node), node) for node in SCHEMAS)
+        if close and close[0][0] <= TYPO_DISTANCE:
+            _warned.add((str(path), name))
+            _LOG.warning("guide-health: warning: %s: section '%s' applies to no guide_health node: a typo of "
+                         "'%s'? (its parameters are not used)", path, name, close[0][1])
 
-    A key applies when it is ``/**`` or its last ``/``-part is the node name (``/m1/wear_monitor``,
-    ``/**/wear_monitor``). ``required``: InputError when none applies."""
+
+def node_sections(path: str | Path, node_name: str, required: bool = True,
+                  fqn: str | None = None) -> list[tuple[str, dict]]:
+    """The (section name, ros__parameters) entries of ``path`` that rcl applies to the node ``fqn``
+    (default: ``/<node_name>``, the root namespace), in file order. ``required``: InputError when none."""
     path = Path(path)
-    data = _load_yaml(path)
-    sections = []
-    for key, section in data.items():
-        base = str(key).rstrip("/").split("/")[-1]
-        if key == "/**" or base == node_name:
-            sections.append((0 if key == "/**" else 1, str(key), _section_params(path, str(key), section)))
-    if not sections and required:
-        bases = [str(k).rstrip("/").split("/")[-1] for k in data]
-        close = difflib.get_close_matches(node_name, bases, n=1, cutoff=0.7)
-        hint = f" (did you mean '{close[0]}'? it is read as another tool's section)" if close else ""
-        raise InputError(f"{path}: no section for node '{node_name}'{hint}; "
-                         f"expected '{node_name}: ros__parameters: ...'")
-    return [(key, params) for _, key, params in sorted(sections, key=lambda s: s[0])]
+    fqn = fqn or "/" + node_name
+    found = sections(path)
+    _warn_typos(path, [section.name for section in found])
+    chosen = [section for section in found if applies(section.name, fqn)]
+    for section in chosen:
+        if section.stray:
+            key = section.stray[0]
+            hint = " (did you mean 'ros__parameters'?)" if key != "ros__parameters" else " (not a mapping)"
+            raise InputError(f"{path}: section '{section.name}' has an unknown key '{key}'{hint}")
+    if not chosen and required:
+        names = ", ".join(f"'{section.name}'" for section in found) or "none"
+        raise InputError(f"{path}: no section for node '{node_name}' (full name {fqn}); the file's sections: "
+                         f"{names}; '/**/{node_name}:' applies in any namespace")
+    return [(section.name, section.params) for section in chosen]
+
+
+def _generic(section_name: str) -> bool:
+    """A section for every node (``/**``, ``/**/*``, ``/*``): its names are checked against every schema."""
+    return section_name.rstrip("/").split("/")[-1] in ("*", "**", "")
+
+
+def clip_values(exc: InputError, values: list) -> InputError:
+    """``exc`` with every long value it quotes cut to rcl_yaml.VALUE_CHARS characters."""
+    message = str(exc)
+    for value in values:
+        for text in {repr(value), str(value)}:
+            if len(text) > VALUE_CHARS and text in message:
+                message = message.replace(text, short(value))
+    return InputError(message[:2000])
 
 
 def load_node_params(path: str | Path | None, node_name: str, defaults: dict[str, Any],
-                     strict: bool = True, required: bool = True) -> dict[str, Any]:
-    """Parameters of ``node_name`` from a ROS 2 parameters YAML, merged over ``defaults`` (see the module
-    text for what ``strict`` and ``required`` refuse). ``strict=False`` keeps unknown names (old behaviour,
-    for a caller that reads only a few names of a section)."""
+                     strict: bool = True, required: bool = True, fqn: str | None = None,
+                     applied: list | None = None) -> dict[str, Any]:
+    """Parameters of ``node_name`` (full name ``fqn``, default the root namespace's) from a ROS 2 parameters
+    YAML, merged over ``defaults`` (see the module text for what ``strict`` and ``required`` refuse).
+    ``strict=False`` keeps unknown names (for a caller that reads only a few names of a section).
+    ``applied``: (file, section name) of each section used is appended to it."""
     params = dict(defaults)
     if path is None:
         return params
-    for key, section in node_sections(path, node_name, required):
+    for key, section in node_sections(path, node_name, required, fqn):
+        if applied is not None:
+            applied.append((str(path), key))
         section = flatten(section)     # nested mappings (per-axis parameters) as rcl reads them: 'x.name'
-        names = [name for name in section if name not in ROS_NODE_PARAMS and "." not in name]
-        if strict:
-            known = list(defaults) if key != "/**" else sorted(_all_known_names() | set(defaults))
-            source = str(path) if key != "/**" else f"{path}: section '/**'"
-            check_unknown_keys(node_name, names, known, source=source)
-        for name in names:
-            value = section[name]
-            params[name] = coerce_value(name, value, defaults[name]) if name in defaults else value
-        _axis_values(path, node_name, section, params, defaults, strict)
+        try:
+            _section_values(path, node_name, key, section, params, defaults, strict)
+        except InputError as exc:
+            exc = clip_values(exc, [*section.values(), *section])
+            raise exc if str(path) in str(exc) else InputError(f"{path}: section '{key}': {exc}") from None
     return params
+
+
+def _section_values(path, node_name: str, key: str, section: dict, params: dict, defaults: dict,
+                    strict: bool) -> None:
+    names = [name for name in section if name not in ROS_NODE_PARAMS and "." not in name]
+    if strict:
+        generic = _generic(key)
+        known = sorted(_all_known_names() | set(defaults)) if generic else list(defaults)
+        source = f"{path}: section '{key}'" if generic else str(path)
+        check_unknown_keys(node_name, names, known, source=source)
+    for name in names:
+        value = section[name]
+        params[name] = coerce_value(name, value, defaults[name]) if name in defaults else value
+    _axis_values(path, node_name, section, params, defaults, strict)
 
 
 def _axis_values(path, node_name: str, section: dict, params: dict, defaults: dict, strict: bool) -> None:
@@ -162,6 +180,7 @@ def _validate_from(path, section: str, validate, params: dict) -> None:
     try:
         validate(params)
     except InputError as exc:
+        exc = clip_values(exc, list(params.values()))
         if path is None or str(exc).startswith(str(path)):
-            raise
+            raise exc from None
         raise InputError(f"{path}: section '{section}': {exc}") from None

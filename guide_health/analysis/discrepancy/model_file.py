@@ -1,6 +1,6 @@
 """``diagnose --out DIR`` writes DIR/model.yaml: what the workflow learnt, as wear_monitor parameters.
 
-A ROS 2 parameters file (``wear_monitor: ros__parameters:``) with the calibrated K, the A0 the fit used,
+A ROS 2 parameters file (``/**/wear_monitor: ros__parameters:``) with the calibrated K, the A0 the fit used,
 the named effects the live model integrates (``effects`` and their parameters, params/wear_monitor.py) and
 the covariance of the fitted K, effect parameters and A0 (models/wear/effects/registry.COVARIANCE_NAMES;
 the gauge offset at T_ref is a linear function of the fitted c_T and offset at T_0, its rows by that Jacobian;
@@ -156,5 +156,5 @@ def write_model_file(path: Path, base_params: dict[str, Any], model: dict[str, A
               f"{', '.join(COVARIANCE_NAMES)}."]
     if not_live:
         header.append(f"# named but not integrated live: {', '.join(not_live)}")
-    body = yaml.safe_dump({"wear_monitor": {"ros__parameters": model}}, sort_keys=False, width=200)
+    body = yaml.safe_dump({"/**/wear_monitor": {"ros__parameters": model}}, sort_keys=False, width=200)
     write_text(path, "\n".join(header) + "\n" + body)
