@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import importlib.util
 import io
 import math
 import time
@@ -193,6 +194,15 @@ def share_cores(client) -> dict[str, bool]:
     return ahead
 
 
+def require_dask() -> None:
+    """InputError (one line naming the package) when Dask is not installed: it is a declared dependency
+    (setup.py, package.xml), but a hand-made environment may lack it; ``--workers 0`` runs without it."""
+    for module in ("dask", "distributed"):
+        if importlib.util.find_spec(module) is None:
+            raise InputError(f"fleet runs on Dask workers need the Python package {module!r}: "
+                             f"pip install 'dask[distributed]' (or run in this process with --workers 0)")
+
+
 @contextlib.contextmanager
 def dask_client(workers: int, scheduler: str | None):
     """A distributed Client: on ``scheduler`` (an address), else on a LocalCluster of ``workers``
@@ -249,6 +259,7 @@ def run_fleet(command: str, bags: list[Path], params, out: Path, options: tuple[
         return entries
     import importlib
 
+    require_dask()
     from distributed import as_completed
 
     from guide_health.cli.app import load_command
