@@ -534,7 +534,7 @@ def test_live_node_with_the_duty_and_thermal_effects_matches_replay(tmp_path, ro
     from guide_health.analysis.replay import analyse_bag
     from guide_health.cli.simulate import event_series
     from guide_health.io.bag_writer import write_machine_bag
-    from guide_health.nodes.session import settled_status_after_bag
+    from guide_health.nodes.session import bag_counts, settled_status_after_bag
 
     bench = ROOT / "config" / "bench_000.yaml"
     env = ros_test_env()
@@ -564,7 +564,7 @@ def test_live_node_with_the_duty_and_thermal_effects_matches_replay(tmp_path, ro
     live = settled_status_after_bag("guide_health.nodes.wear_monitor", [bench, model],
                                     {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25}, env,
                                     bag, "bench_000/wear_monitor: x precision", tmp_path / "node.log",
-                                    collector_name="test_collector_duty")
+                                    collector_name="test_collector_duty", counts=bag_counts(offline))
     keys = ("samples", "measurements", "straightness_um", "remaining_life_h", "remaining_life_h_low",
             "remaining_life_h_high", "wear_coefficient", "straightness_thermal_correction_um")
     values = {k: float(live["values"][k]) for k in keys}
