@@ -524,6 +524,7 @@ def test_model_file_with_thermal_drift_carries_the_reference_temperature(tmp_pat
     assert with_file["wear_coefficient"] == pytest.approx(k, rel=0.02)
 
 
+@pytest.mark.ros
 def test_live_node_with_the_duty_and_thermal_effects_matches_replay(tmp_path, ros_test_env):
     """wear_monitor --params-file BASE --params-file model.yaml against replay of the same bag (bench, 1.5 h,
     guide temperature at 0.2 Hz, two relubricate events on maintenance/events) with load_along_rail,
