@@ -12,16 +12,19 @@ setup(
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
-        ("share/" + package_name + "/config", glob("config/*.yaml")),
-        ("share/" + package_name + "/launch", glob("launch/*.py")),
+        ("share/" + package_name + "/config", sorted(glob("config/*.yaml") + glob("config/*.csv"))),
+        ("share/" + package_name + "/launch", sorted(glob("launch/*.launch.py"))),
     ],
-    install_requires=["setuptools", "numpy", "scipy", "rosbags", "pyyaml", "matplotlib", "tqdm"],
+    # every module guide_health/ imports (test/test_dependencies.py checks it against package.xml); rclpy
+    # and the message packages come from ROS 2 (apt, or ros-jazzy-* from PyPI: requirements.txt)
+    install_requires=["setuptools", "numpy", "scipy", "pyyaml", "matplotlib", "tqdm", "rosbags",
+                      "apsw", "lz4", "backports.zstd; python_version < '3.14'", "dask[distributed]"],
     zip_safe=True,
     maintainer="guide_health developers",
     maintainer_email="guide-health@example.com",
     description="Guideway and slewing-bearing condition monitoring for ROS 2",
     license="Apache-2.0",
-    tests_require=["pytest"],
+    extras_require={"test": ["pytest", "hypothesis", "zstandard", "contactmechanics", "SurfaceTopography", "ruff"]},
     entry_points={
         "console_scripts": [
             "guide-health = guide_health.cli:main",

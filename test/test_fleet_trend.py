@@ -165,7 +165,7 @@ def test_trend_of_a_history_written_by_a_live_fleet_monitor(ros_context, tmp_pat
         while time.monotonic() < end:
             ex.spin_once(timeout_sec=0.01)
     try:
-        deadline = time.monotonic() + 15.0           # discovery: step 0 until the fleet monitor has both
+        deadline = time.monotonic() + 120.0          # discovery: step 0 until the fleet monitor has both
         while len(fleet.board.statuses) < 2 and time.monotonic() < deadline:
             publish(0)
         assert len(fleet.board.statuses) == 2

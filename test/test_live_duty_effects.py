@@ -524,6 +524,7 @@ def test_model_file_with_thermal_drift_carries_the_reference_temperature(tmp_pat
     assert with_file["wear_coefficient"] == pytest.approx(k, rel=0.02)
 
 
+@pytest.mark.ros
 def test_live_node_with_the_duty_and_thermal_effects_matches_replay(tmp_path, ros_test_env):
     """wear_monitor --params-file BASE --params-file model.yaml against replay of the same bag (bench, 1.5 h,
     guide temperature at 0.2 Hz, two relubricate events on maintenance/events) with load_along_rail,
@@ -534,7 +535,7 @@ def test_live_node_with_the_duty_and_thermal_effects_matches_replay(tmp_path, ro
     from guide_health.analysis.replay import analyse_bag
     from guide_health.cli.simulate import event_series
     from guide_health.io.bag.writer import write_machine_bag
-    from guide_health.nodes.session import settled_status_after_bag
+    from guide_health.nodes.session import bag_counts, settled_status_after_bag
 
     bench = ROOT / "config" / "bench_000.yaml"
     env = ros_test_env()
@@ -564,7 +565,7 @@ def test_live_node_with_the_duty_and_thermal_effects_matches_replay(tmp_path, ro
     live = settled_status_after_bag("guide_health.nodes.wear_monitor", [bench, model],
                                     {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25}, env,
                                     bag, "bench_000/wear_monitor: x precision", tmp_path / "node.log",
-                                    collector_name="test_collector_duty")
+                                    collector_name="test_collector_duty", counts=bag_counts(offline))
     keys = ("samples", "measurements", "straightness_um", "remaining_life_h", "remaining_life_h_low",
             "remaining_life_h_high", "wear_coefficient", "straightness_thermal_correction_um")
     values = {k: float(live["values"][k]) for k in keys}

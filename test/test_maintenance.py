@@ -190,7 +190,7 @@ def test_regrind_mid_bag_live_equals_offline(tmp_path, ros_env):
     from guide_health.analysis.replay import analyse_bag
     from guide_health.cli.simulate import event_series
     from guide_health.io.bag.writer import write_machine_bag
-    from guide_health.nodes.session import DiagnosticsCollector, play_bag, start_node, stop_node
+    from guide_health.nodes.session import DiagnosticsCollector, bag_counts, play_bag, start_node, stop_node
 
     event = regrind(0.75)
     params, run = bench_run(hours=1.5, events=[event])
@@ -207,9 +207,7 @@ def test_regrind_mid_bag_live_equals_offline(tmp_path, ros_env):
         assert collector.wait_for(status, timeout=120.0) is not None, (tmp_path / "node.log").read_text()
         played = play_bag(bag, ros_env, ["--wait-subscribers", "1"])
         assert played.returncode == 0, played.stderr + (tmp_path / "node.log").read_text()[-3000:]
-        collector.wait_for(status, timeout=240.0,       # every joint sample taken (a loaded machine is slow)
-                           predicate=lambda st: int(st["values"]["samples"]) >= offline["samples"])
-        live = collector.wait_settled(status, "sliding_distance_m", settle_s=2.0, timeout=60.0)
+        live = collector.wait_counts(status, bag_counts(offline))     # every message taken (a loaded machine is slow)
     finally:
         stop_node(node)
         collector.close()

@@ -561,7 +561,7 @@ def test_live_node_with_several_params_files_matches_replay(tmp_path, ros_test_e
     from guide_health.analysis.replay import analyse
     from guide_health.io.bag.reader import read_machine_bag
     from guide_health.io.bag.writer import write_machine_bag
-    from guide_health.nodes.session import settled_status_after_bag
+    from guide_health.nodes.session import bag_counts, settled_status_after_bag
 
     env = ros_test_env()
     base = wear_monitor_params(BENCH)
@@ -580,7 +580,7 @@ def test_live_node_with_several_params_files_matches_replay(tmp_path, ros_test_e
     live = settled_status_after_bag("guide_health.nodes.wear_monitor", [BENCH, model],
                                     {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25}, env,
                                     bag, "bench_000/wear_monitor: x precision", tmp_path / "node.log",
-                                    collector_name="test_collector_model")
+                                    collector_name="test_collector_model", counts=bag_counts(offline))
     values = {k: float(v) for k, v in live["values"].items() if k != "lubrication_regime"}
     assert values["samples"] == offline["samples"]
     assert values["measurements"] == offline["measurements"]

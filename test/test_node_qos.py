@@ -2,7 +2,6 @@
 publisher over Fast DDS on an isolated domain (default sensor_qos auto), and, with best-effort subscriptions
 and message info, reports the messages it lost, counted from the writer's sequence numbers, equal to the
 loss measured here (published - integrated)."""
-import random
 import time
 
 import pytest
@@ -52,11 +51,27 @@ RELIABLE = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 
 @pytest.fixture
 def ros_env(ros_test_env):
-    # domain ids above the 1..100 of the other live tests: concurrent test runs on one host (a reliable
-    # reader of another run's node on the same domain can hold back bag_player) stay apart
-    env = ros_test_env(domain_id=random.randint(170, 230))
+    env = ros_test_env()            # the test's own domain, UDP only (conftest)
     yield env
     clean_fastdds_shm()
+
+
+class Counted:
+    """A status count of the node, read through the collector: ``values(key)`` now (0 before the first
+    status); ``counted(key, at_least)`` True once the node reports it (waits up to ``wait_s``; fails the test
+    after ``give_up_s`` in all, a node that never counts is broken)."""
+
+    def __init__(self, collector, wait_s=2.0, give_up_s=180.0):
+        self.collector, self.wait_s, self.deadline = collector, wait_s, time.monotonic() + give_up_s
+
+    def values(self, key):
+        status = self.collector.get(STATUS)
+        return 0 if status is None else int(status["values"][key])
+
+    def __call__(self, key, at_least):
+        assert time.monotonic() < self.deadline, f"the node never counted {key} >= {at_least}"
+        return self.collector.wait_for(STATUS, lambda s: int(s["values"][key]) >= at_least,
+                                       timeout=self.wait_s) is not None
 
 
 class Sensors:
@@ -69,7 +84,7 @@ class Sensors:
         self.joint = self.node.create_publisher(JointState, "joint_states", joint_qos)
         self.load = self.node.create_publisher(WrenchStamped, "guide/load", load_qos)
 
-    def wait_matched(self, timeout=30.0):
+    def wait_matched(self, timeout=120.0):
         """Both publishers matched by the node (a reliable reader does not match a best-effort writer:
         this also waits for sensor_qos auto to switch)."""
         end = time.monotonic() + timeout
@@ -79,15 +94,21 @@ class Sensors:
             time.sleep(0.05)
         return False
 
-    def publish_strokes(self, n, dt=0.01, speed=0.05, stroke=0.2, pause_every=0, pause_s=0.0, t0=T0, x0=0.0):
+    def publish_strokes(self, n, dt=0.01, speed=0.05, stroke=0.2, pause_every=0, pause_s=0.0, t0=T0, x0=0.0,
+                        counted=None):
         """A 6000 N load stamped t0 [s], then n joint samples of triangular strokes from x0 [m]; returns the
-        sliding distance (the last position in ``last_x``). The first joint sample goes alone (a loss count
-        starts at the first message received of a writer)."""
+        sliding distance (the last position in ``last_x``). The load and the first joint sample go alone,
+        each until the node's status counts it (``counted(key, at_least)``: a loss count starts at the first
+        message received of a writer, and a best-effort sample sent before the node's reader has matched
+        this writer is dropped; a repeat of a sample already received is a duplicate stamp, rejected)."""
+        loads0, samples0 = counted.values("load_samples"), counted.values("samples")
         wrench = WrenchStamped()
         wrench.header.stamp.sec = t0
         wrench.wrench.force.z = 6000.0
-        self.load.publish(wrench)
-        time.sleep(0.2)
+        while True:
+            self.load.publish(wrench)
+            if counted("load_samples", loads0 + 1):
+                break
         x, direction, distance, step = x0, 1.0, 0.0, speed * dt
         for i in range(n):
             t = t0 + 0.01 + i * dt
@@ -96,8 +117,8 @@ class Sensors:
             msg.header.stamp.nanosec = int(round((t - int(t)) * 1e9))
             msg.name, msg.position = ["x"], [x]
             self.joint.publish(msg)
-            if i == 0:
-                time.sleep(0.3)
+            while i == 0 and not counted("samples", samples0 + 1):
+                self.joint.publish(msg)
             if i < n - 1:
                 if not 0.0 <= x + direction * step <= stroke:
                     direction = -direction
@@ -124,8 +145,9 @@ def test_best_effort_and_reliable_sensors_both_feed_the_default_node(tmp_path, r
     try:
         assert sensors.wait_matched(), (tmp_path / "node.log").read_text()
         n = 2000
-        distance = sensors.publish_strokes(n, pause_every=50, pause_s=0.02)   # ~2 kHz: the node keeps up
-        status = collector.wait_for(STATUS, lambda s: int(s["values"]["samples"]) >= n, timeout=60.0)
+        # ~2 kHz: the node keeps up
+        distance = sensors.publish_strokes(n, pause_every=50, pause_s=0.02, counted=Counted(collector))
+        status = collector.wait_for(STATUS, lambda s: int(s["values"]["samples"]) >= n, timeout=180.0)
         assert status is not None, (collector.get(STATUS), (tmp_path / "node.log").read_text())
         values = status["values"]
         assert status["level"] != 3, status["message"]               # not STALE: the data arrived
@@ -151,17 +173,18 @@ def test_auto_goes_back_to_reliable_when_the_best_effort_publisher_leaves(tmp_pa
     sensors = Sensors(qos_profile_sensor_data, RELIABLE)     # joint best effort
     try:
         assert sensors.wait_matched(), log.read_text()
-        first = sensors.publish_strokes(500, pause_every=50, pause_s=0.02)
-        status = collector.wait_for(STATUS, lambda s: int(s["values"]["samples"]) >= 500, timeout=60.0)
+        first = sensors.publish_strokes(500, pause_every=50, pause_s=0.02, counted=Counted(collector))
+        status = collector.wait_for(STATUS, lambda s: int(s["values"]["samples"]) >= 500, timeout=180.0)
         assert status is not None and int(status["values"]["best_effort_topics"]) == 1, log.read_text()
         x_end = sensors.last_x
         sensors.close()
         sensors = Sensors(RELIABLE, RELIABLE)                   # the reliable driver takes over
-        status = collector.wait_for(STATUS, lambda s: int(s["values"]["best_effort_topics"]) == 0, timeout=30.0)
+        status = collector.wait_for(STATUS, lambda s: int(s["values"]["best_effort_topics"]) == 0, timeout=120.0)
         assert status is not None, (collector.get(STATUS), log.read_text())
         assert sensors.wait_matched(), log.read_text()
-        second = sensors.publish_strokes(1500, pause_every=50, pause_s=0.02, t0=T0 + 100, x0=x_end)
-        status = collector.wait_for(STATUS, lambda s: int(s["values"]["samples"]) >= 2000, timeout=60.0)
+        second = sensors.publish_strokes(1500, pause_every=50, pause_s=0.02, t0=T0 + 100, x0=x_end,
+                                         counted=Counted(collector))
+        status = collector.wait_for(STATUS, lambda s: int(s["values"]["samples"]) >= 2000, timeout=180.0)
         assert status is not None, (collector.get(STATUS), log.read_text())
         values = status["values"]
         assert int(values["samples"]) == 2000 and int(values["messages_lost"]) == 0
@@ -185,11 +208,10 @@ def test_reported_loss_equals_measured_loss_under_a_burst(tmp_path, ros_env):
     sensors = Sensors(RELIABLE, RELIABLE)      # reliable writers into best-effort KEEP_LAST(5) readers
     try:
         assert sensors.wait_matched(), (tmp_path / "node.log").read_text()
-        time.sleep(1.5)                          # the node has seen one writer per topic (1 s check)
         n = 20000
-        sensors.publish_strokes(n)               # a burst: far faster than the node's callbacks
+        sensors.publish_strokes(n, counted=Counted(collector))   # a burst: far faster than the node's callbacks
         status = collector.wait_for(STATUS, lambda s: int(s["values"]["samples"]) + int(
-            s["values"]["messages_lost"]) >= n - 1, timeout=90.0)
+            s["values"]["messages_lost"]) >= n - 1, timeout=180.0)
         assert status is not None, (collector.get(STATUS), (tmp_path / "node.log").read_text())
         values = status["values"]
         lost = int(values["messages_lost"])

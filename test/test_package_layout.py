@@ -17,7 +17,8 @@ def console_scripts() -> dict[str, str]:
 
 def test_every_console_script_imports_and_has_its_main():
     scripts = console_scripts()
-    assert {"guide-health", "wear_monitor", "slewing_monitor", "fleet_monitor", "bag_player"} <= set(scripts)
+    assert set(scripts) == {"guide-health", "wear_monitor", "slewing_monitor", "fleet_monitor", "vibration_monitor",
+                            "bag_player"}
     for name, target in scripts.items():
         module, func = target.split(":")
         assert callable(getattr(importlib.import_module(module), func)), name
@@ -46,3 +47,13 @@ def test_package_xml_declares_the_runtime_dependencies():
                 "python3-scipy"):
         assert f">{dep}<" in xml, dep
     assert "<build_type>ament_python</build_type>" in xml
+
+
+def test_the_docs_name_every_console_script():
+    """docs/ros.md's table and the README's list of console scripts name all of setup.py's."""
+    table = (ROOT / "docs" / "ros.md").read_text().split("## Console scripts")[1].split("\n## ")[0]
+    readme = (ROOT / "README.md").read_text()
+    listed = re.search(r"six console\s+scripts\s+are(.{0,200})", readme, re.S).group(1)
+    for name in console_scripts():
+        assert f"| `{name}` |" in table, name
+        assert f"`{name}`" in listed, name

@@ -140,6 +140,7 @@ def test_rolling_bag_through_bag_player_and_node_matches_replay(tmp_path, ros_te
     from guide_health.io.bag.writer import write_machine_bag
     from guide_health.nodes.session import (
         DiagnosticsCollector,
+        bag_counts,
         clean_fastdds_shm,
         play_bag,
         start_node,
@@ -147,7 +148,7 @@ def test_rolling_bag_through_bag_player_and_node_matches_replay(tmp_path, ros_te
     )
 
     # UDP only: a shared-memory port left locked by another process's killed node hides a node started after it
-    env = ros_test_env(transports="UDPv4")
+    env = ros_test_env()
     import dataclasses
 
     run = duty_run([(60.0, 0.0003, 2500.0), (60.0, 0.08, 7000.0), (60.0, 0.4, 4000.0), (60.0, 0.02, 9000.0)],
@@ -162,12 +163,13 @@ def test_rolling_bag_through_bag_player_and_node_matches_replay(tmp_path, ros_te
     node = start_node("guide_health.nodes.wear_monitor", LH45, {"diagnostics_period_s": 0.25}, env,
                       tmp_path / "node.log")
     try:
-        assert collector.wait_for("nsk_lh45_bench/wear_monitor: x fatigue", timeout=90.0) is not None
+        assert collector.wait_for("nsk_lh45_bench/wear_monitor: x fatigue", timeout=120.0) is not None
         played = play_bag(bag, env, ["--wait-subscribers", "1", "--max-rate", "0"])
         assert played.returncode == 0, played.stderr
-        fatigue = collector.wait_settled("nsk_lh45_bench/wear_monitor: x fatigue", "travel_km", settle_s=2.0,
-                                         timeout=60.0)
-        precision = collector.get("nsk_lh45_bench/wear_monitor: x precision")
+        # every message taken; fatigue and precision go out in one DiagnosticArray, so the fatigue status
+        # received with (or after) the complete precision status is complete too
+        precision = collector.wait_counts("nsk_lh45_bench/wear_monitor: x precision", bag_counts(offline))
+        fatigue = collector.get("nsk_lh45_bench/wear_monitor: x fatigue")
     finally:
         stop_node(node)
         collector.close()

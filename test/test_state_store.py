@@ -228,8 +228,7 @@ def _node_process(*ros_params, env=None):
     for p in ros_params:
         args += ["-p", p]
     return subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env=dict(os.environ, PYTHONPATH=str(ROOT), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
-                                     ROS_DOMAIN_ID="77", **(env or {})))
+                            env=dict(os.environ, PYTHONPATH=str(ROOT), **(env or {})))
 
 
 def _wait_for_lock(lock: Path, proc, timeout_s=60.0):
@@ -242,9 +241,10 @@ def _wait_for_lock(lock: Path, proc, timeout_s=60.0):
     raise AssertionError("the first node never took the lock")
 
 
-def test_two_node_processes_on_the_default_state_file_second_refused_then_mismatch_refused(tmp_path):
+def test_two_node_processes_on_the_default_state_file_second_refused_then_mismatch_refused(tmp_path, ros_test_env):
     """issue 16: state_file auto (the default) -> $ROS_HOME/guide_health/<machine>/wear_monitor.db; a second
     node on it exits 2 with one line; after the first stops, a node with another rail_length_m is refused."""
+    ros_test_env()                                      # the test's own domain, in os.environ
     env = {"ROS_HOME": str(tmp_path)}
     state = tmp_path / "guide_health" / "m7" / "wear_monitor.db"
     first = _node_process("machine_id:=m7", env=env)

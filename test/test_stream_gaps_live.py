@@ -12,6 +12,7 @@ from guide_health.analysis.replay import analyse  # noqa: E402
 from guide_health.io.bag.reader import read_machine_bag  # noqa: E402
 from guide_health.io.bag.writer import write_machine_bag  # noqa: E402
 from guide_health.nodes.session import (  # noqa: E402
+    bag_counts,
     clean_fastdds_shm,
     settled_status_after_bag,
 )
@@ -64,7 +65,8 @@ def test_live_missing_estimate_equals_offline_and_the_samples_removed(tmp_path, 
     assert "40 samples missing (stamp gaps: joint_states 37, load 3)" in offline["message"]
     live = settled_status_after_bag("guide_health.nodes.wear_monitor", BENCH,
                                     {"state_file": "none", "diagnostics_period_s": 0.25}, ros_env, bag, STATUS,
-                                    tmp_path / "node.log", settle_key="samples", collector_name="test_gaps_collector")
+                                    tmp_path / "node.log", collector_name="test_gaps_collector",
+                                    counts=bag_counts(offline))
     values = live["values"]
     assert int(values["samples"]) == offline["samples"], "messages were lost on the way"
     for key in ("samples_missing_estimate", "joint_samples_missing_estimate", "load_samples_missing_estimate"):

@@ -16,6 +16,7 @@ A bag that fails (bad bag, bad data) is a row with its one-line error; the other
 from __future__ import annotations
 
 import contextlib
+import importlib.util
 import math
 import time
 from collections.abc import Callable
@@ -182,6 +183,15 @@ def share_cores(client) -> dict[str, bool]:
     return ahead
 
 
+def require_dask() -> None:
+    """InputError (one line naming the package) when Dask is not installed: it is a declared dependency
+    (setup.py, package.xml), but a hand-made environment may lack it; ``--workers 0`` runs without it."""
+    for module in ("dask", "distributed"):
+        if importlib.util.find_spec(module) is None:
+            raise InputError(f"fleet runs on Dask workers need the Python package {module!r}: "
+                             f"pip install 'dask[distributed]' (or run in this process with --workers 0)")
+
+
 @contextlib.contextmanager
 def dask_client(workers: int, scheduler: str | None):
     """A distributed Client: on ``scheduler`` (an address), else on a LocalCluster of ``workers``
@@ -240,6 +250,7 @@ def run_fleet(command: str, run_one: RunOneBag, bags: list[Path], params, out: P
         return entries
     import importlib
 
+    require_dask()
     from distributed import as_completed
 
     for module in PRELOAD[command] + (() if "--no-plot" in options else PLOT_PRELOAD):
