@@ -11,16 +11,17 @@ Which tests run for a module (``MODULES``, the one place; fastest first, as pyte
 failure): the test files that import the module by its dotted name (``grep -l`` of ``guide_health.<module>``
 in test/, listed with ``--list``) and take at most ~2 min each on the loaded 2-core machine, plus the test
 files of the module's users that state its rule (test_readme_promises.py for the input rules and levels,
-test_alarms.py for the slewing level, the node-level tests of test_rule_guards.py wherever it checks the
-module's rule). Left out for time: test_input_limits.py (3 min), test_physics_review.py (2.5 min; its
-Walther test is run alone), the end-to-end files (live replay, discrepancy, model file) and the three
-30-45 s end-to-end runs of test_live_duty_effects.py (``-k``: an entry may be any pytest argument). A full
-run takes ~25-40 min.
+test_alarms.py for the slewing level), test_rule_guards.py wherever it checks the module's rule, and
+test_mutation_guards.py (12 s, written for the survivors of the first run). Left out for time:
+test_input_limits.py (3 min), test_physics_review.py (2.5 min; its Walther test is run alone), the
+end-to-end files (live replay, discrepancy, model file) and the three 30-45 s end-to-end runs of
+test_live_duty_effects.py (``-k``: an entry may be any pytest argument). A full run takes ~40 min.
 
     python bench/mutation_check.py               # every mutation: table per module, exit 1 below 90 % caught
     python bench/mutation_check.py --list        # the mutations, their modules' tests and the grep's importers
     python bench/mutation_check.py --check       # only: is every original text found exactly once?
     python bench/mutation_check.py -k levels     # the mutations of the modules whose key contains 'levels'
+    python bench/mutation_check.py --match "ML instead"    # the mutations whose reason contains the text
 
 The check refuses to start when a module file has uncommitted changes (``git status``), and restores every
 file it touched on exit, Ctrl-C and SIGTERM included (try/finally, the original bytes kept in memory).
@@ -38,35 +39,38 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 GUARDS = "test/test_rule_guards.py"
+MORE = "test/test_mutation_guards.py"
 WALTHER_SEED_TEST = "test/test_physics_review.py::test_item6_walther_oil_puts_lambda_1_at_0p5_m_s_at_21_degc"
 
 #: module key -> (source file, test files run for it)
 MODULES: dict[str, tuple[str, tuple[str, ...]]] = {
     "input_rules": ("guide_health/models/wear/input_rules.py",
-                    ("test/test_input_rules.py", "test/test_readme_promises.py")),
-    "levels": ("guide_health/models/levels.py", ("test/test_alarms.py", GUARDS, "test/test_readme_promises.py")),
-    "params_loader": ("guide_health/params/loader.py", ("test/test_params.py", GUARDS, "test/test_params_strict.py")),
-    "params_schema": ("guide_health/params/schema.py", ("test/test_params.py", "test/test_params_strict.py")),
+                    (MORE, "test/test_input_rules.py", "test/test_readme_promises.py")),
+    "levels": ("guide_health/models/levels.py",
+               (MORE, "test/test_alarms.py", GUARDS, "test/test_readme_promises.py")),
+    "params_loader": ("guide_health/params/loader.py",
+                      (MORE, "test/test_params.py", GUARDS, "test/test_params_strict.py")),
+    "params_schema": ("guide_health/params/schema.py", (MORE, "test/test_params.py", "test/test_params_strict.py")),
     "life_interval": ("guide_health/models/wear/calibration.py",
-                      ("test/test_fleet_prior.py", "test/test_readme_promises.py")),
+                      (MORE, "test/test_fleet_prior.py", "test/test_readme_promises.py")),
     "effect_life": ("guide_health/models/wear/effect_life.py",       # without its three 30-45 s end-to-end runs
-                    ("test/test_live_duty_effects.py", "-k", "not vectorised_path and not automatic_lubricator "
+                    (MORE, "test/test_live_duty_effects.py", "-k", "not vectorised_path and not automatic_lubricator "
                                                               "and not matches_replay")),
-    "maintenance": ("guide_health/models/wear/maintenance.py", ("test/test_maintenance.py",)),
-    "io_storage": ("guide_health/io/storage.py", ("test/test_bags.py", "test/test_bulk_read.py")),
-    "io_packed": ("guide_health/io/packed.py", ("test/test_bags.py", "test/test_bulk_read.py")),
-    "io_mcap_chunks": ("guide_health/io/mcap_chunks.py", ("test/test_bags.py", "test/test_bulk_read.py")),
-    "io_bag_reader": ("guide_health/io/bag_reader.py", ("test/test_bags.py", "test/test_bulk_read.py")),
+    "maintenance": ("guide_health/models/wear/maintenance.py", (MORE, "test/test_maintenance.py")),
+    "io_storage": ("guide_health/io/storage.py", (MORE, "test/test_bags.py", "test/test_bulk_read.py")),
+    "io_packed": ("guide_health/io/packed.py", (MORE, "test/test_bags.py", "test/test_bulk_read.py")),
+    "io_mcap_chunks": ("guide_health/io/mcap_chunks.py", (MORE, "test/test_bags.py", "test/test_bulk_read.py")),
+    "io_bag_reader": ("guide_health/io/bag_reader.py", (MORE, "test/test_bags.py", "test/test_bulk_read.py")),
     "slewing_row_loads": ("guide_health/models/slewing/row_loads.py",
                           ("test/test_roller_contact.py", "test/test_slewing_monitor.py")),
     "slewing_monitor": ("guide_health/models/slewing/monitor.py",
                         (GUARDS, "test/test_alarms.py", "test/test_slewing_monitor.py")),
     "rolling_lubrication": ("guide_health/models/rolling/lubrication.py",
-                            ("test/test_rolling_contact.py", "test/test_rolling_guide.py")),
+                            (MORE, "test/test_rolling_contact.py", "test/test_rolling_guide.py")),
     "rolling_oil": ("guide_health/models/rolling/oil.py",
                     (GUARDS, WALTHER_SEED_TEST)),
     "rolling_vibration": ("guide_health/models/rolling/vibration.py", (GUARDS, "test/test_vibration.py")),
-    "fleet_prior": ("guide_health/models/fleet.py", (GUARDS, "test/test_fleet_prior.py")),
+    "fleet_prior": ("guide_health/models/fleet.py", (MORE, GUARDS, "test/test_fleet_prior.py")),
 }
 
 
@@ -259,11 +263,13 @@ def run_tests(tests: tuple[str, ...], timeout_s: float) -> tuple[str, float, str
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("-k", default="", help="only modules whose key contains this")
+    ap.add_argument("--match", default="",
+                    help="only mutations whose reason ('why') contains one of these '|'-separated texts")
     ap.add_argument("--list", action="store_true", help="list the mutations and tests, run nothing")
     ap.add_argument("--check", action="store_true", help="only check that every original text is found once")
     ap.add_argument("--timeout", type=float, default=600.0, help="per mutation [s]; a timeout counts as caught")
     args = ap.parse_args(argv)
-    chosen = [m for m in MUTATIONS if args.k in m.module]
+    chosen = [m for m in MUTATIONS if args.k in m.module and any(t in m.why for t in args.match.split("|"))]
     sources = {key: ROOT / src for key, (src, _) in MODULES.items()}
     originals = {key: path.read_text() for key, path in sources.items() if any(m.module == key for m in chosen)}
     unanchored = [m for m in chosen if anchor(m, originals[m.module]) is None]
