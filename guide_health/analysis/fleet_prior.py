@@ -33,7 +33,7 @@ from guide_health.models.fleet import (
     wear_coefficient_prior,
 )
 from guide_health.models.wear.calibration import Z90
-from guide_health.models.wear.effect_wear import COVARIANCE_NAMES
+from guide_health.models.wear.effects.registry import COVARIANCE_NAMES
 
 
 def load_fleet_results(paths: list[str]) -> list[dict[str, Any]]:
