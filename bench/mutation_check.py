@@ -306,9 +306,19 @@ def main(argv: list[str] | None = None) -> int:
             raise KeyboardInterrupt
 
     previous = signal.signal(signal.SIGTERM, restore)
+    baseline: dict[str, bool] = {}      # a module's tests must pass unmutated, or no failure of them means a catch
     try:
         for i, m in enumerate(chosen, 1):
             if m in unanchored:
+                continue
+            if m.module not in baseline:
+                outcome, seconds, failed = run_tests(MODULES[m.module][1], args.timeout)
+                baseline[m.module] = outcome == "survived"
+                if not baseline[m.module]:
+                    print(f"BASELINE FAILS: {m.module}: its tests fail unmutated ({failed or outcome}); its "
+                          f"mutations are not judged", file=sys.stderr, flush=True)
+            if not baseline[m.module]:
+                results.append((m, "baseline fails", 0.0, ""))
                 continue
             path = sources[m.module]
             touched[path] = originals[m.module]
@@ -327,8 +337,9 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def report(results) -> int:
-    print("\n| module | mutations | caught | survived | equivalent | not applied |\n|---|---|---|---|---|---|")
-    total = {"caught": 0, "survived": 0, "equivalent": 0, "not applied": 0, "timeout": 0}
+    print("\n| module | mutations | caught | survived | equivalent | not applied | baseline fails |\n"
+          "|---|---|---|---|---|---|---|")
+    total = {"caught": 0, "survived": 0, "equivalent": 0, "not applied": 0, "baseline fails": 0, "timeout": 0}
     for key in MODULES:
         mine = [r for r in results if r[0].module == key]
         if not mine:
@@ -337,16 +348,17 @@ def report(results) -> int:
         n["caught"] += n.pop("timeout")
         for k, v in n.items():
             total[k] += v
-        print(f"| {key} | {len(mine)} | {n['caught']} | {n['survived']} | {n['equivalent']} | {n['not applied']} |")
+        print(f"| {key} | {len(mine)} | {n['caught']} | {n['survived']} | {n['equivalent']} | {n['not applied']} "
+              f"| {n['baseline fails']} |")
     total["caught"] += total.pop("timeout")
     counted = total["caught"] + total["survived"]
     share = total["caught"] / counted if counted else 0.0
     print(f"| all | {len(results)} | {total['caught']} | {total['survived']} | {total['equivalent']} | "
-          f"{total['not applied']} |\n\ncaught {share:.0%} of {counted} applied non-equivalent mutations")
+          f"{total['not applied']} | {total['baseline fails']} |\n\ncaught {share:.0%} of {counted} applied non-equivalent mutations")
     for m, outcome, _, _ in results:
-        if outcome in ("survived", "not applied"):
+        if outcome in ("survived", "not applied", "baseline fails"):
             print(f"  {outcome.upper()}: {m.module}: {m.why}")
-    return 0 if share >= 0.9 and not total["not applied"] else 1
+    return 0 if share >= 0.9 and not total["not applied"] and not total["baseline fails"] else 1
 
 
 if __name__ == "__main__":

@@ -90,15 +90,16 @@ def test_several_params_files_later_wins_offline_and_in_the_ros_args_check(tmp_p
 
 
 @pytest.mark.parametrize("wildcard_first", [True, False])
-def test_the_nodes_own_section_overrides_the_wildcard_section(tmp_path, wildcard_first):
-    """'/**' applies to every node; the node's own section, wherever it stands in the file, wins (as rcl)."""
+def test_sections_apply_in_file_order_the_later_wins(tmp_path, wildcard_first):
+    """'/**' applies to every node; sections apply in file order and the later one wins, as rcl applies them
+    (test_params_shopfloor.py compares this order with rcl itself)."""
     from guide_health.params.loader import wear_monitor_params
 
     sections = {"/**": {"wear_coefficient": 1.0e-6, "life_warn_h": 300.0}, "wear_monitor": {"wear_coefficient": K_MAIN}}
     if not wildcard_first:
         sections = dict(reversed(list(sections.items())))
     p = wear_monitor_params(params_file(tmp_path, "wild.yaml", sections))
-    assert (p["wear_coefficient"], p["life_warn_h"]) == (K_MAIN, 300.0)
+    assert (p["wear_coefficient"], p["life_warn_h"]) == ((K_MAIN if wildcard_first else 1.0e-6), 300.0)
 
 
 def test_true_is_not_an_integer_parameter(tmp_path):
@@ -193,15 +194,16 @@ def test_life_interval_with_only_k_uncertain_is_the_delta_method_on_k():
     """No effect named, no covariance: life = (A_max - A0 - K G l) / (K c) with G the work, l the straightness
     per unit K and work, c the rate per K; its 90 % interval is life x exp(+-1.645 |d ln life / d K| sd_K),
     d ln life / d K = -G l / (A_max - A0 - K G l) - 1 / K (written here)."""
-    from guide_health.models.wear.effect_life import life_interval_s
-    from guide_health.models.wear.effect_wear import RATE_PHI, LiveEffects
+    from guide_health.models.wear.effect_life import EffectLifeNow, life_interval_s
+    from guide_health.models.wear.effects.parameters import EffectParameters
+    from guide_health.models.wear.effects.registry import RATE_PHI
 
-    e = LiveEffects(effects=())
+    e = EffectParameters(effects=())
     n_phi = e.phi().size
     k, k_sd, margin0, work, loss_work, rate_per_k = 4.0e-6, 0.4e-6, 85e-6, 2.0e6, 6.25e-7, 1.875e-4
-    now = {"margin0": margin0, "work": work, "loss_work": loss_work, "loss_pass": 0.0, "work_gradient":
-           np.zeros(n_phi), "dln_rate": np.zeros(len(range(n_phi)[RATE_PHI])), "rate_work_per_k": rate_per_k,
-           "s_now": 100.0, "v_s": 0.05}
+    now = EffectLifeNow(margin0=margin0, work=work, loss_work=loss_work, loss_pass=0.0,
+                        work_gradient=np.zeros(n_phi), dln_rate=np.zeros(len(range(n_phi)[RATE_PHI])),
+                        rate_work_per_k=rate_per_k, s_now=100.0, v_s=0.05)
     centre = (margin0 - k * work * loss_work) / (k * rate_per_k)
     dln = -work * loss_work / (margin0 - k * work * loss_work) - 1.0 / k
     expected = (centre, centre * math.exp(-Z95 * abs(dln) * k_sd), centre * math.exp(Z95 * abs(dln) * k_sd))
@@ -229,27 +231,27 @@ def test_rail_replacement_and_relubrication_on_every_guide_of_an_axis():
     event = MaintenanceEvent(model.last_t_ns, "replace_rail", "x", "", 12e-6)
     assert check_event(event, ("left", "right"), params["straightness_limit_m"]) is None
     posteriors = {n: g.estimator.posterior(g.measurement_losses_per_k_m()) for n, g in model.guides.items()}
-    totals = {n: g.report()["boundary_share_total"] for n, g in model.guides.items()}
+    totals = {n: model.guide_report(n)["boundary_share_total"] for n in model.guides}
     assert all(g.integrator.archard_work_nm > 0 for g in model.guides.values())
     model.schedule(event)
     for name, guide in model.guides.items():
         k, k_sd, _ = posteriors[name]
         assert guide.integrator.archard_work_nm == 0.0
-        assert guide.report()["straightness_um"] == pytest.approx(12.0, rel=1e-9)
+        assert model.guide_report(name)["straightness_um"] == pytest.approx(12.0, rel=1e-9)
         assert guide.estimator.prior_wear_coefficient == k
         assert guide.estimator.prior_rel_sd == pytest.approx(k_sd / k, rel=1e-12)
     model.schedule(MaintenanceEvent(model.last_t_ns, "relubricate", "x"))
     for name, guide in model.guides.items():
         assert guide.rolling.boundary_travel_m == 0.0 and guide.rolling.window_travel_m == 0.0
-        assert guide.report()["boundary_share_total"] == totals[name]
+        assert model.guide_report(name)["boundary_share_total"] == totals[name]
 
 
 # --- bag readers: a read from a start stamp includes the messages at that stamp ---------------------------------
 def test_a_read_from_a_log_time_includes_the_messages_at_it(tmp_path):
     """A 3-minute bench bag (sqlite3): the messages from the log time of a message in the middle on are those
     whose log time is at or after it, in the direct sqlite back end and in rosbags' (checked) alike."""
-    from guide_health.io.bag_writer import write_machine_bag
-    from guide_health.io.storage import iter_raw_messages, open_storage
+    from guide_health.io.bag.writer import write_machine_bag
+    from guide_health.io.bag.storage import iter_raw_messages, open_storage
     from guide_health.params import simulation_params, wear_monitor_params
     from guide_health.sim.machine import simulate_machine
 
@@ -272,8 +274,8 @@ def test_mcap_chunk_reader_returns_every_message_whatever_the_batch_size(tmp_pat
     """The packed mcap path (chunk by chunk) against rosbags' message iterator on the same file: the same log
     times in the same order for batch sizes that leave remainders of every size (1 included: total - 1),
     and every group but the last holds exactly the batch size."""
-    from guide_health.io.bag_writer import write_machine_bag
-    from guide_health.io.storage import iter_raw_messages, open_storage
+    from guide_health.io.bag.writer import write_machine_bag
+    from guide_health.io.bag.storage import iter_raw_messages, open_storage
     from guide_health.params import simulation_params, wear_monitor_params
     from guide_health.sim.machine import simulate_machine
 
