@@ -250,8 +250,8 @@ def test_rail_replacement_and_relubrication_on_every_guide_of_an_axis():
 def test_a_read_from_a_log_time_includes_the_messages_at_it(tmp_path):
     """A 3-minute bench bag (sqlite3): the messages from the log time of a message in the middle on are those
     whose log time is at or after it, in the direct sqlite back end and in rosbags' (checked) alike."""
-    from guide_health.io.bag.writer import write_machine_bag
     from guide_health.io.bag.storage import iter_raw_messages, open_storage
+    from guide_health.io.bag.writer import write_machine_bag
     from guide_health.params import simulation_params, wear_monitor_params
     from guide_health.sim.machine import simulate_machine
 
@@ -274,8 +274,8 @@ def test_mcap_chunk_reader_returns_every_message_whatever_the_batch_size(tmp_pat
     """The packed mcap path (chunk by chunk) against rosbags' message iterator on the same file: the same log
     times in the same order for batch sizes that leave remainders of every size (1 included: total - 1),
     and every group but the last holds exactly the batch size."""
-    from guide_health.io.bag.writer import write_machine_bag
     from guide_health.io.bag.storage import iter_raw_messages, open_storage
+    from guide_health.io.bag.writer import write_machine_bag
     from guide_health.params import simulation_params, wear_monitor_params
     from guide_health.sim.machine import simulate_machine
 
