@@ -354,7 +354,8 @@ def report(results) -> int:
     counted = total["caught"] + total["survived"]
     share = total["caught"] / counted if counted else 0.0
     print(f"| all | {len(results)} | {total['caught']} | {total['survived']} | {total['equivalent']} | "
-          f"{total['not applied']} | {total['baseline fails']} |\n\ncaught {share:.0%} of {counted} applied non-equivalent mutations")
+          f"{total['not applied']} | {total['baseline fails']} |\n\n"
+          f"caught {share:.0%} of {counted} applied non-equivalent mutations")
     for m, outcome, _, _ in results:
         if outcome in ("survived", "not applied", "baseline fails"):
             print(f"  {outcome.upper()}: {m.module}: {m.why}")
