@@ -102,8 +102,8 @@ def test_a_joint_missing_offline_is_an_error_naming_the_joints_present(bag, tmp_
     with pytest.raises(InputError, match=r"no joint_states message has joint 'y' \(joints present: x\)"):
         bag_reader.read_machine_bag(bag, joint="y")
     params = tmp_path / "y.yaml"
-    params.write_text(PARAMS.read_text().replace("joint: x", "joint: y"))
-    assert "joint: y" in params.read_text()
+    params.write_text(PARAMS.read_text().replace("joint: x", "joint: 'y'"))     # bare y is a bool to rcl
+    assert "joint: 'y'" in params.read_text()
     proc = cli("replay", bag, "--params", params, "--json", "--no-plot", "--out", tmp_path / "r")
     assert proc.returncode == 2 and proc.stdout == ""
     assert proc.stderr.count("\n") == 1 and "joint 'y' (joints present: x)" in proc.stderr, proc.stderr

@@ -46,7 +46,7 @@ IMPORTS: dict[str, tuple[str, str | None]] = {
 }
 #: tools the tests run as programs (no import): package.xml key, pip requirement, the test that runs it
 TOOLS = {"ruff": ("ruff", "ruff", "test_code_quality.py")}
-#: standard library from Python 3.14 on (guide_health/io/mcap_chunks.py falls back to backports.zstd)
+#: standard library from Python 3.14 on (guide_health/io/bag/mcap_storage.py falls back to backports.zstd)
 STDLIB_LATER = {"compression"}
 #: namespace packages, named by their first two components
 NAMESPACES = {"backports"}
@@ -119,8 +119,8 @@ TESTS = imported_modules(ROOT / "test")
 def test_the_scan_finds_the_imports_it_must():
     """The AST scan itself: known imports in known files (a scan that found nothing would pass the rest)."""
     assert "guide_health/analysis/fleet.py" in RUNTIME["distributed"]
-    assert "guide_health/io/mcap_chunks.py" in RUNTIME["backports.zstd"]
-    assert "guide_health/io/mcap_chunks.py" in RUNTIME["lz4"]
+    assert "guide_health/io/bag/mcap_storage.py" in RUNTIME["backports.zstd"]
+    assert "guide_health/io/bag/mcap_storage.py" in RUNTIME["lz4"]
     assert {"launch/machine.launch.py", "launch/fleet.launch.py"} <= RUNTIME["launch_ros"]
     assert "test/test_bulk_read.py" in TESTS["zstandard"]
     assert "test/test_roller_numerical.py" in TESTS["ContactMechanics"]
@@ -186,7 +186,7 @@ def test_fleet_on_dask_without_dask_is_one_line_naming_the_package(monkeypatch):
 
     monkeypatch.setitem(sys.modules, "distributed", None)      # find_spec -> None, import -> ImportError
     with pytest.raises(InputError) as info:
-        run_fleet("replay", [Path("/nonexistent/m1"), Path("/nonexistent/m2")], ["p.yaml"],
+        run_fleet("replay", lambda *args: {}, [Path("/nonexistent/m1"), Path("/nonexistent/m2")], ["p.yaml"],
                   Path("/nonexistent/out"), (), workers=2)
     message = str(info.value)
     assert "\n" not in message and "'distributed'" in message and "pip install 'dask[distributed]'" in message

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from guide_health.analysis.machine_replay import analyse_machine_bag, write_machine_outputs
 from guide_health.analysis.replay import analyse_bag, analyse_slewing_bag, write_outputs, write_slewing_outputs
-from guide_health.cli.command import Command
+from guide_health.cli.command import Command, check_out_path
 from guide_health.io.bag.info import bag_topic_types
 from guide_health.io.outputs.progress import ProgressBar
 from guide_health.models.levels import LEVEL_NAMES
@@ -40,8 +40,6 @@ def is_slewing_bag(bag: Path) -> bool:
 
 def report_dir(args, bag: Path) -> Path:
     """--out, else <bag>.report beside the bag."""
-    from guide_health.cli.command import check_out_path
-
     return check_out_path(args.out if args.out else bag.with_name(bag.name + ".report"))
 
 

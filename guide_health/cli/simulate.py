@@ -7,7 +7,7 @@ import sys
 import time
 from pathlib import Path
 
-from guide_health.cli.command import Command
+from guide_health.cli.command import Command, check_out_path
 from guide_health.errors import InputError
 from guide_health.io.bag.maintenance import DIAGNOSTIC_ARRAY, MAINTENANCE_TOPIC, encode_events
 from guide_health.io.bag.writer import write_life_test_bag, write_machine_axes_bag, write_machine_bag, write_slewing_bag
@@ -81,8 +81,6 @@ def add_arguments(parser) -> None:
 def new_bag_path(path: str) -> Path:
     """The bag directory to create; InputError when it exists (a bag is never overwritten) or a part of
     its parent is a file."""
-    from guide_health.cli.command import check_out_path
-
     out = Path(path)
     if out.exists():
         raise InputError(f"output bag {out} already exists")
@@ -93,7 +91,7 @@ def messages_per_second(sims: list[dict], shared_joint_states: bool = True) -> f
     """Messages per simulated second of a machine bag: joint_states (one topic for every axis), and per axis
     guide/load, guide/temperature and the straightness measurements."""
     joint = max(sim["joint_state_rate_hz"] for sim in sims) if shared_joint_states else 0.0
-    return joint + sum(sim["load_rate_hz"] + sim.get("temperature_rate_hz", 0.0)
+    return joint + sum(sim["load_rate_hz"] + sim["temperature_rate_hz"]
                        + 1.0 / (3600.0 * sim["measurement_interval_h"]) for sim in sims)
 
 
