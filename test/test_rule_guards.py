@@ -83,18 +83,24 @@ def two_node_file(tmp_path, spare_first: bool, prefix: str = ""):
     return path
 
 
-@pytest.mark.parametrize("prefix", ["", "/m1/"])
+@pytest.mark.parametrize("prefix", ["", "/**/", "/m1/"])
 @pytest.mark.parametrize("spare_first", [False, True])
 def test_a_node_reads_only_the_section_of_its_own_name(tmp_path, spare_first, prefix):
+    """Sections named for the root namespace, for any namespace (``/**/``) and for ``/m1`` (read by the
+    nodes of that namespace only, as rcl applies them)."""
     from guide_health.params import WEAR_MONITOR_SCHEMA
     from guide_health.params.loader import load_node_params, machine_axes_params, wear_monitor_params
 
     path = two_node_file(tmp_path, spare_first, prefix)
-    assert wear_monitor_params(path)["wear_coefficient"] == K_MAIN
-    assert machine_axes_params(path)["x"]["wear_coefficient"] == K_MAIN
+    ns = "/m1/" if prefix == "/m1/" else "/"
     defaults = WEAR_MONITOR_SCHEMA.defaults()
-    assert load_node_params(path, "wear_monitor_spare", defaults)["wear_coefficient"] == K_SPARE
-    assert load_node_params(path, "wear_monitor", defaults)["wear_coefficient"] == K_MAIN
+    if ns == "/":
+        assert wear_monitor_params(path)["wear_coefficient"] == K_MAIN
+        assert machine_axes_params(path)["x"]["wear_coefficient"] == K_MAIN
+    spare = load_node_params(path, "wear_monitor_spare", defaults, fqn=ns + "wear_monitor_spare")
+    assert spare["wear_coefficient"] == K_SPARE
+    main = load_node_params(path, "wear_monitor", defaults, fqn=ns + "wear_monitor")
+    assert main["wear_coefficient"] == K_MAIN
 
 
 @pytest.mark.parametrize("spare_first", [False, True])
