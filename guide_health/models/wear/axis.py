@@ -35,7 +35,14 @@ from guide_health.models.wear.life import (
     judge,
     remaining_life_interval_s,
 )
-from guide_health.models.wear.maintenance import MaintenanceEvent, apply_baseline, apply_event, baseline, check_event
+from guide_health.models.wear.maintenance import (
+    RESETS_WEAR,
+    MaintenanceEvent,
+    apply_baseline,
+    apply_event,
+    baseline,
+    check_event,
+)
 
 #: the keys every `<axis> precision` status carries ('nan' until known; README "Diagnostics")
 PRECISION_KEYS = ("straightness_um", "straightness_measured_um", "straightness_limit_um", "remaining_life_h",
@@ -85,7 +92,7 @@ class AxisMonitor:
         else:
             for name in names:
                 apply_event(self.guides[name], event)
-                if event.kind in ("regrind", "replace_rail"):
+                if event.kind in RESETS_WEAR:
                     self.baselines[name] = baseline(self.guides[name])
         self.events.append(event)
         return reason

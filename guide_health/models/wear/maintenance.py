@@ -148,15 +148,12 @@ def relubricate(monitor, t_ns: int) -> None:
         monitor.rolling.window_travel_m = 0.0
 
 
-def apply_event(monitor, event: MaintenanceEvent) -> str | None:
-    """Apply ``event`` to one guide's PrecisionMonitor at the monitor's present time; returns a rejection
-    reason of a measurement, else None."""
+def apply_event(monitor, event: MaintenanceEvent) -> None:
+    """Apply a regrind, rail or carriage replacement or relubrication ``event`` to one guide's physics at its
+    present time (a ``measure`` is a straightness measurement: AxisMonitor sends it through its input gate)."""
     if event.kind in RESETS_WEAR:
         reset_wear(monitor, event.straightness_m)
     if event.kind in RESETS_FATIGUE:
         reset_fatigue(monitor)
     if event.kind == "relubricate":
         relubricate(monitor, int(event.t_ns))
-    if event.kind == "measure":
-        return monitor.on_straightness(int(event.t_ns), float(event.straightness_m))
-    return None
