@@ -63,6 +63,27 @@ SLIDING_GUIDE_PARAMS = (
     Param("profile_bin_m", 0.001, "m", "[1e-6, 1]", "profile model: bin width"),
     Param("duty_window_s", 3600.0, "s", "[1, 1e8]",
           "window over which the current duty W v is averaged (>= 3 diagnostics periods)"),
+    Param("idle_after_s", 300.0, "s", "[1, 86400]",
+          "a pause of the axis longer than this is idle, not running: the duty and remaining life keep their "
+          "values at the last motion and the pause does not count as running time (shorter pauses, a tool "
+          "change or a probe cycle, are part of running)"),
+    Param("utilisation_window_days", 7.0, "d", "[0.01, 366]",
+          "calendar window over which the axis's utilisation (running share) is judged; limit_date_utc is "
+          "the remaining running life at that utilisation"),
+    # the load source (models/wear/load_model.py): a load cell on load_topic, or the masses and the motion
+    Param("load_source", "topic", "", "", "topic: the normal load from load_topic (a load cell); model: from "
+          "the masses below, the axis incline and the acceleration of the joint (no load topic needed)",
+          choices=("topic", "model")),
+    Param("moving_mass_kg", 0.0, "kg", "[0, 1e6]", "load_source model: mass the axis moves (carriage, table, "
+          "saddle, head, with what rides on it except the workpiece)"),
+    Param("workpiece_mass_kg", 0.0, "kg", "[0, 1e6]", "load_source model: workpiece (and fixture) mass the axis "
+          "carries; the workpiece_mass_kg topic (std_msgs/Float64) replaces it at run time"),
+    Param("axis_incline_deg", 0.0, "deg", "[-90, 90]", "load_source model: angle of the axis above the "
+          "horizontal (0: horizontal, the ways carry the weight; 90: vertical, the drive carries it)"),
+    Param("load_lever_ratio", 0.0, "-", "[0, 100]", "load_source model: e / h, the centre of mass's offset "
+          "from the drive line over the spacing of the carriages (way ends) that react its couple"),
+    Param("acceleration_window_s", 0.05, "s", "(0, 10]", "load_source model: the acceleration is the mean "
+          "over about twice this (secants of the joint position over this lag)"),
     Param("straightness_noise_m", 0.5e-6, "m", "[0, 0.01]",
           "1-sigma noise of a straightness measurement (prior of the K update)", dynamic=True),
     Param("wear_coefficient_prior_rel_sd", 0.5, "-", "(0, 100]", "prior sd of K relative to the configured K"),
@@ -231,6 +252,9 @@ def _wear_threshold_checks(p: dict[str, Any]) -> None:
     if p["oil_viscosity_40c_mm2_s"] > 0 and not 0 < p["oil_viscosity_100c_mm2_s"] < p["oil_viscosity_40c_mm2_s"]:
         raise InputError(f"oil_viscosity_100c_mm2_s ({p['oil_viscosity_100c_mm2_s']!r}) must be > 0 and below "
                          f"oil_viscosity_40c_mm2_s ({p['oil_viscosity_40c_mm2_s']!r})")
+    if p["load_source"] == "model" and not p["moving_mass_kg"] + p["workpiece_mass_kg"] > 0:
+        raise InputError("load_source model needs moving_mass_kg + workpiece_mass_kg > 0 (the masses the "
+                         "normal load comes from)")
     bins = p["rail_length_m"] / p["profile_bin_m"]
     if not bins <= MAX_PROFILE_BINS:
         raise InputError(f"rail_length_m / profile_bin_m = {bins:.3g} bins: at most {MAX_PROFILE_BINS:.0e} "

@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from guide_health.models.wear.running_time import RunningClock
 from guide_health.models.wear.straightness import StrokeTracker, minimum_zone_straightness_m
 
 # ---------------------------------------------------------------------------------------------
@@ -158,7 +159,8 @@ class WearGeometry:
     profile_bin_m: float = 0.001
     straightness_model: str = "eq7"   # eq7 | profile
     stroke_detect_min_m: float = 0.005
-    duty_window_s: float = 3600.0
+    duty_window_s: float = 3600.0     # of running time (models/wear/running_time.py)
+    idle_after_s: float = 300.0       # a longer pause is idle, not running
     sliding_deadband_m: float = 0.0   # reversals shorter than this are not sliding (sliding_positions_m)
 
     @classmethod
@@ -212,6 +214,7 @@ class WearIntegrator:
     duty_bucket_index: list = field(default_factory=list)
     duty_bucket_work_nm: list = field(default_factory=list)
     samples: int = 0
+    clock: RunningClock = field(default=None)          # running time: the duty buckets' time base
     # called with every sliding segment (t_start_ns, t_end_ns, xa, xb, load_n, s_start_m arrays) when set:
     # the live wear effects (models/wear/effect_wear.py); not persisted
     segment_sink: object = field(default=None, repr=False, compare=False)
@@ -222,6 +225,8 @@ class WearIntegrator:
         if self.strokes is None:
             self.strokes = StrokeTracker(self.geometry.stroke_detect_min_m)
         self._bins = self.geometry.bin_centres_m()
+        if self.clock is None:
+            self.clock = RunningClock(self.geometry.idle_after_s)
 
     # --- integration -------------------------------------------------------------------------
     @property
@@ -247,28 +252,31 @@ class WearIntegrator:
         x = float(position_m)
         if self.last_t_ns is None:
             self.first_t_ns = int(t_ns)
+            self.clock.advance(t_ns, False)
         else:
             x, self.sliding_direction = sliding_position_m(x, self.last_position_m, self.sliding_direction,
                                                            self.geometry.sliding_deadband_m)
-            self._segment(t_ns, self.last_position_m, x, load_n)
+            tau_ns = self.clock.advance(t_ns, x != self.last_position_m)
+            self._segment(t_ns, tau_ns, self.last_position_m, x, load_n)
         self.strokes.update(x)
         self.last_t_ns = int(t_ns)
         self.last_position_m = x
         self.samples += 1
 
-    def _segment(self, t_ns: int, xa: float, xb: float, load_n: float) -> None:
+    def _segment(self, t_ns: int, tau_ns: int | None, xa: float, xb: float, load_n: float) -> None:
+        """The slide from ``xa`` to ``xb`` ending at ``t_ns`` (running clock ``tau_ns``, None: idle)."""
         ds = abs(xb - xa)
         if self.segment_sink is not None and ds > 0.0:
             self.segment_sink(np.array([self.last_t_ns]), np.array([t_ns]), np.array([xa]), np.array([xb]),
                               np.array([load_n]), np.array([self.sliding_distance_m]))
         self.sliding_distance_m += ds
         if ds == 0.0 or not load_n > 0.0:
-            if not math.isnan(load_n):
-                self._add_duty(int(t_ns * 1e-9 // self.duty_bucket_s), 0.0)
+            if not math.isnan(load_n) and tau_ns is not None:
+                self._add_duty(int(tau_ns * 1e-9 // self.duty_bucket_s), 0.0)
             return
         work = load_n * ds
         self.archard_work_nm += work
-        self._add_duty(int(t_ns * 1e-9 // self.duty_bucket_s), work)
+        self._add_duty(int(tau_ns * 1e-9 // self.duty_bucket_s), work)
         # profile: w(u) += W / L_s * |[a, b] ∩ [u - L_s/2, u + L_s/2]| on the bins it touches
         half = 0.5 * self.geometry.slider_length_m
         a, b = (xa, xb) if xa <= xb else (xb, xa)
@@ -301,6 +309,8 @@ class WearIntegrator:
             seg_w = w
         xa, xb = xs[:-1], xs[1:]
         ds = np.abs(xb - xa)
+        tau, running = self.clock.advance_many(t_ns, np.concatenate(([False] * (x.size - ds.size), ds > 0)))
+        tau, running = tau[tau.size - ds.size:], running[running.size - ds.size:]
         if self.segment_sink is not None:
             moving = ds > 0
             t_start = t_ns[:-1] if self.last_t_ns is None else np.concatenate(([self.last_t_ns], seg_t[:-1]))
@@ -311,9 +321,9 @@ class WearIntegrator:
         work = np.where(loaded, np.nan_to_num(seg_w) * ds, 0.0)
         self.archard_work_nm += float(work.sum())
         # duty buckets
-        counted = ~np.isnan(seg_w)
+        counted = ~np.isnan(seg_w) & running
         if counted.any():
-            buckets = (seg_t[counted] * 1e-9 // self.duty_bucket_s).astype(np.int64)
+            buckets = (tau[counted] * 1e-9 // self.duty_bucket_s).astype(np.int64)
             first_kept = buckets[-1] - DUTY_BUCKETS + 1
             keep = buckets >= first_kept
             uniq, inverse = np.unique(buckets[keep], return_inverse=True)
@@ -366,10 +376,11 @@ class WearIntegrator:
         return straightness_from_wear_volume_m(self.wear_volume_per_k_m3(), g.contact_width_m, l_min, l_max)
 
     def duty_work_rate_w(self) -> float:
-        """Current duty W v averaged over ``duty_window_s`` [N m/s = W] (Archard work rate)."""
+        """Current duty W v averaged over the last ``duty_window_s`` of running time [N m/s = W] (Archard
+        work rate; idle pauses do not count, models/wear/running_time.py)."""
         if self.last_t_ns is None or not self.duty_bucket_index:
             return math.nan
-        t_now = self.last_t_ns * 1e-9
+        t_now = self.clock.tau_now_ns * 1e-9
         bucket_now = int(t_now // self.duty_bucket_s)
         window_start = max(self.first_t_ns * 1e-9, (bucket_now - DUTY_BUCKETS + 1) * self.duty_bucket_s)
         span = t_now - window_start
@@ -411,6 +422,7 @@ class WearIntegrator:
             "duty_bucket_index": list(self.duty_bucket_index),
             "duty_bucket_work_nm": list(self.duty_bucket_work_nm),
             "samples": self.samples,
+            **self.clock.state(),
         }
 
     @classmethod
@@ -418,7 +430,10 @@ class WearIntegrator:
         profile = np.asarray(state["profile_work_n"], dtype=float)
         if profile.size != geometry.bin_centres_m().size:
             raise ValueError("saved wear profile does not match the rail bins of the parameters")
+        clock = RunningClock(geometry.idle_after_s)
+        clock.restore(state, state["first_t_ns"], state["last_t_ns"])
         return cls(
+            clock=clock,
             geometry=geometry,
             last_t_ns=state["last_t_ns"],
             last_position_m=state["last_position_m"],

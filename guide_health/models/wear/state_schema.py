@@ -68,9 +68,12 @@ ADDED_FIELDS = {"measurement_gradients": [], "surface_start_m": 0.0,
                 # thermal_drift's T - T_ref per measurement (without it c_T's spread is not carried)
                 "measurement_temperature_offset_k": [],
                 # the rolling guide's stamp of the oil temperature reading in force
-                "oil_temperature_t_ns": None}
+                "oil_temperature_t_ns": None,
+                # the running clock (models/wear/running_time.py): a state without it ran without idle pauses
+                "idle_ns": 0, "last_motion_t_ns": None, "last_counted_t_ns": None, "idle_pause_start_ns": [],
+                "idle_pause_end_ns": []}
 EMPTY_LIST_ELEMENT = {"duty_bucket_index": 0, "measurement_t_ns": 0, "measurement_loss_per_k_m": float("nan"),
-                      "reading_t_ns": 0,
+                      "reading_t_ns": 0, "idle_pause_start_ns": 0, "idle_pause_end_ns": 0,
                       # NaN: a measurement restored from a state saved before these were kept (effect_wear.restore)
                       "measurement_pass_work_n": float("nan"), "measurement_temperature_offset_k": float("nan")}
 #: stamp lists a monitor keeps in stamp order and bounded (the thermal_drift correction's temperature
