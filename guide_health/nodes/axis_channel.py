@@ -45,7 +45,10 @@ EXTRA_PRECISION_KEYS = ("wear_coefficient_low", "wear_coefficient_high", "measur
                         "samples_missing_estimate", "joint_samples_missing_estimate",
                         "load_samples_missing_estimate", "joint_period_estimate_us", "joint_stamp_pauses",
                         # the thermal_drift effect (docs/model_file.md): taken off the last measurement
-                        "straightness_thermal_correction_um")
+                        "straightness_thermal_correction_um",
+                        # where the load comes from; running hours and calendar (models/wear/running_time.py)
+                        "load_source", "utilisation", "limit_date_utc", "limit_date_utc_low",
+                        "limit_date_utc_high", "idle_since_utc")
 TIMING_KEYS = ("load_samples", "callback_time_us", "model_time_us")
 ROLLING_PRECISION_KEYS = ("lambda", "asperity_load_share", "boundary_share_recent", "boundary_share_total",
                           "oil_viscosity_pa_s", "oil_temperature_c")
@@ -84,9 +87,10 @@ class AxisChannel:
         self.loads: list = []             # raw messages copied by on_load_raw, their arrival (monotonic s)
         self.load_arrivals: list = []     # and how many joint messages were copied before each
         self.load_after: list = []
-        if node.raw:
+        self.load_from_model = params["load_source"] == "model"    # no load topic: masses and motion
+        if not self.load_from_model and node.raw:
             qos.subscribe(WrenchStamped, self.load_input, self.on_load_raw, raw=True)
-        else:
+        elif not self.load_from_model:
             qos.subscribe(WrenchStamped, self.load_input, self.on_load)
         qos.subscribe(Float64, params["straightness_topic"], self.on_straightness)
         qos.subscribe(Temperature, params["temperature_topic"], self.on_temperature)
@@ -101,7 +105,7 @@ class AxisChannel:
         """`<axis> precision` (and `<axis> fatigue` for rolling guides); ``report_extras(values)`` adds the
         node's timing numbers."""
         rolling = self.model.rolling is not None
-        inputs = ("joint_states", self.load_input)
+        inputs = ("joint_states",) if self.load_from_model else ("joint_states", self.load_input)
 
         def precision():
             report = self.model.report()

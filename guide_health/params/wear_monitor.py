@@ -77,7 +77,7 @@ SLIDING_GUIDE_PARAMS = (
     Param("moving_mass_kg", 0.0, "kg", "[0, 1e6]", "load_source model: mass the axis moves (carriage, table, "
           "saddle, head, with what rides on it except the workpiece)"),
     Param("workpiece_mass_kg", 0.0, "kg", "[0, 1e6]", "load_source model: workpiece (and fixture) mass the axis "
-          "carries; the workpiece_mass_kg topic (std_msgs/Float64) replaces it at run time"),
+          "carries (0 for an axis that does not carry it)"),
     Param("axis_incline_deg", 0.0, "deg", "[-90, 90]", "load_source model: angle of the axis above the "
           "horizontal (0: horizontal, the ways carry the weight; 90: vertical, the drive carries it)"),
     Param("load_lever_ratio", 0.0, "-", "[0, 100]", "load_source model: e / h, the centre of mass's offset "

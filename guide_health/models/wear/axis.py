@@ -35,6 +35,7 @@ from guide_health.models.wear.life import (
     judge,
     remaining_life_interval_s,
 )
+from guide_health.models.wear.load_model import NormalLoadModel
 from guide_health.models.wear.maintenance import (
     RESETS_WEAR,
     MaintenanceEvent,
@@ -43,6 +44,7 @@ from guide_health.models.wear.maintenance import (
     baseline,
     check_event,
 )
+from guide_health.models.wear.running_time import limit_dates, utc_text
 
 #: the keys every `<axis> precision` status carries ('nan' until known; README "Diagnostics")
 PRECISION_KEYS = ("straightness_um", "straightness_measured_um", "straightness_limit_um", "remaining_life_h",
@@ -67,6 +69,8 @@ class AxisMonitor:
         self.events: list[MaintenanceEvent] = []       # applied, in order (models/wear/maintenance.py)
         self.pending: list[MaintenanceEvent] = []      # stamped after the present: applied when time gets there
         self.baselines: dict[str, dict] = {}           # guide -> what a wear reset changed
+        # load_source model: the normal load of every accepted joint sample from the masses and the motion
+        self.load_model = NormalLoadModel.from_params(params) if params["load_source"] == "model" else None
 
     # --- maintenance events ------------------------------------------------------------------------
     def schedule(self, event: MaintenanceEvent) -> str | None:
@@ -170,6 +174,8 @@ class AxisMonitor:
         """An accepted sample; ``load_n``: the axis load [N] to integrate it with (None: the latest)."""
         if self.pending and self.pending[0].t_ns < t_ns:
             self.apply_due(t_ns)
+        if self.load_model is not None:
+            load_n = self.load_model.load_n(t_ns, position_m)
         load = self.gate.load_n if load_n is None else load_n
         for name, guide in self.guides.items():
             guide.advance(t_ns, position_m, self.guide_load(name, load))
@@ -202,6 +208,8 @@ class AxisMonitor:
         pending maintenance events as sample by sample. ``load_n``: the axis load [N] of each sample;
         ``own``: None or (indices, axis loads) of samples integrated with the latest load at their turn."""
         t_ns = np.asarray(t_ns, dtype=np.int64)
+        if self.load_model is not None:
+            load_n, own = self.load_model.loads_n(t_ns, position_m), None
         lo, n = 0, int(t_ns.size)
         while self.pending and lo < n:
             hi = int(np.searchsorted(t_ns, self.pending[0].t_ns, side="right"))   # stamped <= the event
@@ -275,6 +283,8 @@ class AxisMonitor:
             guide.add_temperatures(temp_t, temp_c)   # the record's readings while its measurements are applied
         accepted = self.gate.accept_run(run)
         jt, jx, load_at_joint = accepted.joint_t_ns, accepted.joint_position_m, accepted.load_at_joint_n
+        if self.load_model is not None:
+            load_at_joint = self.load_model.loads_n(jt, jx)
         total, done, start = int(jt.size), 0, 0
         for t_meas, value in zip(np.asarray(run.straightness_t_ns, dtype=np.int64).tolist(),
                                  np.asarray(run.straightness_m, dtype=float).tolist()):
@@ -346,6 +356,7 @@ class AxisMonitor:
             **{rejected_key(r): n for r, n in gate.rejected.items()},
             **gate.stream_gaps.values(),
         }
+        result.update(self._calendar(guide, life, life_low, life_high))
         if guide.thermal_drift:
             # straightness_measured_um is the corrected reading; this is what was taken off the last one
             result["straightness_thermal_correction_um"] = guide.thermal_correction_m * 1e6
@@ -367,6 +378,18 @@ class AxisMonitor:
             else:
                 result["message"] = f"{result['message']}; {text}"
         return result
+
+    def _calendar(self, guide: GuideWear, *life_s: float) -> dict[str, Any]:
+        """Which load source, the utilisation, the limit's calendar dates and, while idle, since when
+        (models/wear/running_time.py)."""
+        clock = guide.integrator.clock
+        utilisation = clock.utilisation(guide.params["utilisation_window_days"] * 86400.0)
+        out = {"load_source": guide.params["load_source"], "utilisation": utilisation,
+               **limit_dates(clock.last_t_ns, tuple(s / 3600.0 for s in life_s), utilisation)}
+        idle = clock.idle_since_ns()
+        if idle is not None:
+            out["idle_since_utc"] = utc_text(idle)
+        return out
 
     def guide_forecast(self, name: str, points: int = 60) -> dict[str, Any]:
         """One guide's straightness from now to the limit (models/wear/life.forecast): {} without a finite

@@ -58,6 +58,8 @@ class StampAlignedFeed:
         if reason is not None:
             return [reason]
         load_t = self.monitor.load_t_ns
+        if self.monitor.load_model is not None:      # no load stream to wait for: the model's load now
+            return self._integrate([(t_ns, position_m, velocity_m_s)])
         if self.window_s == 0 or (not self.pending and load_t is not None and t_ns < load_t):
             # nothing can come that changes this sample's load (or alignment is off)
             return self._integrate([(t_ns, position_m, velocity_m_s)]) + self.flush_aged(now_s)
@@ -135,6 +137,11 @@ class StampAlignedFeed:
         start_t = axis.load_t_ns                       # the axis load before the batch
         joints = axis.accept_joints(jt, position_m, velocity_m_s)
         loads, start_n = axis.accept_loads(lt, lw)
+        if axis.load_model is not None:                # every accepted sample now, with the model's load
+            ok = joints.accepted
+            if ok.any():
+                axis.integrate_many(jt[ok], np.asarray(position_m, dtype=float)[ok], None)
+            return _reasons(joints.codes, loads.codes, load_after)
         fast = self._align_fast(joints.accepted, jt, np.asarray(position_m, dtype=float),
                                 np.asarray(joint_now_s, dtype=float), loads.accepted, lt, lw,
                                 np.asarray(load_now_s, dtype=float), start_t)

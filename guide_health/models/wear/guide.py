@@ -200,7 +200,7 @@ class GuideWear:
         """Present duty with the effects: steady dA/dt per K [m/s] (running-in over), sliding speed [m/s],
         sliding distance on the present surface [m] (since the last regrind), the d ln(rate)/d(parameter) of
         rho, v_lift, n, g, f and b."""
-        sums = self.effect_wear.window_sums(self.integrator.clock.last_counted_t_ns)   # idle: as it was
+        sums = self.effect_wear.window_sums(self.integrator.clock.running_now_t_ns)   # idle: as it was
         rate_plain = self.integrator.straightness_rate_per_k_m_s()      # Archard work rate, Eq. 7
         work, eff, dist, passes = (sums[SUM_INDEX[n]] for n in ("work_nm", "effective_work_nm", "distance_m",
                                                                  "pass_work_n"))

@@ -68,10 +68,6 @@ class NormalLoadModel:
     def mass_kg(self) -> float:
         return self.moving_mass_kg + self.workpiece_mass_kg
 
-    def set_workpiece_mass(self, mass_kg: float) -> None:
-        """A new workpiece mass [kg] (the workpiece_mass_kg topic), for the samples from now on."""
-        self.workpiece_mass_kg = float(mass_kg)
-
     def _load(self, acceleration_m_s2):
         return normal_load_n(self.mass_kg, math.radians(self.axis_incline_deg), acceleration_m_s2,
                              self.load_lever_ratio)

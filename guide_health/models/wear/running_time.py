@@ -9,7 +9,8 @@ Exactly: a joint sample at t is
 
 - *counted* when the axis moved into it, or when it is at most ``idle_after_s`` after the last motion
   t_m; then tau(t) = t - idle;
-- *idle* otherwise (no duty; the clock stands at tau of the last counted sample t_c);
+- *idle* otherwise (no duty; the status reports the duty at the last motion t_m, exactly the value it had
+  then: the duty buckets after it hold no work);
 - a motion after an idle pause ends it: idle += t - t_c, the pause (t_c, t) is recorded, tau(t) = tau(t_c).
 
 A pause with no samples at all (machine or recorder off) is idle by the same rule when it is longer than
@@ -102,9 +103,18 @@ class RunningClock:
 
     # --- what the status reports ---------------------------------------------------------------------
     @property
+    def running_now_t_ns(self) -> int | None:
+        """The stamp the running present is at: the last counted sample, or while idle the last motion (an
+        idle axis reports the duty of its last running window, the dwell before it turned idle not in it)."""
+        if self.last_counted_t_ns is None:
+            return None
+        return self.last_motion_t_ns if self.idle_since_ns() is not None else self.last_counted_t_ns
+
+    @property
     def tau_now_ns(self) -> int | None:
-        """tau of the last counted sample: the running clock's present."""
-        return None if self.last_counted_t_ns is None else self.last_counted_t_ns - self.idle_ns
+        """tau of :attr:`running_now_t_ns`: the running clock's present."""
+        now = self.running_now_t_ns
+        return None if now is None else now - self.idle_ns
 
     def idle_since_ns(self) -> int | None:
         """The last motion's stamp while the axis is idle (its latest sample more than idle_after_s after
