@@ -233,13 +233,19 @@ class WearIntegrator:
     def duty_bucket_s(self) -> float:
         return self.geometry.duty_window_s / DUTY_BUCKETS
 
+    @property
+    def duty_buckets_kept(self) -> int:
+        """Buckets kept: the window's, and those an idle axis still reports from (the dwell counted as
+        running before a pause turned idle may add up to idle_after_s of empty buckets after its last motion)."""
+        return DUTY_BUCKETS + int(math.ceil(self.geometry.idle_after_s / self.duty_bucket_s)) + 1
+
     def _add_duty(self, bucket: int, work_nm: float) -> None:
         if self.duty_bucket_index and self.duty_bucket_index[-1] == bucket:
             self.duty_bucket_work_nm[-1] += work_nm
         else:
             self.duty_bucket_index.append(bucket)
             self.duty_bucket_work_nm.append(work_nm)
-            while self.duty_bucket_index and self.duty_bucket_index[0] <= bucket - DUTY_BUCKETS:
+            while self.duty_bucket_index and self.duty_bucket_index[0] <= bucket - self.duty_buckets_kept:
                 self.duty_bucket_index.pop(0)
                 self.duty_bucket_work_nm.pop(0)
 
@@ -324,7 +330,7 @@ class WearIntegrator:
         counted = ~np.isnan(seg_w) & running
         if counted.any():
             buckets = (tau[counted] * 1e-9 // self.duty_bucket_s).astype(np.int64)
-            first_kept = buckets[-1] - DUTY_BUCKETS + 1
+            first_kept = buckets[-1] - self.duty_buckets_kept + 1
             keep = buckets >= first_kept
             uniq, inverse = np.unique(buckets[keep], return_inverse=True)
             sums = np.bincount(inverse, weights=work[counted][keep], minlength=uniq.size)
