@@ -41,13 +41,13 @@ def plot_straightness_report(path: Path, monitor, report: dict, t_h, measured, m
     ax1.plot(t_h, measured, "o", ms=4, label="measured")
     ax1.plot(t_h, model, "-", label=f"model (K = {report['wear_coefficient']:.3g})")
     ax1.axhline(report["straightness_limit_um"], color="r", ls="--", label="limit")
-    ax1.set_xlabel("time [h]")
+    ax1.set_xlabel("time [h]: calendar since the first sample; forecast: running hours at the current duty")
     ax1.set_ylabel("straightness [um]")
     life = report["remaining_life_h"]
-    ax1.set_title(f"remaining precision life {life:.3g} h "
+    ax1.set_title(f"remaining precision life {life:.3g} running h "
                   f"[{report['remaining_life_h_low']:.3g}, {report['remaining_life_h_high']:.3g}]"
                   if math.isfinite(life) else "straightness")
-    plot_forecast(ax1, monitor.forecast(), report.get("effects", ""))
+    plot_forecast(ax1, monitor.forecast(), report.get("effects", ""), report)
     ax1.legend()
     ax1.grid(alpha=0.3)
     u = monitor.geometry.bin_centres_m()
@@ -74,9 +74,10 @@ def when_text(now_ns: int, hours: float) -> str:
     return datetime.datetime.fromtimestamp(t_s, datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
 
 
-def plot_forecast(ax, fc: dict, effects: str = "") -> None:
-    """The forecast from now to the limit (PrecisionMonitor.forecast) with its 90 % band and the date/time
-    the limit is reached, on a straightness-vs-time axis [h]."""
+def plot_forecast(ax, fc: dict, effects: str = "", report: dict | None = None) -> None:
+    """The forecast from now to the limit (PrecisionMonitor.forecast) with its 90 % band, in running hours
+    from now, and when the limit is reached: the calendar dates at the utilisation when ``report`` has them
+    (limit_date_utc, models/wear/running_time.py), else the running hours counted as if 24/7."""
     if not fc:
         return
     t = fc["now_h"] + fc["horizon_h"]
@@ -87,8 +88,13 @@ def plot_forecast(ax, fc: dict, effects: str = "") -> None:
     ax.plot(t, fc["mid_um"], "--", color="tab:purple", label=label)
     reach = fc["now_h"] + fc["life_h"]
     ax.axvline(reach, color="tab:purple", lw=0.8)
-    ax.annotate(f"limit reached {when_text(fc['now_ns'], fc['life_h'])}\n90 %: "
-                f"{when_text(fc['now_ns'], fc['life_low_h'])} .. {when_text(fc['now_ns'], fc['life_high_h'])}",
+    if report and report.get("limit_date_utc") and fc["now_ns"] >= 1e18:
+        text = (f"limit reached {report['limit_date_utc']} (calendar, utilisation {report['utilisation']:.0%})\n"
+                f"90 %: {report['limit_date_utc_low'] or 'never'} .. {report['limit_date_utc_high'] or 'never'}")
+    else:
+        text = (f"limit reached {when_text(fc['now_ns'], fc['life_h'])} (running 24/7)\n90 %: "
+                f"{when_text(fc['now_ns'], fc['life_low_h'])} .. {when_text(fc['now_ns'], fc['life_high_h'])}")
+    ax.annotate(text,
                 (reach, fc["limit_um"]), textcoords="offset points", xytext=(-10, -30), ha="right", fontsize=7.5)
 
 
