@@ -85,6 +85,11 @@ def test_idle_gap_of_ten_hours_keeps_the_life_and_moves_the_date_by_the_utilisat
     assert after["limit_date_utc"] == _utc(t_end + life / u * 3600 * S)
     assert after["limit_date_utc_low"] == _utc(t_end + after["remaining_life_h_low"] / u * 3600 * S)
     assert after["idle_since_utc"] == _utc(t_motion)
+    # the same samples in one batch (the vectorised path keeps the buckets the idle axis reports from)
+    whole = _monitor()
+    t_all = np.concatenate((t_run, t_idle))
+    whole.process_run(_run(t_all, np.concatenate((_triangle(t_run), np.full(t_idle.size, _triangle(t_run[-1:])[0])))))
+    assert whole.report()["remaining_life_h"] == pytest.approx(life, rel=1e-12)
 
 
 def test_no_samples_for_ten_hours_then_running_again():
