@@ -109,3 +109,26 @@ def test_model_without_load_topic_matches_the_load_topic(bags):
     # without the model the silent bag has no load: no wear estimate, no life
     _, silent, _ = analyse_bag(silent_bag, base)
     assert math.isnan(silent["remaining_life_h"])
+
+
+def test_live_feed_one_by_one_equals_batches():
+    """The node's two paths with load_source model: StampAlignedFeed.joint per message and .process per batch
+    integrate every accepted sample at once with the model's load (nothing waits for a load topic)."""
+    from guide_health.models.wear.axis import AxisMonitor
+    from guide_health.models.wear.feed import StampAlignedFeed
+
+    params = dict(WEAR_MONITOR_DEFAULTS, load_source="model", **MASSES)
+    t = 1_700_000_000 * 10**9 + np.arange(4000, dtype=np.int64) * 20_000_000
+    x = 0.1 + 0.1 * np.sin(np.arange(4000) * 0.02)
+    one, many = AxisMonitor(params), AxisMonitor(params)
+    feed_one, feed_many = StampAlignedFeed(one, 0.5), StampAlignedFeed(many, 0.5)
+    for ti, xi in zip(t.tolist(), x.tolist()):
+        feed_one.joint(ti, xi, 0.0, 0.0)
+    assert not feed_one.pending and one.guides["guide"].integrator.samples == t.size
+    empty = np.zeros(0)
+    for a in range(0, t.size, 700):
+        feed_many.process(t[a:a + 700], x[a:a + 700], np.zeros(x[a:a + 700].size), np.zeros(x[a:a + 700].size),
+                          empty.astype(np.int64), empty, empty, [])
+    r1, r2 = one.report(), many.report()
+    assert r1["sliding_distance_m"] == pytest.approx(r2["sliding_distance_m"], rel=1e-12)
+    assert r1["wear_volume_mm3"] > 0 and r1["wear_volume_mm3"] == pytest.approx(r2["wear_volume_mm3"], rel=1e-12)
