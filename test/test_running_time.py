@@ -45,18 +45,26 @@ def test_clock_sample_by_sample_equals_arrays():
     steps = rng.choice([S // 10, 50 * S, 400 * S, 4000 * S], size=3000, p=[0.9, 0.05, 0.03, 0.02])
     t = T0 + np.cumsum(steps)
     moving = rng.random(t.size) < 0.6
-    one = RunningClock(IDLE_AFTER_S)
+    one = RunningClock(IDLE_AFTER_S, utilisation_window_days=1.0)      # the run spans 3.3 days
     taus = [one.advance(int(ti), bool(m)) for ti, m in zip(t, moving)]
-    many = RunningClock(IDLE_AFTER_S)
+    many = RunningClock(IDLE_AFTER_S, utilisation_window_days=1.0)
     cuts = [0, 1, 5, 999, 1000, 2500, t.size]
     tau, counted = zip(*(many.advance_many(t[a:b], moving[a:b]) for a, b in zip(cuts, cuts[1:])))
     tau, counted = np.concatenate(tau), np.concatenate(counted)
     assert [x is not None for x in taus] == counted.tolist()
     assert [x for x in taus if x is not None] == tau[counted].tolist()
     assert one.state() == many.state() and len(one.idle_pause_end_ns) > 10
-    # tau never runs backwards and stops for every idle pause: tau_end = t_end - sum of the pauses
+    # tau never runs backwards and stops for every idle pause: tau_end = t_end - sum of the pauses; the
+    # pauses kept are those that ended within the last day, the others forgotten
     assert np.all(np.diff(tau[counted]) >= 0)
-    assert one.idle_ns == sum(e - s for s, e in zip(one.idle_pause_start_ns, one.idle_pause_end_ns))
+    every = RunningClock(IDLE_AFTER_S, utilisation_window_days=366.0)
+    every.advance_many(t, moving)
+    assert every.idle_ns == one.idle_ns == sum(e - s for s, e in zip(every.idle_pause_start_ns,
+                                                                      every.idle_pause_end_ns))
+    last_end = every.idle_pause_end_ns[-1]
+    kept = [(s, e) for s, e in zip(every.idle_pause_start_ns, every.idle_pause_end_ns) if e > last_end - 86400 * S]
+    assert list(zip(one.idle_pause_start_ns, one.idle_pause_end_ns)) == kept
+    assert len(kept) < len(every.idle_pause_end_ns) and t[-1] - t[0] > 3 * 86400 * S
 
 
 def test_idle_gap_of_ten_hours_keeps_the_life_and_moves_the_date_by_the_utilisation():

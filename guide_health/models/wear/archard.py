@@ -161,6 +161,7 @@ class WearGeometry:
     stroke_detect_min_m: float = 0.005
     duty_window_s: float = 3600.0     # of running time (models/wear/running_time.py)
     idle_after_s: float = 300.0       # a longer pause is idle, not running
+    utilisation_window_days: float = 7.0
     sliding_deadband_m: float = 0.0   # reversals shorter than this are not sliding (sliding_positions_m)
 
     @classmethod
@@ -226,7 +227,7 @@ class WearIntegrator:
             self.strokes = StrokeTracker(self.geometry.stroke_detect_min_m)
         self._bins = self.geometry.bin_centres_m()
         if self.clock is None:
-            self.clock = RunningClock(self.geometry.idle_after_s)
+            self.clock = RunningClock(self.geometry.idle_after_s, self.geometry.utilisation_window_days)
 
     # --- integration -------------------------------------------------------------------------
     @property
@@ -436,7 +437,7 @@ class WearIntegrator:
         profile = np.asarray(state["profile_work_n"], dtype=float)
         if profile.size != geometry.bin_centres_m().size:
             raise ValueError("saved wear profile does not match the rail bins of the parameters")
-        clock = RunningClock(geometry.idle_after_s)
+        clock = RunningClock(geometry.idle_after_s, geometry.utilisation_window_days)
         clock.restore(state, state["first_t_ns"], state["last_t_ns"])
         return cls(
             clock=clock,

@@ -383,7 +383,7 @@ class AxisMonitor:
         """Which load source, the utilisation, the limit's calendar dates and, while idle, since when
         (models/wear/running_time.py)."""
         clock = guide.integrator.clock
-        utilisation = clock.utilisation(guide.params["utilisation_window_days"] * 86400.0)
+        utilisation = clock.utilisation()
         out = {"load_source": guide.params["load_source"], "utilisation": utilisation,
                **limit_dates(clock.last_t_ns, tuple(s / 3600.0 for s in life_s), utilisation)}
         idle = clock.idle_since_ns()

@@ -38,6 +38,7 @@ class RunningClock:
     """The running clock of one guide's samples (state persisted with the integrator)."""
 
     idle_after_s: float = 300.0
+    utilisation_window_days: float = 7.0       # pauses that ended before it are forgotten
     first_t_ns: int | None = None
     last_t_ns: int | None = None
     last_motion_t_ns: int | None = None        # t_m
@@ -66,6 +67,7 @@ class RunningClock:
                 self.idle_ns += t_ns - self.last_counted_t_ns
                 self.idle_pause_start_ns.append(self.last_counted_t_ns)
                 self.idle_pause_end_ns.append(t_ns)
+                self._forget(t_ns)
             self.last_motion_t_ns = self.last_counted_t_ns = t_ns
             return t_ns - self.idle_ns
         if paused:
@@ -96,6 +98,8 @@ class RunningClock:
             tau[lo:], counted[lo:] = t - idle, count
             self.idle_pause_start_ns.extend(counted_before[resume].tolist())
             self.idle_pause_end_ns.extend(t[resume].tolist())
+            if resume.any():
+                self._forget(int(t[resume][-1]))
             self.idle_ns = int(idle[-1])
             self.last_motion_t_ns, self.last_counted_t_ns = int(moved[-1]), int(seen[-1])
             self.last_t_ns = int(t[-1])
@@ -123,12 +127,12 @@ class RunningClock:
             return None
         return self.last_motion_t_ns
 
-    def utilisation(self, window_s: float) -> float:
+    def utilisation(self) -> float:
         """u over the calendar window ending at the latest sample (module docstring); NaN before a span."""
         if self.first_t_ns is None:
             return math.nan
         now = self.last_t_ns
-        span = min(int(round(window_s * NS_PER_S)), now - self.first_t_ns)
+        span = min(int(round(self.utilisation_window_days * 86400.0 * NS_PER_S)), now - self.first_t_ns)
         if span <= 0:
             return math.nan
         start = now - span
@@ -138,11 +142,10 @@ class RunningClock:
         idle = sum(max(0, min(b, now) - max(a, start)) for a, b in pauses)
         return 1.0 - idle / span
 
-    def trim(self, window_s: float) -> None:
-        """Forget the pauses that ended before the utilisation window (they no longer count)."""
-        if self.last_t_ns is None:
-            return
-        start = self.last_t_ns - int(round(window_s * NS_PER_S))
+    def _forget(self, t_ns: int) -> None:
+        """Forget the pauses that ended before the utilisation window ending at ``t_ns`` (the latest pause's
+        end: the same pauses go sample by sample and in arrays)."""
+        start = t_ns - int(round(self.utilisation_window_days * 86400.0 * NS_PER_S))
         keep = [i for i, end in enumerate(self.idle_pause_end_ns) if end > start]
         self.idle_pause_start_ns = [self.idle_pause_start_ns[i] for i in keep]
         self.idle_pause_end_ns = [self.idle_pause_end_ns[i] for i in keep]
