@@ -119,7 +119,9 @@ def plot_rolling_contact_vs_speed(params: Any, report: dict[str, Any], path: str
     plt = _pyplot()
     speeds = np.logspace(math.log10(PLOT_SPEED_RANGE_M_S[0]), math.log10(PLOT_SPEED_RANGE_M_S[1]), 61)
     try:
-        sweep = bc.speed_sweep(params, report["contact_load_n"], speeds)
+        temperature = report["oil_temperature_c"]            # NaN: a constant-viscosity oil
+        sweep = bc.speed_sweep(params, report["contact_load_n"], speeds,
+                               temperature if math.isfinite(temperature) else None)
     except ValueError as exc:
         raise InputError(str(exc).splitlines()[0]) from exc
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.5))
@@ -145,8 +147,10 @@ def plot_rolling_contact_vs_speed(params: Any, report: dict[str, Any], path: str
         ax.set_xlim(*PLOT_SPEED_RANGE_M_S)
         ax.grid(True, which="both", lw=0.3)
         ax.legend(fontsize=8)
+    oil = (f" at {report['oil_temperature_c']:.1f} degC (Walther)" if math.isfinite(report["oil_temperature_c"])
+           else "")
     fig.suptitle(f"ball contact {report['contact_load_n']:.0f} N, p_max {report['p_max_MPa']:.0f} MPa, "
-                 f"eta0 {params.oil_viscosity_pa_s} Pa s, sigma {report['composite_roughness_nm']:.0f} nm")
+                 f"eta0 {report['oil_viscosity_pa_s']:.3g} Pa s{oil}, sigma {report['composite_roughness_nm']:.0f} nm")
     fig.tight_layout()
     _save_figure(plt, fig, path)
 
