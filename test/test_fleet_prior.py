@@ -140,6 +140,11 @@ def test_fleet_prior_command_from_a_fleet_replay(tmp_path, capsys):
     est = PrecisionMonitor(new).estimator                                      # what a new machine's node uses
     assert (est.prior_wear_coefficient, est.prior_rel_sd) == (new["wear_coefficient"],
                                                               new["wear_coefficient_prior_rel_sd"])
+    other_type = tmp_path / "other.yaml"            # a machine of another type: not its prior
+    other_type.write_text(yaml.safe_dump({"/**/wear_monitor": {"ros__parameters": {"machine_type": "lathe20"}}}))
+    assert main(["fleet", "prior", str(tmp_path / "fleet"), "--params", str(other_type), "--out",
+                 str(tmp_path / "y.yaml")]) == 2
+    assert "machine_type 'lathe20', but the prior is of machine type 'bench45'" in capsys.readouterr().err
     assert main(["fleet", "prior", str(tmp_path / "fleet"), "--machine-type", "other", "--out",
                  str(tmp_path / "x.yaml")]) == 2
     assert "0 machines with a K estimate" in capsys.readouterr().err

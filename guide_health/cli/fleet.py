@@ -207,9 +207,11 @@ def run_prior(args) -> dict:
 
     if args.min_machines < 2:
         raise InputError("--min-machines must be >= 2")
-    if args.params:
-        wear_monitor_params(args.params)
+    base_type = wear_monitor_params(args.params)["machine_type"] if args.params else ""
     prior = fleet_prior(load_fleet_results(args.results), args.machine_type, args.min_machines)
+    if base_type and base_type != prior["machine_type"]:
+        raise InputError(f"{args.params}: machine_type '{base_type}', but the prior is of machine type "
+                         f"'{prior['machine_type']}' (choose it with --machine-type)")
     out = Path(args.out)
     write_prior_params(out, prior)
     wear_monitor_params([args.params, out] if args.params else out)   # as a wear_monitor will read it: now
