@@ -227,6 +227,22 @@ def test_rolling_and_slewing_levels_name_their_thresholds():
     assert "> allowable_contact_stress_pa 4000 MPa" in _level_message(ERROR, 4100.0, 0.0, 4000.0, 0.8)
 
 
+def test_vibration_levels_name_their_rules():
+    from guide_health.models.rolling.life_signs import LifeTestSigns
+    from guide_health.models.rolling.vibration import GuideKinematics
+
+    signs = LifeTestSigns(20000.0, GuideKinematics(6.35e-3, 6.6e-3, 0.25), 1.0)
+    assert signs.level() == (Level.OK, "no failure sign")
+    signs.noise.rise_travel_m = 300e3
+    assert signs.level()[0] == Level.WARN and "> rise_cusum_db 8 dB" in signs.level()[1]
+    signs.failure_travel_m = 400e3
+    text = f"band z > z_threshold {signs.bands.threshold:.2f} in 3 of 5 blocks from 400.0 km"
+    assert signs.level() == (Level.WARN, f"sustained abnormal vibration band: {text}")
+    signs.noise.drop_travel_m = 450e3
+    level, message = signs.level()
+    assert level == Level.ERROR and text in message and "noise drop > drop_db 3 dB" in message
+
+
 def test_machine_replay_json_has_no_lubrication_regime_for_sliding_guides(tmp_path):
     from test_machine import make_machine_bag
 
