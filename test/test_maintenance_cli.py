@@ -180,7 +180,8 @@ def test_the_reply_states_the_entered_and_model_values_and_a_repeat_is_refused(r
         assert channel.model.events[0].note == "ground by J. Doe"
         second = call("regrind", 4e-6)                         # the axis stood still: the same stamp
         assert not second.success and second.message.startswith("already applied at ")
-        assert "nothing applied (maintenance_repeat_window_s 60 s)" in second.message
+        assert "regrind of x, straightness entered 4.00 um; nothing applied (maintenance_repeat_window_s 60 s)" \
+            in second.message
         assert len(channel.model.events) == 1
         other = call("regrind", 5e-6)                           # another value: applied
         assert other.success and "straightness entered 5.00 um" in other.message

@@ -292,9 +292,9 @@ class AxisChannel:
         earlier = self.model.repeat_of(event)
         if earlier is not None:         # the same call again (the node's own stamp when the axis stood still)
             response.success = False
-            response.message = (f"already applied at {stamp_text(earlier.t_ns)}: {event_text(earlier)}; nothing "
-                                f"applied (maintenance_repeat_window_s "
-                                f"{self.model.params['maintenance_repeat_window_s']:g} s)")
+            response.message = (f"already applied at {stamp_text(earlier.t_ns)}: {event_text(earlier)}, straightness "
+                                f"entered {_um(earlier.straightness_m)}; nothing applied "
+                                f"(maintenance_repeat_window_s {self.model.params['maintenance_repeat_window_s']:g} s)")
             return response
         reason = self.model.schedule(event)
         if reason is not None:
