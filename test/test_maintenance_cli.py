@@ -228,6 +228,23 @@ def test_rolling_and_slewing_levels_name_their_thresholds():
     assert "> allowable_contact_stress_pa 4000 MPa" in _level_message(ERROR, 4100.0, 0.0, 4000.0, 0.8)
 
 
+def test_rolling_guide_levels_name_their_thresholds():
+    from test_rolling_guide import duty_run, params
+
+    from guide_health.models.wear.precision import PrecisionMonitor
+
+    slow = PrecisionMonitor(params(boundary_share_warn=0.5))
+    slow.process_run(duty_run([(600.0, 0.0003, 3000.0)], rate_hz=10.0))
+    assert "100% of the recent travel in boundary lubrication > boundary_share_warn 50%" in slow.report()["message"]
+    heavy = PrecisionMonitor(params(dynamic_load_rating_n=1500.0, life_used_warn=0.8, life_used_error=1.0,
+                                    load_max_rating_multiple=0.0))
+    heavy.process_run(duty_run([(600.0, 0.3, 12000.0)]))
+    assert heavy.fatigue_report()["message"].endswith(">= life_used_error 100%")
+    mid = PrecisionMonitor(params(life_used_warn=1e-9))
+    mid.process_run(duty_run([(60.0, 0.3, 6000.0)]))
+    assert mid.fatigue_report()["message"].endswith("of the rating life used >= life_used_warn 0%")
+
+
 def test_vibration_levels_name_their_rules():
     from guide_health.models.rolling.life_signs import LifeTestSigns
     from guide_health.models.rolling.vibration import GuideKinematics
