@@ -13,6 +13,7 @@ setup(
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
         ("share/" + package_name + "/config", sorted(glob("config/*.yaml") + glob("config/*.csv"))),
+        ("share/" + package_name + "/config/systemd", sorted(glob("config/systemd/*"))),
         ("share/" + package_name + "/launch", sorted(glob("launch/*.launch.py"))),
     ],
     # every module guide_health/ imports (test/test_dependencies.py checks it against package.xml); rclpy

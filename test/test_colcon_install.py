@@ -63,7 +63,9 @@ def test_build_installs_every_file_a_ros_user_needs(workspace):
     assert (share / "package.xml").read_text() == (ROOT / "package.xml").read_text()
     configs = sorted(p.name for p in (ROOT / "config").iterdir() if p.is_file())
     assert "pin_on_disc_seed000.csv" in configs and len(configs) >= 8
-    assert sorted(p.name for p in (share / "config").iterdir()) == configs
+    assert sorted(p.name for p in (share / "config").iterdir() if p.is_file()) == configs
+    assert sorted(p.name for p in (share / "config" / "systemd").iterdir()) == sorted(
+        p.name for p in (ROOT / "config" / "systemd").iterdir())
     assert sorted(p.name for p in (share / "launch").iterdir()) == sorted(
         p.name for p in (ROOT / "launch").glob("*.launch.py"))
     site = next(prefix.glob(f"lib/python3*/site-packages/{PACKAGE}"))

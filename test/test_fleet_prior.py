@@ -118,20 +118,33 @@ def test_fleet_prior_command_from_a_fleet_replay(tmp_path, capsys):
                  "--workers", "0",
                  "--no-plot", "--out", str(tmp_path / "fleet")]) == 0
     capsys.readouterr()
+    new_machine = tmp_path / "m9.yaml"             # a new machine of the type: its own identity and geometry
+    new_machine.write_text(yaml.safe_dump({"/**/wear_monitor": {"ros__parameters": {
+        "machine_id": "m9", "joint": "z", "rail_length_m": 0.8, "machine_type": "bench45"}}}))
     out = tmp_path / "prior.yaml"
-    assert main(["fleet", "prior", str(tmp_path / "fleet"), "--params", str(cfg), "--out", str(out),
+    assert main(["fleet", "prior", str(tmp_path / "fleet"), "--params", str(new_machine), "--out", str(out),
                  "--json"]) == 0
     prior = json.loads(capsys.readouterr().out)
     assert prior["machine_type"] == "bench45" and prior["machines"] == 4
     # the population median is near the machines' true K (1.4 .. 1.7 x configured), far from the configured K
     assert 1.3 < prior["wear_coefficient_median"] / K_CONFIGURED < 1.8
-    new = wear_monitor_params(out)
-    assert new["machine_type"] == "bench45" and new["joint"] == "x"            # the base file's values are kept
+    written = yaml.safe_load(out.read_text())
+    assert list(written) == ["/**/wear_monitor"]                              # applied in any namespace
+    assert set(written["/**/wear_monitor"]["ros__parameters"]) == {            # the prior keys, nothing else
+        "machine_type", "wear_coefficient", "wear_coefficient_prior_rel_sd"}
+    new = wear_monitor_params([new_machine, out])                              # loaded after the machine's file
+    assert (new["machine_id"], new["joint"], new["rail_length_m"]) == ("m9", "z", 0.8)   # identity kept
+    assert new["machine_type"] == "bench45"
     assert new["wear_coefficient"] == pytest.approx(prior["wear_coefficient"], rel=1e-5)
     assert new["wear_coefficient_prior_rel_sd"] < 0.5                          # tighter than the default
     est = PrecisionMonitor(new).estimator                                      # what a new machine's node uses
     assert (est.prior_wear_coefficient, est.prior_rel_sd) == (new["wear_coefficient"],
                                                               new["wear_coefficient_prior_rel_sd"])
+    other_type = tmp_path / "other.yaml"            # a machine of another type: not its prior
+    other_type.write_text(yaml.safe_dump({"/**/wear_monitor": {"ros__parameters": {"machine_type": "lathe20"}}}))
+    assert main(["fleet", "prior", str(tmp_path / "fleet"), "--params", str(other_type), "--out",
+                 str(tmp_path / "y.yaml")]) == 2
+    assert "machine_type 'lathe20', but the prior is of machine type 'bench45'" in capsys.readouterr().err
     assert main(["fleet", "prior", str(tmp_path / "fleet"), "--machine-type", "other", "--out",
                  str(tmp_path / "x.yaml")]) == 2
     assert "0 machines with a K estimate" in capsys.readouterr().err
@@ -146,6 +159,14 @@ def test_fleet_prior_bad_input_is_one_line(tmp_path, capsys):
     assert "summary without machine_type, prior" in capsys.readouterr().err
     assert main(["fleet", "prior", str(tmp_path / "none.json"), "--out", str(tmp_path / "p.yaml")]) == 2
     assert "fleet results not found" in capsys.readouterr().err
+    typeless = tmp_path / "typeless.json"          # machines replayed without machine_type
+    typeless.write_text(json.dumps({"summary": {"command": "replay", "machine_type": "", "prior": {}},
+                                    "bags": [{"ok": True, "machine": "m1", "result": {}}]}))
+    for extra in ([], ["--machine-type", ""]):
+        assert main(["fleet", "prior", str(typeless), *extra, "--out", str(tmp_path / "p.yaml")]) == 2
+        err = capsys.readouterr().err
+        assert "machine type is empty" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "p.yaml").exists()
 
 
 def test_named_effects_of_most_machines_go_into_the_prior_file(tmp_path):
@@ -165,8 +186,8 @@ def test_named_effects_of_most_machines_go_into_the_prior_file(tmp_path):
              "wear_coefficient_prior_rel_sd": 0.2, "wear_coefficient_median": 4.9e-6,
              "log_k": {"mean": -12.2, "tau": 0.2, "mean_std_error": 0.1, "predictive_sd": 0.22}, "effects": pop}
     out = tmp_path / "prior.yaml"
-    write_prior_params(out, prior, str(cfg))
-    p = wear_monitor_params(out)
+    write_prior_params(out, prior)
+    p = wear_monitor_params([cfg, out])
     live = EffectParameters.from_params(p)
     assert live.effects == ("running_in",)
     assert (live.running_in_ratio, live.running_in_distance_m, live.load_exponent) == (0.8, 250.0, 1.0)

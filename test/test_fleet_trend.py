@@ -51,7 +51,7 @@ def history(tmp_path):
 class ImageSources(HTMLParser):
     def __init__(self):
         super().__init__()
-        self.sources, self.links = [], []
+        self.sources, self.links, self.names = [], [], []
 
     def handle_starttag(self, tag, attrs):
         a = dict(attrs)
@@ -59,20 +59,19 @@ class ImageSources(HTMLParser):
             self.sources.append(a["src"])
         if tag == "a" and not a["href"].startswith("#"):
             self.links.append(a["href"])
+            self.names.append(a.get("download"))
 
 
 def check_page(page: Path) -> list[np.ndarray]:
-    """Every image of the page exists and decodes (data URI or file beside it); every linked file exists."""
+    """The page is self-contained: every image is a data URI that decodes, every link (but the page's own
+    anchors) a data URI whose CSV equals the file of the same name written beside it; no relative link."""
     parser = ImageSources()
     parser.feed(page.read_text())
-    images = []
-    for src in parser.sources:
-        if src.startswith("data:image/png;base64,"):
-            images.append(imread(io.BytesIO(base64.b64decode(src.split(",", 1)[1])), format="png"))
-        else:
-            images.append(imread(page.parent / src))
-    for href in parser.links:
-        assert (page.parent / href).is_file(), href
+    assert all(src.startswith("data:image/png;base64,") for src in parser.sources), "an image file link"
+    images = [imread(io.BytesIO(base64.b64decode(src.split(",", 1)[1])), format="png") for src in parser.sources]
+    assert all(href.startswith("data:text/csv;base64,") for href in parser.links), "a link to a sibling file"
+    embedded = {name: base64.b64decode(href.split(",", 1)[1]) for name, href in zip(parser.names, parser.links)}
+    assert embedded == {p.name: p.read_bytes() for p in page.parent.glob("*.csv")}     # every table, exactly
     assert all(img.ndim == 3 and img.shape[0] > 100 and img.shape[1] > 100 for img in images)
     return images
 

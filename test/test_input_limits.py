@@ -297,4 +297,5 @@ def test_a_missing_joint_is_named_in_the_status(bench_run):
     for _ in range(10):
         live_monitor.reject_input("joint_states", "joint 'x' not in joint_states")
     assert live_monitor.report()["message"].startswith(
-        "100% of the last 10 joint_states samples rejected (joint 'x' not in joint_states); no wear estimate yet")
+        "100% of the last 10 joint_states samples rejected (joint 'x' not in joint_states) > rejected_share_warn "
+        "50%; no wear estimate yet")

@@ -302,7 +302,7 @@ def test_regrind_service_called_through_ros(ros_context, tmp_path):
         assert result.results[0].successful, result.results[0].reason
         response = call(Trigger, "/maintenance/x/regrind", Trigger.Request())
         assert response.success, response.message
-        assert "straightness 11.00 um" in response.message
+        assert "straightness entered 11.00 um, model 11.00 um" in response.message
         assert node.monitor.report()["straightness_um"] == pytest.approx(11.0, abs=1e-9)
     finally:
         executor.shutdown()

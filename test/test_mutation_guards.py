@@ -210,6 +210,24 @@ def test_life_interval_with_only_k_uncertain_is_the_delta_method_on_k():
     assert life_interval_s(k, k_sd, e, now, Z95) == pytest.approx(expected, rel=1e-3)
 
 
+def test_life_interval_wider_than_a_float_is_zero_to_infinity_not_an_overflow():
+    """The same closed form with sd_K so large that exp(1.645 |d ln life / d K| sd_K) exceeds the largest
+    float (and its square too): the interval is (0, inf) around the unchanged centre."""
+    from guide_health.models.wear.effect_life import EffectLifeNow, life_interval_s
+    from guide_health.models.wear.effects.parameters import EffectParameters
+    from guide_health.models.wear.effects.registry import RATE_PHI
+
+    e = EffectParameters(effects=())
+    n_phi = e.phi().size
+    k, margin0, work, loss_work, rate_per_k = 4.0e-6, 85e-6, 2.0e6, 6.25e-7, 1.875e-4
+    now = EffectLifeNow(margin0=margin0, work=work, loss_work=loss_work, loss_pass=0.0,
+                        work_gradient=np.zeros(n_phi), dln_rate=np.zeros(len(range(n_phi)[RATE_PHI])),
+                        rate_work_per_k=rate_per_k, s_now=100.0, v_s=0.05)
+    centre = (margin0 - k * work * loss_work) / (k * rate_per_k)
+    for k_sd in (1.0e3, 1.0e160):       # exp overflow; then the square of the term overflows too
+        assert life_interval_s(k, k_sd, e, now, Z95) == (pytest.approx(centre, rel=1e-9), 0.0, math.inf)
+
+
 # --- maintenance: what each event resets -----------------------------------------------------------------------
 def test_rail_replacement_and_relubrication_on_every_guide_of_an_axis():
     """Two-guide rolling axis after 0.5 h: 'replace_rail' for every guide ('' = all) restarts each guide's

@@ -10,6 +10,7 @@ the same line.
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 import time
@@ -354,6 +355,76 @@ def test_documented_node_commands_apply_their_files_in_their_namespace(monkeypat
         result = read_ros_args(SCHEMAS[node], argv)
         files = [argv[i + 1] for i, w in enumerate(argv) if w == "--params-file"]
         assert sorted({path for path, _ in result.applied}) == sorted(set(files)), (doc, argv, result.applied)
+
+
+def readme_node_command_lines() -> list[tuple[str, list[str]]]:
+    """(label, argv as run) of every README line that starts a node: the console-script lines with a shipped
+    file (``ros2 run guide_health`` dropped, as without ros2cli), and each ``systemctl ... guide-health-X@M``
+    line as the unit's ExecStart expanded for its first instance (test_systemd_unit.expand_exec) with
+    config/systemd/machine.env.example, its PARAMS_FILE a shipped config (the /etc file exists only there)."""
+    import shlex
+
+    from test_systemd_unit import ENV_EXAMPLE, environment_file, expand_exec, unit_settings
+
+    found = [(f"README: {' '.join(argv)}", argv) for doc, _, argv in documented_node_commands() if doc == "README.md"]
+    for line in (ROOT / "README.md").read_text().splitlines():
+        words = shlex.split(line.split(" #")[0]) if "systemctl" in line else []
+        units = [w for w in words if re.fullmatch(r"guide-health-[a-z]+@[A-Za-z0-9_]+", w)]
+        if units:
+            template, instance = units[0].split("@")
+            unit = CONFIG / "systemd" / f"{template}@.service"
+            env = dict(environment_file(ENV_EXAMPLE.read_text()), MACHINE_NAMESPACE=f"/{instance}",
+                       PARAMS_FILE=str(CONFIG / "bench_000.yaml"))
+            argv = expand_exec(unit_settings(unit.read_text())["Service.ExecStart"][0], instance, env)
+            venv = env["GUIDE_HEALTH_VENV"]
+            found.append((f"README: {line.strip()}", [argv[1].replace(venv, str(Path(sys.executable).parent.parent)),
+                                                      *argv[2:]]))
+    return found
+
+
+@pytest.mark.ros
+def test_readme_node_command_lines_run_as_written_under_a_namespace(tmp_path, ros_test_env, monkeypatch):
+    """Each README line that starts a node, run as written (a line without a namespace also under
+    ``-r __ns:=/readme``), on the test's own domain: the node publishes its params file's machine_id and
+    logs a start-up line with its full name in that namespace."""
+    from guide_health.nodes.session import DiagnosticsCollector
+
+    env = ros_test_env()
+    monkeypatch.chdir(ROOT)
+    commands = readme_node_command_lines()
+    assert sum("systemctl" in label for label, _ in commands) == 1 and len(commands) >= 3, commands
+    runs = []
+    for label, argv in commands:
+        runs.append((label, argv))
+        if "__ns:=" not in " ".join(argv):
+            runs.append((label + " (under /readme)", [*argv, "-r", "__ns:=/readme"]))
+    collector = DiagnosticsCollector("collector_readme")
+    try:
+        for i, (label, argv) in enumerate(runs):
+            files = [argv[k + 1] for k, w in enumerate(argv) if w == "--params-file"]
+            doc = yaml.safe_load(Path(files[-1]).read_text())
+            machine = next(v["ros__parameters"]["machine_id"] for k, v in doc.items() if k.endswith("wear_monitor"))
+            namespace = next((w.split(":=")[1] for w in argv if w.startswith("__ns:=")), "")
+            script = str(Path(sys.executable).with_name(Path(argv[0]).name))
+            collector.latest.clear()
+            log = tmp_path / f"run{i}.log"
+            with open(log, "w") as out:
+                proc = subprocess.Popen([script, *argv[1:]], env=dict(env, ROS_HOME=str(tmp_path / f"home{i}")),
+                                        stdout=out, stderr=subprocess.STDOUT)
+            try:
+                end, seen = time.monotonic() + 60, False
+                while time.monotonic() < end and not seen and proc.poll() is None:
+                    seen = any(s["hardware_id"] == machine for s in list(collector.latest.values()))
+                    time.sleep(0.1)
+                assert seen, (label, log.read_text())
+            finally:
+                proc.send_signal(2)
+                proc.wait(30)
+            start = [line for line in log.read_text().splitlines() if "start: " in line]
+            assert len(start) == 1 and f"machine_id {machine}, node {namespace}/wear_monitor," in start[0], \
+                (label, log.read_text())
+    finally:
+        collector.close()
 
 
 @pytest.mark.parametrize("launch", ["machine.launch.py", "fleet.launch.py"])

@@ -402,6 +402,30 @@ def test_cli_plot(tmp_path, capsys):
     assert png.stat().st_size > 10_000
 
 
+@pytest.mark.parametrize("temperature", [None, 40.0])
+def test_cli_plot_shows_the_viscosity_it_computed_with(tmp_path, capsys, monkeypatch, temperature):
+    """The catalogue oil's Walther viscosity at the oil temperature (not the unused oil_viscosity_pa_s
+    0.06) in the title, and the plotted film is the report's film at that viscosity."""
+    from guide_health.analysis import report_plots
+
+    figures = []
+    monkeypatch.setattr(report_plots, "_save_figure", lambda plt, fig, path: figures.append(fig))
+    extra = [] if temperature is None else ["--temperature-c", str(temperature)]
+    assert cli.main(["contact", "rolling", "--params", str(CONFIG), "--plot", str(tmp_path / "r.png"), "--json",
+                     *extra]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["oil_temperature_c"] == (21.0 if temperature is None else temperature)
+    assert out["oil_viscosity_pa_s"] > 0.1 if temperature is None else out["oil_viscosity_pa_s"] < 0.06
+    title = figures[0]._suptitle.get_text()
+    assert f"eta0 {out['oil_viscosity_pa_s']:.3g} Pa s at {out['oil_temperature_c']:.1f} degC" in title
+    assert "0.06 " not in title
+    line = figures[0].axes[0].get_lines()[0]                  # central film [nm] against carriage speed
+    speed, film_nm = line.get_xdata()[40], line.get_ydata()[40]
+    assert cli.main(["contact", "rolling", "--params", str(CONFIG), "--speed", repr(float(speed)), "--json",
+                     *extra]) == 0
+    assert film_nm == pytest.approx(json.loads(capsys.readouterr().out)["film_central_nm"], rel=1e-12)
+
+
 @pytest.mark.parametrize("extra, yaml_body", [
     (["--load-n", "-5"], None),
     (["--load-n", "nan"], None),

@@ -35,6 +35,8 @@ from guide_health.models.fleet import (
 from guide_health.models.wear.calibration import Z90
 from guide_health.models.wear.effects.registry import COVARIANCE_NAMES
 
+PRIOR_SECTION = "/**/wear_monitor"          # rcl applies it to a wear_monitor in any namespace
+
 
 def load_fleet_results(paths: list[str]) -> list[dict[str, Any]]:
     """The bag entries of ``fleet.json`` files (or their directories), each with the run's summary. The
@@ -84,6 +86,9 @@ def fleet_prior(entries: list[dict[str, Any]], machine_type: str | None, min_mac
         if len(types) != 1:
             raise InputError(f"the results hold machine types {types}: choose one with --machine-type")
         machine_type = types[0]
+    if not machine_type:
+        raise InputError("machine type is empty: a fleet prior belongs to a machine type; set machine_type in "
+                         "the machines' params files and run fleet replay|diagnose again")
     chosen = [e for e in entries if e["summary"].get("machine_type", "") == machine_type]
     per_machine: dict[str, list[tuple[float, float]]] = defaultdict(list)
     for e in chosen:
@@ -146,19 +151,17 @@ def live_effect_parameters(effects: dict[str, dict[str, Any]]) -> dict[str, Any]
     return out
 
 
-def write_prior_params(path: Path, prior: dict[str, Any], base_params: str | None) -> None:
-    """A ROS 2 params file whose wear_monitor section holds machine_type, wear_coefficient and
-    wear_coefficient_prior_rel_sd (over a copy of ``base_params`` when given), commented with the fit."""
+def write_prior_params(path: Path, prior: dict[str, Any]) -> None:
+    """A ROS 2 params file of the prior keys only: its ``/**/wear_monitor`` section (applied in any
+    namespace) holds machine_type, wear_coefficient, wear_coefficient_prior_rel_sd and the named live
+    effects, nothing of a machine's identity or geometry, so loaded after a new machine's own file it
+    changes only the prior. Commented with the fit."""
     import yaml
 
-    data: dict = {}
-    if base_params:
-        data = yaml.safe_load(Path(base_params).read_text()) or {}
-    key = next((k for k in data if str(k).rstrip("/").split("/")[-1] == "wear_monitor"), "/**/wear_monitor")
-    section = data.setdefault(key, {}).setdefault("ros__parameters", {})
-    section.update(machine_type=prior["machine_type"], wear_coefficient=float(f"{prior['wear_coefficient']:.6g}"),
-                   wear_coefficient_prior_rel_sd=float(f"{prior['wear_coefficient_prior_rel_sd']:.4g}"),
-                   **live_effect_parameters(prior["effects"]))
+    section = {"machine_type": prior["machine_type"], "wear_coefficient": float(f"{prior['wear_coefficient']:.6g}"),
+               "wear_coefficient_prior_rel_sd": float(f"{prior['wear_coefficient_prior_rel_sd']:.4g}"),
+               **live_effect_parameters(prior["effects"])}
+    data = {PRIOR_SECTION: {"ros__parameters": section}}
     lk = prior["log_k"]
     header = [f"# fleet prior of machine type '{prior['machine_type']}' (guide-health fleet prior): "
               f"{prior['machines']} machines, {prior['bags']} bags",

@@ -1,7 +1,8 @@
 """`guide-health fleet trend`: per machine a CSV of its statuses over time (remaining life, straightness,
 fatigue life used, end-stress ratio, level) and a PNG; for the fleet an overview PNG and ``index.html``, one
-static self-contained page (images embedded as data URIs, no server, no script) with the ranking by latest
-remaining life. The data are fleet_trend.py's, the plots fleet_trend_plots.py's.
+static self-contained page (images and CSV tables embedded as data URIs, no link to a file beside it, no
+server, no script) with the ranking by latest remaining life. The data are fleet_trend.py's, the plots
+fleet_trend_plots.py's.
 """
 from __future__ import annotations
 
@@ -44,8 +45,15 @@ def write_trend_report(db: Path, out: Path, machine: str | None = None, days: fl
                       "machines": files}}
 
 
-def _data_uri(path: Path) -> str:
-    return "data:image/png;base64," + base64.b64encode(path.read_bytes()).decode("ascii")
+def _data_uri(path: Path, media_type: str = "image/png") -> str:
+    """The file's bytes as an RFC 2397 data URI: the page carries it, so it still works mailed alone."""
+    return f"data:{media_type};base64," + base64.b64encode(path.read_bytes()).decode("ascii")
+
+
+def _embedded_csv(path: Path) -> str:
+    """A download link carrying the CSV itself (saved under its own name)."""
+    name = html.escape(path.name)
+    return f"<a download='{name}' href='{_data_uri(path, 'text/csv')}'>{name}</a>"
 
 
 def _fmt(value: float, digits: str = ".1f") -> str:
@@ -73,7 +81,7 @@ def trend_html(db: Path, rows: list[dict], trends: dict[str, MachineTrend], over
                         f"({e(c['message'])})</li>" for c in changes) or "<li>none</li>"
         sections.append(f"<h2 id='m-{e(safe_name(m))}'>{e(m)}</h2><img alt='trend of {e(m)}' "
                         f"src='{_data_uri(Path(files[m]['png']))}'><h3>Level changes</h3><ul>{items}</ul>"
-                        f"<p>Data: <a href='{e(Path(files[m]['csv']).name)}'>{e(Path(files[m]['csv']).name)}</a></p>")
+                        f"<p>Data (embedded): {_embedded_csv(Path(files[m]['csv']))}</p>")
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>Fleet trend: {e(db.name)}</title>
 <style>body{{font-family:sans-serif;margin:1.5em;max-width:1100px}}table{{border-collapse:collapse}}
@@ -85,6 +93,7 @@ img{{max-width:100%;border:1px solid #ccc}}</style></head><body>
 Ranked by the latest remaining precision life (least first).</p>
 <table><tr><th>#</th><th>machine</th><th>level</th><th>remaining life [h]</th><th>straightness [um]</th>
 <th>life used</th><th>end-stress ratio</th><th>level changes</th><th>last seen (UTC)</th></tr>{table}</table>
+<p>Data (embedded): {_embedded_csv(overview.parent / "ranking.csv")}</p>
 <h2>Fleet overview</h2><img alt="fleet overview" src="{_data_uri(overview)}">
 {''.join(sections)}
 </body></html>

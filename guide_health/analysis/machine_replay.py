@@ -93,7 +93,8 @@ def write_machine_outputs(out: Path, models: dict[str, AxisMonitor], report: dic
                 writer.writerow([f"{v:.6f}" for v in row])
         if plot:
             files[f"png_{axis}"] = str(out / f"straightness_{axis}.png")
-            plot_straightness_report(Path(files[f"png_{axis}"]), guide, report["axes"][axis], t_h, measured, fitted)
+            plot_straightness_report(Path(files[f"png_{axis}"]), guide, report["axes"][axis], t_h, measured, fitted,
+                                     name=f"axis {axis} (guide {guide.name})")
     report["files"] = files
     write_text(files["json"], json_text(report, indent=2, default=float) + "\n")
     return files

@@ -11,6 +11,8 @@ import numpy as np
 from guide_health.errors import InputError
 from guide_health.io.outputs.files import save_figure
 
+#: most points of a forecast curve: 60 on the span shown when the band's far end is 300x farther
+FORECAST_POINTS_MAX = 18_000
 #: carriage speeds of the rolling-contact plot [m/s] (log axis)
 PLOT_SPEED_RANGE_M_S = (1e-3, 2.0)
 
@@ -34,22 +36,34 @@ def _save_figure(plt, fig, path) -> None:
         plt.close(fig)
 
 
-def plot_straightness_report(path: Path, monitor, report: dict, t_h, measured, model) -> None:
-    """Measured vs model straightness over time, and the wear profile along the rail (replay)."""
+def plot_straightness_report(path: Path, monitor, report: dict, t_h, measured, model, name: str = "") -> None:
+    """Three panels: the history at its own time scale (measured vs model straightness), the forecast from
+    now to the limit with its 90 % band (forecast_span_h), and the wear profile along the rail (replay).
+    ``name`` (e.g. "axis x (guide front)") leads the title."""
     plt = _pyplot()
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2))
+    fig, (ax1, axf, ax2) = plt.subplots(1, 3, figsize=(15, 4.4))
     ax1.plot(t_h, measured, "o", ms=4, label="measured")
     ax1.plot(t_h, model, "-", label=f"model (K = {report['wear_coefficient']:.3g})")
-    ax1.axhline(report["straightness_limit_um"], color="r", ls="--", label="limit")
-    ax1.set_xlabel("time [h]: calendar since the first sample; forecast: running hours at the current duty")
+    fc = monitor.forecast()
+    if fc and forecast_span_h(fc) < fc["horizon_h"][-1]:          # the same forecast, as fine on the span shown
+        fc = monitor.forecast(points=min(FORECAST_POINTS_MAX, math.ceil(
+            len(fc["horizon_h"]) * fc["horizon_h"][-1] / forecast_span_h(fc))))
+    ax1.set_xlim(0.0, 1.03 * max(float(np.max(t_h, initial=0.0)), fc.get("now_h", 0.0)) or 1.0)
+    ax1.set_xlabel("time [h] (calendar, since the first sample)")
     ax1.set_ylabel("straightness [um]")
-    life = report["remaining_life_h"]
-    ax1.set_title(f"remaining precision life {life:.3g} running h "
-                  f"[{report['remaining_life_h_low']:.3g}, {report['remaining_life_h_high']:.3g}]"
-                  if math.isfinite(life) else "straightness")
-    plot_forecast(ax1, monitor.forecast(), report.get("effects", ""), report)
-    ax1.legend()
+    ax1.set_title("history")
+    ax1.legend(fontsize=8)
     ax1.grid(alpha=0.3)
+    axf.axhline(report["straightness_limit_um"], color="r", ls="--", label="limit")
+    if fc:
+        plot_forecast(axf, fc, report.get("effects", ""), report)
+        axf.set_xlim(fc["now_h"], fc["now_h"] + forecast_span_h(fc))
+        axf.legend(loc="upper left", fontsize=8)
+    else:
+        axf.text(0.5, 0.5, "no finite remaining life: no forecast", transform=axf.transAxes, ha="center")
+    axf.set_xlabel("time [h]: now + running hours at the current duty")
+    axf.set_title("forecast to the limit at the current duty")
+    axf.grid(alpha=0.3)
     u = monitor.geometry.bin_centres_m()
     depth_um = report["wear_coefficient"] * monitor.integrator.profile_depth_per_k_m() * 1e6
     ax2.plot(u * 1e3, -depth_um)
@@ -57,8 +71,33 @@ def plot_straightness_report(path: Path, monitor, report: dict, t_h, measured, m
     ax2.set_ylabel("wear profile [um]")
     ax2.set_title("wear along the rail (profile model)")
     ax2.grid(alpha=0.3)
+    life = report["remaining_life_h"]
+    band = (report["remaining_life_h_low"], report["remaining_life_h_high"])
+    what = f"remaining precision life {life_text(life, *band)}" if math.isfinite(life) else "straightness"
+    fig.suptitle(f"{name}: {what}" if name else what)
     fig.tight_layout()
     _save_figure(plt, fig, path)
+
+
+def hours_text(hours: float) -> str:
+    """Hours to 3 significant digits without an exponent (1980, 11000, 23.4)."""
+    if not math.isfinite(hours):
+        return "never"
+    rounded = float(f"{hours:.3g}")
+    return f"{rounded:.0f}" if abs(rounded) >= 100 else f"{rounded:g}"
+
+
+def life_text(life_h: float, low_h: float, high_h: float) -> str:
+    """A remaining life with its 90 % interval: '1980 h (90 %: 1090-11000 h)'."""
+    band = (f"{hours_text(low_h)}-{hours_text(high_h)} h" if math.isfinite(high_h)
+            else f"over {hours_text(low_h)} h")
+    return f"{hours_text(life_h)} h (90 %: {band})"
+
+
+def forecast_span_h(fc: dict) -> float:
+    """The forecast axis from now [h]: to the band's far end, at most 3x the remaining life, so a slow edge
+    far beyond the point forecast (an uncertain K) does not squeeze it; the band's dates are in the text."""
+    return float(min(fc["horizon_h"][-1], 3.0 * fc["life_h"]))
 
 
 def when_text(now_ns: int, hours: float) -> str:
@@ -72,6 +111,11 @@ def when_text(now_ns: int, hours: float) -> str:
     if now_ns < 1e18:
         return f"t = {t_s / 3600.0:.1f} h"
     return datetime.datetime.fromtimestamp(t_s, datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
+
+
+def _date_text(iso_utc: str) -> str:
+    """'2027-01-05T13:20:00Z' as '2027-01-05 13:20 UTC' ('' as 'never at this duty')."""
+    return f"{iso_utc[:10]} {iso_utc[11:16]} UTC" if iso_utc else "never at this duty"
 
 
 def plot_forecast(ax, fc: dict, effects: str = "", report: dict | None = None) -> None:
@@ -89,13 +133,14 @@ def plot_forecast(ax, fc: dict, effects: str = "", report: dict | None = None) -
     reach = fc["now_h"] + fc["life_h"]
     ax.axvline(reach, color="tab:purple", lw=0.8)
     if report and report.get("limit_date_utc") and fc["now_ns"] >= 1e18:
-        text = (f"limit reached {report['limit_date_utc']} (calendar, utilisation {report['utilisation']:.0%})\n"
-                f"90 %: {report['limit_date_utc_low'] or 'never'} .. {report['limit_date_utc_high'] or 'never'}")
+        low, high = (_date_text(report[k]) for k in ("limit_date_utc_low", "limit_date_utc_high"))
+        text = (f"limit reached {_date_text(report['limit_date_utc'])}\n(calendar at utilisation "
+                f"{report['utilisation']:.0%})\n90 %: {low} .. {high}")
     else:
         text = (f"limit reached {when_text(fc['now_ns'], fc['life_h'])} (running 24/7)\n90 %: "
                 f"{when_text(fc['now_ns'], fc['life_low_h'])} .. {when_text(fc['now_ns'], fc['life_high_h'])}")
-    ax.annotate(text,
-                (reach, fc["limit_um"]), textcoords="offset points", xytext=(-10, -30), ha="right", fontsize=7.5)
+    ax.text(0.98, 0.03, text, transform=ax.transAxes, ha="right", va="bottom", fontsize=7.5,   # inside the frame at any x range
+            bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none"})
 
 
 def plot_slewing_contact_series(path: Path, t_s: np.ndarray, series: np.ndarray, params: dict,
@@ -125,7 +170,9 @@ def plot_rolling_contact_vs_speed(params: Any, report: dict[str, Any], path: str
     plt = _pyplot()
     speeds = np.logspace(math.log10(PLOT_SPEED_RANGE_M_S[0]), math.log10(PLOT_SPEED_RANGE_M_S[1]), 61)
     try:
-        sweep = bc.speed_sweep(params, report["contact_load_n"], speeds)
+        temperature = report["oil_temperature_c"]            # NaN: a constant-viscosity oil
+        sweep = bc.speed_sweep(params, report["contact_load_n"], speeds,
+                               temperature if math.isfinite(temperature) else None)
     except ValueError as exc:
         raise InputError(str(exc).splitlines()[0]) from exc
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.5))
@@ -151,8 +198,10 @@ def plot_rolling_contact_vs_speed(params: Any, report: dict[str, Any], path: str
         ax.set_xlim(*PLOT_SPEED_RANGE_M_S)
         ax.grid(True, which="both", lw=0.3)
         ax.legend(fontsize=8)
+    oil = (f" at {report['oil_temperature_c']:.1f} degC (Walther)" if math.isfinite(report["oil_temperature_c"])
+           else "")
     fig.suptitle(f"ball contact {report['contact_load_n']:.0f} N, p_max {report['p_max_MPa']:.0f} MPa, "
-                 f"eta0 {params.oil_viscosity_pa_s} Pa s, sigma {report['composite_roughness_nm']:.0f} nm")
+                 f"eta0 {report['oil_viscosity_pa_s']:.3g} Pa s{oil}, sigma {report['composite_roughness_nm']:.0f} nm")
     fig.tight_layout()
     _save_figure(plt, fig, path)
 

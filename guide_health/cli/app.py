@@ -32,6 +32,7 @@ COMMANDS: list[tuple[tuple[str, ...], str, str]] = [
     (("fleet", "diagnose"), "fleet:FLEET_DIAGNOSE", "diagnose many bags on Dask: one report each, a fleet table"),
     (("fleet", "prior"), "fleet:FLEET_PRIOR", "K prior of a machine type from its replayed/diagnosed machines"),
     (("fleet", "trend"), "fleet:FLEET_TREND", "per-machine trends and an HTML page from the fleet_monitor history"),
+    (("maintenance",), "maintenance:MAINTENANCE", "enter a maintenance event on a running wear_monitor (rclpy)"),
 ]
 
 

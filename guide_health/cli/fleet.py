@@ -194,7 +194,9 @@ def add_prior_arguments(parser) -> None:
                         help="fleet.json of `fleet replay|diagnose` (or its output directory)")
     parser.add_argument("--machine-type", default=None,
                         help="the machine type (params machine_type; default: the only one in the results)")
-    parser.add_argument("--params", default=None, help="base params file to copy into the output (optional)")
+    parser.add_argument("--params", default=None, metavar="BASE",
+                        help="a new machine's own params file: the prior is checked loaded after it (nothing of "
+                             "it is copied; optional)")
     parser.add_argument("--out", default="fleet_prior.yaml", help="params file to write (default fleet_prior.yaml)")
     parser.add_argument("--min-machines", type=int, default=3, help="fewest machines for a prior (default 3)")
 
@@ -205,12 +207,14 @@ def run_prior(args) -> dict:
 
     if args.min_machines < 2:
         raise InputError("--min-machines must be >= 2")
-    if args.params:
-        wear_monitor_params(args.params)
+    base_type = wear_monitor_params(args.params)["machine_type"] if args.params else ""
     prior = fleet_prior(load_fleet_results(args.results), args.machine_type, args.min_machines)
+    if base_type and base_type != prior["machine_type"]:
+        raise InputError(f"{args.params}: machine_type '{base_type}', but the prior is of machine type "
+                         f"'{prior['machine_type']}' (choose it with --machine-type)")
     out = Path(args.out)
-    write_prior_params(out, prior, args.params)
-    wear_monitor_params(out)                        # the file a wear_monitor will read: checked now
+    write_prior_params(out, prior)
+    wear_monitor_params([args.params, out] if args.params else out)   # as a wear_monitor will read it: now
     write_text(out.with_suffix(".json"), json_text(prior, indent=1) + "\n")
     return {**prior, "files": {"params": str(out), "json": str(out.with_suffix(".json"))}}
 

@@ -33,7 +33,7 @@ from guide_health.models.wear.input_rules import (
     joint_missing,
     rejected_keys,
 )
-from guide_health.models.wear.maintenance import KINDS, MaintenanceEvent
+from guide_health.models.wear.maintenance import KINDS, MaintenanceEvent, stamp_text
 from guide_health.nodes.status import RejectionLog, StatusTask
 
 # status keys (README "Diagnostics"): the first tuple of each task always, 'nan' until known; the rest when known
@@ -50,10 +50,21 @@ EXTRA_PRECISION_KEYS = ("wear_coefficient_low", "wear_coefficient_high", "measur
                         "load_source", "utilisation", "limit_date_utc", "limit_date_utc_low",
                         "limit_date_utc_high", "idle_since_utc")
 TIMING_KEYS = ("load_samples", "callback_time_us", "model_time_us")
-ROLLING_PRECISION_KEYS = ("lambda", "asperity_load_share", "boundary_share_recent", "boundary_share_total",
-                          "oil_viscosity_pa_s", "oil_temperature_c")
+# a sliding guide has no lubrication regime (absent, not nan)
+ROLLING_PRECISION_KEYS = ("lubrication_regime", "lambda", "asperity_load_share", "boundary_share_recent",
+                          "boundary_share_total", "oil_viscosity_pa_s", "oil_temperature_c")
 FATIGUE_KEYS = ("equivalent_load_n", "rating_life_km", "travel_km", "life_used_fraction", "remaining_life_km")
 EXTRA_FATIGUE_KEYS = ("duty_load_n", "carriages", "guide")
+
+
+def event_text(event: MaintenanceEvent) -> str:
+    """'regrind of y front' (the guide when one is named)."""
+    return f"{event.kind} of {event.axis}{' ' + event.guide if event.guide else ''}"
+
+
+def _um(straightness_m: float) -> str:
+    """A straightness entered with a call, in um; 'none' when no value was entered."""
+    return "none" if math.isnan(straightness_m) else f"{straightness_m * 1e6:.2f} um"
 
 
 def stamp_ns(header) -> int | None:
@@ -273,12 +284,21 @@ class AxisChannel:
             t_ns = int(round(values["maintenance_time_s"] * 1e9))
         a = values["maintenance_straightness_m"]
         return MaintenanceEvent(t_ns, kind, self.name, values["maintenance_guide"], a if a > 0 else math.nan,
-                                "service")
+                                "service", values["maintenance_note"])
 
     def on_maintenance_call(self, kind: str, response):
+        """std_srvs/Trigger maintenance/<axis>/<kind>: the event applied (success, the value entered and the
+        model's values after it), or refused with the reason (a repeat: 'already applied at <time>')."""
         event = self.maintenance_event(kind, self.node.maintenance_values())
         if isinstance(event, str):
             response.success, response.message = False, event
+            return response
+        earlier = self.model.repeat_of(event)
+        if earlier is not None:         # the same call again (the node's own stamp when the axis stood still)
+            response.success = False
+            response.message = (f"already applied at {stamp_text(earlier.t_ns)}: {event_text(earlier)}, straightness "
+                                f"entered {_um(earlier.straightness_m)}; nothing applied "
+                                f"(maintenance_repeat_window_s {self.model.params['maintenance_repeat_window_s']:g} s)")
             return response
         reason = self.model.schedule(event)
         if reason is not None:
@@ -287,8 +307,9 @@ class AxisChannel:
         self.node.publish_event(event)
         report = self.model.report()
         response.success = True
-        response.message = (f"{kind} of {self.name}{' ' + event.guide if event.guide else ''} at {event.t_ns} ns: "
-                            f"straightness {report['straightness_um']:.2f} um, K {report['wear_coefficient']:.4g}")
+        response.message = (f"{event_text(event)} at {stamp_text(event.t_ns)}: straightness entered "
+                            f"{_um(event.straightness_m)}, model {report['straightness_um']:.2f} um, "
+                            f"measured {report['straightness_measured_um']:.2f} um, K {report['wear_coefficient']:.4g}")
         self.node.get_logger().info(f"maintenance: {response.message}")
         return response
 

@@ -35,8 +35,8 @@ ACKNOWLEDGE_SERVICE = "~/acknowledge_alarms"          # std_srvs/Trigger
 
 
 def status_name(machine_id: str, node_name: str, task: str) -> str:
-    """"m1/wear_monitor: x precision": the machine first, so that a diagnostic_aggregator analyzer groups a
-    machine with ``startswith: [m1/]`` (config/diagnostic_aggregator.yaml)."""
+    """"m1/wear_monitor: x precision": the machine first, so that one diagnostic_aggregator pattern takes
+    every machine's statuses and keeps them apart, sorted by machine (config/diagnostic_aggregator.yaml)."""
     return f"{machine_id}/{node_name}: {task}"
 
 

@@ -34,8 +34,9 @@ from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
 from guide_health.errors import InputError
-from guide_health.io.bag.maintenance import MAINTENANCE_TOPIC, event_from_status, event_values
+from guide_health.io.bag.maintenance import MAINTENANCE_TOPIC, EventDecodeError, event_from_status, event_values
 from guide_health.io.state_store import StateStore, resolve_state_path, resume_monitor, resume_with
+from guide_health.models.wear.input_rules import INVALID_STAMP, MAINTENANCE_MALFORMED
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.models.wear.state_schema import state_fingerprint
 from guide_health.nodes.axis_channel import (  # noqa: F401 - the status keys are part of this module's API
@@ -193,22 +194,27 @@ class WearMonitorNode(Node):
         self.channels[0].on_straightness(msg)
 
     def _on_events(self, msg: DiagnosticArray) -> None:
+        """Events from maintenance/events: those of this node's axes applied; one that is no event or cannot
+        be applied counted under its reason (``rejected: maintenance event <reason>``) and logged."""
         t_ns = stamp_ns(msg.header)
         for status in msg.status:
             values = {kv.key: kv.value for kv in status.values}
             channel = self.by_axis.get(values.get("axis", ""))
-            if channel is None or t_ns is None:
-                continue          # another node's axis, or no time: not ours
+            if channel is None:
+                continue          # another node's axis: not ours
+            if t_ns is None:
+                channel.rejections.log(channel.model.reject_event(MAINTENANCE_MALFORMED, INVALID_STAMP))
+                continue
             try:
                 event = event_from_status(t_ns, values, status.message)
-            except InputError as exc:
-                channel.rejections.log(str(exc))
+            except EventDecodeError as exc:
+                channel.rejections.log(channel.model.reject_event(exc.reason, exc.details))
                 continue
             channel.on_event(event)
 
     def maintenance_values(self) -> dict:
         """The maintenance_* parameters for a service call, then cleared (each call states its own values)."""
-        names = ("maintenance_guide", "maintenance_straightness_m", "maintenance_time_s")
+        names = ("maintenance_guide", "maintenance_straightness_m", "maintenance_time_s", "maintenance_note")
         values = {name: self.get_parameter(name).value for name in names}
         self.set_parameters([Parameter(name, value=WEAR_MONITOR_SCHEMA[name].default) for name in names])
         return values

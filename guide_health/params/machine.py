@@ -20,7 +20,7 @@ from guide_health.params.schema import NodeSchema, Param, check_unknown_keys, co
 #: wear_monitor parameters that hold for the whole node (not overridable per axis)
 MACHINE_WIDE = ("machine_id", "machine_type", "axes", "joint", "diagnostics_period_s", "input_timeout_s",
                 "checkpoint_period_s", "input_align_window_s", "executor", "state_file", "maintenance_guide",
-                "maintenance_straightness_m", "maintenance_time_s")
+                "maintenance_straightness_m", "maintenance_time_s", "maintenance_note", "maintenance_repeat_window_s")
 #: guide_health_simulation parameters shared by all axes (one JointState carries every joint)
 SIMULATION_WIDE = ("duration_h", "joint_state_rate_hz", "measurement_interval_h")
 
@@ -29,7 +29,7 @@ AXES_PARAM = Param("axes", [], "", "", "joints monitored by this node (e.g. [x, 
                    "nested mapping named after it (docs/machine.md)")
 
 #: the values a maintenance service call takes (set them, then call maintenance/<axis>/<kind>; they are
-#: cleared after each call): docs/machine.md
+#: cleared after each call), and the repeat window of the calls: docs/machine.md
 MAINTENANCE_PARAMS = (
     Param("maintenance_guide", "", "", "", "guide of the next maintenance call ('' = every guide of the axis)",
           dynamic=True),
@@ -39,6 +39,12 @@ MAINTENANCE_PARAMS = (
     Param("maintenance_time_s", 0.0, "s", "[0, 1e10]",
           "time of the next manual measurement [s since the epoch, machine time base]; 0 = the axis's latest "
           "joint_states stamp", dynamic=True),
+    Param("maintenance_note", "", "", "", "free text recorded with the next maintenance call (who, what)",
+          dynamic=True),
+    Param("maintenance_repeat_window_s", 60.0, "s", "[0, 1e7]",
+          "the same maintenance (axis, guide, kind, value) stamped again within this time of an applied one "
+          "is a repeat: refused ('already applied at ...'), never applied twice [s, machine time base]",
+          dynamic=True),
 )
 
 AXIS_PARAMS = (

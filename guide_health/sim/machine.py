@@ -32,7 +32,7 @@ from guide_health.models.wear.effects.registry import (
     CANDIDATE_IDS,
     simulate_field,
 )
-from guide_health.models.wear.maintenance import KINDS, MaintenanceEvent, check_event
+from guide_health.models.wear.maintenance import KINDS, MaintenanceEvent, check_event, straightness_from_text
 from guide_health.params.schema import Param
 from guide_health.params.wear_monitor import WEAR_MONITOR_SCHEMA
 from guide_health.runs import MachineRun
@@ -411,13 +411,10 @@ def _duration_s(item: str, text: str) -> float:
 def _straightness_m(item: str, text: str) -> float:
     if not text:
         return math.nan
-    for suffix, scale in (("um", 1e-6), ("m", 1.0)):
-        if text.endswith(suffix):
-            try:
-                return float(text[:-len(suffix)]) * scale
-            except ValueError:
-                break
-    raise InputError(f"--maintenance {item!r}: value {text!r} needs its unit, e.g. 7.5um")
+    try:
+        return straightness_from_text(text)
+    except InputError as exc:
+        raise InputError(f"--maintenance {item!r}: {exc}") from None
 
 
 def apply_maintenance_truth(run: MachineRun, events: list, params: dict[str, Any]) -> None:

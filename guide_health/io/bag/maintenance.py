@@ -4,8 +4,8 @@ Encoding (docs/machine.md): one DiagnosticArray per event; ``header.stamp`` = wh
 machine's time base (the stamps of joint_states); one DiagnosticStatus with ``level`` OK, ``name``
 "maintenance: <axis>", ``message`` = the kind, ``hardware_id`` = machine_id and the KeyValues ``kind``,
 ``axis``, ``guide`` ('' = every guide of the axis), ``straightness_m`` (the straightness after a regrind or
-rail replacement, or the manual reading; 'nan' = none) and ``source``. A standard type, so any recorder,
-rqt or Foxglove shows it and ``ros2 bag record`` carries it.
+rail replacement, or the manual reading; 'nan' = none), ``source`` and ``note`` (when one was entered). A
+standard type, so any recorder, rqt or Foxglove shows it and ``ros2 bag record`` carries it.
 """
 from __future__ import annotations
 
@@ -13,7 +13,8 @@ import math
 from pathlib import Path
 
 from guide_health.errors import InputError
-from guide_health.models.wear.maintenance import MaintenanceEvent
+from guide_health.models.wear.input_rules import MAINTENANCE_MALFORMED, MAINTENANCE_STRAIGHTNESS_NOT_A_NUMBER
+from guide_health.models.wear.maintenance import MaintenanceEvent, clip
 
 from .interfaces import topic_name
 from .storage import open_storage
@@ -26,18 +27,30 @@ DIAGNOSTIC_ARRAY = "diagnostic_msgs/msg/DiagnosticArray"
 def event_values(event: MaintenanceEvent) -> list[tuple[str, str]]:
     """The KeyValues of an event's DiagnosticStatus."""
     a = event.straightness_m
-    return [("kind", event.kind), ("axis", event.axis), ("guide", event.guide),
-            ("straightness_m", "nan" if math.isnan(a) else repr(float(a))), ("source", event.source)]
+    values = [("kind", event.kind), ("axis", event.axis), ("guide", event.guide),
+              ("straightness_m", "nan" if math.isnan(a) else repr(float(a))), ("source", event.source)]
+    return values + [("note", event.note)] if event.note else values
+
+
+class EventDecodeError(InputError):
+    """A DiagnosticStatus on maintenance/events that is no event: ``reason`` is its input_rules reason."""
+
+    def __init__(self, reason: str, details: str):
+        super().__init__(f"{reason}: {details}")
+        self.reason, self.details = reason, details
 
 
 def event_from_status(t_ns: int, values: dict[str, str], message: str = "") -> MaintenanceEvent:
-    """The event of one DiagnosticStatus (values: its KeyValues); InputError when it is not one."""
+    """The event of one DiagnosticStatus (values: its KeyValues); EventDecodeError when it is not one."""
+    if "axis" not in values:
+        raise EventDecodeError(MAINTENANCE_MALFORMED, "no axis")
+    text = values.get("straightness_m", "nan")
     try:
-        kind = values.get("kind", message)
-        return MaintenanceEvent(int(t_ns), kind, values["axis"], values.get("guide", ""),
-                                float(values.get("straightness_m", "nan")), values.get("source", "") or "topic")
-    except (KeyError, ValueError) as exc:
-        raise InputError(f"maintenance event without a valid {exc}") from None
+        straightness_m = float(text)
+    except ValueError:
+        raise EventDecodeError(MAINTENANCE_STRAIGHTNESS_NOT_A_NUMBER, f"straightness_m {clip(text)}") from None
+    return MaintenanceEvent(int(t_ns), values.get("kind", message), values["axis"], values.get("guide", ""),
+                            straightness_m, values.get("source", "") or "topic", values.get("note", ""))
 
 
 def encode_events(events: list[MaintenanceEvent], machine_id: str) -> list[bytes]:

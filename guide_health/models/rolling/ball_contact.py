@@ -284,9 +284,13 @@ def rolling_contact_report(params: Any, load_n: float | None, speed_m_s: float,
     }
 
 
-def speed_sweep(params: Any, load_n: float | None, speeds_m_s: np.ndarray) -> dict[str, np.ndarray]:
-    """Film, lambda and JGP shares over carriage speeds [m/s] at one ball load (for plots and checks)."""
+def speed_sweep(params: Any, load_n: float | None, speeds_m_s: np.ndarray,
+                temperature_c: float | None = None) -> dict[str, np.ndarray]:
+    """Film, lambda and JGP shares over carriage speeds [m/s] at one ball load (for plots and checks);
+    ``temperature_c``: oil temperature of a catalogue oil, default ``oil_temperature_c`` (as the report)."""
     guide = RollingGuideContact.from_params(params)
+    if temperature_c is not None:
+        guide = guide.at_temperature(float(temperature_c))
     load = guide.preload_per_ball_n if load_n is None else float(load_n)
     contact = guide.hertz(load)
     out = {k: np.empty(len(speeds_m_s)) for k in ("film_central_m", "film_min_m", "lambda", "asperity_load_share",

@@ -129,12 +129,17 @@ class LifeTestSigns:
     def level(self) -> tuple[Level, str]:
         """(level, message): ERROR on the seed's end-of-test pattern, WARN on a sustained abnormal band or a
         noise rise, OK otherwise."""
-        if self.failure_travel_m is not None and self.noise.drop_travel_m is not None:
-            return ERROR, "end of test: abnormal band and noise drop after its rise (carriage loosened)"
+        b, n = self.bands, self.noise
+        band_rule = (f"band z > z_threshold {b.threshold:.2f} in {b.persist_k} of {b.persist_n} blocks "
+                     f"from {self.failure_travel_m / 1e3:.1f} km" if self.failure_travel_m is not None else "")
+        if self.failure_travel_m is not None and n.drop_travel_m is not None:
+            return ERROR, (f"end of test: abnormal band ({band_rule}) and noise drop > drop_db {n.drop_db:g} dB "
+                           f"after its rise (carriage loosened)")
         if self.failure_travel_m is not None:
-            return WARN, f"sustained abnormal vibration band from {self.failure_travel_m / 1e3:.1f} km"
-        if self.noise.rise_travel_m is not None:
-            return WARN, f"noise rise from {self.noise.rise_travel_m / 1e3:.1f} km"
+            return WARN, f"sustained abnormal vibration band: {band_rule}"
+        if n.rise_travel_m is not None:
+            return WARN, (f"noise rise from {n.rise_travel_m / 1e3:.1f} km: CUSUM above the running-in level > "
+                          f"rise_cusum_db {n.rise_cusum_db:g} dB")
         return OK, "no failure sign"
 
     def summary(self) -> dict:

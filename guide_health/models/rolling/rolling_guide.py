@@ -177,8 +177,8 @@ class RollingGuideMonitor:
         share = self.boundary_share
         limit = self.params.boundary_share_warn
         if math.isfinite(share) and share > limit:
-            return WARN, (f"{share:.0%} of the recent travel in boundary lubrication (> {limit:.0%}): "
-                          f"too slow or too little oil for a film")
+            return WARN, (f"{share:.0%} of the recent travel in boundary lubrication > boundary_share_warn "
+                          f"{limit:.0%}: too slow or too little oil for a film")
         return OK, f"lubrication {self.last_regime}"
 
     def fatigue_report(self) -> dict[str, Any]:
@@ -194,9 +194,10 @@ class RollingGuideMonitor:
         if not math.isfinite(used):
             level, message = OK, "no travel yet"
         elif used >= p.life_used_error:
-            level, message = ERROR, f"rating life used up: {used:.0%} of {values['rating_life_km']:.0f} km"
+            level, message = ERROR, (f"rating life used up: {used:.0%} of {values['rating_life_km']:.0f} km >= "
+                                     f"life_used_error {p.life_used_error:.0%}")
         elif used >= p.life_used_warn:
-            level, message = WARN, f"{used:.0%} of the rating life used"
+            level, message = WARN, f"{used:.0%} of the rating life used >= life_used_warn {p.life_used_warn:.0%}"
         else:
             level = OK
             remaining = values["remaining_life_km"]

@@ -45,14 +45,19 @@ def contact_level(p_max_pa: float, allowable_pa: float, warn_fraction: float, ma
     return WARN if exceeds(p_max_pa, warn_fraction * allowable_pa, margin) else OK
 
 
-def _level_message(level: Level, p_max_mpa: float, position_mm: float, allowable_mpa: float) -> str:
+def _level_message(level: Level, p_max_mpa: float, position_mm: float, allowable_mpa: float,
+                   warn_fraction: float) -> str:
+    """The status sentence; WARN and ERROR name the rule and its threshold."""
     if p_max_mpa <= 0:
         return "no roller loaded"
     share = 100.0 * p_max_mpa / allowable_mpa
     where = "at the roller end" if position_mm > 0 else "at the roller centre"
+    rule = {OK: "", WARN: f" > warn_fraction {warn_fraction:g} x allowable_contact_stress_pa = "
+                          f"{warn_fraction * allowable_mpa:.0f} MPa",
+            ERROR: f" > allowable_contact_stress_pa {allowable_mpa:.0f} MPa"}[level]
     word = {OK: "contact pressure OK", WARN: "contact pressure near the allowable",
             ERROR: "contact pressure above the allowable"}[level]
-    return f"{word}: {p_max_mpa:.0f} MPa {where} ({share:.0f} % of {allowable_mpa:.0f} MPa)"
+    return f"{word}: {p_max_mpa:.0f} MPa {where}{rule} ({share:.0f} % of {allowable_mpa:.0f} MPa)"
 
 
 def _assemble(scalars: FiniteRollerScalars | None, maxima: McEwenMaxima, half_length_m: float,
@@ -111,7 +116,7 @@ def _assemble(scalars: FiniteRollerScalars | None, maxima: McEwenMaxima, half_le
         "line_load_end_n_per_mm": scalars.end_line_load_n_m * 1e-3,
         "allowable_MPa": allowable_mpa,
         "level": level,
-        "message": _level_message(level, p_max_mpa, position_mm, allowable_mpa),
+        "message": _level_message(level, p_max_mpa, position_mm, allowable_mpa, warn_fraction),
         "stress_model": "seed003",
     }
 
@@ -147,7 +152,8 @@ def _numerical_report(params: Any, load_n: float, pressures: dict | None = None)
         subsurface_model="mcewen_on_p_max",
         allowable_MPa=allowable * 1e-6,
         level=level,
-        message=_level_message(level, p_max_mpa, float(report.get("p_max_position_mm", 0.0)), allowable * 1e-6),
+        message=_level_message(level, p_max_mpa, float(report.get("p_max_position_mm", 0.0)), allowable * 1e-6,
+                               float(params.warn_fraction)),
         stress_model="numerical",
     )
     return report

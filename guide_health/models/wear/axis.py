@@ -24,7 +24,12 @@ import numpy as np
 
 from guide_health.models.wear.gate import InputGate
 from guide_health.models.wear.guide import GuideWear
-from guide_health.models.wear.input_rules import STRAIGHTNESS_WITHOUT_TIME_BASE, InputLimits, rejected_key
+from guide_health.models.wear.input_rules import (
+    MAINTENANCE_REPEATED,
+    STRAIGHTNESS_WITHOUT_TIME_BASE,
+    InputLimits,
+    rejected_key,
+)
 from guide_health.models.wear.life import (
     ForecastNow,
     LifeNow,
@@ -42,14 +47,16 @@ from guide_health.models.wear.maintenance import (
     apply_baseline,
     apply_event,
     baseline,
-    check_event,
+    event_rejection,
+    repeat_of,
+    stamp_text,
 )
 from guide_health.models.wear.running_time import limit_dates, utc_text
 
 #: the keys every `<axis> precision` status carries ('nan' until known; README "Diagnostics")
 PRECISION_KEYS = ("straightness_um", "straightness_measured_um", "straightness_limit_um", "remaining_life_h",
                   "remaining_life_h_low", "remaining_life_h_high", "wear_volume_mm3", "sliding_distance_m",
-                  "wear_coefficient", "lubrication_regime")
+                  "wear_coefficient")
 
 
 class AxisMonitor:
@@ -76,17 +83,30 @@ class AxisMonitor:
     def schedule(self, event: MaintenanceEvent) -> str | None:
         """Take a maintenance event: applied now when stamped at or before the present (the last joint
         sample), else when the first joint sample stamped after it arrives (live and offline alike).
-        Returns a rejection reason (the event is not applied), or None (applied, pending or a repeat)."""
-        reason = check_event(event, list(self.guides), self.params["straightness_limit_m"])
-        if reason is not None:
-            return self.reject(f"maintenance event: {reason}")
+        Returns a rejection reason (the event is not applied; counted under its input_rules reason), or None
+        (applied, pending, or the same event seen again: the node's own event back from the topic)."""
+        rejection = event_rejection(event, list(self.guides), self.params["straightness_limit_m"])
+        if rejection is not None:
+            return self.reject_event(*rejection)
         if any(e.key == event.key for e in self.events + self.pending):
-            return None                      # seen before (the node's own event back from the topic)
+            return None
+        earlier = self.repeat_of(event)
+        if earlier is not None:
+            return self.reject_event(MAINTENANCE_REPEATED, f"already applied at {stamp_text(earlier.t_ns)}")
         if self.last_t_ns is not None and event.t_ns <= self.last_t_ns:
             return self._apply(event)
         self.pending.append(event)
         self.pending.sort(key=lambda e: e.t_ns)
         return None
+
+    def repeat_of(self, event: MaintenanceEvent) -> MaintenanceEvent | None:
+        """The applied or pending event that ``event`` repeats within maintenance_repeat_window_s, or None."""
+        return repeat_of(event, self.events + self.pending, self.params["maintenance_repeat_window_s"])
+
+    def reject_event(self, reason: str, details: str) -> str:
+        """Count a maintenance event not applied under ``reason``; returns the reason with the details."""
+        self.reject(reason)
+        return f"{reason}: {details}"
 
     def _apply(self, event: MaintenanceEvent) -> str | None:
         names = [name for name in self.guides if event.guide in ("", name)]
@@ -98,6 +118,8 @@ class AxisMonitor:
                 apply_event(self.guides[name], event)
                 if event.kind in RESETS_WEAR:
                     self.baselines[name] = baseline(self.guides[name])
+                    if math.isfinite(event.straightness_m):     # the value measured after it
+                        self.baselines[name]["straightness_measured_m"] = float(event.straightness_m)
         self.events.append(event)
         return reason
 
@@ -109,6 +131,11 @@ class AxisMonitor:
             if reason:
                 reasons.append(reason)
         return reasons
+
+    def measured_after_reset(self, name: str) -> float:
+        """The straightness [m] entered with guide ``name``'s last regrind or rail replacement (NaN: none):
+        its measured straightness until the next measurement."""
+        return float(self.baselines.get(name, {}).get("straightness_measured_m", math.nan))
 
     def maintenance_state(self) -> dict:
         return {"events": [e.as_dict() for e in self.events], "pending": [e.as_dict() for e in self.pending],
@@ -327,7 +354,7 @@ class AxisMonitor:
         limit = p["straightness_limit_m"]
         straightness = guide.straightness_m(k, loss_per_k) if math.isfinite(loss_per_k) else math.nan
         l_min, l_max = guide.integrator.stroke_range_m()
-        measured = guide.estimator.measurement_m[-1] if guide.estimator.count else math.nan
+        measured = guide.estimator.measurement_m[-1] if guide.estimator.count else self.measured_after_reset(name)
         share, stream, reason = gate.recent_rejected_share()
         result = {
             "straightness_um": straightness * 1e6,

@@ -30,6 +30,8 @@ W_INDEX, A0_INDEX, B_INDEX = (PHI_INDEX[n] for n in ("stroke_distribution_weight
                                                      "lubrication_wear_growth"))
 B_RATE_INDEX = RATE_NAMES.index("lubrication_wear_growth")
 R_INDEX, S0_INDEX = PHI_INDEX["running_in_ratio"], PHI_INDEX["running_in_distance_m"]
+#: ln of the largest float: exp() of more than this overflows
+_LN_FLOAT_MAX = math.log(np.finfo(float).max)
 
 
 def covariance_problem(values) -> str:
@@ -244,9 +246,13 @@ def life_interval_s(k: float, k_sd: float, e: EffectParameters, now: EffectLifeN
         return float(centre), 0.0, math.inf
     var = float(grad @ cov @ grad)
     if k_sd > 0:
-        var += (dln(1e-2 * k_sd, None) * k_sd) ** 2
-    sd = math.sqrt(max(var, 0.0))
-    return float(centre), float(centre * math.exp(-z * sd)), float(centre * math.exp(z * sd))
+        term = dln(1e-2 * k_sd, None) * k_sd
+        var += term * term      # a product overflows to inf, a float ** 2 would raise
+    spread = z * math.sqrt(max(var, 0.0))
+    if not spread < _LN_FLOAT_MAX:
+        # ln(life) spread beyond what a float holds (or NaN): the interval is (0, inf), never an OverflowError
+        return float(centre), 0.0, math.inf
+    return float(centre), float(centre * math.exp(-spread)), float(centre * math.exp(spread))
 
 
 def lubrication_schedule(e: EffectParameters, wear: EffectWear, now_ns: int | None, dln_b: float) -> dict | None:

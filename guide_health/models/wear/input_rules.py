@@ -75,6 +75,16 @@ STRAIGHTNESS_WITHOUT_TIME_BASE = "straightness before any joint_states (no time 
 STRAIGHTNESS_WITHOUT_TEMPERATURE = "straightness before any guide/temperature (thermal_drift correction)"
 TEMPERATURE_IMPLAUSIBLE = "guide temperature non-finite or outside -100..500 degC"
 INVALID_STAMP = "invalid header stamp (nanosec >= 1e9)"
+# maintenance events (models/wear/maintenance.py): an event not applied, counted under
+# "rejected: maintenance event <reason>" (the service's reply and the log add the details)
+MAINTENANCE_UNKNOWN_KIND = "maintenance event unknown kind"
+MAINTENANCE_UNKNOWN_GUIDE = "maintenance event unknown guide"
+MAINTENANCE_STRAIGHTNESS_NOT_A_NUMBER = "maintenance event straightness not a number"
+MAINTENANCE_STRAIGHTNESS_IMPLAUSIBLE = "maintenance event straightness not plausible"
+MAINTENANCE_STRAIGHTNESS_NOT_BELOW_LIMIT = "maintenance event straightness not below the limit"
+MAINTENANCE_MEASURE_WITHOUT_VALUE = "maintenance event measure without a value"
+MAINTENANCE_MALFORMED = "maintenance event malformed"
+MAINTENANCE_REPEATED = "maintenance event repeated within maintenance_repeat_window_s"
 
 # sample reasons by code (0 = accepted): the per-sample form of the vectorised rules
 REASON_CODES = (None, NON_FINITE_JOINT, POSITION_OUT_OF_TRAVEL, JOINT_TIME_BACKWARDS, JOINT_STAMP_JUMP,
@@ -85,6 +95,9 @@ CODE_OF_REASON = {reason: code for code, reason in enumerate(REASON_CODES)}
 MESSAGE_REASONS = (MALFORMED_JOINT_STATES, MALFORMED_LOAD, EMPTY_JOINT_STATES, JOINT_POSITION_MISSING,
                    STRAIGHTNESS_WITHOUT_TIME_BASE, INVALID_STAMP, STRAIGHTNESS_WITHOUT_TEMPERATURE,
                    TEMPERATURE_IMPLAUSIBLE)
+MAINTENANCE_REASONS = (MAINTENANCE_UNKNOWN_KIND, MAINTENANCE_UNKNOWN_GUIDE, MAINTENANCE_STRAIGHTNESS_NOT_A_NUMBER,
+                       MAINTENANCE_STRAIGHTNESS_IMPLAUSIBLE, MAINTENANCE_STRAIGHTNESS_NOT_BELOW_LIMIT,
+                       MAINTENANCE_MEASURE_WITHOUT_VALUE, MAINTENANCE_MALFORMED, MAINTENANCE_REPEATED)
 NS_PER_S = 1_000_000_000
 
 
@@ -100,7 +113,8 @@ def rejected_key(reason: str) -> str:
 
 def rejected_keys(joint: str) -> tuple[str, ...]:
     """The status keys of every rejection reason a wear_monitor of ``joint`` can count."""
-    return tuple(rejected_key(r) for r in REASON_CODES[1:] + MESSAGE_REASONS + (joint_missing(joint),))
+    return tuple(rejected_key(r) for r in REASON_CODES[1:] + MESSAGE_REASONS + MAINTENANCE_REASONS
+                 + (joint_missing(joint),))
 
 
 def header_stamp_ns(sec: int, nanosec: int) -> int | None:

@@ -132,24 +132,35 @@ class RecentInputs:
 
 def judge_precision(now: PrecisionNow, th: Thresholds, margin: float = 0.0) -> tuple[Level, str]:
     """The precision level at the thresholds, or with each moved by ``margin`` towards the good side (the
-    clearing test of the alarm hysteresis, guide_health.models.levels)."""
+    clearing test of the alarm hysteresis, guide_health.models.levels). A WARN or ERROR message names each
+    rule that fired with its value and threshold (``remaining precision life 23 h < life_error_h 50 h``)."""
     a, limit, life = now.straightness_um, now.straightness_limit_um, now.remaining_life_h
     if math.isnan(a):
         if now.samples == 0:
             return Level.WARN, f"no wear estimate yet: no joint_states sample of joint '{now.joint}' accepted"
         return Level.WARN, "no wear estimate yet (waiting for motion and load)"
-    level = Level.OK
     if exceeds(a, limit, margin, inclusive=True):
-        return Level.ERROR, f"straightness {a:.1f} um exceeds the limit {limit:.1f} um: precision lost"
+        return Level.ERROR, (f"straightness {a:.1f} um exceeds the limit (>= straightness_limit_m "
+                             f"{limit:.1f} um): precision lost")
+    fired = []                         # (level, rule) of each threshold crossed
     if falls_below(life, th.life_error_h, margin):
-        level = Level.ERROR
-    elif falls_below(life, th.life_warn_h, margin) or exceeds(a, th.straightness_warn_fraction * limit, margin):
-        level = Level.WARN
+        fired.append((Level.ERROR, f"remaining precision life {life:.0f} h < life_error_h {th.life_error_h:g} h"))
+    elif falls_below(life, th.life_warn_h, margin):
+        fired.append((Level.WARN, f"remaining precision life {life:.0f} h < life_warn_h {th.life_warn_h:g} h"))
+    warn_um = th.straightness_warn_fraction * limit
+    if exceeds(a, warn_um, margin):
+        fired.append((Level.WARN, f"straightness {a:.1f} um > straightness_warn_fraction "
+                                  f"{th.straightness_warn_fraction:g} x limit {limit:g} um = {warn_um:.1f} um"))
     if math.isfinite(life):
         text = f"remaining precision life {life:.0f} h at current duty (straightness {a:.1f} of {limit:.0f} um)"
     else:
         text = f"no wear at current duty (straightness {a:.1f} of {limit:.0f} um)"
-    return level, text
+    if not fired:
+        return Level.OK, text
+    rules = "; ".join(rule for _, rule in fired)
+    if "life" in fired[0][1]:          # the life rule says the life: the rest is the straightness
+        return max(level for level, _ in fired), f"{rules} at current duty (straightness {a:.1f} of {limit:.0f} um)"
+    return max(level for level, _ in fired), f"{rules}; {text}"
 
 
 def judge_inputs(level: Level, text: str, recent: RecentInputs, th: Thresholds) -> tuple[Level, str]:
@@ -157,7 +168,8 @@ def judge_inputs(level: Level, text: str, recent: RecentInputs, th: Thresholds) 
     if recent.share <= th.rejected_share_warn:
         return level, text
     return max(level, Level.WARN), (f"{recent.share:.0%} of the last {recent.window} {recent.stream} samples "
-                                    f"rejected ({recent.reason}); {text}")
+                                    f"rejected ({recent.reason}) > rejected_share_warn "
+                                    f"{th.rejected_share_warn:.0%}; {text}")
 
 
 def judge(now: PrecisionNow, recent: RecentInputs, th: Thresholds) -> tuple[Level, str, Level]:

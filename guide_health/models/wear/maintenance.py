@@ -26,16 +26,28 @@ axis, or the one it names):
   straightness topic (it updates K), dated by the event's stamp.
 
 An event is identified by (stamp, kind, axis, guide): the same event seen twice (the node's own event
-coming back on the topic, a replayed bag) is applied once.
+coming back on the topic, a replayed bag) is applied once. The same action (axis, guide, kind and value)
+stamped again within ``maintenance_repeat_window_s`` of an applied or pending one is a repeat (a second
+click, a retried script): refused, never applied twice. An event that cannot be applied is counted under one
+reason of models/wear/input_rules.py (``rejected: maintenance event <reason>``).
 """
 from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
+from datetime import UTC, datetime
 
 import numpy as np
 
+from guide_health.errors import InputError
 from guide_health.models.wear.calibration import WearCoefficientEstimator
+from guide_health.models.wear.input_rules import (
+    MAINTENANCE_MEASURE_WITHOUT_VALUE,
+    MAINTENANCE_STRAIGHTNESS_IMPLAUSIBLE,
+    MAINTENANCE_STRAIGHTNESS_NOT_BELOW_LIMIT,
+    MAINTENANCE_UNKNOWN_GUIDE,
+    MAINTENANCE_UNKNOWN_KIND,
+)
 
 KINDS = ("regrind", "replace_rail", "replace_carriage", "relubricate", "measure")
 #: kinds whose ``straightness_m`` is the straightness after the event (NaN: A0)
@@ -51,6 +63,7 @@ class MaintenanceEvent:
     guide: str = ""                 # '' = every guide of the axis
     straightness_m: float = math.nan  # after a regrind/rail replacement, or the manual reading (measure)
     source: str = ""                # e.g. service, topic, simulate
+    note: str = ""                  # free text entered with it (who, what)
 
     @property
     def key(self) -> tuple:
@@ -60,12 +73,35 @@ class MaintenanceEvent:
         d = asdict(self)
         d["straightness_um"] = self.straightness_m * 1e6
         del d["straightness_m"]
+        if not self.note:
+            del d["note"]
         return d
 
     @classmethod
     def from_dict(cls, d: dict) -> MaintenanceEvent:
         return cls(int(d["t_ns"]), str(d["kind"]), str(d["axis"]), str(d.get("guide", "")),
-                   float(d.get("straightness_um", math.nan)) * 1e-6, str(d.get("source", "")))
+                   float(d.get("straightness_um", math.nan)) * 1e-6, str(d.get("source", "")), str(d.get("note", "")))
+
+
+#: the length units a straightness is entered in (longest suffix first: 'mm' before 'm')
+LENGTH_UNITS_M = (("um", 1e-6), ("\u00b5m", 1e-6), ("mm", 1e-3), ("m", 1.0))
+
+
+def straightness_from_text(text: str) -> float:
+    """A straightness entered with its unit (``4um``, ``4 um``, ``4e-6m``, ``0.004mm``) in m; InputError (one
+    line) for a missing or unknown unit, a value that is not a finite number >= 0."""
+    body = str(text).strip()
+    for suffix, scale in LENGTH_UNITS_M:
+        if body.endswith(suffix):
+            number = body[:-len(suffix)].strip()
+            try:
+                value = float(number) * scale
+            except ValueError:
+                break
+            if not (math.isfinite(value) and value >= 0.0):
+                raise InputError(f"straightness {clip(text)} must be a finite number >= 0 with its unit")
+            return value
+    raise InputError(f"straightness {clip(text)} needs a number and its unit (um, mm or m), e.g. 4um")
 
 
 def relubrication_times_s(events, axis: str, t0_ns: int) -> np.ndarray | None:
@@ -75,20 +111,61 @@ def relubrication_times_s(events, axis: str, t0_ns: int) -> np.ndarray | None:
     return np.asarray(times, dtype=float) if times else None
 
 
-def check_event(event: MaintenanceEvent, guides, straightness_limit_m: float) -> str | None:
-    """Why ``event`` cannot be applied to an axis with ``guides``, or None."""
+def event_rejection(event: MaintenanceEvent, guides, straightness_limit_m: float) -> tuple[str, str] | None:
+    """(the counted reason, input_rules.MAINTENANCE_*, and the details) why ``event`` cannot be applied to an
+    axis with ``guides``, or None."""
     if event.kind not in KINDS:
-        return f"unknown maintenance kind {event.kind!r} (one of {', '.join(KINDS)})"
+        return MAINTENANCE_UNKNOWN_KIND, f"unknown maintenance kind {clip(event.kind)} (one of {', '.join(KINDS)})"
     if event.guide and event.guide not in guides:
-        return f"axis {event.axis} has no guide {event.guide!r} (guides: {', '.join(guides)})"
+        return MAINTENANCE_UNKNOWN_GUIDE, (f"axis {event.axis} has no guide {clip(event.guide)} "
+                                           f"(guides: {', '.join(guides)})")
     a = event.straightness_m
-    if event.kind == "measure" and not math.isfinite(a):
-        return "a straightness measurement needs its value"
+    if event.kind == "measure" and math.isnan(a):
+        return MAINTENANCE_MEASURE_WITHOUT_VALUE, "a straightness measurement needs its value"
     if not math.isnan(a) and not (math.isfinite(a) and 0.0 <= a < 10.0 * straightness_limit_m):
-        return f"straightness {a!r} m is not a plausible measurement"
+        return MAINTENANCE_STRAIGHTNESS_IMPLAUSIBLE, (f"straightness {a!r} m is not a plausible measurement "
+                                                      f"(0 to 10 x straightness_limit_m)")
     if event.kind in RESETS_WEAR and not math.isnan(a) and not a < straightness_limit_m:
-        return f"straightness after {event.kind} {a * 1e6:.1f} um is not below the limit"
+        return MAINTENANCE_STRAIGHTNESS_NOT_BELOW_LIMIT, (f"straightness after {event.kind} {a * 1e6:.1f} um is "
+                                                          f"not below the limit {straightness_limit_m * 1e6:g} um")
     return None
+
+
+def check_event(event: MaintenanceEvent, guides, straightness_limit_m: float) -> str | None:
+    """Why ``event`` cannot be applied to an axis with ``guides`` (:func:`event_rejection`'s details), or None."""
+    rejection = event_rejection(event, guides, straightness_limit_m)
+    return None if rejection is None else rejection[1]
+
+
+def clip(value, chars: int = 40) -> str:
+    """A value from outside quoted for a message, at most ``chars`` characters of it."""
+    text = repr(value)
+    return text if len(text) <= chars else text[:chars] + "...'"
+
+
+def same_action(a: MaintenanceEvent, b: MaintenanceEvent) -> bool:
+    """The same maintenance: axis, guide, kind and value (NaN = no value equals NaN)."""
+    if (a.axis, a.guide, a.kind) != (b.axis, b.guide, b.kind):
+        return False
+    x, y = a.straightness_m, b.straightness_m
+    return (math.isnan(x) and math.isnan(y)) or x == y
+
+
+def repeat_of(event: MaintenanceEvent, seen, window_s: float) -> MaintenanceEvent | None:
+    """The event of ``seen`` that ``event`` repeats: the same action (:func:`same_action`) stamped within
+    ``window_s`` of it (machine time base, so live and offline agree), else None. A second call of the same
+    regrind or measurement (a double click, a retried script) is then refused instead of applied twice."""
+    window_ns = window_s * 1e9
+    for earlier in reversed(list(seen)):
+        if same_action(event, earlier) and abs(int(event.t_ns) - int(earlier.t_ns)) <= window_ns:
+            return earlier
+    return None
+
+
+def stamp_text(t_ns: int) -> str:
+    """A machine stamp [ns since the epoch] as UTC date and time, with the stamp itself."""
+    when = datetime.fromtimestamp(int(t_ns) // 1_000_000_000, tz=UTC)
+    return f"{when:%Y-%m-%d %H:%M:%S} UTC ({int(t_ns)} ns)"
 
 
 def baseline(monitor) -> dict:
@@ -98,9 +175,13 @@ def baseline(monitor) -> dict:
             "wear_coefficient_prior_rel_sd": est.prior_rel_sd}
 
 
+#: the parameters a wear reset changes (:func:`baseline`)
+BASELINE_KEYS = ("straightness_initial_m", "wear_coefficient", "wear_coefficient_prior_rel_sd")
+
+
 def apply_baseline(monitor, values: dict) -> None:
     """Re-apply a :func:`baseline` (a restored monitor takes its prior and A0 from the parameters)."""
-    monitor.params.update(values)
+    monitor.params.update({key: values[key] for key in BASELINE_KEYS})
     est = monitor.estimator
     est.straightness_initial_m = float(values["straightness_initial_m"])
     est.prior_wear_coefficient = float(values["wear_coefficient"])
