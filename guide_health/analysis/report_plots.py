@@ -139,7 +139,7 @@ def plot_forecast(ax, fc: dict, effects: str = "", report: dict | None = None) -
     else:
         text = (f"limit reached {when_text(fc['now_ns'], fc['life_h'])} (running 24/7)\n90 %: "
                 f"{when_text(fc['now_ns'], fc['life_low_h'])} .. {when_text(fc['now_ns'], fc['life_high_h'])}")
-    ax.text(0.98, 0.03, text, transform=ax.transAxes, ha="right", va="bottom", fontsize=7.5,   # inside the frame at any x range
+    ax.text(0.98, 0.03, text, transform=ax.transAxes, ha="right", va="bottom", fontsize=7.5,   # inside the frame
             bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none"})
 
 
