@@ -18,13 +18,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from mcap import writer as mcap_writer
 
 from guide_health.analysis.replay import analyse_bag
 from guide_health.errors import InputError
 from guide_health.io.bag.info import bag_info
 from guide_health.params import wear_monitor_params
-
-mcap_writer = pytest.importorskip("mcap.writer")
 
 ROOT = Path(__file__).resolve().parents[1]
 PARAMS = ROOT / "config" / "bench_000.yaml"
