@@ -148,14 +148,12 @@ class McapStorage:
         """Groups of packed batches, exactly `chunk_messages` messages a group (the last may have fewer), of
         `connections` in log-time order from `start_ns` on (None: all). After the last group the messages read
         are checked against the counts: InputError (as for every read error) when they differ."""
-        ids = {c.id for c in connections}
-        wanted = {key: conn for key, conn in self._conn_of.items() if conn in ids}
-        return self._iter_groups(wanted, max(1, int(chunk_messages)), start_ns)
+        return self._packed_groups(connections, chunk_messages, start_ns)
 
     def iter_batches(self, connections: Collection[BagConnection], chunk_messages: int,
                      start_ns: int | None = None) -> Iterator[RawBatch]:
         """The same messages as RawBatch columns (one bytes object per message)."""
-        for group in self.iter_packed(connections, chunk_messages, start_ns):
+        for group in self._packed_groups(connections, chunk_messages, start_ns):
             ids = np.concatenate([b.connection_ids for b in group])
             times = tuple(np.concatenate([b.log_time_ns for b in group]).tolist())
             data = []
@@ -163,6 +161,12 @@ class McapStorage:
                 view = memoryview(b.buf)
                 data.extend(view[o:o + n].tobytes() for o, n in zip(b.offsets.tolist(), b.lengths.tolist()))
             yield RawBatch(ids, times, tuple(data))
+
+    def _packed_groups(self, connections: Collection[BagConnection], chunk_messages: int,
+                       start_ns: int | None) -> Iterator[list[PackedBatch]]:
+        ids = {c.id for c in connections}
+        wanted = {key: conn for key, conn in self._conn_of.items() if conn in ids}
+        return self._iter_groups(wanted, max(1, int(chunk_messages)), start_ns)
 
     def _clusters(self, wanted: dict, start_ns: int | None) -> Iterator[list[Segment]]:
         """The segments that may hold wanted messages, in groups of consecutive segments whose log time
