@@ -174,8 +174,8 @@ MUTATIONS: tuple[Mutation, ...] = (
       "a resumed read skips the messages at its start stamp"),
     M("io_storage", "        if count < chunk_messages:\n            return", "        if count <= chunk_messages:\n"
       "            return", "reading stops after the first full batch"),
-    M("io_mcap_chunks", "                if group and seg.start_ns < group_end:",
-      "                if group and False:", "overlapping mcap chunks read in file order (log times out of order)"),
+    M("io_mcap_chunks", "            if group and seg.start_ns <= group_end:",
+      "            if group and False:", "overlapping mcap chunks read in file order (log times out of order)"),
     M("io_mcap_chunks", "            if done < n:\n", "            if done < n - 1:\n",
       "the last message of a chunk dropped when it does not complete a batch"),
     M("io_bag_reader", "        if idx.size == got:", "        if idx.size >= 1:",

@@ -424,7 +424,8 @@ def test_mcap_bag_writer_bag_uses_chunk_reader(mcap_source, monkeypatch):
 
 def test_mcap_without_index_or_with_overlapping_chunks(tmp_path, mcap_source):
     """No summary, chunks without message indexes, chunks overlapping in time (one per topic, with and without
-    message indexes): the chunk reader reads each whole, equal to the run."""
+    message indexes): the chunk reader reads each whole, equal to the run, every message in log-time order
+    across topics (what a streamed replay integrates)."""
     run, _, records, messages = mcap_source
     by_topic = sorted(messages, key=lambda m: m[0])                  # stable: each topic in time order
     for name, msgs, compression, kwargs in (("n", messages, "zstd", {"summary": False}),
@@ -434,3 +435,6 @@ def test_mcap_without_index_or_with_overlapping_chunks(tmp_path, mcap_source):
         path = write_mcap(tmp_path / f"{name}.mcap", records, msgs, compression, 400, **kwargs)
         assert _mcap_packed(path), name
         assert_runs_equal(bag_reader.read_machine_bag(path, chunk_messages=300), run)
+        with storage.open_storage(path) as st:
+            times = [int(t) for group in st.iter_packed(st.connections, 300) for b in group for t in b.log_time_ns]
+        assert times == sorted(m[1] for m in messages), name

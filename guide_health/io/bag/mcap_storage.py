@@ -169,29 +169,28 @@ class McapStorage:
         return self._iter_groups(wanted, max(1, int(chunk_messages)), start_ns)
 
     def _clusters(self, wanted: dict, start_ns: int | None) -> Iterator[list[Segment]]:
-        """The segments that may hold wanted messages, in groups of consecutive segments whose log time
-        ranges overlap (file order)."""
+        """The segments that may hold wanted messages in groups whose log time ranges are disjoint, in time
+        order: segments by first log time, a segment joining the group while it begins no later than the
+        group's last log time (so that a log time shared across segments is sorted in one group); each group
+        in file order."""
         files_channels: dict = {}
         for f, cid in wanted:
             files_channels.setdefault(f, set()).add(cid)
+        segments = [seg for layout in self._layouts for seg in layout.segments
+                    if files_channels.get(seg.file) and (start_ns is None or seg.end_ns >= start_ns)
+                    and not (seg.index and not files_channels[seg.file] & seg.index.keys())]
         group: list[Segment] = []
         group_end = None
-        for layout in self._layouts:
-            for seg in layout.segments:
-                chans = files_channels.get(seg.file)
-                if not chans or (seg.index and not chans.intersection(seg.index)):
-                    continue
-                if start_ns is not None and seg.end_ns < start_ns:
-                    continue
-                if group and seg.start_ns < group_end:
-                    group.append(seg)
-                    group_end = max(group_end, seg.end_ns)
-                    continue
-                if group:
-                    yield group
-                group, group_end = [seg], seg.end_ns
+        for seg in sorted(segments, key=lambda s: s.start_ns):        # stable: file order for equal starts
+            if group and seg.start_ns <= group_end:
+                group.append(seg)
+                group_end = max(group_end, seg.end_ns)
+                continue
+            if group:
+                yield sorted(group, key=lambda s: (s.file, s.offset))
+            group, group_end = [seg], seg.end_ns
         if group:
-            yield group
+            yield sorted(group, key=lambda s: (s.file, s.offset))
 
     def _cluster_batch(self, group: list[Segment], wanted: dict, start_ns: int | None,
                        rows: dict) -> PackedBatch:
