@@ -71,6 +71,7 @@ class McapStorage:
                 self._bufs.append(_open_buffer(file))
             self._layouts = [scan_file(buf, i) for i, buf in enumerate(self._bufs)]
             counts, time_range = self._counts(checked)
+            self._connect(counts)
         except InputError:
             self.close()
             raise
@@ -78,7 +79,6 @@ class McapStorage:
             self.close()
             raise InputError(f"not a readable mcap bag: {self.path}: {one_line(exc)}") from None
         self._file_counts = counts
-        self._connect(counts)
         self.message_count = int(sum(counts.values()))
         self.start_ns, self.end_ns = ((int(time_range[0]), int(time_range[1]) + 1)
                                       if self.message_count and time_range else (EMPTY_START_NS, 0))
