@@ -8,7 +8,8 @@ JointState at 1 kHz, N/10 WrenchStamped, straightness every 0.05 h), measured in
   loop        stdlib sqlite3 `SELECT data FROM messages` over the .db3, one Python row per message
               (the storage limit of a Python reader; the baseline);
   read        in-process iter_machine_bag of the sqlite3 bag: bulk (rowid ranges, packed batches) and
-              the previous per-message `ORDER BY timestamp` read; of the mcap bag: chunk reader and rosbags;
+              the previous per-message `ORDER BY timestamp` read; of the mcap bag: packed and per-message
+              (bytes) batches;
   replay      `guide-health replay BAG --no-plot --json` in a fresh process (wall from process start to
               exit), sqlite3 and mcap bags of the same messages.
 Printed ratios: replay rate / loop rate (target >= 0.5) and mcap replay / sqlite3 replay time (<= 1.5).
@@ -78,7 +79,7 @@ def bench_size(n_joint: int, workdir: Path) -> None:
     print(f"bag of {n:,} messages ({n_joint:,} JointState):")
     print(f"  stdlib SELECT data loop     {t_loop:7.2f} s   {n / t_loop:12,.0f} msg/s   <- baseline")
     for label, bag, bulk in (("sqlite3 read, bulk", sq, True), ("sqlite3 read, per message", sq, False),
-                             ("mcap read, chunks", mc, True), ("mcap read, rosbags", mc, False)):
+                             ("mcap read, chunks", mc, True), ("mcap read, per message", mc, False)):
         got, t = read_time(bag, bulk=bulk)
         assert got == n, (label, got, n)
         print(f"  {label:27s} {t:7.2f} s   {n / t:12,.0f} msg/s   ({t / t_loop:.2f}x the loop)")

@@ -58,21 +58,34 @@ def _copy_with_count(bag: Path, dest: Path, old: int, new: int) -> Path:
 
 
 def test_metadata_counts_that_disagree_are_reported_with_the_stored_rows_used(bag, tmp_path):
-    """2000 joint_states stored; metadata.yaml claims 2500 (main: replayed without a word)."""
-    wrong = _copy_with_count(bag, tmp_path / "wrong", 2000, 2500)
+    """2000 joint_states stored; metadata.yaml claims 1500 (stale: an edited bag): the stored rows are used,
+    with one warning line and bag_count_mismatch in the report."""
+    wrong = _copy_with_count(bag, tmp_path / "wrong", 2000, 1500)
     stats = {}
-    with pytest.warns(UserWarning, match="2500 in metadata.yaml, 2000 stored"):
+    with pytest.warns(UserWarning, match="1500 in metadata.yaml, 2000 stored"):
         run = bag_reader.read_machine_bag(wrong, stats=stats)
     assert run.joint_t_ns.size == 2000
-    assert stats["bag_count_mismatch"] == {"/joint_states": {"metadata": 2500, "rows": 2000}}
+    assert stats["bag_count_mismatch"] == {"/joint_states": {"metadata": 1500, "rows": 2000}}
     proc = cli("replay", wrong, "--params", PARAMS, "--json", "--no-plot", "--out", tmp_path / "r")
     assert proc.returncode == 0, proc.stderr
     report = json.loads(proc.stdout)
-    assert report["bag_count_mismatch"] == {"/joint_states": {"metadata": 2500, "rows": 2000}}
+    assert report["bag_count_mismatch"] == {"/joint_states": {"metadata": 1500, "rows": 2000}}
     warning = [line for line in proc.stderr.splitlines() if "warning" in line]
-    assert len(warning) == 1 and "/joint_states 2500 in metadata.yaml, 2000 stored" in warning[0], proc.stderr
+    assert len(warning) == 1 and "/joint_states 1500 in metadata.yaml, 2000 stored" in warning[0], proc.stderr
     good = cli("replay", bag, "--params", PARAMS, "--json", "--no-plot", "--out", tmp_path / "g")
     assert "bag_count_mismatch" not in json.loads(good.stdout) and "warning" not in good.stderr
+
+
+def test_metadata_counting_more_messages_than_read_is_an_error(bag, tmp_path):
+    """metadata.yaml claims 2500 joint_states, 2000 can be read: messages the storage does not deliver, an
+    error naming the topic and both counts (exit 2, one line), never a replay of the rest."""
+    wrong = _copy_with_count(bag, tmp_path / "more", 2000, 2500)
+    with pytest.raises(InputError, match="topic /joint_states: metadata.yaml counts 2500 messages, only 2000"):
+        bag_reader.read_machine_bag(wrong)
+    proc = cli("replay", wrong, "--params", PARAMS, "--json", "--no-plot", "--out", tmp_path / "r")
+    assert proc.returncode == 2 and proc.stdout == ""
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "2500" in lines[0] and "2000" in lines[0] and "stale" not in lines[0], proc.stderr
 
 
 @pytest.mark.parametrize("how", ["dotdot", "absolute", "symlink"])

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from guide_health.io.bag import cdr, mcap_storage, sqlite3_storage, storage
+from guide_health.io.bag import cdr, sqlite3_storage, storage
 from guide_health.io.bag import reader as bag_reader
 from guide_health.io.bag import writer as bag_writer
 from guide_health.io.bag.interfaces import JOINT_STATE, WRENCH_STAMPED
@@ -390,8 +390,9 @@ def mcap_source(tmp_path_factory):
 
 
 def _rosbags_mcap_read(path: Path, monkeypatch) -> MachineRun:
+    """The bag read through the rosbags fallback (an independent mcap reader)."""
     with monkeypatch.context() as m:
-        m.setattr(mcap_storage.McapStorage, "iter_packed", lambda *a: None)
+        m.setattr(storage, "BACKENDS", {k: v for k, v in storage.BACKENDS.items() if k != "mcap"})
         return bag_reader.read_machine_bag(path)
 
 
@@ -421,17 +422,19 @@ def test_mcap_bag_writer_bag_uses_chunk_reader(mcap_source, monkeypatch):
     assert_runs_equal(bag_reader.read_machine_bag(bag), _rosbags_mcap_read(bag, monkeypatch))
 
 
-def test_mcap_without_index_or_with_overlapping_chunks(tmp_path, mcap_source, monkeypatch):
-    """No summary: rosbags' linear scan (chunk reader declines). Chunks without message indexes: the chunk
-    reader scans their records. Chunks overlapping in time (one per topic): rosbags' merge. All = the run."""
+def test_mcap_without_index_or_with_overlapping_chunks(tmp_path, mcap_source):
+    """No summary, chunks without message indexes, chunks overlapping in time (one per topic, with and without
+    message indexes): the chunk reader reads each whole, equal to the run, every message in log-time order
+    across topics (what a streamed replay integrates)."""
     run, _, records, messages = mcap_source
-    plain = write_mcap(tmp_path / "n.mcap", records, messages, "zstd", 400, summary=False)
-    assert not _mcap_packed(plain)
-    assert_runs_equal(bag_reader.read_machine_bag(plain), run)
-    scanned = write_mcap(tmp_path / "s.mcap", records, messages, "lz4", 400, message_index=False)
-    assert _mcap_packed(scanned)
-    assert_runs_equal(bag_reader.read_machine_bag(scanned, chunk_messages=300), run)
     by_topic = sorted(messages, key=lambda m: m[0])                  # stable: each topic in time order
-    overlapping = write_mcap(tmp_path / "o.mcap", records, by_topic, "", 600)
-    assert not _mcap_packed(overlapping)
-    assert_runs_equal(bag_reader.read_machine_bag(overlapping), run)
+    for name, msgs, compression, kwargs in (("n", messages, "zstd", {"summary": False}),
+                                            ("s", messages, "lz4", {"message_index": False}),
+                                            ("o", by_topic, "", {}),
+                                            ("on", by_topic, "zstd", {"message_index": False})):
+        path = write_mcap(tmp_path / f"{name}.mcap", records, msgs, compression, 400, **kwargs)
+        assert _mcap_packed(path), name
+        assert_runs_equal(bag_reader.read_machine_bag(path, chunk_messages=300), run)
+        with storage.open_storage(path) as st:
+            times = [int(t) for group in st.iter_packed(st.connections, 300) for b in group for t in b.log_time_ns]
+        assert times == sorted(m[1] for m in messages), name

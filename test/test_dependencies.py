@@ -41,12 +41,13 @@ IMPORTS: dict[str, tuple[str, str | None]] = {
     "pytest": ("python3-pytest", "pytest"),
     "hypothesis": ("python3-hypothesis", "hypothesis"),
     "zstandard": ("python3-zstandard", "zstandard"),
+    "mcap": ("python3-mcap-pip", "mcap"),
     "ContactMechanics": ("python3-contactmechanics-pip", "contactmechanics"),
     "SurfaceTopography": ("python3-surfacetopography-pip", "surfacetopography"),
 }
 #: tools the tests run as programs (no import): package.xml key, pip requirement, the test that runs it
 TOOLS = {"ruff": ("ruff", "ruff", "test_code_quality.py")}
-#: standard library from Python 3.14 on (guide_health/io/bag/mcap_storage.py falls back to backports.zstd)
+#: standard library from Python 3.14 on (guide_health/io/bag/mcap_records.py falls back to backports.zstd)
 STDLIB_LATER = {"compression"}
 #: namespace packages, named by their first two components
 NAMESPACES = {"backports"}
@@ -119,8 +120,9 @@ TESTS = imported_modules(ROOT / "test")
 def test_the_scan_finds_the_imports_it_must():
     """The AST scan itself: known imports in known files (a scan that found nothing would pass the rest)."""
     assert "guide_health/analysis/fleet.py" in RUNTIME["distributed"]
-    assert "guide_health/io/bag/mcap_storage.py" in RUNTIME["backports.zstd"]
-    assert "guide_health/io/bag/mcap_storage.py" in RUNTIME["lz4"]
+    assert "guide_health/io/bag/mcap_records.py" in RUNTIME["backports.zstd"]
+    assert "guide_health/io/bag/mcap_records.py" in RUNTIME["lz4"]
+    assert "test/test_mcap_layouts.py" in TESTS["mcap"]
     assert {"launch/machine.launch.py", "launch/fleet.launch.py"} <= RUNTIME["launch_ros"]
     assert "test/test_bulk_read.py" in TESTS["zstandard"]
     assert "test/test_roller_numerical.py" in TESTS["ContactMechanics"]

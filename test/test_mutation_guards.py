@@ -289,7 +289,7 @@ def test_a_read_from_a_log_time_includes_the_messages_at_it(tmp_path):
 
 
 def test_mcap_chunk_reader_returns_every_message_whatever_the_batch_size(tmp_path):
-    """The packed mcap path (chunk by chunk) against rosbags' message iterator on the same file: the same log
+    """The packed mcap path (chunk by chunk) and its raw rows against rosbags' reader on the same file: the same log
     times in the same order for batch sizes that leave remainders of every size (1 included: total - 1),
     and every group but the last holds exactly the batch size."""
     from guide_health.io.bag.storage import iter_raw_messages, open_storage
@@ -301,8 +301,12 @@ def test_mcap_chunk_reader_returns_every_message_whatever_the_batch_size(tmp_pat
     params = wear_monitor_params(cfg)
     sim = dict(simulation_params(cfg), duration_h=0.05, joint_state_rate_hz=5.0, load_rate_hz=1.0)
     write_machine_bag(simulate_machine(params, sim, seed=3), tmp_path / "bag", storage="mcap")
+    from rosbags.rosbag2 import Reader
+
+    with Reader(tmp_path / "bag") as reader:
+        truth = [t for _, t, _ in reader.messages()]
     with open_storage(tmp_path / "bag") as storage:
-        truth = [m.log_time_ns for m in iter_raw_messages(storage, storage.connections)]
+        assert [m.log_time_ns for m in iter_raw_messages(storage, storage.connections)] == truth
         for step in (1, 2, 3, 7, 64, len(truth) - 1, len(truth), 10**6):
             groups = list(storage.iter_packed(storage.connections, step))
             times = [int(t) for group in groups for batch in group for t in batch.log_time_ns]

@@ -20,6 +20,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from guide_health.analysis.discrepancy.duty import DutyCells
+from guide_health.models.wear.effect_life import symmetrised
 from guide_health.models.wear.effects import (
     CANDIDATE_IDS,
     EffectParameters,
@@ -316,7 +317,7 @@ class WearProblem:
         dof = max(n - k, 1)
         s2 = rss / dof
         jtj = best.jac.T @ best.jac
-        cov = s2 * np.linalg.pinv(jtj)
+        cov = symmetrised(s2 * np.linalg.pinv(jtj))       # pinv is symmetric only to rounding
         se = {}
         for i, spec in enumerate(specs):
             sd_int = math.sqrt(max(cov[i, i], 0.0))

@@ -28,6 +28,7 @@ import numpy as np
 import yaml
 
 from guide_health.io.outputs.files import write_text
+from guide_health.models.wear.effect_life import symmetrised
 
 # the model file's keys and covariance rows come from the effect registry: EFFECT_PARAMETERS (the fitted
 # parameters each live effect carries, same names as the wear_monitor's), MATERIAL_EFFECTS (shared by machines
@@ -109,7 +110,7 @@ def model_parameters(problem, final, named: list[str]) -> dict[str, Any]:
             if "thermal_offset_m" in index:
                 jac[row, index["thermal_offset_m"]] = 1.0
         fitted = np.asarray(cov["matrix"], dtype=float)
-        matrix = jac @ np.where(np.isfinite(fitted), fitted, 0.0) @ jac.T
+        matrix = symmetrised(jac @ np.where(np.isfinite(fitted), fitted, 0.0) @ jac.T)   # exactly, for the loader
     out["effect_covariance"] = [float(x) for x in matrix.ravel()]
     return out
 

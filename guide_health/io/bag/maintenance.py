@@ -17,6 +17,7 @@ from guide_health.models.wear.input_rules import MAINTENANCE_MALFORMED, MAINTENA
 from guide_health.models.wear.maintenance import MaintenanceEvent, clip
 
 from .interfaces import topic_name
+from .metadata import check_no_missing_messages, count_mismatches
 from .storage import open_storage
 from .typestore import header, message, typestore
 
@@ -74,7 +75,11 @@ def read_events(bag: str | Path, namespace: str | None = None) -> list[Maintenan
         wanted = [c for c in storage.connections if c.msgtype == DIAGNOSTIC_ARRAY
                   and (c.topic == topic_name(namespace, MAINTENANCE_TOPIC) if namespace is not None
                        else c.topic.endswith("/" + MAINTENANCE_TOPIC))]
+        read: dict[str, int] = dict.fromkeys((c.topic for c in wanted), 0)
+        topic_of = {c.id: c.topic for c in wanted}
         for batch in storage.iter_batches(wanted, 10_000):
+            for cid in batch.connection_ids.tolist():
+                read[topic_of[cid]] += 1
             for raw in batch.data:
                 try:
                     msg = store.deserialize_cdr(bytes(raw), DIAGNOSTIC_ARRAY)
@@ -87,4 +92,5 @@ def read_events(bag: str | Path, namespace: str | None = None) -> list[Maintenan
                                                         status.message))
                     except InputError:
                         continue
+    check_no_missing_messages(storage.path, count_mismatches(storage.path, read))
     return sorted(events, key=lambda e: e.t_ns)

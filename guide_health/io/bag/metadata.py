@@ -154,3 +154,12 @@ def count_mismatch_text(path: Path, mismatches: dict[str, dict[str, int]]) -> st
                       for topic, m in mismatches.items())
     return (f"bag {path}: message counts disagree ({parts}); the stored messages were used (metadata.yaml is "
             "stale: a recorder that died or an edited bag; `ros2 bag reindex` rewrites it)")
+
+
+def check_no_missing_messages(path: Path, mismatches: dict[str, dict[str, int]]) -> None:
+    """InputError naming the first topic of which metadata.yaml counts more messages than were read: the
+    bag holds messages that no reader path delivered (a result from the rest would be silently wrong)."""
+    for topic, m in mismatches.items():
+        if m["metadata"] > m["rows"]:
+            raise InputError(f"bag {path}: topic {topic}: metadata.yaml counts {m['metadata']} messages, only "
+                             f"{m['rows']} could be read (the bag holds messages its storage does not deliver)")

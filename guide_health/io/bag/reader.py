@@ -22,7 +22,7 @@ from ...errors import InputError
 from ...runs import MachineRun, SlewingLoadRun
 from .cdr import WRENCH_NAMES, DecodedChunk, codec_for, decode_chunk, decode_packed
 from .interfaces import FLOAT64, MACHINE_TOPICS, NS_PER_S, SLEWING_TOPICS, topic_name
-from .metadata import count_mismatch_text, count_mismatches, read_run_metadata
+from .metadata import check_no_missing_messages, count_mismatch_text, count_mismatches, read_run_metadata
 from .protocol import NOT_SUPPORTED, BagConnection, BagStorage, PackedBatch, RawBatch
 from .storage import iter_raw_messages, open_storage
 from .typestore import typestore
@@ -215,12 +215,14 @@ def _topic_accumulators(storage: BagStorage, wanted: dict, namespace: str, suffi
 
 
 def _check_counts(storage: BagStorage, conns: list[BagConnection], rows: dict, stats: dict | None) -> None:
-    """Rows read per topic against metadata.yaml's counts: a disagreement is a one-line warning and, with
-    `stats`, stats["bag_count_mismatch"] = {topic: {metadata, rows}} (the stored rows are used)."""
+    """Rows read per topic against metadata.yaml's counts: fewer rows than counted is an InputError
+    (check_no_missing_messages); more is a one-line warning and, with `stats`,
+    stats["bag_count_mismatch"] = {topic: {metadata, rows}} (the stored rows are used)."""
     by_topic: dict[str, int] = {}
     for c in conns:
         by_topic[c.topic] = by_topic.get(c.topic, 0) + rows.get(c.id, 0)
     mismatches = count_mismatches(storage.path, by_topic)
+    check_no_missing_messages(storage.path, mismatches)
     if mismatches:
         warnings.warn(count_mismatch_text(storage.path, mismatches), stacklevel=4)
         if stats is not None:

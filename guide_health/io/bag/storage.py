@@ -4,9 +4,10 @@ guide_health looks at how a bag is stored.
 
 - ``sqlite3``: `Sqlite3Storage` (sqlite3_storage.py), a single-file, uncompressed sqlite3 bag whose
   metadata.yaml counts every topic, read straight through apsw, with bulk packed reading;
-- ``mcap``: `McapStorage` (mcap_storage.py), rosbags plus packed reading of a single mcap file chunk by chunk;
+- ``mcap``: `McapStorage` (mcap_storage.py), every record of the bag's .mcap files walked without relying on
+  their indexes (mcap_records.py), read whole or refused;
 - the fallback `RosbagsStorage` (rosbags_storage.py): everything else (split or compressed sqlite3 bags, a
-  bare .db3 file, a bag opened checked), through rosbags.rosbag2.Reader.
+  bare .db3 file, a bag opened checked, mcap bags of compressed files), through rosbags.rosbag2.Reader.
 
 Every back end implements the whole protocol (protocol.BagStorage); what one cannot do for a bag it answers
 with protocol.NOT_SUPPORTED. The bag reader asks `iter_packed` first (one byte buffer per batch) and reads

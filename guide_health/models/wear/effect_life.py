@@ -34,11 +34,24 @@ R_INDEX, S0_INDEX = PHI_INDEX["running_in_ratio"], PHI_INDEX["running_in_distanc
 _LN_FLOAT_MAX = math.log(np.finfo(float).max)
 
 
+#: relative tolerance of a covariance's symmetry: |c_ij - c_ji| <= this x max(|c_ij|, |c_ji|, sd_i sd_j). A
+#: matrix product such as J Sigma J' or a pseudo-inverse is symmetric only to rounding (relative ~cond x eps),
+#: a hand-edited entry is off by far more; 1e-6 moves no quadratic form grad' C grad by more than 1e-6.
+COVARIANCE_SYMMETRY_RTOL = 1e-6
+
+
+def symmetrised(matrix: np.ndarray) -> np.ndarray:
+    """(C + C') / 2: the covariance a product or pseudo-inverse meant, without its rounding asymmetry (the
+    quadratic forms x' C x are unchanged)."""
+    c = np.asarray(matrix, dtype=float)
+    return 0.5 * (c + c.T)
+
+
 def covariance_problem(values) -> str:
     """'' when ``values`` (row-major, COVARIANCE_NAMES order) is a covariance matrix: the right size, finite,
-    variances >= 0, symmetric (1e-9 of sd_i sd_j) and positive semidefinite (no correlation beyond +-1: the
-    correlation matrix's smallest eigenvalue >= -1e-6); else what is wrong, naming the parameters. A matrix
-    that is none of these would give a narrowed or NaN interval without a word."""
+    variances >= 0, symmetric (COVARIANCE_SYMMETRY_RTOL, relative) and positive semidefinite (no correlation
+    beyond +-1: the correlation matrix's smallest eigenvalue >= -1e-6); else what is wrong, naming the
+    parameters. A matrix that is none of these would give a narrowed or NaN interval without a word."""
     n = len(COVARIANCE_NAMES)
     c = np.asarray(values, dtype=float).ravel()
     if c.size != n * n:
@@ -50,7 +63,8 @@ def covariance_problem(values) -> str:
     for i in np.flatnonzero(var < 0):
         return f"the variance of {COVARIANCE_NAMES[i]} is negative ({var[i]:.3g})"
     sd = np.sqrt(var)
-    bad = np.abs(c - c.T) > 1e-9 * np.outer(sd, sd)
+    scale = np.maximum(np.maximum(np.abs(c), np.abs(c.T)), np.outer(sd, sd))
+    bad = np.abs(c - c.T) > COVARIANCE_SYMMETRY_RTOL * scale
     for i, j in zip(*np.nonzero(bad)):
         return (f"is not symmetric: ({COVARIANCE_NAMES[i]}, {COVARIANCE_NAMES[j]}) {c[i, j]:.3g} but "
                 f"({COVARIANCE_NAMES[j]}, {COVARIANCE_NAMES[i]}) {c[j, i]:.3g}")
