@@ -349,6 +349,7 @@ class DecodedChunk:
     malformed: int = 0
     fast: int = 0
     fallback: int = 0
+    status: np.ndarray | None = None    # per message of the chunk: 0 kept, 1 missing, 2 malformed
 
 
 def _field_mask(layout: Layout) -> tuple[np.ndarray, np.ndarray]:
@@ -423,9 +424,9 @@ def _decode(n: int, groups, raw_of: Callable[[int], bytes], codec: MessageCodec)
                 present[name][i] = True
     keep = np.flatnonzero(status == 0)
     if keep.size == n:                  # every message kept: the arrays as they are
-        return DecodedChunk(out, present, keep, 0, 0, n_fast, n_fallback)
+        return DecodedChunk(out, present, keep, 0, 0, n_fast, n_fallback, status)
     return DecodedChunk({k: v[keep] for k, v in out.items()}, {k: v[keep] for k, v in present.items()},
-                        keep, int((status == 1).sum()), int((status == 2).sum()), n_fast, n_fallback)
+                        keep, int((status == 1).sum()), int((status == 2).sum()), n_fast, n_fallback, status)
 
 
 def _list_groups(raws: list):
