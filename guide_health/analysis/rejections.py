@@ -61,6 +61,11 @@ class InputTally:
             self.largest_position_m = max(self.largest_position_m, float(x.max()))
 
 
+def _percent(share: float) -> str:
+    """A share as '2.3 %' (three significant digits)."""
+    return f"{share * 100:.3g} %"
+
+
 def reason_hint(reason: str, tally: InputTally, params: dict) -> str:
     """What to check for a reason ('' when there is nothing specific to say)."""
     if reason == POSITION_OUT_OF_TRAVEL:
@@ -111,11 +116,11 @@ def rejection_lines(summary: dict, axis: str = "") -> list[str]:
     if not summary:
         return []
     where = f" on axis {axis}" if axis else ""
-    head = (f"REJECTED INPUT{where}: more than {REJECTED_SHARE_LEAD:.0%} of an input's samples; the results "
+    head = (f"REJECTED INPUT{where}: more than {_percent(REJECTED_SHARE_LEAD)} of an input's samples; the results "
             "below leave them out" if summary["leads"] else f"rejected input{where}")
     lines = [f"{head} ({summary['rejected_samples']} samples):"]
     for r in summary["reasons"]:
-        share = f"{r['share']:.2%} of {r['input_samples']} {r['input']} samples" if math.isfinite(r["share"]) \
+        share = f"{_percent(r['share'])} of {r['input_samples']} {r['input']} samples" if math.isfinite(r["share"]) \
             else f"of {r['input'] or 'an unknown input'}"
         lines.append(f"  rejected: {r['reason']}: {r['count']} ({share})" + (f"; {r['hint']}" if r["hint"] else ""))
     return lines
@@ -128,11 +133,11 @@ def rejection_markdown(summary: dict, axis: str = "") -> list[str]:
     title = "## Rejected input" + (f" (axis {axis})" if axis else "")
     lines = [title, ""]
     if summary["leads"]:
-        lines += [f"> **More than {REJECTED_SHARE_LEAD:.0%} of an input's samples were rejected; the results "
+        lines += [f"> **More than {_percent(REJECTED_SHARE_LEAD)} of an input's samples were rejected; the results "
                   "leave them out.**", ""]
     lines += ["| reason | samples | share of the input | hint |", "|---|---|---|---|"]
     for r in summary["reasons"]:
-        share = f"{r['share']:.2%} of {r['input_samples']} {r['input']}" if math.isfinite(r["share"]) else "n/a"
+        share = f"{_percent(r['share'])} of {r['input_samples']} {r['input']}" if math.isfinite(r["share"]) else "n/a"
         lines.append(f"| {r['reason']} | {r['count']} | {share} | {r['hint']} |")
     return lines + [""]
 
@@ -145,7 +150,7 @@ def misfit_note(summary: dict, named_effects) -> tuple[bool, str]:
     share = wear_input_share(summary)
     if not named_effects or not share > REJECTED_SHARE_LEAD:
         return False, ""
-    return True, (f"{share:.1%} of the joint/load samples were rejected and carry no wear: the rejections may "
+    return True, (f"{_percent(share)} of the joint/load samples were rejected and carry no wear: the rejections may "
                   f"explain the misfit the named effects ({', '.join(named_effects)}) fit; resolve them first")
 
 
