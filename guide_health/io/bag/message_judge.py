@@ -4,8 +4,8 @@ The live node counts a message it cannot use under a reason of :mod:`guide_healt
 (a malformed message, a JointState without the monitored joint or its position, an invalid header stamp);
 the bag reader gives the same reason for the same bytes, so replay and diagnose count what the node counts:
 
-- not decodable as its type (the decoder's fallback, rosbags ``deserialize_cdr``, refuses it; an empty or
-  truncated message): ``malformed <topic> message``;
+- not decodable as its type (the decoder's fallback, rosbags' deserialiser with trailing bytes allowed,
+  refuses it; an empty or truncated message): ``malformed <topic> message``;
 - a JointState that decodes but has no sample of the joint: :func:`~guide_health.models.wear.input_rules.
   joint_state_reason`, the rule the live node applies to a deserialised JointState;
 - a stamped message whose header nanosec is >= 1e9: ``invalid header stamp``, and it is not kept.
@@ -26,7 +26,7 @@ from guide_health.models.wear.input_rules import (
 
 from .cdr import DecodedChunk
 from .interfaces import FLOAT64, JOINT_STATE, TEMPERATURE, WRENCH_STAMPED
-from .typestore import typestore
+from .typestore import deserialize
 
 MALFORMED_REASON_OF_TYPE = {JOINT_STATE: MALFORMED_JOINT_STATES, WRENCH_STAMPED: MALFORMED_LOAD,
                             FLOAT64: MALFORMED_STRAIGHTNESS, TEMPERATURE: MALFORMED_TEMPERATURE}
@@ -43,7 +43,7 @@ class MessageJudge:
     def missing_reason(self, raw: bytes) -> str:
         """The reason of a message the decoder found valid but without the wanted item (a JointState)."""
         try:
-            msg = typestore().deserialize_cdr(raw, self.msgtype)
+            msg = deserialize(raw, self.msgtype)
         except Exception:  # noqa: BLE001 - any decoding failure is a malformed message
             return self.malformed
         reason, _ = joint_state_reason(msg.name, len(msg.position), self.joint)

@@ -4,10 +4,10 @@ The fixed part of a type: the size of its smallest valid payload (every string e
 with the 4-byte encapsulation header; a message shorter than this cannot be a payload of its type whatever
 its content. A longer one is a payload when it decodes: the fixed-layout types through the live nodes'
 decoder (:class:`~guide_health.io.bag.cdr.RawMessageDecoder`, the bag reader's layouts, a few microseconds
-per message), then rosbags' ``deserialize_cdr``, the reference, for what no layout fits and for every other
-type. (A truncated message must be refused before DDS carries it: the transport pads a payload to a multiple
-of 4 bytes, and a JointState 1 byte short arrives as a valid message with its last count completed by a
-padding zero.)
+per message), then rosbags' deserialiser (typestore.deserialize, trailing bytes allowed as Fast CDR allows
+them), the reference, for what no layout fits and for every other type. (A truncated message must be refused
+before DDS carries it: the transport pads a payload to a multiple of 4 bytes, and a JointState 1 byte short
+arrives as a valid message with its last count completed by a padding zero.)
 
 XCDR1 alignment: a primitive of n bytes starts at a multiple of n counted from after the encapsulation
 header; a string is a uint32 length then its bytes with the terminating NUL (an empty string is 5 bytes); a
@@ -19,7 +19,7 @@ from functools import cache
 
 from .cdr import RawMessageDecoder
 from .interfaces import FLOAT64, JOINT_STATE, TEMPERATURE, WRENCH_STAMPED
-from .typestore import typestore
+from .typestore import deserialize, typestore
 
 _ENCAPSULATION = 4
 _PRIMITIVE_BYTES = {"bool": 1, "byte": 1, "char": 1, "int8": 1, "uint8": 1, "int16": 2, "uint16": 2,
@@ -88,7 +88,7 @@ class PayloadCheck:
         if not self.known:
             return True
         try:
-            typestore().deserialize_cdr(bytes(raw), self.msgtype)
+            deserialize(raw, self.msgtype)
         except Exception:  # noqa: BLE001 - any decoding failure: not a payload of this type
             return False
         return True

@@ -324,7 +324,8 @@ def read_machine_bag(path, joint: str = "x", namespace: str | None = None,
 
     namespace None: the namespace of the bag's unique `.../joint_states` topic.
     JointState messages without `joint` (or without its position) are skipped and counted;
-    velocity is NaN where a message has none, and empty when no message has one.
+    velocity is 0 where a message has none (an absent velocity counts as finite, as live), and empty when no
+    message has one.
     progress(done_messages, total_messages) is called after every chunk.
     fast=False decodes every message with rosbags deserialize_cdr (the reference path).
     stats, when given, receives per-topic counts: kept, missing, malformed, fast, fallback.
@@ -385,7 +386,9 @@ def _machine_run(read: TopicBatch, joint: str, metadata: dict,
     ld_v = got["guide/load"].values
     st_v = got["guide/straightness"].values
     tp_v = got["guide/temperature"].values
-    velocity = js.values["velocity"] if js.present["velocity"].any() else np.zeros(0)
+    # a message without velocity among messages with one: an absent velocity counts as 0 (finite), as live
+    present = js.present["velocity"]
+    velocity = np.where(present, js.values["velocity"], 0.0) if present.any() else np.zeros(0)
     run = MachineRun(
         joint_name=joint,
         joint_t_ns=_stamps(js.values), joint_position_m=js.values["position"], joint_velocity_m_s=velocity,
