@@ -233,3 +233,35 @@ def test_live_node_counts_what_replay_counts_and_bag_player_skips_short_messages
     assert float(values["sliding_distance_m"]) == pytest.approx(offline["sliding_distance_m"], rel=1e-9)
     assert math.isfinite(float(values["wear_coefficient"]))
     assert np.isclose(float(values["wear_coefficient"]), offline["wear_coefficient"], rtol=1e-9)
+
+
+# --- diagnose ----------------------------------------------------------------------------------------------
+def test_diagnose_report_starts_with_rejections_and_says_when_they_may_explain_the_misfit(tmp_path):
+    """2.3 % of the joint samples of a 3 h bench bag beyond the rail (the issue's shop-floor case): diagnose's
+    text and report.md start with the rejections (rail hint with the largest |position| and rail_length_m),
+    the JSON has them and the misfit flag; with named effects, the sentence comes before the effects."""
+    from guide_health.analysis.discrepancy.report import markdown
+
+    params, bag = clean_bench_bag(tmp_path, hours=3.0, seed=5)
+    rows = topic_rows(bag, "/joint_states")
+    limit = params["rail_start_m"] + params["rail_length_m"] + params["travel_margin_m"]
+    count = int(0.023 * len(rows))
+    start = len(rows) // 2
+    replace_rows(bag, {r[0]: joint_state(r[1], ["x"], [limit + 0.13], [0.0]) for r in rows[start:start + count]})
+    out = tmp_path / "out"
+    done = subprocess.run([sys.executable, "-m", "guide_health.cli", "diagnose", str(bag), "--params", str(BENCH),
+                           "--out", str(out), "--no-plot"], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith("REJECTED INPUT: more than 1 %"), done.stdout
+    md = (out / "report.md").read_text().splitlines()
+    assert md[2] == "## Rejected input", md[:6]
+    hint = f"largest \\|position\\| seen {limit + 0.13:.4g} m against rail_length_m {params['rail_length_m']:g} m"
+    assert any(line.startswith(f"| {rules.POSITION_OUT_OF_TRAVEL} | {count} | 2.3 % of {len(rows)} joint_states")
+               and hint in line for line in md), md[:10]
+    result = json.loads((out / "report.json").read_text())
+    assert result["rejections"]["reasons"][0]["count"] == count
+    assert result["rejections_may_explain_misfit"] is (len(result["named_effects"]) > 0)
+    named = dict(result, rejections_note="NOTE", rejections_may_explain_misfit=True)
+    text = markdown(named)
+    assert text.index("NOTE") < min(text.index(h) for h in ("## Effects named", "## No missing effect found",
+                                                            "## No library effect") if h in text)

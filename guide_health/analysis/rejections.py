@@ -138,7 +138,8 @@ def rejection_markdown(summary: dict, axis: str = "") -> list[str]:
     lines += ["| reason | samples | share of the input | hint |", "|---|---|---|---|"]
     for r in summary["reasons"]:
         share = f"{_percent(r['share'])} of {r['input_samples']} {r['input']}" if math.isfinite(r["share"]) else "n/a"
-        lines.append(f"| {r['reason']} | {r['count']} | {share} | {r['hint']} |")
+        hint = r["hint"].replace("|", "\\|")          # a table cell: '|' escaped
+        lines.append(f"| {r['reason']} | {r['count']} | {share} | {hint} |")
     return lines + [""]
 
 
