@@ -265,3 +265,38 @@ def test_diagnose_report_starts_with_rejections_and_says_when_they_may_explain_t
     text = markdown(named)
     assert text.index("NOTE") < min(text.index(h) for h in ("## Effects named", "## No missing effect found",
                                                             "## No library effect") if h in text)
+
+
+# --- the reader's message rejections inside the model ---------------------------------------------------------
+def _run_with_messages(messages):
+    from guide_health.runs import MachineRun
+
+    t = 1_000_000_000 * np.arange(1, 6)
+    return MachineRun(joint_t_ns=t, joint_position_m=np.linspace(0.0, 0.1, 5), joint_velocity_m_s=np.zeros(5),
+                      load_t_ns=t, load_n=np.full(5, 1000.0), rejected_messages=tuple(messages))
+
+
+def test_message_rejections_enter_the_recent_window_at_their_place():
+    """Joint messages rejected before sample 0 and after sample 3 (of 5 accepted): the window holds them
+    where the live callbacks would have recorded them; loads after sample 5 at the end."""
+    from guide_health.models.wear.gate import InputGate
+    from guide_health.params import WEAR_MONITOR_DEFAULTS
+
+    gate = InputGate(dict(WEAR_MONITOR_DEFAULTS))
+    bad, missing = rules.MALFORMED_JOINT_STATES, rules.joint_missing("x")
+    gate.accept_run(_run_with_messages([("joint_states", 0, bad), ("joint_states", 3, missing),
+                                        ("guide/load", 5, rules.MALFORMED_LOAD),
+                                        ("guide/straightness", 0, rules.MALFORMED_STRAIGHTNESS)]))
+    assert list(gate.recent["joint_states"]) == [bad, None, None, None, missing, None, None]
+    assert list(gate.recent["guide/load"]) == [None] * 5 + [rules.MALFORMED_LOAD]
+    assert dict(gate.rejected) == {bad: 1, missing: 1, rules.MALFORMED_LOAD: 1, rules.MALFORMED_STRAIGHTNESS: 1}
+
+
+def test_split_run_keeps_each_message_rejection_on_its_side():
+    from guide_health.models.wear.axis import split_run
+
+    run = _run_with_messages([("joint_states", 0, "a"), ("joint_states", 2, "b"), ("joint_states", 4, "c"),
+                              ("guide/load", 3, "d")])
+    head, tail = split_run(run, 2_000_000_000)           # 2 joint and 2 load samples stamped at or before
+    assert head.rejected_messages == (("joint_states", 0, "a"), ("joint_states", 2, "b"))
+    assert tail.rejected_messages == (("joint_states", 2, "c"), ("guide/load", 1, "d"))
