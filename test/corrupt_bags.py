@@ -62,6 +62,7 @@ KINDS = {
     "joint message 1 byte short": ("/joint_states", rules.MALFORMED_JOINT_STATES),
     "names [y, x], one position": ("/joint_states", rules.JOINT_POSITION_MISSING),
     "no names, no positions": ("/joint_states", rules.EMPTY_JOINT_STATES),
+    "names [x], no positions": ("/joint_states", rules.EMPTY_JOINT_STATES),
     "only joint y": ("/joint_states", rules.joint_missing("x")),
     "nanosec 1.5e9": ("/joint_states", rules.INVALID_STAMP),
     "empty load message": ("/guide/load", rules.MALFORMED_LOAD),
@@ -86,6 +87,8 @@ def damaged(kind: str, raw: bytes, t_ns: int) -> bytes:
         return joint_state(t_ns, ["y", "x"], [0.1], [0.0])
     if kind == "no names, no positions":
         return joint_state(t_ns, [], [])
+    if kind == "names [x], no positions":
+        return joint_state(t_ns, ["x"], [])
     if kind == "only joint y":
         return joint_state(t_ns, ["y"], [0.1], [0.0])
     if "nanosec" in kind:

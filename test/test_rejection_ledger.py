@@ -105,7 +105,7 @@ def test_every_damaged_kind_is_counted_under_its_reason_offline(damaged_bag):
     assert offline_counts(whole) == expected
     assert streamed["rejected_samples"] == whole["rejected_samples"] == sum(expected.values()) == len(KINDS)
     assert dict(cells.rejected_samples) == expected
-    # the damaged messages carry no sample: 6 of the 18000 joint messages, 4 of the 1800 loads, 1 of 6 measurements
+    # the damaged messages carry no sample: 7 of the 18000 joint messages, 4 of the 1800 loads, 1 of 6 measurements
     assert streamed["samples"] == whole["samples"]
     assert streamed["load_samples"] == 1800 - 4
     assert streamed["measurements"] == whole["measurements"]
