@@ -300,3 +300,27 @@ def test_split_run_keeps_each_message_rejection_on_its_side():
     head, tail = split_run(run, 2_000_000_000)           # 2 joint and 2 load samples stamped at or before
     assert head.rejected_messages == (("joint_states", 0, "a"), ("joint_states", 2, "b"))
     assert tail.rejected_messages == (("joint_states", 2, "c"), ("guide/load", 1, "d"))
+
+
+@pytest.mark.ros
+def test_a_malformed_load_of_an_axis_counts_in_its_load_window(ros_context, tmp_path):
+    """A node of two axes: a malformed x/guide/load message is counted and enters the axis's guide/load recent
+    window (its rejected share), as the bag reader's load rejections do offline (the window is per input,
+    whatever the topic's name)."""
+    from rclpy.parameter import Parameter
+
+    from guide_health.nodes.wear_monitor import WearMonitorNode
+
+    node = WearMonitorNode(context=ros_context, parameter_overrides=[
+        Parameter("state_file", value=str(tmp_path / "state.db")), Parameter("machine_id", value="m1"),
+        Parameter("axes", value=["x", "y"])])
+    try:
+        channel = node.by_axis["x"]
+        assert channel.load_input == "x/guide/load"
+        channel.on_load_raw(b"\x00\x01")
+        node.process_inputs()
+        assert list(channel.model.gate.recent["guide/load"]) == [rules.MALFORMED_LOAD]
+        assert dict(channel.model.rejected) == {rules.MALFORMED_LOAD: 1}
+    finally:
+        node.close()
+        node.destroy_node()
