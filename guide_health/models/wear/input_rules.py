@@ -40,9 +40,11 @@ load at a joint sample
 
 A rejected sample changes nothing but the count of its reason and the candidates of its stream (not part
 of the saved state). The vectorised forms give the same result as the scalar ones sample by sample (a fast
-path when no stamp jumps beyond the horizon, the scalar rule otherwise). The live node's message-level
-reasons (a joint missing from a JointState, undecodable messages, straightness without a time base, an
-invalid header stamp) are named here too.
+path when no stamp jumps beyond the horizon, the scalar rule otherwise). The message-level reasons (a
+joint missing from a JointState or without a position, empty arrays, undecodable messages, straightness
+without a time base, an invalid header stamp) are named here too, with :func:`joint_state_reason`, the one
+rule for a decoded JointState: the live node and the bag reader (io/bag/message_judge.py) give the same
+bytes the same reason. ``INPUT_OF_REASON``: the input whose samples each reason counts (a report's shares).
 """
 from __future__ import annotations
 
