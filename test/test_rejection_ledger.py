@@ -324,3 +324,29 @@ def test_a_malformed_load_of_an_axis_counts_in_its_load_window(ros_context, tmp_
     finally:
         node.close()
         node.destroy_node()
+
+
+def test_machine_replay_reports_rejections_per_axis(tmp_path):
+    """A three-axis bag whose joint_states message #50 is empty and whose x load #20 is 1 byte short: every
+    axis counts the joint message, only x the load; each axis's block has its own shares, the text its lines."""
+    from test_machine import make_machine_bag
+
+    from guide_health.analysis.machine_replay import analyse_machine_bag
+    from guide_health.cli.replay import format_machine_text
+
+    bag = tmp_path / "xyz"
+    axes, _ = make_machine_bag(bag, hours=0.2)
+    joints, loads = topic_rows(bag, "/joint_states"), topic_rows(bag, "/x/guide/load")
+    replace_rows(bag, {joints[50][0]: b"", loads[20][0]: bytes(loads[20][2])[:-1]})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        _, report = analyse_machine_bag(bag, axes)
+    for axis in "xyz":
+        rows = {r["reason"]: r for r in report["axes"][axis]["rejections"]["reasons"]}
+        assert rows[rules.MALFORMED_JOINT_STATES]["count"] == 1
+        assert rows[rules.MALFORMED_JOINT_STATES]["input_samples"] == len(joints)
+        assert (rules.MALFORMED_LOAD in rows) == (axis == "x")
+    assert report["axes"]["x"]["rejections"]["rejected_samples"] == 2
+    report["files"] = {"json": "report.json"}
+    text = format_machine_text(report)
+    assert "rejected input on axis y (1 samples):" in text and text.splitlines()[-1].startswith("  files:")
