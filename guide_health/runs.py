@@ -32,6 +32,10 @@ class MachineRun:
     temperature_t_ns: np.ndarray = field(default_factory=_i64)
     temperature_c: np.ndarray = field(default_factory=_f64)
     metadata: dict = field(default_factory=dict)                   # e.g. simulation truth, effects
+    # messages no sample could be read from (malformed, without the joint, invalid stamp), in bag order:
+    # ((input, index, reason), ...), index = the samples of that input ("joint_states", "guide/load", ...) of
+    # this run that came before it
+    rejected_messages: tuple = ()
 
     @property
     def messages(self) -> int:

@@ -7,7 +7,8 @@ import math
 import time
 from pathlib import Path
 
-from guide_health.analysis.replay import maintenance_list, model_curve
+from guide_health.analysis.rejections import InputTally
+from guide_health.analysis.replay import add_rejections, maintenance_list, model_curve
 from guide_health.analysis.report_plots import plot_straightness_report
 from guide_health.io.bag.maintenance import read_events
 from guide_health.io.bag.reader import iter_machine_bag
@@ -47,18 +48,23 @@ def analyse_machine_bag(bag, axes: dict[str, dict], namespace: str | None = None
     bag_events = read_events(bag, namespace)
     stamps = []
     messages = 0
+    tallies = {}
     for axis, params in axes.items():
         model = models[axis] = AxisMonitor(params)
+        tally = tallies[axis] = InputTally()
         for event in bag_events:
             if event.axis == axis:
                 model.schedule(event)
         for chunk in iter_machine_bag(bag, joint=params["joint"], namespace=namespace, progress=progress,
                                       chunk_messages=chunk_messages, topics=axis_topics(params)):
             model.process_run(chunk)
+            tally.add(chunk)
             messages += chunk.messages if axis == next(iter(axes)) else chunk.messages - chunk.joint_t_ns.size
             stamps.extend(int(a[i]) for a in (chunk.joint_t_ns, chunk.load_t_ns) if a.size for i in (0, -1))
     reports = {axis: dict(axis_report(model), maintenance_events=maintenance_list(model))
                for axis, model in models.items()}
+    for axis, model in models.items():
+        add_rejections(reports[axis], model.rejected, tallies[axis], axes[axis])
     worst = min(reports, key=lambda a: (-int(reports[a]["level"]), _life(reports[a]["remaining_life_h"])))
     report = {
         "axes": reports,

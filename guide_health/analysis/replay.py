@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from guide_health.analysis.rejections import InputTally, rejection_summary
 from guide_health.analysis.report_plots import plot_slewing_contact_series, plot_straightness_report
 from guide_health.io.bag.maintenance import read_events
 from guide_health.io.bag.reader import iter_machine_bag, read_slewing_bag
@@ -36,7 +37,17 @@ def analyse(run, params: dict, progress=None) -> tuple[PrecisionMonitor, dict]:
     report = monitor_report(monitor)
     report["messages"] = run.messages
     report["duration_h"] = run.duration_s / 3600.0
+    tally = InputTally()
+    tally.add(run)
+    add_rejections(report, monitor.rejected, tally, params)
     return monitor, report
+
+
+def add_rejections(report: dict, rejected: dict, tally: InputTally, params: dict) -> None:
+    """``report["rejections"]`` (analysis/rejections.py) when any sample was rejected."""
+    summary = rejection_summary(dict(rejected), tally, params)
+    if summary:
+        report["rejections"] = summary
 
 
 def analyse_bag(bag, params: dict, namespace: str | None = None, progress=None,
@@ -55,11 +66,13 @@ def analyse_bag(bag, params: dict, namespace: str | None = None, progress=None,
     t_model = 0.0
     t0 = time.perf_counter()
     stats: dict = {}
+    tally = InputTally()
     for chunk in iter_machine_bag(bag, joint=params["joint"], namespace=namespace, progress=progress,
                                   chunk_messages=chunk_messages, stats=stats):
         t1 = time.perf_counter()
         model.process_run(chunk)
         t_model += time.perf_counter() - t1
+        tally.add(chunk)
         messages += chunk.messages
         stamps = [a for a in (chunk.joint_t_ns, chunk.load_t_ns, chunk.straightness_t_ns) if a.size]
         if stamps:
@@ -75,6 +88,7 @@ def analyse_bag(bag, params: dict, namespace: str | None = None, progress=None,
     report["duration_h"] = (t_last - t_first) * 1e-9 / 3600.0 if t_first is not None else 0.0
     if "bag_count_mismatch" in stats:       # metadata.yaml counts that disagree with the stored rows
         report["bag_count_mismatch"] = stats["bag_count_mismatch"]
+    add_rejections(report, model.rejected, tally, params)
     return monitor, report, {"read_s": time.perf_counter() - t0 - t_model, "model_s": t_model}
 
 

@@ -8,6 +8,7 @@ import time
 from pathlib import Path
 
 from guide_health.analysis.discrepancy.duty_process import start_duty_cells
+from guide_health.analysis.rejections import add_diagnose_rejections, diagnose_lead_lines, diagnose_tail_lines
 from guide_health.cli.command import Command, check_out_path
 from guide_health.errors import InputError
 from guide_health.io.outputs.progress import ProgressBar
@@ -88,6 +89,7 @@ def _diagnose(args, params: dict, bag: Path, pending, bar, threshold, t0: float)
     except ValueError as exc:
         raise InputError(f"{bag}: {exc}") from None
     result["messages"] = messages
+    add_diagnose_rejections(result, cells.rejected_samples, cells.inputs, params)
     result["read_s"] = t_read
     out = check_out_path(args.out if args.out else bag.with_name(bag.name + ".diagnose"))
     return result, out, time.perf_counter()
@@ -112,7 +114,7 @@ def format_text(result: dict) -> str:
     b, f = result["baseline"], result["final"]
     named = result["named_effects"]
     structure = result.get("unexplained_structure", {})
-    lines = [structure["message"]] if structure.get("present") else []
+    lines = diagnose_lead_lines(result) + ([structure["message"]] if structure.get("present") else [])
     lines.append(f"discrepancy workflow ({result['data']['duration_h']:.1f} h, {result['data']['measurements']} "
                  f"measurements, {result['messages']} messages)")
     if structure.get("present"):
@@ -144,6 +146,7 @@ def format_text(result: dict) -> str:
         from guide_health.analysis.discrepancy.model_file import live_parameter_text
 
         lines.append(f"  model.yaml:      {live_parameter_text(result['model_file'])} (refitted on every measurement)")
+    lines += diagnose_tail_lines(result)
     lines.append(f"  files:           {', '.join(result['files'].values())}")
     return "\n".join(lines)
 

@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 from guide_health.analysis.machine_replay import analyse_machine_bag, write_machine_outputs
+from guide_health.analysis.rejections import rejection_lines, with_rejection_lines
 from guide_health.analysis.replay import analyse_bag, analyse_slewing_bag, write_outputs, write_slewing_outputs
 from guide_health.cli.command import Command, check_out_path
 from guide_health.io.bag.info import bag_topic_types
@@ -100,7 +101,11 @@ def format_machine_text(report: dict) -> str:
                      f"um), remaining life {r['remaining_life_h']:.1f} h, K {r['wear_coefficient']:.4g}, "
                      f"{r['level_name']}")
     lines.append(f"  files: {', '.join(report['files'].values())}")
-    return "\n".join(lines)
+    first, last = [], []
+    for axis, r in report["axes"].items():
+        summary = r.get("rejections", {})
+        (first if summary.get("leads") else last).extend(rejection_lines(summary, axis))
+    return "\n".join(first + lines[:-1] + last + lines[-1:])
 
 
 def format_text(report: dict) -> str:
@@ -116,7 +121,7 @@ def format_text(report: dict) -> str:
             f"{report['samples_error']} ERROR, {report['rejected_loads']} rejected",
             f"  files:          {', '.join(report['files'].values())}",
         ])
-    return "\n".join([
+    return "\n".join(with_rejection_lines([
         f"guide precision report ({report['duration_h']:.2f} h, {report['messages']} messages)",
         f"  status:                {report['level_name']}: {report['message']}",
         f"  straightness (model):  {report['straightness_um']:.2f} um   (last measured "
@@ -129,7 +134,7 @@ def format_text(report: dict) -> str:
         f"  strokes:               {report['strokes']} between {report['stroke_min_m'] * 1e3:.1f} and "
         f"{report['stroke_max_m'] * 1e3:.1f} mm",
         f"  files:                 {', '.join(report['files'].values())}",
-    ])
+    ], report.get("rejections", {})))
 
 
 REPLAY = Command(add_arguments, run, format_text)

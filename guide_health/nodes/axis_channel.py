@@ -22,15 +22,14 @@ from guide_health.io.bag.interfaces import JOINT_STATE, WRENCH_STAMPED
 from guide_health.models.wear.axis import PRECISION_KEYS, AxisMonitor
 from guide_health.models.wear.feed import StampAlignedFeed
 from guide_health.models.wear.input_rules import (
-    EMPTY_JOINT_STATES,
     INVALID_STAMP,
-    JOINT_POSITION_MISSING,
+    LOAD_INPUT,
     MALFORMED_JOINT_STATES,
     MALFORMED_LOAD,
     NS_PER_S,
     STRAIGHTNESS_WITHOUT_TIME_BASE,
     header_stamp_ns,
-    joint_missing,
+    joint_state_reason,
     rejected_keys,
 )
 from guide_health.models.wear.maintenance import KINDS, MaintenanceEvent, stamp_text
@@ -155,16 +154,9 @@ class AxisChannel:
 
     def joint_message(self, msg: JointState, now: float | None = None) -> tuple[float, float]:
         """A deserialised JointState: this axis's joint picked out, or the message rejected for it."""
-        if not msg.name or len(msg.position) == 0:
-            self.reject("joint_states", EMPTY_JOINT_STATES)
-            return 0.0, 0.0
-        try:
-            i = list(msg.name).index(self.joint)
-        except ValueError:
-            self.reject("joint_states", joint_missing(self.joint))
-            return 0.0, 0.0
-        if i >= len(msg.position):
-            self.reject("joint_states", JOINT_POSITION_MISSING)
+        reason, i = joint_state_reason(msg.name, len(msg.position), self.joint)
+        if reason is not None:
+            self.reject("joint_states", reason)
             return 0.0, 0.0
         velocity = msg.velocity[i] if i < len(msg.velocity) else 0.0
         stamp = msg.header.stamp
@@ -179,7 +171,7 @@ class AxisChannel:
     def _load(self, sec: int, nsec: int, force_z: float, now: float | None = None) -> tuple[float, float]:
         t_ns = header_stamp_ns(sec, nsec)
         if t_ns is None:
-            self.reject(self.load_input, INVALID_STAMP)
+            self.reject(LOAD_INPUT, INVALID_STAMP)
             return 0.0, 0.0
         t1 = time.perf_counter()
         reasons = self.feed.load(t_ns, force_z, time.monotonic() if now is None else now)
@@ -243,7 +235,7 @@ class AxisChannel:
             try:
                 msg = deserialize_message(raw, WrenchStamped)
             except Exception:  # noqa: BLE001 - anything undecodable is malformed input
-                self.reject(self.load_input, MALFORMED_LOAD)
+                self.reject(LOAD_INPUT, MALFORMED_LOAD)
                 return
             values = (msg.header.stamp.sec, msg.header.stamp.nanosec, float(msg.wrench.force.z))
         self._load(*values, now)

@@ -47,6 +47,12 @@ Topic names: as in the bag (absolute; ``--ros-args -r from:=to`` remaps them). `
 replaces the bag's machine namespace (the prefix of its `.../joint_states` or `.../slewing/load` topic,
 '' if none) by /m1, so one bag can play as machine m1, m2, ... of a fleet. Exit 0 after the bag, 1 with one
 line on a bad bag, 2 on bad arguments; a summary (messages, seconds, msg/s) goes to stderr.
+
+A message that is not a CDR payload of its type (shorter than the type's fixed part, e.g. empty, or not
+decodable, e.g. truncated; io/bag/payload.py) is skipped, never published, and counted per topic: a
+subscriber would stop on it, or (DDS pads a payload to 4 bytes) take a truncated message for a valid one.
+Exit EXIT_INCOMPLETE (3), with one line naming the topics and counts, when any message was skipped or a
+topic's data was not acknowledged by the end.
 """
 from __future__ import annotations
 
@@ -55,10 +61,11 @@ import importlib
 import os
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from guide_health.errors import InputError
+from guide_health.io.bag.payload import PayloadCheck
 from guide_health.io.bag.storage import iter_raw_messages, open_storage
 
 DEFAULT_MAX_RATE = 3000.0       # msg/s a cross-process SingleThreadedExecutor subscriber keeps up with
@@ -68,6 +75,7 @@ _MACHINE_SUFFIXES = ("joint_states", "slewing/load")
 DEFAULT_BARRIER_TYPES = ("std_msgs/msg/Float64",)
 DEFAULT_BARRIER_SPARSE = 0.01
 DEFAULT_CLOCK_HZ = 100.0        # /clock messages per second of bag time (--clock)
+EXIT_INCOMPLETE = 3             # a message skipped (not a payload of its type) or not acknowledged
 
 
 # ---------------------------------------------------------------------------------------------
@@ -321,6 +329,8 @@ class Playback:
     msg_class: dict
     barrier_of: dict
     clock: ClockPublisher | None = None
+    payload: dict = field(default_factory=dict)         # connection id -> its PayloadCheck (io/bag/payload.py)
+    skipped: dict = field(default_factory=dict)         # topic -> messages not published (not a payload)
 
 
 def create_playback(node, connections, classes: dict, args) -> Playback:
@@ -333,7 +343,8 @@ def create_playback(node, connections, classes: dict, args) -> Playback:
                     publish={c.id: pubs[c.topic].publish for c in connections},
                     msg_class={c.id: classes[c.topic] for c in connections},
                     barrier_of=barrier_publishers(connections, pubs, args.barrier_types, args.barrier_sparse),
-                    clock=None if args.clock is None else ClockPublisher(node, args.clock))
+                    clock=None if args.clock is None else ClockPublisher(node, args.clock),
+                    payload={c.id: PayloadCheck(c.msgtype) for c in connections})
 
 
 def wait_for_subscribers(pubs, count: int, timeout_s: float) -> None:
@@ -360,7 +371,8 @@ def _rcl_error_type() -> type:
 
 def publish_in_order(messages, playback: Playback, pacer: Pacer, args) -> tuple[int, float, float, float]:
     """Publish (connection, log time, raw CDR) in bag order when the pacer allows, behind barriers;
-    (messages sent, s blocked by subscribers, monotonic start, s sending)."""
+    (messages sent, s blocked by subscribers, monotonic start, s sending). A message that is not a CDR
+    payload of its type is not published: counted per topic in ``playback.skipped``."""
     from rclpy.duration import Duration
     from rclpy.serialization import deserialize_message
 
@@ -372,7 +384,11 @@ def publish_in_order(messages, playback: Playback, pacer: Pacer, args) -> tuple[
     t_start = time.monotonic()
     due = pacer.due
     tick = playback.clock.tick if playback.clock is not None else lambda t: None
+    payload, skipped = playback.payload, playback.skipped
     for conn, log_t, raw in messages:
+        if not payload[conn.id](raw):
+            skipped[conn.topic] = skipped.get(conn.topic, 0) + 1
+            continue
         when = t_start + due(log_t)
         if when > time.monotonic():
             _sleep_until(when)
@@ -398,14 +414,23 @@ def publish_in_order(messages, playback: Playback, pacer: Pacer, args) -> tuple[
     return sent, blocked, t_start, time.monotonic() - t_start
 
 
-def wait_all_acked(pubs, timeout_s: float) -> bool:
-    """Wait (each at most `timeout_s`) until every publisher's data is acknowledged; True if all were."""
+def wait_all_acked(pubs, timeout_s: float) -> list[str]:
+    """Wait (each at most `timeout_s`) until every publisher's data is acknowledged; the topics whose data
+    was not."""
     from rclpy.duration import Duration
 
-    acked = True
-    for p in pubs:
-        acked &= bool(p.wait_for_all_acked(Duration(seconds=timeout_s)))
-    return acked
+    return [p.topic_name for p in pubs if not p.wait_for_all_acked(Duration(seconds=timeout_s))]
+
+
+def incomplete_play_line(skipped: dict[str, int], unacked: list[str]) -> str:
+    """The one line of a play that did not deliver every message ('' when it did)."""
+    parts = []
+    if skipped:
+        parts.append(f"skipped {sum(skipped.values())} messages that are not a CDR payload of their type ("
+                     + ", ".join(f"{topic}: {n}" for topic, n in sorted(skipped.items())) + ")")
+    if unacked:
+        parts.append(f"not every message acknowledged on {', '.join(sorted(unacked))}")
+    return "; ".join(parts)
 
 
 def play(args, rclpy_args) -> int:
@@ -431,17 +456,21 @@ def play(args, rclpy_args) -> int:
             sent, blocked, t_start, t_sent = publish_in_order(messages, playback, pacer, args)
             if playback.clock is not None:
                 playback.clock.finish()
-            acked = wait_all_acked(playback.pubs.values(), args.ack_timeout)
+            unacked = wait_all_acked(playback.pubs.values(), args.ack_timeout)
             t_total = time.monotonic() - t_start
             if not args.quiet:
                 rate = sent / t_sent if t_sent > 0 else float("inf")
                 _log(f"published {sent} of {total} messages on {len(playback.pubs)} topics in {t_sent:.2f} s "
-                     f"({rate:,.0f} msg/s); all acknowledged: {'yes' if acked else 'NO'} "
+                     f"({rate:,.0f} msg/s); all acknowledged: {'NO' if unacked else 'yes'} "
                      f"after {t_total:.2f} s" + (f"; blocked by subscribers {blocked:.2f} s" if blocked else ""))
             node.destroy_node()
         finally:
             if rclpy.ok():
                 rclpy.shutdown()
+    incomplete = incomplete_play_line(playback.skipped, unacked)
+    if incomplete:
+        _log(f"error: {incomplete}")
+        return EXIT_INCOMPLETE
     return 0
 
 

@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from guide_health.analysis.rejections import InputTally
 from guide_health.io.bag.reader import iter_machine_bag
 from guide_health.models.wear.archard import sliding_positions_m
 from guide_health.models.wear.effects import pass_weight_per_m
@@ -103,6 +104,7 @@ class DutyCells:
     duration_s: float
     metadata: dict = field(default_factory=dict)
     rejected_samples: dict = field(default_factory=dict)   # input samples rejected, by reason
+    inputs: InputTally = field(default_factory=InputTally)  # samples read per input (shares of the rejections)
 
     @property
     def cells(self) -> int:
@@ -141,6 +143,7 @@ class DutyCellAccumulator:
         self.segments = 0
         self.rejected = 0                      # segments without a known load
         self.rejected_samples = RejectionCounter()
+        self.inputs = InputTally()
         self.metadata: dict = {}
         self._t_end_ns: int | None = None
 
@@ -149,6 +152,7 @@ class DutyCellAccumulator:
         """One chunk (in time order after the previous one)."""
         if run.metadata and not self.metadata:
             self.metadata = dict(run.metadata)
+        self.inputs.add(run)
         stamps = [np.asarray(a, dtype=np.int64) for a in (run.joint_t_ns, run.load_t_ns, run.straightness_t_ns)]
         if self.t0_ns is None:
             firsts = [int(a[0]) for a in stamps if len(a)]
@@ -172,6 +176,8 @@ class DutyCellAccumulator:
         meas_t, meas_y = stamps[2][based], np.asarray(run.straightness_m, dtype=float)[based]
         measurements = accept_straightness_samples(meas_t, meas_y, self._last_meas_t, self.limits)
         self.rejected_samples.count_all({**accepted.rejected, **measurements.rejected})
+        for _, _, reason in getattr(run, "rejected_messages", ()):   # messages the reader took no sample from
+            self.rejected_samples.reject(reason)
         if not based.all():
             self.rejected_samples.count(STRAIGHTNESS_WITHOUT_TIME_BASE, int((~based).sum()))
         self._meas_t.append(meas_t[measurements.accepted])
@@ -333,6 +339,7 @@ class DutyCellAccumulator:
             duration_s=((self._t_end_ns or t0) - t0) * 1e-9,
             metadata=self.metadata,
             rejected_samples=dict(self.rejected_samples),
+            inputs=self.inputs,
         )
 
 

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from guide_health.analysis.discrepancy.model_file import live_parameter_text, not_live_effects
+from guide_health.analysis.rejections import diagnose_lead_lines, diagnose_tail_lines
 from guide_health.analysis.report_plots import plot_forecast
 from guide_health.io.outputs.files import open_output, save_figure, write_text
 from guide_health.io.outputs.json_text import json_text
@@ -42,7 +43,7 @@ def model_file_lines(result: dict[str, Any]) -> list[str]:
 def markdown(result: dict[str, Any], bag: str = "") -> str:
     b, f, d = result["baseline"], result["final"], result["data"]
     where = result["where_baseline_disagrees"]
-    lines = [f"# Discrepancy report{(': ' + bag) if bag else ''}", ""]
+    lines = [f"# Discrepancy report{(': ' + bag) if bag else ''}", ""] + diagnose_lead_lines(result, markdown=True)
     structure = result.get("unexplained_structure", {})
     if structure.get("present"):
         lines += [f"> **{structure['message']}**", ""]
@@ -70,7 +71,8 @@ def markdown(result: dict[str, Any], bag: str = "") -> str:
     for d in result.get("dropped_by_backward_pass", []):
         lines.append(f"- dropped by the backward pass: {d['effect']} (BIC rises by only {d['delta_bic']:.1f} "
                      "without it)")
-    lines += ["", "## The live model (model.yaml)", ""] + model_file_lines(result)
+    tail = diagnose_tail_lines(result, markdown=True)
+    lines += (["", *tail[:-1]] if tail else []) + ["", "## The live model (model.yaml)", ""] + model_file_lines(result)
     lines += ["", "## The gap", "", "| model | RMSE fit [um] | max rel. error fit | RMSE held out [um] | "
               "max rel. error held out | K |", "|---|---|---|---|---|---|"]
     for label, g in (("baseline (K calibrated)", b), ("with " + (" + ".join(named) or "nothing"), f)):

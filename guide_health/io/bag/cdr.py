@@ -26,7 +26,7 @@ import numpy as np
 
 from ...errors import InputError
 from .interfaces import FLOAT64, JOINT_STATE, NS_PER_S, TEMPERATURE, WRENCH_STAMPED
-from .typestore import header, message, typestore
+from .typestore import deserialize, header, message, typestore
 
 _MAX_TEMPLATES = 8                # decode templates tried per chunk and message length
 _CDR_LE = b"\x00\x01"             # encapsulation id CDR little endian
@@ -61,7 +61,7 @@ def _header_end(raw: bytes):
     fid_len = _U32.unpack_from(raw, 12)[0]
     if fid_len < 1 or 16 + fid_len > len(raw) or raw[15 + fid_len] != 0:
         return None
-    return 16 + fid_len, [(0, _CDR_LE), (12, bytes(raw[12:16]))]
+    return 16 + fid_len, [(0, _CDR_LE), (12, bytes(raw[12:16])), (15 + fid_len, b"\x00")]   # + its terminator
 
 
 _STAMP = {"sec": (4, "<i4"), "nsec": (8, "<u4")}
@@ -154,7 +154,7 @@ MISSING = "missing"
 
 def _deserialize(raw, msgtype):
     try:
-        return typestore().deserialize_cdr(raw, msgtype)
+        return deserialize(raw, msgtype)
     except Exception:  # noqa: BLE001 - any decoding failure is a malformed message
         return None
 
@@ -349,6 +349,7 @@ class DecodedChunk:
     malformed: int = 0
     fast: int = 0
     fallback: int = 0
+    status: np.ndarray | None = None    # per message of the chunk: 0 kept, 1 missing, 2 malformed
 
 
 def _field_mask(layout: Layout) -> tuple[np.ndarray, np.ndarray]:
@@ -423,9 +424,9 @@ def _decode(n: int, groups, raw_of: Callable[[int], bytes], codec: MessageCodec)
                 present[name][i] = True
     keep = np.flatnonzero(status == 0)
     if keep.size == n:                  # every message kept: the arrays as they are
-        return DecodedChunk(out, present, keep, 0, 0, n_fast, n_fallback)
+        return DecodedChunk(out, present, keep, 0, 0, n_fast, n_fallback, status)
     return DecodedChunk({k: v[keep] for k, v in out.items()}, {k: v[keep] for k, v in present.items()},
-                        keep, int((status == 1).sum()), int((status == 2).sum()), n_fast, n_fallback)
+                        keep, int((status == 1).sum()), int((status == 2).sum()), n_fast, n_fallback, status)
 
 
 def _list_groups(raws: list):

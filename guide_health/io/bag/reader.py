@@ -22,6 +22,7 @@ from ...errors import InputError
 from ...runs import MachineRun, SlewingLoadRun
 from .cdr import WRENCH_NAMES, DecodedChunk, codec_for, decode_chunk, decode_packed
 from .interfaces import FLOAT64, MACHINE_TOPICS, NS_PER_S, SLEWING_TOPICS, topic_name
+from .message_judge import MessageJudge
 from .metadata import check_no_missing_messages, count_mismatch_text, count_mismatches, read_run_metadata
 from .protocol import NOT_SUPPORTED, BagConnection, BagStorage, PackedBatch, RawBatch
 from .storage import iter_raw_messages, open_storage
@@ -39,6 +40,7 @@ class TopicArrays(NamedTuple):
     values: dict        # name -> array over the kept messages (+ "log_t_ns" for a header-less topic)
     present: dict       # name -> bool array: the value was in the message (NaN where not)
     counts: dict        # kept, missing, malformed, fast, fallback -> number of messages
+    rejections: tuple = ()  # ((index, reason), ...): messages not kept, after `index` kept ones (judged topics)
 
 
 class TopicBatch(NamedTuple):
@@ -76,21 +78,33 @@ def _empty_topic(names, log=False) -> TopicArrays:
 
 
 class _TopicAccumulator:
-    """Raw messages of one topic for the current chunk, then per-chunk arrays (bounded memory)."""
+    """Raw messages of one topic for the current chunk, then per-chunk arrays (bounded memory). ``judge``:
+    every message not kept gets its rejection reason (:class:`MessageJudge`), and a message with an invalid
+    header stamp is not kept."""
 
-    def __init__(self, msgtype: str, joint: str, fast: bool, log_time: bool):
+    def __init__(self, msgtype: str, joint: str, fast: bool, log_time: bool, judge: bool = False):
         self.codec = codec_for(msgtype, joint)
         self.names = self.codec.names
         self.fast = fast
+        self.judge = MessageJudge(msgtype, joint) if judge else None
         self.raws: list = []
         self.log_times: list | None = [] if log_time else None
         self.parts: list[DecodedChunk] = []
         self.log_parts: list[np.ndarray] = []
+        self.rejections: list = []        # (index into the kept messages since the last take, reason)
+        self.kept = 0                     # kept messages since the last take
+
+    def _judged(self, dec: DecodedChunk, raw_of) -> DecodedChunk:
+        if self.judge is not None:
+            dec, rejected = self.judge.judge(dec, raw_of)
+            self.rejections.extend((self.kept + i, reason) for i, reason in rejected)
+        self.kept += int(dec.keep.size)
+        return dec
 
     def flush(self) -> None:
         if not self.raws:
             return
-        dec = decode_chunk(self.raws, self.codec, self.fast)
+        dec = self._judged(decode_chunk(self.raws, self.codec, self.fast), self.raws.__getitem__)
         self.parts.append(dec)
         if self.log_times is not None:
             self.log_parts.append(np.asarray(self.log_times, dtype=np.int64)[dec.keep])
@@ -104,6 +118,7 @@ class _TopicAccumulator:
         if idx is not None:
             offsets, lengths, times = offsets[idx], lengths[idx], times[idx]
         dec = decode_packed(batch.buf, offsets, lengths, self.codec, self.fast)
+        dec = self._judged(dec, lambda i: batch.buf[offsets[i]:offsets[i] + lengths[i]].tobytes())
         self.parts.append(dec)
         if self.log_times is not None:
             self.log_parts.append(times[dec.keep])
@@ -113,6 +128,8 @@ class _TopicAccumulator:
         out = self.result()
         self.parts.clear()
         self.log_parts.clear()
+        self.rejections.clear()
+        self.kept = 0
         return out
 
     def result(self) -> TopicArrays:
@@ -126,7 +143,7 @@ class _TopicAccumulator:
         if self.log_times is not None:
             values["log_t_ns"] = (np.concatenate(self.log_parts) if self.log_parts
                                   else np.zeros(0, np.int64))
-        return TopicArrays(values, present, counts)
+        return TopicArrays(values, present, counts, tuple(self.rejections))
 
 
 def _stamps(values: dict) -> np.ndarray:
@@ -205,7 +222,8 @@ def _topic_accumulators(storage: BagStorage, wanted: dict, namespace: str, suffi
         bad = sorted({c.msgtype for c in here if c.msgtype != msgtype})
         if bad:
             raise InputError(f"bag {storage.path}: topic {topic} has type {bad[0]}, expected {msgtype}")
-        accs[topic] = _TopicAccumulator(msgtype, joint, fast, log_time=(msgtype == FLOAT64))
+        accs[topic] = _TopicAccumulator(msgtype, joint, fast, log_time=(msgtype == FLOAT64),
+                                        judge=suffix_for_ns == "joint_states")
         conns.extend(here)
     if topic_name(namespace, suffix_for_ns) not in accs:
         types = {c.topic: c.msgtype for c in storage.connections}
@@ -308,7 +326,8 @@ def read_machine_bag(path, joint: str = "x", namespace: str | None = None,
 
     namespace None: the namespace of the bag's unique `.../joint_states` topic.
     JointState messages without `joint` (or without its position) are skipped and counted;
-    velocity is NaN where a message has none, and empty when no message has one.
+    velocity is 0 where a message has none (an absent velocity counts as finite, as live), and empty when no
+    message has one.
     progress(done_messages, total_messages) is called after every chunk.
     fast=False decodes every message with rosbags deserialize_cdr (the reference path).
     stats, when given, receives per-topic counts: kept, missing, malformed, fast, fallback.
@@ -369,7 +388,9 @@ def _machine_run(read: TopicBatch, joint: str, metadata: dict,
     ld_v = got["guide/load"].values
     st_v = got["guide/straightness"].values
     tp_v = got["guide/temperature"].values
-    velocity = js.values["velocity"] if js.present["velocity"].any() else np.zeros(0)
+    # a message without velocity among messages with one: an absent velocity counts as 0 (finite), as live
+    present = js.present["velocity"]
+    velocity = np.where(present, js.values["velocity"], 0.0) if present.any() else np.zeros(0)
     run = MachineRun(
         joint_name=joint,
         joint_t_ns=_stamps(js.values), joint_position_m=js.values["position"], joint_velocity_m_s=velocity,
@@ -377,6 +398,7 @@ def _machine_run(read: TopicBatch, joint: str, metadata: dict,
         straightness_t_ns=st_v["log_t_ns"], straightness_m=st_v["data"],
         temperature_t_ns=_stamps(tp_v), temperature_c=tp_v["temperature"],
         metadata=metadata,
+        rejected_messages=tuple((rel, i, reason) for rel, v in got.items() for i, reason in v.rejections),
     )
     return run, {rel: v.counts for rel, v in got.items()}
 

@@ -14,6 +14,25 @@ def typestore():
     return get_typestore(Stores.ROS2_JAZZY)
 
 
+def deserialize(raw, msgtype: str):
+    """rosbags' CDR deserialisation of ``raw`` as ``msgtype``, with trailing bytes after the content allowed
+    (as Fast CDR, the live nodes' deserialiser, allows them; rosbags' ``deserialize_cdr`` allows at most 3);
+    raises on anything else rosbags refuses (encapsulation, a field running past the end, a bad string)."""
+    import struct
+
+    from rosbags.serde import SerdeError
+
+    raw = bytes(raw)
+    if len(raw) < 4 or raw[:2] not in (b"\x00\x00", b"\x00\x01"):
+        raise SerdeError("invalid or unsupported CDR encapsulation")
+    msgdef = typestore().get_msgdef(msgtype)
+    decode = msgdef.deserialize_cdr_le if raw[1] else msgdef.deserialize_cdr_be
+    try:
+        return decode(raw[4:], 0, msgdef.cls, typestore())[0]
+    except (struct.error, UnicodeDecodeError, ValueError) as exc:
+        raise SerdeError(f"could not deserialize {msgtype!r}: {exc}") from None
+
+
 def message(typename: str, **fields):
     """A rosbags message object of type `typename`."""
     return typestore().types[typename](**fields)

@@ -578,13 +578,17 @@ def split_run(run, t_ns: int):
 
     j, ld, st, tp = cut(run.joint_t_ns), cut(run.load_t_ns), cut(run.straightness_t_ns), cut(run.temperature_t_ns)
     vel = run.joint_velocity_m_s
+    cuts = {"joint_states": j, "guide/load": ld, "guide/straightness": st, "guide/temperature": tp}
+    messages = getattr(run, "rejected_messages", ())
+    head_messages = tuple(m for m in messages if m[1] <= cuts[m[0]])
+    tail_messages = tuple((s, i - cuts[s], r) for s, i, r in messages if i > cuts[s])
     head = dataclasses.replace(
-        run, joint_t_ns=run.joint_t_ns[:j], joint_position_m=run.joint_position_m[:j],
+        run, rejected_messages=head_messages, joint_t_ns=run.joint_t_ns[:j], joint_position_m=run.joint_position_m[:j],
         joint_velocity_m_s=vel[:j] if vel.size else vel, load_t_ns=run.load_t_ns[:ld], load_n=run.load_n[:ld],
         straightness_t_ns=run.straightness_t_ns[:st], straightness_m=run.straightness_m[:st],
         temperature_t_ns=run.temperature_t_ns[:tp], temperature_c=run.temperature_c[:tp])
     tail = dataclasses.replace(
-        run, joint_t_ns=run.joint_t_ns[j:], joint_position_m=run.joint_position_m[j:],
+        run, rejected_messages=tail_messages, joint_t_ns=run.joint_t_ns[j:], joint_position_m=run.joint_position_m[j:],
         joint_velocity_m_s=vel[j:] if vel.size else vel, load_t_ns=run.load_t_ns[ld:], load_n=run.load_n[ld:],
         straightness_t_ns=run.straightness_t_ns[st:], straightness_m=run.straightness_m[st:],
         temperature_t_ns=run.temperature_t_ns[tp:], temperature_c=run.temperature_c[tp:])

@@ -145,15 +145,29 @@ class InputGate:
         accepted = accept_run(run, self.joint_base, self.load_base, self.load_n, self.limits, self.load_share)
         self.rejected.count_all(accepted.rejected)
         self.joint_base, self.load_base = accepted.joints.base, accepted.loads.base
+        messages = getattr(run, "rejected_messages", ())
         for stream, acceptance in (("joint_states", accepted.joints), ("guide/load", accepted.loads)):
-            window = self.recent[stream]
-            window.extend(REASON_CODES[c] for c in acceptance.codes[-window.maxlen:].tolist())
+            self._extend_window(stream, acceptance.codes, [(i, r) for s, i, r in messages if s == stream])
+        for _, _, reason in messages:        # the message rejections of the bag reader, counted
+            self.rejected.reject(reason)
         self.stream_gaps.joint.add_many(accepted.joint_t_ns)
         self.stream_gaps.load.add_many(accepted.load_t_ns)
         if accepted.load_t_ns.size:
             self.load_n, self.load_t_ns = float(accepted.load_n[-1]), int(accepted.load_t_ns[-1])
             self.load_samples += int(accepted.load_t_ns.size)
         return accepted
+
+    def _extend_window(self, stream: str, codes: np.ndarray, messages: list[tuple[int, str]]) -> None:
+        """The recent window of ``stream`` after samples of rule codes ``codes`` and the rejected messages
+        ``[(samples before it, reason), ...]`` at their places (what the live node's callbacks record)."""
+        window = self.recent[stream]
+        if not messages:
+            window.extend(REASON_CODES[c] for c in codes[-window.maxlen:].tolist())
+            return
+        reasons = [REASON_CODES[c] for c in codes.tolist()]
+        for index, reason in reversed(messages):
+            reasons.insert(index, reason)
+        window.extend(reasons[-window.maxlen:])
 
     def accept_temperatures(self, t_ns, temperature_c) -> tuple[np.ndarray, np.ndarray]:
         """The plausible readings of arrays (the others counted as rejected)."""

@@ -40,9 +40,11 @@ load at a joint sample
 
 A rejected sample changes nothing but the count of its reason and the candidates of its stream (not part
 of the saved state). The vectorised forms give the same result as the scalar ones sample by sample (a fast
-path when no stamp jumps beyond the horizon, the scalar rule otherwise). The live node's message-level
-reasons (a joint missing from a JointState, undecodable messages, straightness without a time base, an
-invalid header stamp) are named here too.
+path when no stamp jumps beyond the horizon, the scalar rule otherwise). The message-level reasons (a
+joint missing from a JointState or without a position, empty arrays, undecodable messages, straightness
+without a time base, an invalid header stamp) are named here too, with :func:`joint_state_reason`, the one
+rule for a decoded JointState: the live node and the bag reader (io/bag/message_judge.py) give the same
+bytes the same reason. ``INPUT_OF_REASON``: the input whose samples each reason counts (a report's shares).
 """
 from __future__ import annotations
 
@@ -69,6 +71,8 @@ MEASUREMENT_ALREADY_APPLIED = "measurement already applied"
 # message level (live node)
 MALFORMED_JOINT_STATES = "malformed joint_states message"
 MALFORMED_LOAD = "malformed guide/load message"
+MALFORMED_STRAIGHTNESS = "malformed guide/straightness message"
+MALFORMED_TEMPERATURE = "malformed guide/temperature message"
 EMPTY_JOINT_STATES = "empty joint_states arrays"
 JOINT_POSITION_MISSING = "joint_states position shorter than name"
 STRAIGHTNESS_WITHOUT_TIME_BASE = "straightness before any joint_states (no time base)"
@@ -94,16 +98,55 @@ REASON_CODES = (None, NON_FINITE_JOINT, POSITION_OUT_OF_TRAVEL, JOINT_TIME_BACKW
 CODE_OF_REASON = {reason: code for code, reason in enumerate(REASON_CODES)}
 MESSAGE_REASONS = (MALFORMED_JOINT_STATES, MALFORMED_LOAD, EMPTY_JOINT_STATES, JOINT_POSITION_MISSING,
                    STRAIGHTNESS_WITHOUT_TIME_BASE, INVALID_STAMP, STRAIGHTNESS_WITHOUT_TEMPERATURE,
-                   TEMPERATURE_IMPLAUSIBLE)
+                   TEMPERATURE_IMPLAUSIBLE, MALFORMED_STRAIGHTNESS, MALFORMED_TEMPERATURE)
 MAINTENANCE_REASONS = (MAINTENANCE_UNKNOWN_KIND, MAINTENANCE_UNKNOWN_GUIDE, MAINTENANCE_STRAIGHTNESS_NOT_A_NUMBER,
                        MAINTENANCE_STRAIGHTNESS_IMPLAUSIBLE, MAINTENANCE_STRAIGHTNESS_NOT_BELOW_LIMIT,
                        MAINTENANCE_MEASURE_WITHOUT_VALUE, MAINTENANCE_MALFORMED, MAINTENANCE_REPEATED)
+#: the input each reason's samples come from (the denominator of its share in a report); a reason of several
+#: inputs (an invalid header stamp) names them all
+JOINT_INPUT, LOAD_INPUT = "joint_states", "guide/load"
+STRAIGHTNESS_INPUT, TEMPERATURE_INPUT = "guide/straightness", "guide/temperature"
+INPUT_OF_REASON = {
+    **dict.fromkeys((NON_FINITE_JOINT, POSITION_OUT_OF_TRAVEL, JOINT_TIME_BACKWARDS, JOINT_STAMP_JUMP,
+                     MALFORMED_JOINT_STATES, EMPTY_JOINT_STATES, JOINT_POSITION_MISSING), (JOINT_INPUT,)),
+    **dict.fromkeys((NON_FINITE_LOAD, LOAD_ABOVE_MAX, LOAD_TIME_BACKWARDS, LOAD_STAMP_JUMP, MALFORMED_LOAD),
+                    (LOAD_INPUT,)),
+    **dict.fromkeys((NON_FINITE_STRAIGHTNESS, NEGATIVE_STRAIGHTNESS, STRAIGHTNESS_ABOVE_MAX,
+                     STRAIGHTNESS_TIME_BACKWARDS, MEASUREMENT_ALREADY_APPLIED,
+                     STRAIGHTNESS_WITHOUT_TIME_BASE, STRAIGHTNESS_WITHOUT_TEMPERATURE, MALFORMED_STRAIGHTNESS),
+                    (STRAIGHTNESS_INPUT,)),
+    **dict.fromkeys((TEMPERATURE_IMPLAUSIBLE, MALFORMED_TEMPERATURE), (TEMPERATURE_INPUT,)),
+    INVALID_STAMP: (JOINT_INPUT, LOAD_INPUT, TEMPERATURE_INPUT),
+}
 NS_PER_S = 1_000_000_000
 
 
 def joint_missing(joint: str) -> str:
     """Reason for a JointState message that does not name the monitored joint."""
     return f"joint '{joint}' not in joint_states"
+
+
+def input_of_reason(reason: str) -> tuple[str, ...]:
+    """The inputs (JOINT_INPUT, ...) whose samples a rejection reason counts; () for an unknown reason."""
+    if reason.startswith("joint '") and reason.endswith("' not in joint_states"):
+        return (JOINT_INPUT,)
+    return INPUT_OF_REASON.get(reason, ())
+
+
+def joint_state_reason(names, position_count: int, joint: str) -> tuple[str | None, int]:
+    """(rejection reason or None, index of ``joint``) of a decoded JointState with joint ``names`` and
+    ``position_count`` positions, checked in this order: no names or no positions, the joint not named, no
+    position at the joint's index. The live node and the bag reader take one rule."""
+    names = list(names)
+    if not names or position_count == 0:
+        return EMPTY_JOINT_STATES, -1
+    try:
+        index = names.index(joint)
+    except ValueError:
+        return joint_missing(joint), -1
+    if index >= position_count:
+        return JOINT_POSITION_MISSING, index
+    return None, index
 
 
 def rejected_key(reason: str) -> str:
