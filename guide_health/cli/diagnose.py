@@ -9,14 +9,18 @@ from pathlib import Path
 
 from guide_health.analysis.discrepancy.duty_process import start_duty_cells
 from guide_health.cli.command import Command, check_out_path
+from guide_health.cli.text import bag_set_lines
 from guide_health.errors import InputError
+from guide_health.io.bag.bag_set import BagSet, resolve_bags, source_events
 from guide_health.io.outputs.progress import ProgressBar
+from guide_health.models.wear.maintenance import wear_resets
 from guide_health.params import wear_monitor_params
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("bag", help="rosbag2 directory (sqlite3 or mcap) with joint_states, guide/load, "
-                                    "guide/straightness and optionally guide/temperature")
+    parser.add_argument("bag", nargs="+", help="rosbag2 directory (sqlite3 or mcap) with joint_states, guide/load, "
+                                               "guide/straightness and optionally guide/temperature; or several "
+                                               "bags / a directory of bags, read in time order as one record")
     parser.add_argument("--params", required=True, action="append",
                         help="ROS 2 parameters YAML (wear_monitor section); several merge in order, the later "
                              "overriding (as ROS merges several --params-file)")
@@ -26,6 +30,8 @@ def add_arguments(parser) -> None:
                         help="later share of the measurements kept out of every fit, for forecasts (default 0.25)")
     parser.add_argument("--bic-threshold", type=float, default=None,
                         help="BIC drop an effect must earn (default 10)")
+    parser.add_argument("--axis", default=None,
+                        help="the axis to diagnose on a machine of several axes (default: every axis)")
     parser.add_argument("--no-plot", action="store_true", help="skip the PNG")
     parser.add_argument("--progress", action="store_true", help="force the progress bar even without a TTY")
 
@@ -38,17 +44,26 @@ def run(args) -> dict:
     if params["straightness_model"] != "eq7":
         print("guide-health diagnose: the effects are defined against Eq. 7; straightness_model "
               f"{params['straightness_model']!r} is read as eq7", file=sys.stderr)
-    bag = Path(args.bag)
+    bag = resolve_bags(args.bag)
+    if params["axes"]:
+        from guide_health.cli.diagnose_axes import run_axes
+
+        return run_axes(args, params, bag, threshold)
+    axis = params.get("axis", params["joint"])
+    if args.axis is not None and args.axis != axis:
+        raise InputError(f"--axis {args.axis}: the parameters describe one axis, {axis} (set 'axes' for a machine)")
     t0 = time.perf_counter()
     bar = ProgressBar("reading", force=args.progress)
+    events = source_events(bag, args.namespace)
     # a large bag is read in a child process while this one imports the fit (about 1 s); the child then
     # imports matplotlib while this one fits, and draws the PNG
-    pending = start_duty_cells(bag, params, args.namespace, bar, plot=not args.no_plot)
+    pending = start_duty_cells(bag, params, args.namespace, bar, plot=not args.no_plot,
+                               resets=wear_resets(events, axis))
     from guide_health.analysis.discrepancy.model_file import write_model_file
     from guide_health.analysis.discrepancy.report import write_report
 
     try:
-        result, out, t1 = _diagnose(args, params, bag, pending, bar, threshold, t0)
+        result, out, t1 = _diagnose(args, params, bag, events, pending, bar, threshold, t0)
         result["files"] = write_report(result, out, bag=str(bag), with_plot=not args.no_plot,
                                        plot_with=pending.plot)
     finally:
@@ -66,21 +81,17 @@ def run(args) -> dict:
     return result
 
 
-def _diagnose(args, params: dict, bag: Path, pending, bar, threshold, t0: float):
+def _diagnose(args, params: dict, bag, events: list, pending, bar, threshold, t0: float):
     """The cells (from ``pending``) through the workflow: (result, report directory, time the report starts)."""
     from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD
     from guide_health.analysis.discrepancy.workflow import diagnose_cells
-    from guide_health.io.bag.maintenance import read_events
     from guide_health.models.wear.maintenance import relubrication_times_s
 
     threshold = BIC_THRESHOLD if threshold is None else threshold
-    # while the child reads: the maintenance events
-    events = read_events(bag, args.namespace) if pending.background else None
     cells, messages = pending.result()
     bar.close()
     t_read = time.perf_counter() - t0
     # recorded relubrications (maintenance events in the bag): the lubrication_interval effect's time base
-    events = read_events(bag, args.namespace) if events is None else events
     relube = relubrication_times_s(events, params.get("axis", params["joint"]), cells.t0_ns)
     try:
         result = diagnose_cells(cells, params, heldout_fraction=args.heldout_fraction, bic_threshold=threshold,
@@ -89,8 +100,15 @@ def _diagnose(args, params: dict, bag: Path, pending, bar, threshold, t0: float)
         raise InputError(f"{bag}: {exc}") from None
     result["messages"] = messages
     result["read_s"] = t_read
-    out = check_out_path(args.out if args.out else bag.with_name(bag.name + ".diagnose"))
-    return result, out, time.perf_counter()
+    if isinstance(bag, BagSet):
+        result.update(bag.report())
+    return result, report_dir(args), time.perf_counter()
+
+
+def report_dir(args) -> Path:
+    """--out, else <bag>.diagnose beside the (first) bag named."""
+    first = Path(args.bag[0])
+    return check_out_path(args.out if args.out else first.with_name(first.name + ".diagnose"))
 
 
 def _fit_workers() -> int:
@@ -109,6 +127,17 @@ def _bic_threshold(value: float | None) -> float | None:
 
 
 def format_text(result: dict) -> str:
+    if "axes" in result:
+        from guide_health.cli.diagnose_axes import format_axes_text
+
+        return format_axes_text(result)
+    model = any(str(f).endswith("model.yaml") for f in result["files"].values())
+    return "\n".join(axis_text_lines(result, model) + bag_set_lines(result, "  ")
+                     + [f"  files:           {', '.join(result['files'].values())}"])
+
+
+def axis_text_lines(result: dict, model_file: bool) -> list[str]:
+    """The text of one axis's workflow result (without the file list; ``model_file``: with its model.yaml)."""
     b, f = result["baseline"], result["final"]
     named = result["named_effects"]
     structure = result.get("unexplained_structure", {})
@@ -139,13 +168,13 @@ def format_text(result: dict) -> str:
         s = result["steady_stage"]
         lines.append(f"  steady stage (from {s['from_h']:.1f} h): max rel. error {s['baseline_max_rel_error']:.1%} -> "
                      f"{s['final_max_rel_error']:.1%}")
-    lines.append(f"  time:            read {result['read_s']:.1f} s, fit {result['fit_s']:.1f} s")
-    if any(str(f).endswith("model.yaml") for f in result["files"].values()):
+    if "read_s" in result:          # one axis (several axes: the machine's read time)
+        lines.append(f"  time:            read {result['read_s']:.1f} s, fit {result['fit_s']:.1f} s")
+    if model_file:
         from guide_health.analysis.discrepancy.model_file import live_parameter_text
 
         lines.append(f"  model.yaml:      {live_parameter_text(result['model_file'])} (refitted on every measurement)")
-    lines.append(f"  files:           {', '.join(result['files'].values())}")
-    return "\n".join(lines)
+    return lines
 
 
 DIAGNOSE = Command(add_arguments, run, format_text)

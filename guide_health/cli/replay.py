@@ -8,6 +8,7 @@ from pathlib import Path
 from guide_health.analysis.machine_replay import analyse_machine_bag, write_machine_outputs
 from guide_health.analysis.replay import analyse_bag, analyse_slewing_bag, write_outputs, write_slewing_outputs
 from guide_health.cli.command import Command, check_out_path
+from guide_health.cli.text import bag_set_lines
 from guide_health.errors import InputError
 from guide_health.io.bag.bag_set import BagSet, resolve_bags
 from guide_health.io.bag.info import bag_topic_types
@@ -113,16 +114,6 @@ def format_machine_text(report: dict) -> str:
     lines.extend(bag_set_lines(report, "  "))
     lines.append(f"  files: {', '.join(report['files'].values())}")
     return "\n".join(lines)
-
-
-def bag_set_lines(report: dict, indent: str) -> list[str]:
-    """The bags of a multi-bag run and the gaps between them (none for one bag)."""
-    if "bags" not in report:
-        return []
-    lines = [f"{indent}bags:  {len(report['bags'])} from {report['bags'][0]['start_utc']} to "
-             f"{report['bags'][-1]['end_utc']}"]
-    lines.extend(f"{indent}gap:   {g['start_utc']} .. {g['end_utc']} ({g['duration_s']:.3f} s)" for g in report["gaps"])
-    return lines
 
 
 def format_text(report: dict) -> str:
