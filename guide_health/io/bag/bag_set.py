@@ -164,15 +164,16 @@ class ChainedStorage:
         return _rebatch_raw(rows(), chunk_messages)
 
     def iter_packed(self, connections, chunk_messages: int):
-        """Packed groups of ``chunk_messages`` messages across the bags; NOT_SUPPORTED unless every bag has them."""
+        """Packed groups of the rows of ``connections`` in windows of ``chunk_messages`` rows of every topic,
+        running on across the bags: the windows a single sqlite3 bag of the same rows is read in (rowid ranges
+        of that many rows, empty ones skipped). NOT_SUPPORTED unless every bag reads packed."""
         parts = []
         for k, storage in enumerate(self.storages):
-            local, lookup = self._local(k, connections)
-            groups = storage.iter_packed(local, chunk_messages) if local else iter(())
+            groups = storage.iter_packed(storage.connections, chunk_messages) if storage.connections else iter(())
             if groups is NOT_SUPPORTED:
                 return NOT_SUPPORTED
-            parts.append((groups, lookup))
-        return _regroup_packed(parts, chunk_messages)
+            parts.append((groups, self._local(k, self.connections)[1]))
+        return _regroup_packed(parts, chunk_messages, np.asarray(sorted({c.id for c in connections}), np.int64))
 
     def close(self) -> None:
         for storage in self.storages:
@@ -207,8 +208,20 @@ def _slice_packed(b: PackedBatch, lo: int, hi: int) -> PackedBatch:
     return PackedBatch(b.connection_ids[lo:hi], b.log_time_ns[lo:hi], b.buf, b.offsets[lo:hi], b.lengths[lo:hi])
 
 
-def _regroup_packed(parts, size: int) -> Iterator[list[PackedBatch]]:
-    """Groups of ``size`` messages from every storage's packed groups in turn (ids mapped to the chained ids)."""
+def _wanted_rows(group: list[PackedBatch], wanted: np.ndarray) -> list[PackedBatch]:
+    """The group's rows of the ``wanted`` ids (batches left empty dropped)."""
+    out = []
+    for b in group:
+        keep = np.flatnonzero(np.isin(b.connection_ids, wanted))
+        if keep.size:
+            out.append(b if keep.size == b.lengths.size else PackedBatch(
+                b.connection_ids[keep], b.log_time_ns[keep], b.buf, b.offsets[keep], b.lengths[keep]))
+    return out
+
+
+def _regroup_packed(parts, size: int, wanted: np.ndarray) -> Iterator[list[PackedBatch]]:
+    """Windows of ``size`` rows (every topic) from every storage's packed groups in turn, ids mapped to the
+    chained ids, each window's rows of ``wanted`` as one group (a window without any: none)."""
     group: list[PackedBatch] = []
     held = 0
     for groups, lookup in parts:
@@ -222,10 +235,11 @@ def _regroup_packed(parts, size: int) -> Iterator[list[PackedBatch]]:
                     held += take
                     start += take
                     if held == size:
-                        yield group
+                        if out := _wanted_rows(group, wanted):
+                            yield out
                         group, held = [], 0
-    if group:
-        yield group
+    if group and (out := _wanted_rows(group, wanted)):
+        yield out
 
 
 def resolve_bags(paths) -> BagSet | Path:
