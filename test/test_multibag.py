@@ -226,9 +226,11 @@ def test_machine_replay_of_three_bags_equals_the_recording(xyz):
 
 def test_a_wear_reset_splits_the_duty_cells_without_losing_work():
     """Bench run (2 h, 10 Hz) with a reset at 0.83 h: the cells of epoch 0 carry exactly the work of the run
-    cut at the reset, epoch 1 the rest (total unchanged); epoch 1's sliding distance starts from zero
-    (its mean s in its first cell is below that cell's own sliding distance) and ends at the total minus the
-    distance at the reset."""
+    cut at the reset, epoch 1 the rest (total unchanged); epoch 1's sliding distance counts from the reset: its
+    work-weighted mean (a sum over segments, whatever the cells) is that of the run after the reset read as a
+    record of its own (to the one segment across the reset: 1e-3)."""
+    import dataclasses
+
     from guide_health.analysis.discrepancy.duty import DutyCellAccumulator, duty_cells_from_runs
     from guide_health.params.loader import simulation_params
     from guide_health.sim.machine import _cut_run, simulate_machine
@@ -242,12 +244,21 @@ def test_a_wear_reset_splits_the_duty_cells_without_losing_work():
     split = acc.finish()
     whole = duty_cells_from_runs(run, params["slider_length_m"])
     before = duty_cells_from_runs(_cut_run(run, reset_ns + 1), params["slider_length_m"])
+    j, ld = (int(np.searchsorted(t, at)) for t, at in ((run.joint_t_ns, reset_ns), (run.load_t_ns, reset_ns - 10**8)))
+    after_run = dataclasses.replace(
+        run, joint_t_ns=run.joint_t_ns[j:], joint_position_m=run.joint_position_m[j:],
+        joint_velocity_m_s=run.joint_velocity_m_s[j:] if run.joint_velocity_m_s.size else run.joint_velocity_m_s,
+        load_t_ns=run.load_t_ns[ld:], load_n=run.load_n[ld:], straightness_t_ns=run.straightness_t_ns[:0],
+        straightness_m=run.straightness_m[:0])
+    after = duty_cells_from_runs(after_run, params["slider_length_m"])
     e0, e1 = split.epoch == 0, split.epoch == 1
     assert split.work_nm[e0].sum() == pytest.approx(before.work_nm.sum(), rel=1e-12)
     assert split.work_nm.sum() == pytest.approx(whole.work_nm.sum(), rel=1e-12)
     assert split.reset_t_s.tolist() == [pytest.approx((reset_ns - T0_NS) * 1e-9)]
     assert split.reset_straightness_m.tolist() == [4e-6]
-    first = np.argmin(np.where(e1, split.time_s, np.inf))
-    assert split.sliding_distance_m[first] < split.distance_m[first]
-    assert split.sliding_distance_m[e1].max() <= whole.total_distance_m - before.total_distance_m + 1e-9
-    assert split.sliding_distance_m[e0].max() <= before.total_distance_m + 1e-9
+
+    def mean_s(cells, mask):
+        return float(np.sum((cells.work_nm * cells.sliding_distance_m)[mask]) / np.sum(cells.work_nm[mask]))
+
+    assert mean_s(split, e1) == pytest.approx(mean_s(after, slice(None)), rel=1e-3)
+    assert mean_s(split, e0) == pytest.approx(mean_s(before, slice(None)), rel=1e-12)
