@@ -159,7 +159,7 @@ FAST_XYZ = [("wear_coefficient: 3.0e-8", "wear_coefficient: 3.0e-6"),
 
 @pytest.fixture(scope="module")
 def xyz(tmp_path_factory):
-    """8 h of the three-axis machine, running-in hidden on y only, a regrind of x at 4 h to 5 um."""
+    """8 h of the three-axis machine, running-in hidden on y only, a regrind of x at 4 h to 2 um (A0 6 um)."""
     tmp = tmp_path_factory.mktemp("xyz")
     text = XYZ.read_text()
     for old, new in FAST_XYZ:          # every occurrence (the noise is in the node's and the simulator's section)
@@ -169,23 +169,24 @@ def xyz(tmp_path_factory):
     params.write_text(text)
     bag = tmp / "bag"
     proc = cli("simulate", "--params", params, "--out", bag, "--seed", "0", "--effect", "y.running_in=2.5",
-               "--maintenance", "regrind:x@4h=5um")
+               "--maintenance", "regrind:x@4h=2um")
     assert proc.returncode == 0, proc.stderr
     return {"params": params, "bag": bag, "tmp": tmp}
 
 
 def test_diagnose_per_axis_names_the_effect_hidden_on_y_only(xyz):
     """axes {x, y, z}: running_in named on y and nothing on x (regrind split: K within 10 % of the
-    simulator's 3e-6 on both surfaces) or z; report.md a section per axis, a CSV per axis, model.yaml with a
+    simulator's 3e-6 on both surfaces, the new one from the 2 um entered, residuals at the noise) or z; report.md a section per axis, a CSV per axis, model.yaml with a
     section per axis that replay loads."""
     tmp = xyz["tmp"]
     out = ok_json("diagnose", xyz["bag"], "--params", xyz["params"], "--out", tmp / "d", "--no-plot")
     axes = out["axes"]
     assert list(axes) == ["x", "y", "z"]
     assert {a: r["named_effects"] for a, r in axes.items()} == {"x": [], "y": ["running_in"], "z": []}
-    assert axes["x"]["data"]["wear_resets"] == [{"t_h": 4.0, "straightness_after_um": pytest.approx(5.0)}]
+    assert axes["x"]["data"]["wear_resets"] == [{"t_h": 4.0, "straightness_after_um": pytest.approx(2.0)}]
     assert "wear_resets" not in axes["z"]["data"]
     assert axes["x"]["final"]["wear_coefficient"] == pytest.approx(3.0e-6, rel=0.1)
+    assert axes["x"]["baseline"]["rmse_um"] < 2 * 0.2          # the noise: both surfaces fitted from their A0
     assert [r["data"]["measurements"] for r in axes.values()] == [16, 16, 16]       # 0 .. 7.5 h
     md = (tmp / "d" / "report.md").read_text()
     assert [md.count(f"axis {a}\n") for a in "xyz"] == [1, 1, 1]
