@@ -176,8 +176,8 @@ def xyz(tmp_path_factory):
 
 def test_diagnose_per_axis_names_the_effect_hidden_on_y_only(xyz):
     """axes {x, y, z}: running_in named on y and nothing on x (regrind split: K within 10 % of the
-    simulator's 3e-6 on both surfaces, the new one from the 2 um entered, residuals at the noise) or z; report.md a section per axis, a CSV per axis, model.yaml with a
-    section per axis that replay loads."""
+    simulator's 3e-6 on both surfaces, the new one from the 2 um entered, residuals at the noise) or z;
+    report.md a section per axis, a CSV per axis, model.yaml with a section per axis that replay loads."""
     tmp = xyz["tmp"]
     out = ok_json("diagnose", xyz["bag"], "--params", xyz["params"], "--out", tmp / "d", "--no-plot")
     axes = out["axes"]

@@ -405,7 +405,7 @@ def bag_accumulator(params: dict, resets=()) -> DutyCellAccumulator:
     """The accumulator ``diagnose`` reads a bag with: slider length, input limits and deadband of ``params``;
     ``resets``: the axis's wear resets as (t_ns, straightness after [m], NaN: A0). An axis of a machine
     (``guide_load_shares``) counts the load of its most loaded guide, whose straightness the axis reports."""
-    shares = params.get("guide_load_shares") if params.get("axes") else None
+    shares = params["guide_load_shares"] if params["axes"] else None
     return DutyCellAccumulator(params["slider_length_m"], limits=InputLimits.from_params(params),
                                sliding_deadband_m=params["sliding_deadband_m"], resets_ns=[r[0] for r in resets],
                                reset_straightness_m=[r[1] for r in resets],
