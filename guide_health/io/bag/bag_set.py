@@ -2,11 +2,12 @@
 possibly split into several storage files, which the storage back ends read as one).
 
 `resolve_bags(paths)` takes bags and directories of bags, orders them by the log time of their first
-message (not by name), refuses overlapping bags and lists the gaps between them. `iter_chunks` chains the
-bags' MachineRun chunks in that order, so one model object streams across them as the live node does across
-a restart, in the very batches one bag of the same messages gives (`ChainedStorage`: the same numbers, not
-the same to rounding); `events` gathers the maintenance events of every bag; the progress callback sees one count
-across all files.
+message (not by name), refuses overlapping bags, drops bags without messages and lists the gaps between the
+others. A BagSet is read through `ChainedStorage`, the bags as one storage: one model object streams across
+them as the live node streams across a restart, and the batches run on across the bags' boundaries in the
+windows one bag of the same messages is read in (sqlite3: `chunk_messages` rows of every topic), so the result
+is that bag's to the last bit, not only to rounding. `events` gathers the maintenance events of every bag; the
+progress callback sees one count across all files.
 """
 from __future__ import annotations
 
