@@ -108,8 +108,10 @@ LAZY_IMPORTS = {
     ("guide_health/cli/diagnose.py", "guide_health.analysis.discrepancy.report"): "after the fork",
     ("guide_health/cli/diagnose.py", "guide_health.analysis.discrepancy.selection"): "after the fork",
     ("guide_health/cli/diagnose.py", "guide_health.analysis.discrepancy.workflow"): "after the fork",
-    ("guide_health/cli/diagnose.py", "guide_health.io.bag.maintenance"): "after the fork",
-    ("guide_health/cli/diagnose.py", "guide_health.models.wear.maintenance"): "after the fork",
+    # diagnose of a machine of several axes: read in this process, one pass per axis (no fork)
+    ("guide_health/cli/diagnose.py", "guide_health.analysis.discrepancy.duty"): "a machine of several axes",
+    ("guide_health/cli/diagnose.py", "guide_health.analysis.discrepancy.model"): "a machine of several axes",
+    ("guide_health/cli/diagnose.py", "guide_health.analysis.machine_replay"): "a machine of several axes",
     ("guide_health/analysis/discrepancy/duty_process.py", "guide_health.analysis.discrepancy.duty"):
         "780 ms: in the forked child (or at result()), not before the fork",
     ("guide_health/analysis/discrepancy/duty_process.py", "guide_health.analysis.discrepancy.report"):

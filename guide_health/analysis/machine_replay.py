@@ -10,8 +10,7 @@ from pathlib import Path
 from guide_health.analysis.rejections import InputTally
 from guide_health.analysis.replay import add_rejections, maintenance_list, model_curve
 from guide_health.analysis.report_plots import plot_straightness_report
-from guide_health.io.bag.maintenance import read_events
-from guide_health.io.bag.reader import iter_machine_bag
+from guide_health.io.bag.bag_set import iter_source_chunks, source_events
 from guide_health.io.outputs.files import open_output, write_text
 from guide_health.io.outputs.json_text import json_text
 from guide_health.models.levels import LEVEL_NAMES
@@ -42,10 +41,11 @@ def axis_report(model: AxisMonitor) -> dict:
 def analyse_machine_bag(bag, axes: dict[str, dict], namespace: str | None = None, progress=None,
                         chunk_messages: int = 200_000) -> tuple[dict[str, AxisMonitor], dict]:
     """Every axis of ``axes`` (params/machine.py axes_params) over the bag, one pass per axis, with the bag's
-    maintenance events (maintenance/events) applied at their stamps. Returns the models and the report."""
+    maintenance events (maintenance/events) applied at their stamps; ``bag``: a path or a BagSet (several bags
+    in time order). Returns the models and the report."""
     models = {}
     t0 = time.perf_counter()
-    bag_events = read_events(bag, namespace)
+    bag_events = source_events(bag, namespace)
     stamps = []
     messages = 0
     tallies = {}
@@ -55,8 +55,8 @@ def analyse_machine_bag(bag, axes: dict[str, dict], namespace: str | None = None
         for event in bag_events:
             if event.axis == axis:
                 model.schedule(event)
-        for chunk in iter_machine_bag(bag, joint=params["joint"], namespace=namespace, progress=progress,
-                                      chunk_messages=chunk_messages, topics=axis_topics(params)):
+        for chunk in iter_source_chunks(bag, joint=params["joint"], namespace=namespace, progress=progress,
+                                        chunk_messages=chunk_messages, topics=axis_topics(params)):
             model.process_run(chunk)
             tally.add(chunk)
             messages += chunk.messages if axis == next(iter(axes)) else chunk.messages - chunk.joint_t_ns.size

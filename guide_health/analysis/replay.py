@@ -14,8 +14,8 @@ import numpy as np
 
 from guide_health.analysis.rejections import InputTally, rejection_summary
 from guide_health.analysis.report_plots import plot_slewing_contact_series, plot_straightness_report
-from guide_health.io.bag.maintenance import read_events
-from guide_health.io.bag.reader import iter_machine_bag, read_slewing_bag
+from guide_health.io.bag.bag_set import iter_source_chunks, source_events
+from guide_health.io.bag.reader import read_slewing_bag
 from guide_health.io.outputs.files import open_output, write_text
 from guide_health.io.outputs.json_text import json_text
 from guide_health.models.wear.axis import AxisMonitor
@@ -53,10 +53,11 @@ def add_rejections(report: dict, rejected: dict, tally: InputTally, params: dict
 def analyse_bag(bag, params: dict, namespace: str | None = None, progress=None,
                 chunk_messages: int = 200_000) -> tuple[PrecisionMonitor, dict, dict]:
     """Stream a bag through the precision model chunk by chunk (memory bounded by one chunk, whatever
-    the bag's size); identical to analyse(read_machine_bag(bag)) to rounding. Returns the monitor, its
-    report and timings {read_s, model_s}."""
+    the bag's size); identical to analyse(read_machine_bag(bag)) to rounding. ``bag``: a path or a BagSet
+    (io/bag/bag_set.py: several bags in time order, one model streaming across them). Returns the monitor,
+    its report and timings {read_s, model_s}."""
     model = AxisMonitor(params)      # one guide: the PrecisionMonitor, plus the bag's maintenance events
-    events = read_events(bag, namespace)
+    events = source_events(bag, namespace)
     for event in events:
         if event.axis == model.axis:
             model.schedule(event)
@@ -67,8 +68,8 @@ def analyse_bag(bag, params: dict, namespace: str | None = None, progress=None,
     t0 = time.perf_counter()
     stats: dict = {}
     tally = InputTally()
-    for chunk in iter_machine_bag(bag, joint=params["joint"], namespace=namespace, progress=progress,
-                                  chunk_messages=chunk_messages, stats=stats):
+    for chunk in iter_source_chunks(bag, joint=params["joint"], namespace=namespace, progress=progress,
+                                    chunk_messages=chunk_messages, stats=stats):
         t1 = time.perf_counter()
         model.process_run(chunk)
         t_model += time.perf_counter() - t1

@@ -1,4 +1,5 @@
-"""`guide-health diagnose BAG --params FILE`: the discrepancy workflow on a machine bag."""
+"""`guide-health diagnose BAG... --params FILE`: the discrepancy workflow on a machine bag (several bags: one
+record in time order); on a machine of several axes per axis (``run_axes``)."""
 from __future__ import annotations
 
 import math
@@ -10,14 +11,19 @@ from pathlib import Path
 from guide_health.analysis.discrepancy.duty_process import start_duty_cells
 from guide_health.analysis.rejections import add_diagnose_rejections, diagnose_lead_lines, diagnose_tail_lines
 from guide_health.cli.command import Command, check_out_path
+from guide_health.cli.text import bag_set_lines
 from guide_health.errors import InputError
+from guide_health.io.bag.bag_set import BagSet, resolve_bags, source_events
 from guide_health.io.outputs.progress import ProgressBar
-from guide_health.params import wear_monitor_params
+from guide_health.models.wear.maintenance import relubrication_times_s, wear_resets
+from guide_health.params import validate_wear_params, wear_monitor_params
+from guide_health.params.machine import axes_params
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("bag", help="rosbag2 directory (sqlite3 or mcap) with joint_states, guide/load, "
-                                    "guide/straightness and optionally guide/temperature")
+    parser.add_argument("bag", nargs="+", help="rosbag2 directory (sqlite3 or mcap) with joint_states, guide/load, "
+                                               "guide/straightness and optionally guide/temperature; or several "
+                                               "bags / a directory of bags, read in time order as one record")
     parser.add_argument("--params", required=True, action="append",
                         help="ROS 2 parameters YAML (wear_monitor section); several merge in order, the later "
                              "overriding (as ROS merges several --params-file)")
@@ -27,6 +33,8 @@ def add_arguments(parser) -> None:
                         help="later share of the measurements kept out of every fit, for forecasts (default 0.25)")
     parser.add_argument("--bic-threshold", type=float, default=None,
                         help="BIC drop an effect must earn (default 10)")
+    parser.add_argument("--axis", default=None,
+                        help="the axis to diagnose on a machine of several axes (default: every axis)")
     parser.add_argument("--no-plot", action="store_true", help="skip the PNG")
     parser.add_argument("--progress", action="store_true", help="force the progress bar even without a TTY")
 
@@ -39,17 +47,24 @@ def run(args) -> dict:
     if params["straightness_model"] != "eq7":
         print("guide-health diagnose: the effects are defined against Eq. 7; straightness_model "
               f"{params['straightness_model']!r} is read as eq7", file=sys.stderr)
-    bag = Path(args.bag)
+    bag = resolve_bags(args.bag)
+    if params["axes"]:
+        return run_axes(args, params, bag, threshold)
+    axis = params.get("axis", params["joint"])
+    if args.axis is not None and args.axis != axis:
+        raise InputError(f"--axis {args.axis}: the parameters describe one axis, {axis} (set 'axes' for a machine)")
     t0 = time.perf_counter()
     bar = ProgressBar("reading", force=args.progress)
+    events = source_events(bag, args.namespace)
     # a large bag is read in a child process while this one imports the fit (about 1 s); the child then
     # imports matplotlib while this one fits, and draws the PNG
-    pending = start_duty_cells(bag, params, args.namespace, bar, plot=not args.no_plot)
+    pending = start_duty_cells(bag, params, args.namespace, bar, plot=not args.no_plot,
+                               resets=wear_resets(events, axis))
     from guide_health.analysis.discrepancy.model_file import write_model_file
     from guide_health.analysis.discrepancy.report import write_report
 
     try:
-        result, out, t1 = _diagnose(args, params, bag, pending, bar, threshold, t0)
+        result, out, t1 = _diagnose(args, params, bag, events, pending, bar, threshold, t0)
         result["files"] = write_report(result, out, bag=str(bag), with_plot=not args.no_plot,
                                        plot_with=pending.plot)
     finally:
@@ -67,21 +82,16 @@ def run(args) -> dict:
     return result
 
 
-def _diagnose(args, params: dict, bag: Path, pending, bar, threshold, t0: float):
+def _diagnose(args, params: dict, bag, events: list, pending, bar, threshold, t0: float):
     """The cells (from ``pending``) through the workflow: (result, report directory, time the report starts)."""
     from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD
     from guide_health.analysis.discrepancy.workflow import diagnose_cells
-    from guide_health.io.bag.maintenance import read_events
-    from guide_health.models.wear.maintenance import relubrication_times_s
 
     threshold = BIC_THRESHOLD if threshold is None else threshold
-    # while the child reads: the maintenance events
-    events = read_events(bag, args.namespace) if pending.background else None
     cells, messages = pending.result()
     bar.close()
     t_read = time.perf_counter() - t0
     # recorded relubrications (maintenance events in the bag): the lubrication_interval effect's time base
-    events = read_events(bag, args.namespace) if events is None else events
     relube = relubrication_times_s(events, params.get("axis", params["joint"]), cells.t0_ns)
     try:
         result = diagnose_cells(cells, params, heldout_fraction=args.heldout_fraction, bic_threshold=threshold,
@@ -91,8 +101,15 @@ def _diagnose(args, params: dict, bag: Path, pending, bar, threshold, t0: float)
     result["messages"] = messages
     add_diagnose_rejections(result, cells.rejected_samples, cells.inputs, params)
     result["read_s"] = t_read
-    out = check_out_path(args.out if args.out else bag.with_name(bag.name + ".diagnose"))
-    return result, out, time.perf_counter()
+    if isinstance(bag, BagSet):
+        result.update(bag.report())
+    return result, report_dir(args), time.perf_counter()
+
+
+def report_dir(args) -> Path:
+    """--out, else <bag>.diagnose beside the (first) bag named."""
+    first = Path(args.bag[0])
+    return check_out_path(args.out if args.out else first.with_name(first.name + ".diagnose"))
 
 
 def _fit_workers() -> int:
@@ -111,6 +128,15 @@ def _bic_threshold(value: float | None) -> float | None:
 
 
 def format_text(result: dict) -> str:
+    if "axes" in result:
+        return format_axes_text(result)
+    model = any(str(f).endswith("model.yaml") for f in result["files"].values())
+    return "\n".join(axis_text_lines(result, model) + bag_set_lines(result, "  ")
+                     + [f"  files:           {', '.join(result['files'].values())}"])
+
+
+def axis_text_lines(result: dict, model_file: bool) -> list[str]:
+    """The text of one axis's workflow result (without the file list; ``model_file``: with its model.yaml)."""
     b, f = result["baseline"], result["final"]
     named = result["named_effects"]
     structure = result.get("unexplained_structure", {})
@@ -141,14 +167,110 @@ def format_text(result: dict) -> str:
         s = result["steady_stage"]
         lines.append(f"  steady stage (from {s['from_h']:.1f} h): max rel. error {s['baseline_max_rel_error']:.1%} -> "
                      f"{s['final_max_rel_error']:.1%}")
-    lines.append(f"  time:            read {result['read_s']:.1f} s, fit {result['fit_s']:.1f} s")
-    if any(str(f).endswith("model.yaml") for f in result["files"].values()):
+    if "read_s" in result:          # one axis (several axes: the machine's read time)
+        lines.append(f"  time:            read {result['read_s']:.1f} s, fit {result['fit_s']:.1f} s")
+    if model_file:
         from guide_health.analysis.discrepancy.model_file import live_parameter_text
 
         lines.append(f"  model.yaml:      {live_parameter_text(result['model_file'])} (refitted on every measurement)")
     lines += diagnose_tail_lines(result)
-    lines.append(f"  files:           {', '.join(result['files'].values())}")
-    return "\n".join(lines)
+    return lines
 
+
+
+# --- a machine of several axes ---------------------------------------------------------------------------
+def chosen_axes(axes: dict, axis: str | None) -> list[str]:
+    """Every axis, or ``--axis``; InputError (one line naming the axes present) for an unknown one."""
+    if axis is None:
+        return list(axes)
+    if axis not in axes:
+        raise InputError(f"--axis {axis}: no such axis (axes present: {', '.join(axes)})")
+    return [axis]
+
+
+def check_counts(cells: dict) -> None:
+    """InputError naming the axis and every axis's count when one has too few straightness measurements."""
+    from guide_health.analysis.discrepancy.model import MIN_MEASUREMENTS
+
+    counts = {axis: int(c.measurement_m.size) for axis, c in cells.items()}
+    short = [axis for axis, n in counts.items() if n < MIN_MEASUREMENTS]
+    if short:
+        per_axis = ", ".join(f"{a}: {n}" for a, n in counts.items())
+        raise InputError(f"axis {short[0]} has {counts[short[0]]} straightness measurements, the discrepancy workflow "
+                         f"needs at least {MIN_MEASUREMENTS} per axis ({per_axis}; choose an axis with --axis)")
+
+
+def read_axes(args, axes: dict, chosen: list[str], bag, events: list) -> tuple[dict, dict]:
+    """Duty cells and messages read per chosen axis (one pass each over the bag), one progress bar."""
+    from guide_health.analysis.discrepancy.duty import read_duty_cells
+    from guide_health.analysis.machine_replay import axis_topics
+
+    bar = ProgressBar("reading", force=args.progress)
+    cells, messages = {}, {}
+    for k, axis in enumerate(chosen):
+        def progress(done, total, k=k):
+            bar(k * total + done, len(chosen) * total)
+        cells[axis], messages[axis] = read_duty_cells(bag, axes[axis], args.namespace, progress,
+                                                      resets=wear_resets(events, axis), topics=axis_topics(axes[axis]))
+    bar.close()
+    return cells, messages
+
+
+def run_axes(args, params: dict, bag, threshold) -> dict:
+    """A machine of several axes (``axes``): the workflow per axis on the axis's own topics, with its wear
+    resets (regrind, new rail) splitting its record; ``--axis`` chooses one. The report holds
+    ``axes: {axis: <the single-axis result>}``."""
+    from guide_health.analysis.discrepancy.model_file import write_axes_model_file
+    from guide_health.analysis.discrepancy.report import write_axes_report
+    from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD
+    from guide_health.analysis.discrepancy.workflow import diagnose_cells
+
+    axes = axes_params(params, validate_wear_params)
+    chosen = chosen_axes(axes, args.axis)
+    t0 = time.perf_counter()
+    events = source_events(bag, args.namespace)
+    cells, messages = read_axes(args, axes, chosen, bag, events)
+    check_counts(cells)
+    t_read = time.perf_counter() - t0
+    results = {}
+    for axis in chosen:
+        try:
+            results[axis] = diagnose_cells(
+                cells[axis], axes[axis], heldout_fraction=args.heldout_fraction,
+                bic_threshold=BIC_THRESHOLD if threshold is None else threshold,
+                relubrication_t_s=relubrication_times_s(events, axis, cells[axis].t0_ns), workers=_fit_workers())
+        except ValueError as exc:
+            raise InputError(f"{bag}: axis {axis}: {exc}") from None
+        results[axis].update(axis=axis, messages=messages[axis])
+        add_diagnose_rejections(results[axis], cells[axis].rejected_samples, cells[axis].inputs, axes[axis])
+        if cells[axis].reset_t_s.size:
+            results[axis]["data"]["wear_resets"] = [
+                {"t_h": float(t / 3600.0), "straightness_after_um": float(a * 1e6)}
+                for t, a in zip(cells[axis].reset_t_s, cells[axis].reset_straightness_m)]
+    t_fit = time.perf_counter() - t0 - t_read
+    out = report_dir(args)
+    report = {"machine_id": params["machine_id"], "axes": results, "read_s": t_read, "fit_s": t_fit,
+              **(bag.report() if isinstance(bag, BagSet) else {})}
+    report["files"] = write_axes_report(report, out, bag=str(bag), with_plot=not args.no_plot)
+    report["files"]["model"] = str(out / "model.yaml")
+    write_axes_model_file(out / "model.yaml", axes, {a: r["model_file"] for a, r in results.items()},
+                          {a: r["named_effects"] for a, r in results.items()}, source=str(bag),
+                          unexplained={a: r["unexplained_structure"].get("message", "") for a, r in results.items()
+                                       if r["unexplained_structure"].get("present")})
+    for r in results.values():
+        r.pop("series")
+    report["total_s"] = time.perf_counter() - t0
+    return report
+
+
+def format_axes_text(report: dict) -> str:
+    lines = [f"machine {report['machine_id']}: discrepancy workflow per axis"]
+    for axis, result in report["axes"].items():
+        lines.append(f"axis {axis}:")
+        lines.extend("  " + line for line in axis_text_lines(result, model_file=True))
+    lines.extend(bag_set_lines(report, "  "))
+    lines.append(f"  time:  read {report['read_s']:.1f} s, fit {report['fit_s']:.1f} s")
+    lines.append(f"  files: {', '.join(report['files'].values())}")
+    return "\n".join(lines)
 
 DIAGNOSE = Command(add_arguments, run, format_text)

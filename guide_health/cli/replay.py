@@ -9,6 +9,9 @@ from guide_health.analysis.machine_replay import analyse_machine_bag, write_mach
 from guide_health.analysis.rejections import rejection_lines, with_rejection_lines
 from guide_health.analysis.replay import analyse_bag, analyse_slewing_bag, write_outputs, write_slewing_outputs
 from guide_health.cli.command import Command, check_out_path
+from guide_health.cli.text import bag_set_lines
+from guide_health.errors import InputError
+from guide_health.io.bag.bag_set import BagSet, resolve_bags
 from guide_health.io.bag.info import bag_topic_types
 from guide_health.io.outputs.progress import ProgressBar
 from guide_health.models.levels import LEVEL_NAMES
@@ -23,7 +26,8 @@ from guide_health.params.machine import axes_params
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("bag", help="rosbag2 directory (sqlite3 or mcap)")
+    parser.add_argument("bag", nargs="+", help="rosbag2 directory (sqlite3 or mcap; split files are one bag), "
+                                               "or several bags / a directory of bags, replayed in time order")
     parser.add_argument("--params", required=True, action="append",
                         help="ROS 2 parameters YAML (wear_monitor section); several merge in order, the later "
                              "overriding (e.g. --params BASE --params DIR/model.yaml from diagnose --out DIR)")
@@ -39,9 +43,10 @@ def is_slewing_bag(bag: Path) -> bool:
             and not any(t.endswith("joint_states") for t in topics))
 
 
-def report_dir(args, bag: Path) -> Path:
-    """--out, else <bag>.report beside the bag."""
-    return check_out_path(args.out if args.out else bag.with_name(bag.name + ".report"))
+def report_dir(args, bag) -> Path:
+    """--out, else <bag>.report beside the bag (several bags: beside the first one named)."""
+    first = Path(args.bag[0]) if isinstance(bag, BagSet) else bag
+    return check_out_path(args.out if args.out else first.with_name(first.name + ".report"))
 
 
 def run_slewing(args, bag: Path) -> dict:
@@ -60,8 +65,11 @@ def run_slewing(args, bag: Path) -> dict:
 
 
 def run(args) -> dict:
-    bag = Path(args.bag)
-    if bag.exists() and is_slewing_bag(bag):
+    bag = resolve_bags(args.bag)
+    if isinstance(bag, BagSet):
+        if any(is_slewing_bag(p) for p in bag.paths):
+            raise InputError("several bags: a slewing bag replays one at a time")
+    elif bag.exists() and is_slewing_bag(bag):
         return run_slewing(args, bag)
     params = wear_monitor_params(args.params)
     if params["axes"]:
@@ -71,6 +79,8 @@ def run(args) -> dict:
     bar.close()
     t_read, t_model = timing["read_s"], timing["model_s"]
     out = report_dir(args, bag)
+    if isinstance(bag, BagSet):
+        report.update(bag.report())
     report["level_name"] = LEVEL_NAMES[report["level"]]
     report["read_s"] = t_read
     report["model_s"] = t_model
@@ -80,13 +90,15 @@ def run(args) -> dict:
     return report
 
 
-def run_machine_axes(args, bag: Path, params: dict) -> dict:
+def run_machine_axes(args, bag, params: dict) -> dict:
     """A machine of several axes: every axis through its AxisMonitor; ``axes`` in the report."""
     axes = axes_params(params, validate_wear_params)
     bar = ProgressBar("replay", force=args.progress)
     models, report = analyse_machine_bag(bag, axes, namespace=args.namespace, progress=bar)
     bar.close()
     out = report_dir(args, bag)
+    if isinstance(bag, BagSet):
+        report.update(bag.report())
     write_machine_outputs(out, models, report, plot=not args.no_plot)
     print(f"{report['messages']} messages, {len(axes)} axes in {report['model_s']:.2f} s; report in {out}",
           file=sys.stderr)
@@ -100,6 +112,7 @@ def format_machine_text(report: dict) -> str:
         lines.append(f"  {axis}: straightness {r['straightness_um']:.2f} um (limit {r['straightness_limit_um']:.0f} "
                      f"um), remaining life {r['remaining_life_h']:.1f} h, K {r['wear_coefficient']:.4g}, "
                      f"{r['level_name']}")
+    lines.extend(bag_set_lines(report, "  "))
     lines.append(f"  files: {', '.join(report['files'].values())}")
     first, last = [], []
     for axis, r in report["axes"].items():
@@ -133,6 +146,7 @@ def format_text(report: dict) -> str:
         f"  wear volume:           {report['wear_volume_mm3']:.3f} mm^3 over {report['sliding_distance_m']:.1f} m",
         f"  strokes:               {report['strokes']} between {report['stroke_min_m'] * 1e3:.1f} and "
         f"{report['stroke_max_m'] * 1e3:.1f} mm",
+        *bag_set_lines(report, "  "),
         f"  files:                 {', '.join(report['files'].values())}",
     ], report.get("rejections", {})))
 

@@ -12,7 +12,7 @@ from guide_health.errors import InputError
 from guide_health.io.bag.maintenance import DIAGNOSTIC_ARRAY, MAINTENANCE_TOPIC, encode_events
 from guide_health.io.bag.writer import write_life_test_bag, write_machine_axes_bag, write_machine_bag, write_slewing_bag
 from guide_health.models.wear.effects.registry import BY_ID, EFFECTS
-from guide_health.models.wear.maintenance import MaintenanceEvent
+from guide_health.models.wear.maintenance import RESETS_WEAR, MaintenanceEvent
 from guide_health.params import (
     SCHEMAS,
     SIMULATION_SCHEMA,
@@ -228,9 +228,8 @@ def _override_duration(args, sim: dict, rate_name: str = "joint_state_rate_hz") 
 
 def run_machine_axes(args, params: dict, sim: dict) -> dict:
     """A machine of several axes (wear_monitor ``axes``): every axis with its duty in one bag."""
-    if args.effect:
-        raise InputError("--effect applies to single-joint machine bags only")
     axes = axes_params(params, validate_wear_params)
+    effects = axis_effects(args.effect, axes)
     unknown = sorted({k.partition(".")[0] for k in sim if "." in k} - set(axes))
     if unknown:
         raise InputError(f"{args.params}: guide_health_simulation has sections {unknown} that are not axes "
@@ -246,7 +245,9 @@ def run_machine_axes(args, params: dict, sim: dict) -> dict:
     check_bag_budget(args, sim["duration_h"], messages_per_second(list(sims.values())), out)
     t0 = time.perf_counter()
     events = parse_maintenance(args.maintenance, axes)
-    runs = simulate_axes(axes, sims, seed=args.seed)
+    resets = {axis: [(e.t_ns - START_TIME_NS) * 1e-9 for e in events if e.axis == axis and e.kind in RESETS_WEAR]
+              for axis in axes}
+    runs = simulate_axes(axes, sims, seed=args.seed, effects=effects, new_surface_t_s=resets)
     for axis, run in runs.items():
         apply_maintenance_truth(run, [e for e in events if e.axis == axis], axes[axis])
     metadata = {"generator": "guide_health.simulate", "seed": args.seed, "axes": {
@@ -262,6 +263,18 @@ def run_machine_axes(args, params: dict, sim: dict) -> dict:
                             "true_straightness_final_um": run.metadata["truth"]["straightness_m"][-1] * 1e6}
                      for axis, run in runs.items()},
             **({"maintenance_events": [e.as_dict() for e in events]} if events else {})}
+
+
+def axis_effects(items: list[str] | None, axes: dict) -> dict[str, dict[str, float]]:
+    """``--effect AXIS.NAME=VALUE`` items of a machine of several axes: {axis: {effect: value}}."""
+    by_axis: dict[str, list[str]] = {}
+    for item in items or []:
+        axis, dot, rest = item.partition(".")
+        if not dot or axis not in axes:
+            raise InputError(f"--effect {item!r}: on a machine of several axes write AXIS.NAME=VALUE "
+                             f"(axes: {', '.join(axes)})")
+        by_axis.setdefault(axis, []).append(rest)
+    return {axis: parse_effects(rest) for axis, rest in by_axis.items()}
 
 
 SIMULATE = Command(add_arguments, run)

@@ -38,3 +38,14 @@ def _compact(value) -> str:
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(_compact(v) for v in value) + "]"
     return _plain(value)
+
+
+def bag_set_lines(report: dict, indent: str) -> list[str]:
+    """The bags of a multi-bag run and the gaps between them (none for one bag)."""
+    if "bags" not in report:
+        return []
+    lines = [f"{indent}bags:  {len(report['bags'])} from {report['bags'][0]['start_utc']} to "
+             f"{report['bags'][-1]['end_utc']}"]
+    lines.extend(f"{indent}gap:   {g['start_utc']} .. {g['end_utc']} ({g['duration_s']:.3f} s)" for g in report["gaps"])
+    return lines
+

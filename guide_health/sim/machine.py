@@ -333,18 +333,21 @@ def relubrication_times_s(sim: dict[str, Any], recorded_t_s, duration_s: float) 
     return np.unique(np.concatenate((auto, np.asarray(recorded_t_s, dtype=float))))
 
 
-def simulate_axes(axes: dict[str, dict[str, Any]], sims: dict[str, dict[str, Any]],
-                  seed: int = 0) -> dict[str, MachineRun]:
+def simulate_axes(axes: dict[str, dict[str, Any]], sims: dict[str, dict[str, Any]], seed: int = 0,
+                  effects: dict[str, dict[str, float]] | None = None,
+                  new_surface_t_s: dict[str, list] | None = None) -> dict[str, MachineRun]:
     """One :class:`MachineRun` per axis of a machine (``axes``: guide_health.params.machine.axes_params,
     ``sims``: simulation_axes), each with its own duty and random strokes (seed ``seed`` + 1000 x the axis
-    index), cut to the common duration so that one JointState per stamp carries every joint."""
+    index), cut to the common duration so that one JointState per stamp carries every joint. ``effects`` and
+    ``new_surface_t_s``: per axis, as :func:`simulate_machine` takes them."""
     runs = {}
     for index, (axis, params) in enumerate(axes.items()):
         # the measured straightness is the most loaded guide's (the one the axis reports): its wear is the
         # Archard wear of share x W, i.e. that of the full load with K x share (no effects: linear in W)
         share = max(params.get("guide_load_shares", [1.0]))
         scenario = dict(sims[axis], wear_coefficient_factor=sims[axis]["wear_coefficient_factor"] * share)
-        run = simulate_machine(params, scenario, seed=seed + 1000 * index)
+        run = simulate_machine(params, scenario, seed=seed + 1000 * index, effects=(effects or {}).get(axis),
+                               new_surface_t_s=(new_surface_t_s or {}).get(axis, ()))
         run.metadata["truth"]["wear_coefficient"] /= share
         run.metadata["truth"]["guide_load_share"] = share
         runs[axis] = run

@@ -19,6 +19,10 @@ Streaming: :meth:`DutyCellAccumulator.add` takes consecutive :class:`MachineRun`
 ``io.bag.reader.iter_machine_bag`` yields them) and carries the last accepted sample, load and measurement
 and the unfinished pass to the next chunk, so memory is bounded by one chunk and the result does not
 depend on chunking.
+
+Wear resets (a regrind or a new rail, from the maintenance events) split the record into epochs: a new
+surface, whose wear and sliding distance (the running-in term's s) start from zero at the reset. Time blocks
+restart at each reset, so no cell spans one; each cell carries its epoch.
 """
 from __future__ import annotations
 
@@ -28,7 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from guide_health.analysis.rejections import InputTally
-from guide_health.io.bag.reader import iter_machine_bag
+from guide_health.io.bag.bag_set import iter_source_chunks
 from guide_health.models.wear.archard import sliding_positions_m
 from guide_health.models.wear.effects import pass_weight_per_m
 from guide_health.models.wear.input_rules import (
@@ -105,6 +109,9 @@ class DutyCells:
     metadata: dict = field(default_factory=dict)
     rejected_samples: dict = field(default_factory=dict)   # input samples rejected, by reason
     inputs: InputTally = field(default_factory=InputTally)  # samples read per input (shares of the rejections)
+    epoch: np.ndarray | None = None     # per cell: the wear resets before it (None: no reset in the record)
+    reset_t_s: np.ndarray = field(default_factory=lambda: np.zeros(0))    # the wear resets [s from t0]
+    reset_straightness_m: np.ndarray = field(default_factory=lambda: np.zeros(0))   # after each (NaN: A0)
 
     @property
     def cells(self) -> int:
@@ -116,8 +123,16 @@ class DutyCellAccumulator:
 
     def __init__(self, slider_length_m: float, block_s: float = 30.0, log_bin: float = 0.1,
                  limits: InputLimits = NO_LIMITS,
-                 sliding_deadband_m: float = WEAR_MONITOR_DEFAULTS["sliding_deadband_m"]):
+                 sliding_deadband_m: float = WEAR_MONITOR_DEFAULTS["sliding_deadband_m"],
+                 resets_ns=(), reset_straightness_m=(), load_share: float = 1.0):
         self.slider_length_m = float(slider_length_m)
+        order = np.argsort(np.asarray(resets_ns, dtype=np.int64), kind="stable")
+        self.resets_ns = np.asarray(resets_ns, dtype=np.int64)[order]     # wear resets (module text)
+        self.reset_straightness_m = (np.asarray(reset_straightness_m, dtype=float)[order] if len(reset_straightness_m)
+                                     else np.full(order.size, np.nan))
+        self._reset_s_m = np.full(self.resets_ns.size, np.nan)   # cumulative sliding distance at each reset
+        self._epoch_block = np.zeros(0, np.int64)               # first time block of each epoch after the first
+        self.load_share = float(load_share)    # the measured guide's share of the axis load
         self.limits = limits                   # the input rules' plausibility limits (InputLimits.from_params)
         self._joint_base = StampBase()         # time bases of the joint and load streams
         self._load_base = StampBase()
@@ -189,8 +204,9 @@ class DutyCellAccumulator:
         if accepted.load_t_ns.size:
             self._last_load_t, self._last_load = int(accepted.load_t_ns[-1]), float(accepted.load_n[-1])
         if accepted.joint_t_ns.size:
+            load = main_way_load_n(accepted.load_at_joint_n)
             self._add_segments(accepted.joint_t_ns, accepted.joint_position_m,
-                               main_way_load_n(accepted.load_at_joint_n))
+                               load * self.load_share if self.load_share != 1.0 else load)
 
     def _add_segments(self, jt: np.ndarray, x: np.ndarray, load: np.ndarray) -> None:
         """Segments ending at the accepted joint samples ``jt`` (stamps increasing, positions finite)."""
@@ -212,8 +228,10 @@ class DutyCellAccumulator:
         moving = ds > 0
         unloaded = moving & np.isnan(seg_load)     # before the first accepted load
         self.rejected += int(unloaded.sum())
+        s_start = self._s_m
         s_end = self._s_m + np.cumsum(np.where(moving, ds, 0.0))
         self._s_m = float(s_end[-1])
+        epoch = self._epochs(t_all[1:], s_start, s_end)
         sel = np.flatnonzero(moving)
         self.segments += int(sel.size) - int(unloaded.sum())
         seg = {
@@ -222,10 +240,37 @@ class DutyCellAccumulator:
             "dir": np.sign(dx[sel]).astype(np.int8),
             "speed": ds[sel] / dt[sel],
             "load": seg_load[sel],
-            "s": s_end[sel] - 0.5 * ds[sel],
+            "s": s_end[sel] - 0.5 * ds[sel] - (np.concatenate(([0.0], self._reset_s_m))[epoch[sel]]
+                                               if self.resets_ns.size else 0.0),
+            "epoch": epoch[sel],
             "x": 0.5 * (x_all[:-1][sel] + x_all[1:][sel]),
         }
         self._absorb(seg, final=False)
+
+    def _epochs(self, t_end_ns: np.ndarray, s_start: float, s_end: np.ndarray) -> np.ndarray:
+        """The epoch of each segment (the wear resets before its end sample: a segment ending at a reset
+        slid on the old surface); records the sliding distance at every reset the segments reach."""
+        if not self.resets_ns.size:
+            return np.zeros(t_end_ns.size, np.int64)
+        for i in np.flatnonzero(np.isnan(self._reset_s_m) & (self.resets_ns <= t_end_ns[-1])):
+            before = int(np.searchsorted(t_end_ns, self.resets_ns[i], side="right"))
+            self._reset_s_m[i] = s_end[before - 1] if before else s_start
+        return np.searchsorted(self.resets_ns, t_end_ns, side="left").astype(np.int64)
+
+    def _blocks(self, t_s: np.ndarray, epoch: np.ndarray) -> np.ndarray:
+        """Time blocks of ``block_s`` seconds, restarted at each wear reset (epoch e's blocks follow the
+        blocks of epoch e - 1), so no block spans a reset."""
+        if not self.resets_ns.size:
+            return np.floor(t_s / self.block_s).astype(np.int64)
+        reset_s = (self.resets_ns - self.t0_ns) * 1e-9
+        starts = [0]                       # first block of each epoch
+        for e, r in enumerate(reset_s):
+            origin = reset_s[e - 1] if e else 0.0
+            starts.append(starts[-1] + int(np.floor(max(r - origin, 0.0) / self.block_s)) + 1)
+        self._epoch_block = np.asarray(starts[1:], np.int64)
+        origins = np.concatenate(([0.0], reset_s))
+        return (np.asarray(starts, np.int64)[epoch]
+                + np.floor(np.maximum(t_s - origins[epoch], 0.0) / self.block_s).astype(np.int64))
 
     def _absorb(self, seg: dict[str, np.ndarray], final: bool) -> None:
         if self._carry is not None:
@@ -259,7 +304,7 @@ class DutyCellAccumulator:
         seg = {k: v[loaded] for k, v in seg.items()}
         pass_len, work = pass_len[loaded], work[loaded]
         ln_v, ln_w = np.log(seg["speed"]), np.log(seg["load"])
-        block = np.floor(seg["t_s"] / self.block_s).astype(np.int64)
+        block = self._blocks(seg["t_s"], seg["epoch"])
         v_bin = np.clip(np.floor(ln_v / self.log_bin).astype(np.int64) + _BIN_OFFSET, 0, _BINS - 1)
         w_bin = np.clip(np.floor(ln_w / self.log_bin).astype(np.int64) + _BIN_OFFSET, 0, _BINS - 1)
         uniq, inverse = _cell_keys(block, seg["dir"] < 0, v_bin, w_bin)
@@ -299,15 +344,20 @@ class DutyCellAccumulator:
             # interval k: the first measurement at or after the cell's mean time
             interval = np.searchsorted(meas_t_s, fine["t_w"] / fine["work_nm"], side="left")
             # key = block * _BLOCK_STRIDE + (direction, speed bin, load bin): swap the block for the interval
-            coarse = interval.astype(np.int64) * _BLOCK_STRIDE + uniq % _BLOCK_STRIDE
+            # (with wear resets: interval * epochs + the epoch of the cell's block)
+            epochs = self.resets_ns.size + 1
+            fine_epoch = np.searchsorted(self._epoch_block, uniq // _BLOCK_STRIDE, side="right")
+            coarse = (interval.astype(np.int64) * epochs + fine_epoch) * _BLOCK_STRIDE + uniq % _BLOCK_STRIDE
             uniq2, inv2 = np.unique(coarse, return_inverse=True)
             sums = {name: np.bincount(inv2, weights=fine[name], minlength=uniq2.size) for name in _SUMS}
             direction = np.where((uniq2 // _BINS ** 2) % 2 == 1, -1, 1).astype(np.int8)
-            cell_interval = (uniq2 // _BLOCK_STRIDE).astype(np.int64)
+            cell_interval = (uniq2 // _BLOCK_STRIDE // epochs).astype(np.int64)
+            cell_epoch = (uniq2 // _BLOCK_STRIDE) % epochs
         else:
             sums = {name: np.zeros(0) for name in _SUMS}
             direction = np.zeros(0, np.int8)
             cell_interval = np.zeros(0, np.int64)
+            cell_epoch = np.zeros(0, np.int64)
         w = sums["work_nm"]
 
         def mean(name):
@@ -340,6 +390,9 @@ class DutyCellAccumulator:
             metadata=self.metadata,
             rejected_samples=dict(self.rejected_samples),
             inputs=self.inputs,
+            epoch=cell_epoch if self.resets_ns.size else None,
+            reset_t_s=(self.resets_ns - t0) * 1e-9,
+            reset_straightness_m=self.reset_straightness_m,
         )
 
 
@@ -355,22 +408,29 @@ def duty_cells_from_runs(runs, slider_length_m: float, block_s: float = 30.0,
     return acc.finish()
 
 
-def bag_accumulator(params: dict) -> DutyCellAccumulator:
-    """The accumulator ``diagnose`` reads a bag with: slider length, input limits and deadband of ``params``."""
+def bag_accumulator(params: dict, resets=()) -> DutyCellAccumulator:
+    """The accumulator ``diagnose`` reads a bag with: slider length, input limits and deadband of ``params``;
+    ``resets``: the axis's wear resets as (t_ns, straightness after [m], NaN: A0). An axis of a machine
+    (``guide_load_shares``) counts the load of its most loaded guide, whose straightness the axis reports."""
+    shares = params["guide_load_shares"] if params["axes"] else None
     return DutyCellAccumulator(params["slider_length_m"], limits=InputLimits.from_params(params),
-                               sliding_deadband_m=params["sliding_deadband_m"])
+                               sliding_deadband_m=params["sliding_deadband_m"], resets_ns=[r[0] for r in resets],
+                               reset_straightness_m=[r[1] for r in resets],
+                               load_share=max(shares) if shares else 1.0)
 
 
-def iter_bag_chunks(bag, params: dict, namespace: str | None = None, progress=None):
-    """The MachineRun chunks of a machine bag that :func:`read_duty_cells` accumulates."""
-    return iter_machine_bag(bag, joint=params["joint"], namespace=namespace, progress=progress)
+def iter_bag_chunks(bag, params: dict, namespace: str | None = None, progress=None, topics: dict | None = None):
+    """The MachineRun chunks of a machine bag (a path or an io.bag.bag_set.BagSet) that :func:`read_duty_cells`
+    accumulates; ``topics``: an axis's {role: relative topic} (analysis.machine_replay.axis_topics)."""
+    return iter_source_chunks(bag, joint=params["joint"], namespace=namespace, progress=progress, topics=topics)
 
 
-def read_duty_cells(bag, params: dict, namespace: str | None = None, progress=None) -> tuple[DutyCells, int]:
+def read_duty_cells(bag, params: dict, namespace: str | None = None, progress=None, resets=(),
+                    topics: dict | None = None) -> tuple[DutyCells, int]:
     """Stream a machine bag into duty cells (memory bounded by one chunk); (cells, messages read)."""
-    acc = bag_accumulator(params)
+    acc = bag_accumulator(params, resets)
     messages = 0
-    for chunk in iter_bag_chunks(bag, params, namespace, progress):
+    for chunk in iter_bag_chunks(bag, params, namespace, progress, topics):
         acc.add(chunk)
         messages += chunk.messages
     return acc.finish(), messages

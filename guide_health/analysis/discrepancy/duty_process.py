@@ -29,6 +29,9 @@ _CHUNK, _DONE, _ERROR, _PLOTTED = range(4)
 
 
 def _bag_bytes(bag) -> int:
+    """Bytes of the storage files of a bag, or of every bag of a BagSet."""
+    if hasattr(bag, "paths"):
+        return sum(_bag_bytes(p) for p in bag.paths)
     path = Path(bag)
     files = [path] if path.is_file() else [*path.glob("*.db3"), *path.glob("*.mcap")]
     return sum(f.stat().st_size for f in files if f.is_file())
@@ -105,8 +108,9 @@ class PendingCells:
     """The duty cells of a bag: read by a child and accumulated here on ``result()``, or (``process`` None)
     read here on ``result()``."""
 
-    def __init__(self, bag, params: dict, namespace, progress, background: bool, plot: bool = False):
+    def __init__(self, bag, params: dict, namespace, progress, background: bool, plot: bool = False, resets=()):
         self.args = (bag, params, namespace, progress)
+        self.resets = tuple(resets)          # the axis's wear resets (duty.bag_accumulator)
         self.process = self.conn = self.requests = None
         self.out: tuple | None = None
         if background:
@@ -130,7 +134,7 @@ class PendingCells:
     def _accumulate(self, conn) -> None:
         from guide_health.analysis.discrepancy.duty import bag_accumulator
 
-        acc = bag_accumulator(self.args[1])
+        acc = bag_accumulator(self.args[1], self.resets)
         messages = 0
         try:
             while True:
@@ -154,7 +158,7 @@ class PendingCells:
         if self.process is None:
             from guide_health.analysis.discrepancy.duty import read_duty_cells
 
-            return read_duty_cells(*self.args)
+            return read_duty_cells(*self.args, resets=self.resets)
         self._accumulate(self.conn)
         ok, value = self.out
         if not ok:
@@ -192,9 +196,10 @@ class PendingCells:
 
 
 def start_duty_cells(bag, params: dict, namespace: str | None = None, progress=None,
-                     background: bool | None = None, plot: bool = False) -> PendingCells:
-    """Start reading `bag` into duty cells; ``background`` None: in a child when that pays (module docstring).
-    ``plot``: the child then stays to draw the PNG (:meth:`PendingCells.plot`; call ``close()`` at the end)."""
+                     background: bool | None = None, plot: bool = False, resets=()) -> PendingCells:
+    """Start reading `bag` (a path or a BagSet) into duty cells; ``background`` None: in a child when that pays
+    (module docstring). ``plot``: the child then stays to draw the PNG (:meth:`PendingCells.plot`; call
+    ``close()`` at the end). ``resets``: the wear resets (duty.bag_accumulator)."""
     if background is None:
         background = background_possible(bag)
-    return PendingCells(bag, params, namespace, progress, bool(background and os.name == "posix"), plot)
+    return PendingCells(bag, params, namespace, progress, bool(background and os.name == "posix"), plot, resets)

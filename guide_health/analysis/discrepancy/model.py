@@ -117,13 +117,17 @@ def rel_errors(pred: np.ndarray, meas: np.ndarray) -> np.ndarray:
     return np.abs(pred - meas) / np.abs(meas)
 
 
+#: the fewest straightness measurements the workflow fits (K, an effect's parameters, a held-out forecast)
+MIN_MEASUREMENTS = 6
+
+
 class WearProblem:
     """Measurements, duty cells and wear parameters of one machine; fits models with any effect set."""
 
     def __init__(self, cells: DutyCells, params: dict[str, Any], heldout_fraction: float = 0.25,
                  relubrication_t_s: np.ndarray | None = None):
-        if cells.measurement_m.size < 6:
-            raise ValueError(f"the discrepancy workflow needs at least 6 straightness measurements, "
+        if cells.measurement_m.size < MIN_MEASUREMENTS:
+            raise ValueError(f"the discrepancy workflow needs at least {MIN_MEASUREMENTS} straightness measurements, "
                              f"the bag has {cells.measurement_m.size}")
         if cells.cells == 0:
             raise ValueError("the bag has no loaded axis motion (no wear to model)")
@@ -183,6 +187,9 @@ class WearProblem:
         gaps = np.diff(np.concatenate(([0.0], relube, [max(cells.duration_s, 1.0)]))) if relube.size else [1.0]
         self.relubrication_gap_s = float(max(np.max(gaps), 1.0))     # the longest time without relubrication
         self.position_ref_m = float(np.sum(cells.work_nm * cells.position_m) / max(cells.work_nm.sum(), 1e-300))
+        # wear resets (regrind, new rail): the wear of measurement i counts from the last reset before it
+        self.measurement_epoch = (np.searchsorted(cells.reset_t_s, self.t_s, side="left")
+                                  if cells.epoch is not None else None)
         self.specs = _effect_specs(self)
 
     # --- candidates ---------------------------------------------------------------------------
@@ -246,15 +253,34 @@ class WearProblem:
                                           eff.running_in_distance_m)
         m = wear_rate_multiplier(eff, c.speed_m_s, c.load_n, self.retract, ri)
         m = m * self._duty_factors(values)
-        g = np.concatenate(([0.0], np.cumsum(c.work_nm * m)))[self.cell_index]
-        p = np.concatenate(([0.0], np.cumsum(c.pass_work_n * m)))[self.cell_index]
+        g, p = self._work_since_reset(c.work_nm * m), self._work_since_reset(c.pass_work_n * m)
         wear = straightness_wear_m(values["wear_coefficient"], self.hardness_pa, self.width_m, g, p,
                                    self.stroke_sum_m, eff.stroke_distribution_weight)
-        a0 = values.get("straightness_initial_m", 0.0) if self.a0_free else self.a0_m
+        a0 = self.initial_straightness_m(values.get("straightness_initial_m", 0.0) if self.a0_free else self.a0_m)
         temp = self.temperature_change_k
         y = measured_straightness_m(wear, a0, temp, eff)
         # c_T (T - T_ref) = c_T (T - T_0) + b with b = -c_T dT_ref: fitted linear in b (no local minima)
         return y + values.get("thermal_offset_m", 0.0) if temp is not None else y
+
+    def _work_since_reset(self, per_cell: np.ndarray) -> np.ndarray:
+        """Sum of ``per_cell`` over the cells before each measurement, from its epoch's start (the last wear
+        reset before it: Eq. 7's work on the new surface)."""
+        if self.measurement_epoch is None:
+            return np.concatenate(([0.0], np.cumsum(per_cell)))[self.cell_index]
+        out = np.zeros(self.t_s.size)
+        for e in np.unique(self.measurement_epoch):
+            here = self.measurement_epoch == e
+            out[here] = np.concatenate(([0.0], np.cumsum(np.where(self.cells.epoch == e, per_cell, 0.0))))[
+                self.cell_index[here]]
+        return out
+
+    def initial_straightness_m(self, a0_m: float) -> np.ndarray | float:
+        """The straightness of each measurement's surface when new: A0, after a wear reset the value entered
+        with it (else A0, as the live monitor takes it)."""
+        if self.measurement_epoch is None:
+            return a0_m
+        after = self.cells.reset_straightness_m
+        return np.concatenate(([a0_m], np.where(np.isfinite(after), after, a0_m)))[self.measurement_epoch]
 
     def _duty_factors(self, values: dict[str, float]) -> np.ndarray | float:
         """The multipliers of wear_rate_change, lubrication_interval and load_along_rail (models/wear/effects/)."""
@@ -334,9 +360,9 @@ class WearProblem:
 
     def _k_start(self) -> float:
         """K / K0 of the baseline by linear least squares through A0 (a good start for every model)."""
-        base = self.predict_m({"wear_coefficient": self.k0, "straightness_initial_m": 0.0}) - (
-            0.0 if self.a0_free else self.a0_m)
-        y = self.y_m[self.fit_mask] - (0.0 if self.a0_free else self.a0_m)
+        a0 = self.initial_straightness_m(0.0 if self.a0_free else self.a0_m)
+        base = self.predict_m({"wear_coefficient": self.k0, "straightness_initial_m": 0.0}) - a0
+        y = self.y_m[self.fit_mask] - (a0[self.fit_mask] if isinstance(a0, np.ndarray) else a0)
         g = base[self.fit_mask]
         if self.a0_free:
             g = g - g.mean()

@@ -147,15 +147,35 @@ def write_model_file(path: Path, base_params: dict[str, Any], model: dict[str, A
     """DIR/model.yaml; the merged parameters (base then model) are validated first. ``unexplained``: the
     unexplained-structure message, which then heads the file (its effects are fitted, not an explanation)."""
     validate_wear_params({**base_params, **model})
-    not_live = not_live_effects(named)
-    header = [f"# {unexplained}", "# The effects below are fitted, not an explanation: check the physics before "
-              "trusting the live remaining life they give."] if unexplained else []
+    body = yaml.safe_dump({"/**/wear_monitor": {"ros__parameters": model}}, sort_keys=False, width=200)
+    write_text(path, "\n".join(_header(named, source, [unexplained] if unexplained else [])) + "\n" + body)
+
+
+def write_axes_model_file(path: Path, axes: dict[str, dict[str, Any]], models: dict[str, dict[str, Any]],
+                          named: dict[str, list[str]], source: str = "",
+                          unexplained: dict[str, str] | None = None) -> None:
+    """DIR/model.yaml of a machine of several axes: each axis's model under its axis key (a per-axis override,
+    params/machine.py); ``axes``: the axes' base parameters, each merged with its model and validated first."""
+    for axis, model in models.items():
+        validate_wear_params({**axes[axis], **model})
+    notes = [f"axis {axis}: {text}" for axis, text in (unexplained or {}).items() if text]
+    body = yaml.safe_dump({"/**/wear_monitor": {"ros__parameters": models}}, sort_keys=False, width=200)
+    all_named = [f"{axis}.{e}" for axis, effects in named.items() for e in effects]
+    write_text(path, "\n".join(_header(all_named, source, notes)) + "\n" + body)
+
+
+def _header(named: list[str], source: str, unexplained: list[str]) -> list[str]:
+    """The comment lines that head model.yaml."""
+    not_live = not_live_effects([e.rpartition(".")[2] for e in named])
+    header = [f"# {text}" for text in unexplained]
+    if unexplained:
+        header.append("# The effects below are fitted, not an explanation: check the physics before "
+                      "trusting the live remaining life they give.")
     header += [f"# guide-health diagnose {source}: the model it learnt, as wear_monitor parameters.",
-              "# Load after the base parameters: --params BASE --params model.yaml (replay, diagnose) or",
-              "# --params-file BASE --params-file model.yaml (wear_monitor); the later file overrides.",
-              f"# effect_covariance: {len(COVARIANCE_NAMES)} x {len(COVARIANCE_NAMES)} row-major over "
-              f"{', '.join(COVARIANCE_NAMES)}."]
+               "# Load after the base parameters: --params BASE --params model.yaml (replay, diagnose) or",
+               "# --params-file BASE --params-file model.yaml (wear_monitor); the later file overrides.",
+               f"# effect_covariance: {len(COVARIANCE_NAMES)} x {len(COVARIANCE_NAMES)} row-major over "
+               f"{', '.join(COVARIANCE_NAMES)}."]
     if not_live:
         header.append(f"# named but not integrated live: {', '.join(not_live)}")
-    body = yaml.safe_dump({"/**/wear_monitor": {"ros__parameters": model}}, sort_keys=False, width=200)
-    write_text(path, "\n".join(header) + "\n" + body)
+    return header

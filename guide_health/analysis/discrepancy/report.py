@@ -72,7 +72,11 @@ def markdown(result: dict[str, Any], bag: str = "") -> str:
         lines.append(f"- dropped by the backward pass: {d['effect']} (BIC rises by only {d['delta_bic']:.1f} "
                      "without it)")
     tail = diagnose_tail_lines(result, markdown=True)
-    lines += (["", *tail[:-1]] if tail else []) + ["", "## The live model (model.yaml)", ""] + model_file_lines(result)
+    lines += ["", *tail[:-1]] if tail else []
+    if "bags" in result:
+        lines += ["", f"Read from {len(result['bags'])} bags in time order; gaps between them:"]
+        lines += [f"- {g['start_utc']} .. {g['end_utc']} ({g['duration_s']:.3f} s)" for g in result["gaps"]]
+    lines += ["", "## The live model (model.yaml)", ""] + model_file_lines(result)
     lines += ["", "## The gap", "", "| model | RMSE fit [um] | max rel. error fit | RMSE held out [um] | "
               "max rel. error held out | K |", "|---|---|---|---|---|---|"]
     for label, g in (("baseline (K calibrated)", b), ("with " + (" + ".join(named) or "nothing"), f)):
@@ -152,7 +156,7 @@ def plot(result: dict[str, Any], path: Path) -> None:
         for w in structure["where"]:
             ax2.axvspan(w["start_h"], w["end_h"], color="tab:red", alpha=0.12)
     else:
-        ax1.set_title(f"discrepancy workflow: {named}")
+        ax1.set_title(f"{'axis ' + result['axis'] + ': ' if 'axis' in result else ''}discrepancy workflow: {named}")
     ax1.legend(loc="upper left", fontsize=8)
     ax1.grid(alpha=0.3)
     ax2.axhline(0.0, color="0.5", lw=0.8)
@@ -175,17 +179,43 @@ def write_report(result: dict[str, Any], out: Path, bag: str = "", with_plot: bo
     ``plot_with(result, path)``: draws the PNG instead of :func:`plot` (e.g. in another process)."""
     out.mkdir(parents=True, exist_ok=True)
     files = {"json": str(out / "report.json"), "markdown": str(out / "report.md"), "csv": str(out / "residuals.csv")}
-    s = result["series"]
-    with open_output(files["csv"]) as handle:
-        w = csv.writer(handle)
-        w.writerow(["time_h", "measured_um", "baseline_um", "final_um", "heldout"])
-        for row in zip(s["t_h"], s["measured_um"], s["baseline_um"], s["final_um"], s["heldout"]):
-            w.writerow([f"{row[0]:.6f}", f"{row[1]:.6f}", f"{row[2]:.6f}", f"{row[3]:.6f}", int(row[4])])
+    write_residuals(Path(files["csv"]), result["series"])
     if with_plot:
         files["png"] = str(out / "diagnose.png")
         (plot_with or plot)(result, Path(files["png"]))
     write_text(files["markdown"], markdown(result, bag))
     body = {k: v for k, v in result.items() if k != "series"}
+    body["files"] = files
+    write_text(files["json"], json_text(body, indent=2, default=float) + "\n")
+    return files
+
+
+def write_residuals(path: Path, s: dict[str, Any]) -> None:
+    """residuals.csv: measured, baseline and final model at every measurement, and whether it was held out."""
+    with open_output(path) as handle:
+        w = csv.writer(handle)
+        w.writerow(["time_h", "measured_um", "baseline_um", "final_um", "heldout"])
+        for row in zip(s["t_h"], s["measured_um"], s["baseline_um"], s["final_um"], s["heldout"]):
+            w.writerow([f"{row[0]:.6f}", f"{row[1]:.6f}", f"{row[2]:.6f}", f"{row[3]:.6f}", int(row[4])])
+
+
+def write_axes_report(report: dict[str, Any], out: Path, bag: str = "", with_plot: bool = True) -> dict[str, str]:
+    """The report files of a machine of several axes (``report["axes"]``: each axis's workflow result, with
+    its series): report.md with a section per axis, residuals_<axis>.csv, diagnose_<axis>.png and report.json
+    (without the series). Returns the files."""
+    out.mkdir(parents=True, exist_ok=True)
+    files = {"json": str(out / "report.json"), "markdown": str(out / "report.md")}
+    sections = []
+    for axis, result in report["axes"].items():
+        files[f"csv_{axis}"] = str(out / f"residuals_{axis}.csv")
+        write_residuals(Path(files[f"csv_{axis}"]), result["series"])
+        if with_plot:
+            files[f"png_{axis}"] = str(out / f"diagnose_{axis}.png")
+            plot(result, Path(files[f"png_{axis}"]))
+        sections.append(markdown(result, f"{bag}, axis {axis}" if bag else f"axis {axis}"))
+    write_text(files["markdown"], "\n".join(sections))
+    body = {k: v for k, v in report.items() if k != "axes"}
+    body["axes"] = {axis: {k: v for k, v in r.items() if k != "series"} for axis, r in report["axes"].items()}
     body["files"] = files
     write_text(files["json"], json_text(body, indent=2, default=float) + "\n")
     return files

@@ -143,7 +143,8 @@ def metadata_message_counts(path: Path) -> dict[str, int]:
 def count_mismatches(path: Path, rows_by_topic: dict[str, int]) -> dict[str, dict[str, int]]:
     """{topic: {"metadata": n, "rows": m}} for the topics read whose metadata.yaml count n differs from the
     m rows the storage holds ({} when they agree, or the bag has no metadata.yaml counts)."""
-    counts = metadata_message_counts(path)
+    counts = path.metadata_message_counts() if hasattr(path, "metadata_message_counts") else (
+        metadata_message_counts(path))              # a bag_set.BagSet: the sum over its bags
     return {topic: {"metadata": counts[topic], "rows": int(rows)} for topic, rows in sorted(rows_by_topic.items())
             if topic in counts and counts[topic] != int(rows)}
 

@@ -257,7 +257,8 @@ def _iter_topic_batches(path, wanted: dict, namespace: str | None, suffix_for_ns
     metadata.yaml's counts (_check_counts).
     """
     chunk_messages = max(1, int(chunk_messages))
-    with open_storage(path) as storage:
+    opener = getattr(path, "open_storage", None)          # a bag_set.BagSet: several bags as one storage
+    with (opener() if opener else open_storage(path)) as storage:
         if namespace is None:
             types = {c.topic: c.msgtype for c in storage.connections}
             namespace = detect_namespace(types, suffix_for_ns, wanted[suffix_for_ns])
@@ -352,8 +353,8 @@ def iter_machine_bag(path, joint: str = "x", namespace: str | None = None,
     Feeding them one after another to PrecisionMonitor.process_run gives the result of the whole run.
     Same arguments and errors as read_machine_bag; stats are filled once the iteration ends.
     topics: {role: relative topic} for an axis of a machine, e.g. {"guide/load": "x/guide/load"}."""
-    path = Path(path)
-    metadata = read_run_metadata(path)
+    path = path if hasattr(path, "open_storage") else Path(path)
+    metadata = path.run_metadata() if hasattr(path, "open_storage") else read_run_metadata(path)
     total: dict = {}
     namespace_seen = namespace
     topics = dict(topics or {})

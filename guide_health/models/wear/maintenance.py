@@ -238,3 +238,9 @@ def apply_event(monitor, event: MaintenanceEvent) -> None:
         reset_fatigue(monitor)
     if event.kind == "relubricate":
         relubricate(monitor, int(event.t_ns))
+
+
+def wear_resets(events, axis: str) -> list[tuple[int, float]]:
+    """The wear resets (regrind, rail replacement) of ``axis`` as (t_ns, straightness after [m]; NaN: A0), in
+    stamp order: where the discrepancy workflow starts a new surface."""
+    return sorted((int(e.t_ns), float(e.straightness_m)) for e in events if e.kind in RESETS_WEAR and e.axis == axis)
