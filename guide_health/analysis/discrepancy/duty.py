@@ -41,6 +41,7 @@ from guide_health.models.wear.input_rules import (
     main_way_load_n,
 )
 from guide_health.params import WEAR_MONITOR_DEFAULTS
+from guide_health.params.typed import wear_axis_params
 from guide_health.runs import MachineRun
 
 # per-cell sums: work-weighted where the name says *_w
@@ -350,7 +351,7 @@ def duty_cells_from_runs(runs, slider_length_m: float, block_s: float = 30.0,
 
 def bag_accumulator(params: dict) -> DutyCellAccumulator:
     """The accumulator ``diagnose`` reads a bag with: slider length, input limits and deadband of ``params``."""
-    return DutyCellAccumulator(params["slider_length_m"], limits=InputLimits.from_params(params),
+    return DutyCellAccumulator(params["slider_length_m"], limits=InputLimits.from_params(wear_axis_params(params)),
                                sliding_deadband_m=params["sliding_deadband_m"])
 
 
