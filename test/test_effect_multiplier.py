@@ -85,3 +85,22 @@ def test_live_effective_work_equals_the_offline_product(ratio, distance_m, rho, 
     # and the material factors alone are wear_rate_multiplier's (no duty, no running-in)
     plain = effect_multiplier(e, speed, np.maximum(load, 1e-12), retract)
     assert plain == pytest.approx(wear_rate_multiplier(e, speed, np.maximum(load, 1e-12), retract), rel=1e-15)
+
+
+def test_a_parameter_of_an_effect_not_named_keeps_its_no_effect_value():
+    values = {"running_in_ratio": 2.0, "retract_wear_factor": 0.5, "lift_speed_m_s": 0.2, "load_exponent": 1.5,
+              "load_gradient_per_m": 0.3, "wear_rate_change_factor": 2.0, "wear_rate_change_stamp_s": 50.0,
+              "lubrication_wear_growth": 0.1, "thermal_drift_m_per_k": 1e-6, "stroke_distribution_weight": 0.4}
+    only = EffectParameters.from_params(wear_axis_params({**values, "effects": "running_in"}))
+    assert only.running_in_ratio == 2.0
+    assert (only.retract_wear_factor, only.lift_speed_m_s, only.load_exponent, only.load_gradient_per_m,
+            only.wear_rate_change_factor, only.wear_rate_change_time_s, only.lubrication_wear_growth,
+            only.thermal_drift_m_per_k, only.stroke_distribution_weight) == (
+        1.0, np.inf, 1.0, 0.0, 1.0, np.inf, 0.0, 0.0, 0.0)
+    every = EffectParameters.from_params(wear_axis_params({**values, "effects": EFFECTS
+                                                           + ",thermal_drift,stroke_distribution"}))
+    assert (every.retract_wear_factor, every.lift_speed_m_s, every.load_exponent, every.load_gradient_per_m,
+            every.wear_rate_change_factor, every.wear_rate_change_time_s, every.lubrication_wear_growth,
+            every.thermal_drift_m_per_k, every.stroke_distribution_weight) == (
+        0.5, 0.2, 1.5, 0.3, 2.0, 50.0, 0.1, 1e-6, 0.4)
+    assert EffectParameters.from_params(wear_axis_params(values)) is None        # no effect named
