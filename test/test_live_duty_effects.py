@@ -30,7 +30,7 @@ from guide_health.models.wear.axis import AxisMonitor
 from guide_health.models.wear.maintenance import MaintenanceEvent
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.params import simulation_params, validate_wear_params, wear_monitor_params
-from guide_health.params.typed import wear_axis_params
+from guide_health.params.typed import as_dict, wear_axis_params
 from guide_health.sim.machine import simulate_machine
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -212,7 +212,7 @@ def test_per_sample_callbacks_equal_the_vectorised_path_with_the_duty_effects():
 
     expected, offline, run, fixed, k, _ = monitored("all_three", hours=2.0, rate_hz=5.0)
     _, live_p = CASES["all_three"]
-    p = {**offline.params}
+    p = as_dict(offline.params)
     sd = np.array([0.05 * k, 0, 0, 0, 0, 0, 1.0, 0.3, 0.5, 0, 0, 0, 0])
     p["effect_covariance"] = np.diag(sd ** 2).ravel().tolist()
     run.straightness_m = expected + np.random.default_rng(3).normal(0.0, 0.3e-6, expected.size)
