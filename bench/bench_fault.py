@@ -57,6 +57,7 @@ def read_checkpoint(state_db: Path, params: dict) -> dict:
     from guide_health.io.state_store import _decode
     from guide_health.models.wear.precision import PrecisionMonitor
     from guide_health.models.wear.state_schema import check_precision_state
+    from guide_health.params.typed import wear_axis_params
 
     with sqlite3.connect(state_db) as db:
         rows = db.execute("SELECT state_json FROM monitor_state WHERE key LIKE '%/precision'").fetchall()
@@ -64,7 +65,7 @@ def read_checkpoint(state_db: Path, params: dict) -> dict:
         raise AssertionError(f"{len(rows)} precision states in the state file")
     CHECKS["read"] += 1
     state = _decode(json.loads(rows[0][0]))
-    monitor = PrecisionMonitor(params)
+    monitor = PrecisionMonitor(wear_axis_params(params))
     try:
         check_precision_state(state, monitor.state())
     except InputError as exc:

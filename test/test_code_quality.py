@@ -58,8 +58,7 @@ def test_models_import_no_ros_storage_or_serialisation_and_do_no_file_io(path):
     tree = ast.parse(path.read_text())
     impure = {m for m in _imported_modules(tree) if m.split(".")[0] in IMPURE_MODULES}
     assert not impure, f"{path.name} imports {sorted(impure)}"
-    inside = {m for m in _imported_modules(tree) if m.startswith("guide_health.")
-              and (str(path.relative_to(ROOT)), m) not in KNOWN_UPWARD_IMPORTS}
+    inside = {m for m in _imported_modules(tree) if m.startswith("guide_health.")}
     allowed = ("guide_health.models", "guide_health.errors", "guide_health.runs")
     assert all(m.startswith(allowed) for m in inside), sorted(inside)
     calls = {node.func.attr if isinstance(node.func, ast.Attribute) else getattr(node.func, "id", "")
@@ -132,10 +131,6 @@ LAZY_IMPORTS = {
     ("guide_health/analysis/report_plots.py", "guide_health.models.slewing.finite_roller"): "520 ms: slewing plot",
     ("guide_health/analysis/report_plots.py", "guide_health.models.slewing.mcewen"): "the slewing plot",
     ("guide_health/analysis/fleet_report.py", "guide_health.analysis.report_plots"): "125 ms: only with PNGs",
-    # the wear core still holds its parameters as a dict; the rolling-guide models take typed ones: the one
-    # upward import left (KNOWN_UPWARD_IMPORTS), lazy so that a sliding guide never loads params
-    ("guide_health/models/wear/guide.py", "guide_health.params.typed"): "a rolling guide only",
-    ("guide_health/models/wear/axis.py", "guide_health.params.typed"): "a run-time change of a rolling guide",
     # optional: without it `stress_model: numerical` is a one-line ValueError (test_roller_contact)
     ("guide_health/models/slewing/monitor.py", "guide_health.models.slewing.numerical_roller"): "optional model",
 }
@@ -205,26 +200,16 @@ def test_readme_names_every_top_level_module_in_one_layer():
     assert tops == set(names), (sorted(tops - set(names)), sorted(set(names) - tops))
 
 
-#: upward imports not yet removed: the wear core's dict parameters turned into the rolling guide's typed ones
-#: (goes when the wear core takes typed parameters); a known, shrinking list
-KNOWN_UPWARD_IMPORTS = {("guide_health/models/wear/guide.py", "guide_health.params.typed"),
-                        ("guide_health/models/wear/axis.py", "guide_health.params.typed")}
-
-
 def test_imports_point_down_the_layers():
     """No module imports a module of a higher layer (module-level and function-level imports alike)."""
     layers = _layers()
-    upward, known = [], set()
+    upward = []
     for path in _python_files(PACKAGE):
         me = _module_name(path)
         for target, line, _ in _package_imports(path):
             if _layer_of(target, layers) > _layer_of(me, layers):
-                if (str(path.relative_to(ROOT)), target) in KNOWN_UPWARD_IMPORTS:
-                    known.add((str(path.relative_to(ROOT)), target))
-                else:
-                    upward.append(f"{path.relative_to(ROOT)}:{line} imports {target}")
+                upward.append(f"{path.relative_to(ROOT)}:{line} imports {target}")
     assert not upward, upward
-    assert known == KNOWN_UPWARD_IMPORTS, f"listed but gone: {sorted(KNOWN_UPWARD_IMPORTS - known)}"
 
 
 def _import_graph() -> dict[str, set[str]]:
@@ -312,17 +297,8 @@ def test_no_history_in_the_code():
              for number, line in enumerate(path.read_text().splitlines(), 1) if HISTORY.search(line)]
     assert not found, found
 # --- typed parameters: models never import params/, no `.get("<parameter>", fallback)` outside params/ ----------
-#: models/ modules that still import guide_health.params (the wear core, being rewritten): a known, shrinking list
-MODELS_IMPORTING_PARAMS = ("wear/axis.py", "wear/guide.py")
-#: modules that still read parameters from a dict with `.get("<parameter>", ...)` (the wear core and its offline
-#: analysis, being rewritten; the node start-up's QoS choice): a known, shrinking list. Every other module outside
-#: params/ takes the typed objects of guide_health.params.typed (or plain numbers).
-UNCONVERTED_PARAMETER_DICTS = (
-    "models/wear/axis.py", "models/wear/input_rules.py", "models/wear/guide.py",
-    "models/wear/life.py", "models/wear/effects/parameters.py",
-    "analysis/discrepancy/model.py", "analysis/discrepancy/model_file.py", "analysis/discrepancy/report.py",
-    "sim/machine.py", "nodes/qos.py",
-)
+# Every module outside params/ takes the typed objects of guide_health.params.typed (or plain numbers); the
+# defaults live once, in the schema.
 #: receivers of `.get` that are records, not parameter dicts, though some keys share a parameter's name (a report,
 #: a saved state, a bag's data or run metadata, a fit's standard errors)
 RECORD_RECEIVERS = ("state", "report", "result", "data", 'e["summary"]', 'e["result"]', "read_run_metadata(bag)",
@@ -356,13 +332,10 @@ def test_the_parameter_get_check_finds_a_fallback():
 
 def test_no_parameter_get_with_fallback_outside_params():
     names = _parameter_names()
-    checked = [p for p in _python_files(PACKAGE) if p.relative_to(PACKAGE).parts[0] != "params"
-               and str(p.relative_to(PACKAGE).as_posix()) not in UNCONVERTED_PARAMETER_DICTS]
+    checked = [p for p in _python_files(PACKAGE) if p.relative_to(PACKAGE).parts[0] != "params"]
     assert len(checked) > 100
     found = {str(p.relative_to(PACKAGE)): parameter_gets(p.read_text(), names) for p in checked}
     assert not {k: v for k, v in found.items() if v}, found
-    still = [m for m in UNCONVERTED_PARAMETER_DICTS if parameter_gets((PACKAGE / m).read_text(), names)]
-    assert still == list(UNCONVERTED_PARAMETER_DICTS), "converted: remove it from UNCONVERTED_PARAMETER_DICTS"
 
 
 def test_models_never_import_params():
@@ -374,4 +347,4 @@ def test_models_never_import_params():
                                               for a in n.names}
         if any(m == "guide_health.params" or m.startswith("guide_health.params.") for m in imported):
             importing.append(path.relative_to(MODELS).as_posix())
-    assert importing == list(MODELS_IMPORTING_PARAMS)
+    assert importing == []

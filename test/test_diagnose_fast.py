@@ -24,6 +24,7 @@ from guide_health.errors import InputError
 from guide_health.io.bag.writer import write_machine_bag
 from guide_health.models.wear.input_rules import InputLimits
 from guide_health.params import simulation_params, wear_monitor_params
+from guide_health.params.typed import wear_axis_params
 from guide_health.sim.machine import simulate_machine
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -106,8 +107,9 @@ def test_candidate_fits_in_two_processes_equal_the_fits_in_turn():
     sim = simulation_params(BENCH)
     sim.update(duration_h=10.0, joint_state_rate_hz=5.0)
     run = simulate_machine(params, sim, seed=3, effects={"running_in": 2.5})
-    cells = duty.duty_cells_from_runs(run, params["slider_length_m"], limits=InputLimits.from_params(params),
-                                      sliding_deadband_m=params["sliding_deadband_m"])
+    cells = duty.duty_cells_from_runs(run, params["slider_length_m"],
+        limits=InputLimits.from_params(wear_axis_params(params)),
+        sliding_deadband_m=params["sliding_deadband_m"])
     serial = diagnose_cells(cells, params, workers=1)
     pooled = diagnose_cells(cells, params, workers=2)
     assert serial["named_effects"] == ["running_in"]

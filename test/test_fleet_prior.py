@@ -17,6 +17,7 @@ from guide_health.models.fleet import (
     wear_coefficient_prior,
 )
 from guide_health.models.wear.calibration import WearCoefficientEstimator, remaining_life_s
+from guide_health.params.typed import wear_axis_params
 
 K_CONFIGURED = 4.42e-6                    # seed 000 K: the default prior's mean (rel sd 0.5)
 LOG_K_MEAN = math.log(1.5 * K_CONFIGURED)  # the type wears 1.5x the configured K (median) ...
@@ -137,7 +138,7 @@ def test_fleet_prior_command_from_a_fleet_replay(tmp_path, capsys):
     assert new["machine_type"] == "bench45"
     assert new["wear_coefficient"] == pytest.approx(prior["wear_coefficient"], rel=1e-5)
     assert new["wear_coefficient_prior_rel_sd"] < 0.5                          # tighter than the default
-    est = PrecisionMonitor(new).estimator                                      # what a new machine's node uses
+    est = PrecisionMonitor(wear_axis_params(new)).estimator               # what a new machine's node uses
     assert (est.prior_wear_coefficient, est.prior_rel_sd) == (new["wear_coefficient"],
                                                               new["wear_coefficient_prior_rel_sd"])
     other_type = tmp_path / "other.yaml"            # a machine of another type: not its prior
@@ -188,7 +189,7 @@ def test_named_effects_of_most_machines_go_into_the_prior_file(tmp_path):
     out = tmp_path / "prior.yaml"
     write_prior_params(out, prior)
     p = wear_monitor_params([cfg, out])
-    live = EffectParameters.from_params(p)
+    live = EffectParameters.from_params(wear_axis_params(p))
     assert live.effects == ("running_in",)
     assert (live.running_in_ratio, live.running_in_distance_m, live.load_exponent) == (0.8, 250.0, 1.0)
     cov = live.covariance_matrix()

@@ -19,6 +19,7 @@ from guide_health.models.wear.life import (
     remaining_life_interval_s,
 )
 from guide_health.params import machine_axes_params
+from guide_health.params.typed import wear_axis_params
 
 ROOT = Path(__file__).resolve().parents[1]
 T0_NS = 1_700_000_000 * 10**9
@@ -27,7 +28,7 @@ T0_NS = 1_700_000_000 * 10**9
 def two_guides(shares=(0.6, 0.4)) -> AxisMonitor:
     p = dict(machine_axes_params(ROOT / "config" / "machine_xyz.yaml")["y"])
     p.update(guides=["front", "rear"], guide_load_shares=list(shares), load_max_n=10000.0)
-    return AxisMonitor(p)
+    return AxisMonitor(wear_axis_params(p))
 
 
 def test_a_sample_is_judged_once_per_axis_and_every_guide_carries_its_share():

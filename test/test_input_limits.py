@@ -34,6 +34,7 @@ from guide_health.models.wear.input_rules import (
 )
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.params import simulation_params, wear_monitor_params
+from guide_health.params.typed import wear_axis_params
 from guide_health.runs import MachineRun
 from guide_health.sim.machine import simulate_machine
 
@@ -78,7 +79,7 @@ def bag_order(run: MachineRun) -> list[tuple[int, int, int]]:
 def batch(run: MachineRun, pieces: int = 1, restart: bool = False) -> PrecisionMonitor:
     """process_run over ``pieces`` consecutive chunks of the bag order; ``restart``: the state goes through
     JSON and a new monitor between chunks, as a node restart does (rejections summed over the runs)."""
-    monitor = PrecisionMonitor(PARAMS)
+    monitor = PrecisionMonitor(wear_axis_params(PARAMS))
     rejected = Counter()
     events = bag_order(run)
     cuts = np.linspace(0, len(events), pieces + 1).astype(int)
@@ -91,7 +92,7 @@ def batch(run: MachineRun, pieces: int = 1, restart: bool = False) -> PrecisionM
         if restart and a:
             rejected.update(monitor.rejected)
             state = json.loads(json.dumps(monitor.state()))
-            monitor = PrecisionMonitor(PARAMS)
+            monitor = PrecisionMonitor(wear_axis_params(PARAMS))
             monitor.restore(state)
         monitor.process_run(part)
     rejected.update(monitor.rejected)
@@ -101,7 +102,7 @@ def batch(run: MachineRun, pieces: int = 1, restart: bool = False) -> PrecisionM
 
 def live(run: MachineRun) -> PrecisionMonitor:
     """Sample by sample through StampAlignedFeed (window 0.5 s) in bag order."""
-    monitor = PrecisionMonitor(PARAMS)
+    monitor = PrecisionMonitor(wear_axis_params(PARAMS))
     feed = StampAlignedFeed(monitor.axis, 0.5)
     v = run.joint_velocity_m_s if run.joint_velocity_m_s.size else np.zeros(run.joint_t_ns.size)
     for n, (t, kind, i) in enumerate(bag_order(run)):
@@ -199,7 +200,7 @@ def test_huge_finite_values_are_rejected_alike_live_and_offline(bench_run, topic
 
 def test_rolling_guide_load_limit_is_a_multiple_of_the_rating():
     params = wear_monitor_params(ROOT / "config" / "nsk_lh45.yaml")
-    monitor = PrecisionMonitor(params)
+    monitor = PrecisionMonitor(wear_axis_params(params))
     c = params["dynamic_load_rating_n"] * params["carriages"]
     assert monitor.limits.load_max_n == pytest.approx(params["load_max_rating_multiple"] * c)
     assert monitor.on_load(1, 2.9 * c) is None
@@ -238,7 +239,7 @@ def test_resumed_node_does_not_apply_the_last_measurement_again(bench_run):
     monitor = reference
     for _ in range(5):          # five restarts, each replaying the last measurement
         state = json.loads(json.dumps(monitor.state()))
-        monitor = PrecisionMonitor(PARAMS)
+        monitor = PrecisionMonitor(wear_axis_params(PARAMS))
         monitor.restore(state)
         t_last = monitor.estimator.measurement_t_ns[-1]
         assert monitor.on_straightness(t_last, float(bench_run.straightness_m[-1])) == MEASUREMENT_ALREADY_APPLIED
@@ -288,12 +289,12 @@ def test_nan_velocity_and_nanosec_beyond_a_second_are_rejected_on_both_paths(ros
 def test_a_missing_joint_is_named_in_the_status(bench_run):
     """Offline, a bag without the monitored joint used to say only "waiting for motion"; live, the
     JointState messages without it are rejected and named as the dominant reason."""
-    offline = PrecisionMonitor(PARAMS)
+    offline = PrecisionMonitor(wear_axis_params(PARAMS))
     offline.process_run(MachineRun("x", load_t_ns=bench_run.load_t_ns, load_n=bench_run.load_n))
     report = offline.report()
     assert report["level"] == Level.WARN
     assert report["message"] == "no wear estimate yet: no joint_states sample of joint 'x' accepted"
-    live_monitor = PrecisionMonitor(PARAMS)
+    live_monitor = PrecisionMonitor(wear_axis_params(PARAMS))
     for _ in range(10):
         live_monitor.reject_input("joint_states", "joint 'x' not in joint_states")
     assert live_monitor.report()["message"].startswith(

@@ -39,11 +39,12 @@ from guide_health.models.wear.input_rules import (
 )
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.params import wear_monitor_params
+from guide_health.params.typed import wear_axis_params
 from guide_health.runs import MachineRun
 
 ROOT = Path(__file__).resolve().parents[1]
 PARAMS = wear_monitor_params(ROOT / "config" / "bench_000.yaml")
-LIMITS = InputLimits.from_params(PARAMS)
+LIMITS = InputLimits.from_params(wear_axis_params(PARAMS))
 T0_NS = 1_700_000_000_000_000_000
 MS = 1_000_000
 NAN, INF = math.nan, math.inf
@@ -136,7 +137,7 @@ def arrival_order(run: MachineRun) -> list[tuple[str, int]]:
 def live(run: MachineRun, window_s: float):
     """The live path: StampAlignedFeed sample by sample (arrival 1 ms apart), straightness as the node
     handles it (flush, then the monitor), all pending samples flushed at the end."""
-    monitor = PrecisionMonitor(PARAMS)
+    monitor = PrecisionMonitor(wear_axis_params(PARAMS))
     seen = record_integration(monitor)
     feed = StampAlignedFeed(monitor.axis, window_s)
     reasons = []
@@ -156,7 +157,7 @@ def live(run: MachineRun, window_s: float):
 
 
 def batch(run: MachineRun):
-    monitor = PrecisionMonitor(PARAMS)
+    monitor = PrecisionMonitor(wear_axis_params(PARAMS))
     seen = record_integration(monitor)
     monitor.process_run(run)
     return monitor, seen
@@ -206,7 +207,7 @@ def check_paths_agree(run: MachineRun, pieces: int = 3):
     """live (window 0 and 0.5 s) == batch (whole and chunked) == duty cells (whole and chunked)."""
     ref, ref_seen = batch(run)
     est = ref.estimator
-    chunked = PrecisionMonitor(PARAMS)
+    chunked = PrecisionMonitor(wear_axis_params(PARAMS))
     chunked_seen = record_integration(chunked)
     for part in chunks(run, pieces):
         chunked.process_run(part)
@@ -338,7 +339,7 @@ def test_property_live_equals_batch_equals_duty(run, pieces):
 def test_property_a_rejected_sample_changes_no_state(run):
     """Sample by sample in arrival order: no exception, and every rejected sample leaves the saved state
     (and the report's numbers) exactly as they were; every accepted one is within the limits."""
-    monitor = PrecisionMonitor(PARAMS)
+    monitor = PrecisionMonitor(wear_axis_params(PARAMS))
     velocity = run.joint_velocity_m_s if run.joint_velocity_m_s.size else np.zeros(run.joint_t_ns.size)
     for kind, i in arrival_order(run):
         before = repr(monitor.state())

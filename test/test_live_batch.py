@@ -17,6 +17,7 @@ from guide_health.models.wear.feed import StampAlignedFeed
 from guide_health.models.wear.input_rules import StampBase
 from guide_health.models.wear.maintenance import MaintenanceEvent
 from guide_health.params import machine_axes_params
+from guide_health.params.typed import wear_axis_params
 
 ROOT = Path(__file__).resolve().parents[1]
 T0_NS = 1_700_000_000_000_000_000
@@ -74,7 +75,7 @@ def stream(seed: int, n: int, load_max_primary_n: float):
 
 
 def run(params, events, batch: int, resumed: bool):
-    model = AxisMonitor(params)
+    model = AxisMonitor(wear_axis_params(params))
     if resumed:                       # a node resumed with a saved load: samples before the first new load
         model.gate.load_n, model.gate.load_t_ns = 5000.0, T0_NS - 10**9      # each guide its share of it
         model.gate.load_base = StampBase(T0_NS - 10**9)

@@ -30,6 +30,7 @@ from guide_health.models.wear.axis import AxisMonitor
 from guide_health.models.wear.maintenance import MaintenanceEvent
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.params import simulation_params, validate_wear_params, wear_monitor_params
+from guide_health.params.typed import as_dict, wear_axis_params
 from guide_health.sim.machine import simulate_machine
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -125,7 +126,7 @@ def monitored(case_id: str, hours: float = 4.0, rate_hz: float = 20.0, seed: int
     expected = own_straightness_m(run, params, k, sum(stroke), case, relube_s)
     run.straightness_m = expected                     # the gauge reads this truth, noise-free
     validate_wear_params({**fixed, **live})
-    axis = AxisMonitor({**fixed, **live})
+    axis = AxisMonitor(wear_axis_params({**fixed, **live}))
     for t in relube_s:
         axis.schedule(MaintenanceEvent(int(round(t * 1e9)), "relubricate", params["joint"], source="test"))
     axis.process_run(run)
@@ -139,7 +140,7 @@ def test_live_duty_effects_integrate_this_files_reference(case_id):
     a0 = fixed["straightness_initial_m"]
     rel = np.abs(got - expected)[1:] / (expected - a0)[1:]
     assert got.size == expected.size and np.max(rel) < 1e-9, (case_id, np.max(rel))
-    plain = PrecisionMonitor(fixed)
+    plain = PrecisionMonitor(wear_axis_params(fixed))
     plain.process_run(run)
     off = np.abs(plain.straightness_m(k, plain.measurement_losses_per_k_m()) - expected)[1:] / (expected - a0)[1:]
     assert np.max(off) > 0.02, (case_id, np.max(off))      # the effect is not a rounding of the plain model
@@ -169,18 +170,18 @@ def test_recorded_relubrication_time_base_survives_a_state_round_trip():
                                   straightness_t_ns=run.straightness_t_ns[s], straightness_m=run.straightness_m[s]))
         return out
 
-    whole = AxisMonitor(p)
+    whole = AxisMonitor(wear_axis_params(p))
     for e in events:
         whole.schedule(e)
     whole.process_run(run)
     first, second = split(run, t0 + int(2.0 * H * 1e9))
-    a = AxisMonitor(p)
+    a = AxisMonitor(wear_axis_params(p))
     for e in events:
         a.schedule(e)
     a.process_run(first)
     state = a.primary.state()
     assert state["effects"]["last_relubrication_t_ns"] == events[0].t_ns
-    b = AxisMonitor(p)
+    b = AxisMonitor(wear_axis_params(p))
     b.primary.restore(state)
     b.restore_maintenance(a.maintenance_state())
     b.process_run(second)
@@ -211,25 +212,25 @@ def test_per_sample_callbacks_equal_the_vectorised_path_with_the_duty_effects():
 
     expected, offline, run, fixed, k, _ = monitored("all_three", hours=2.0, rate_hz=5.0)
     _, live_p = CASES["all_three"]
-    p = {**offline.params}
+    p = as_dict(offline.params)
     sd = np.array([0.05 * k, 0, 0, 0, 0, 0, 1.0, 0.3, 0.5, 0, 0, 0, 0])
     p["effect_covariance"] = np.diag(sd ** 2).ravel().tolist()
     run.straightness_m = expected + np.random.default_rng(3).normal(0.0, 0.3e-6, expected.size)
-    a_mon = PrecisionMonitor(p)
+    a_mon = PrecisionMonitor(wear_axis_params(p))
     a_mon.process_run(run)
-    b_mon = PrecisionMonitor(p)
+    b_mon = PrecisionMonitor(wear_axis_params(p))
     feed_per_sample(b_mon, run)
     a, b = a_mon.report(), b_mon.report()
     assert b_mon.work_nm() == pytest.approx(a_mon.work_nm(), rel=1e-9)
     for key in ("straightness_um", "remaining_life_h", "remaining_life_h_low", "remaining_life_h_high"):
         assert b[key] == pytest.approx(a[key], rel=1e-6), key
-    narrow = PrecisionMonitor({**p, "effect_covariance": [0.0] * 169})
+    narrow = PrecisionMonitor(wear_axis_params({**p, "effect_covariance": [0.0] * 169}))
     narrow.process_run(run)
     n = narrow.report()
     assert n["remaining_life_h"] == pytest.approx(a["remaining_life_h"], rel=1e-9)
     assert a["remaining_life_h_high"] - a["remaining_life_h_low"] > 1.2 * (n["remaining_life_h_high"]
                                                                            - n["remaining_life_h_low"])
-    again = PrecisionMonitor(p)
+    again = PrecisionMonitor(wear_axis_params(p))
     again.restore(json.loads(json.dumps(a_mon.state())))
     assert again.report()["remaining_life_h"] == pytest.approx(a["remaining_life_h"], rel=1e-9)
 
@@ -262,7 +263,7 @@ def hidden_case(effect: str, seed: int, hours: float = 20.0, rate_hz: float = 10
 
 
 def life_of(params: dict, run) -> dict:
-    monitor = PrecisionMonitor(params)
+    monitor = PrecisionMonitor(wear_axis_params(params))
     monitor.process_run(run)
     return monitor.report()
 
@@ -346,7 +347,7 @@ def test_thermal_drift_corrects_each_measurement_with_the_temperature_at_its_sta
     assert held[0] < 0 and np.all(held[1:] >= 0)      # the first measurement precedes the first reading
     live = {"effects": "thermal_drift", "thermal_drift_m_per_k": 1.2e-6, "thermal_reference_c": t_ref}
     validate_wear_params({**params, **live})
-    monitor = PrecisionMonitor({**params, **live})
+    monitor = PrecisionMonitor(wear_axis_params({**params, **live}))
     monitor.process_run(run)
     est = monitor.estimator
     # the first measurement (t = 0, before any temperature reading) is a counted rejection, not a guess
@@ -354,11 +355,11 @@ def test_thermal_drift_corrects_each_measurement_with_the_temperature_at_its_sta
     assert np.max(np.abs(np.asarray(est.measurement_m) - wear[1:])) < 1e-12     # the gauge term taken off
     assert monitor.report()["wear_coefficient"] == pytest.approx(params["wear_coefficient"], rel=1e-6)
     assert "straightness_thermal_correction_um" in monitor.report()
-    plain = PrecisionMonitor(params)
+    plain = PrecisionMonitor(wear_axis_params(params))
     plain.process_run(run)
     assert abs(plain.report()["wear_coefficient"] / params["wear_coefficient"] - 1.0) > 0.01
     # per message: a measurement before any temperature reading is a counted rejection, nothing changes
-    fresh = PrecisionMonitor({**params, **live})
+    fresh = PrecisionMonitor(wear_axis_params({**params, **live}))
     fresh.on_joint(int(run.joint_t_ns[0]), float(run.joint_position_m[0]))
     before = json_state(fresh)
     reason = fresh.on_straightness(int(run.joint_t_ns[0]) + 1, 20e-6)
@@ -369,7 +370,7 @@ def test_thermal_drift_corrects_each_measurement_with_the_temperature_at_its_sta
     fresh.on_temperature(int(run.joint_t_ns[0]) - 10, t_ref + 1.0)
     fresh.on_straightness(int(run.joint_t_ns[0]) + 2, 20e-6)
     assert fresh.estimator.measurement_m[-1] == pytest.approx(20e-6 - 1.2e-6 * 1.0, abs=1e-15)
-    again = PrecisionMonitor({**params, **live})
+    again = PrecisionMonitor(wear_axis_params({**params, **live}))
     again.restore(json.loads(json.dumps(fresh.state())))
     assert again.thermal_offset_at_k(int(run.joint_t_ns[0]) + 20) == pytest.approx(5.0, rel=1e-12)
 
@@ -584,7 +585,7 @@ def test_a_monitor_with_effects_reports_before_its_first_measurement():
     params, run, _, t_ref, _ = thermal_case(1, 0.5, 5.0, 0.0, 1.0e-6, 0.0)
     live = {"effects": "thermal_drift,load_along_rail", "thermal_drift_m_per_k": 1.0e-6, "thermal_reference_c": t_ref,
             "load_gradient_per_m": 1.0, "load_reference_position_m": 0.1}
-    monitor = PrecisionMonitor({**params, **live})
+    monitor = PrecisionMonitor(wear_axis_params({**params, **live}))
     monitor.on_straightness(int(run.joint_t_ns[0]), 20e-6)          # no time base yet: rejected
     for t, x in zip(run.joint_t_ns[:3000].tolist(), run.joint_position_m[:3000].tolist()):
         monitor.on_joint(t, x)
@@ -611,12 +612,12 @@ def test_a_state_with_the_duty_and_thermal_effects_passes_the_state_schema_and_r
          "load_gradient_per_m": 1.5, "load_reference_position_m": 0.1, "wear_rate_change_factor": 1.5,
          "wear_rate_change_stamp_s": (t0 + 0.9 * H * 1e9) * 1e-9, "lubrication_wear_growth": 0.3 / H,
          "thermal_drift_m_per_k": 1.0e-6, "thermal_reference_c": t_ref}
-    axis = AxisMonitor(p)
+    axis = AxisMonitor(wear_axis_params(p))
     axis.schedule(MaintenanceEvent(t0 + int(0.6 * H * 1e9), "relubricate", params["joint"], source="test"))
     axis.process_run(run)
     monitor = axis.primary
     state = json.loads(json.dumps(monitor.state()))
-    fresh = PrecisionMonitor(p)
+    fresh = PrecisionMonitor(wear_axis_params(p))
     check_precision_state(state, fresh.state())
     assert len(state["temperatures"]["reading_t_ns"]) == run.temperature_t_ns.size
     assert state["effects"]["last_relubrication_t_ns"] == t0 + int(0.6 * H * 1e9)
@@ -636,7 +637,7 @@ def test_a_state_with_the_duty_and_thermal_effects_passes_the_state_schema_and_r
             node = node[k]
         node[path[-1]] = value
         with pytest.raises(InputError, match=message):
-            check_precision_state(bad, PrecisionMonitor(p).state())
+            check_precision_state(bad, PrecisionMonitor(wear_axis_params(p)).state())
 
 
 def test_a_thermal_state_saved_before_the_offsets_were_kept_rebuilds_them_from_the_readings():
@@ -653,13 +654,13 @@ def test_a_thermal_state_saved_before_the_offsets_were_kept_rebuilds_them_from_t
         cov[COVARIANCE_NAMES.index(name), COVARIANCE_NAMES.index(name)] = sd ** 2
     p = {**params, "effects": "thermal_drift", "thermal_drift_m_per_k": 1.2e-6, "thermal_reference_c": t_ref,
          "effect_covariance": cov.ravel().tolist()}
-    monitor = PrecisionMonitor(p)
+    monitor = PrecisionMonitor(wear_axis_params(p))
     monitor.process_run(run)
     kept = list(monitor.effect_wear.measurement_temperature_offset_k)
     assert len(kept) > 10 and np.all(np.isfinite(kept)) and np.ptp(kept) > 1.0
     state = json.loads(json.dumps(monitor.state()))
     del state["effects"]["measurement_temperature_offset_k"]       # as saved before stop 12
-    old = PrecisionMonitor(p)
+    old = PrecisionMonitor(wear_axis_params(p))
     old.restore(state)
     assert old.effect_wear.measurement_temperature_offset_k == pytest.approx(kept, rel=1e-12, abs=1e-12)
     a, b = monitor.report(), old.report()
@@ -671,11 +672,11 @@ def test_a_thermal_state_saved_before_the_offsets_were_kept_rebuilds_them_from_t
     keep = [i for i, t in enumerate(temps["reading_t_ns"]) if t > t5]
     temps["reading_t_ns"] = [temps["reading_t_ns"][i] for i in keep]
     temps["reading_c"] = [temps["reading_c"][i] for i in keep]
-    trimmed = PrecisionMonitor(p)
+    trimmed = PrecisionMonitor(wear_axis_params(p))
     trimmed.restore(state)
     offsets = np.asarray(trimmed.effect_wear.measurement_temperature_offset_k)
     assert np.all(np.isnan(offsets[:6])) and offsets[7:] == pytest.approx(kept[7:], rel=1e-12, abs=1e-12)
-    narrow = PrecisionMonitor({**p, "effect_covariance": [0.0] * n * n})
+    narrow = PrecisionMonitor(wear_axis_params({**p, "effect_covariance": [0.0] * n * n}))
     narrow.process_run(run)
     c = trimmed.report()
     assert c["remaining_life_h_high"] == pytest.approx(narrow.report()["remaining_life_h_high"], rel=1e-9)
@@ -736,7 +737,8 @@ def test_the_remaining_life_follows_the_relubrication_schedule():
              "none expected": recorded}
     ends = {}
     for name, extra in forms.items():
-        axis = AxisMonitor({**params, "effects": "lubrication_interval", "wear_coefficient": k, **extra})
+        axis = AxisMonitor(wear_axis_params({**params, "effects": "lubrication_interval", "wear_coefficient": k,
+                                             **extra}))
         if name != "interval":
             for j in range(1, 6):
                 axis.schedule(MaintenanceEvent(t0 + int(j * 5 * H * 1e9), "relubricate", params["joint"]))
@@ -767,9 +769,9 @@ def test_the_interval_carries_the_lubrication_growth_as_a_rerun_moves_the_life()
     def life(growth: float, variance: float) -> dict:
         cov = np.zeros((n, n))
         cov[i, i] = variance
-        axis = AxisMonitor({**params, "effects": "lubrication_interval", "lubrication_interval_s": 0.0,
+        axis = AxisMonitor(wear_axis_params({**params, "effects": "lubrication_interval", "lubrication_interval_s": 0.0,
                             "lubrication_reference_stamp_s": t0 * 1e-9, "lubrication_wear_growth": growth,
-                            "lubrication_forecast_interval_s": 5 * H, "effect_covariance": cov.ravel().tolist()})
+                            "lubrication_forecast_interval_s": 5 * H, "effect_covariance": cov.ravel().tolist()}))
         for j in (1, 2):
             axis.schedule(MaintenanceEvent(t0 + int(j * 5 * H * 1e9), "relubricate", params["joint"]))
         axis.process_run(head)
@@ -902,7 +904,7 @@ def test_implausible_temperatures_are_counted_rejections_live_and_offline(config
     t0 = 1_700_000_000_000_000_000
     temps = [(t0 + 1, math.nan), (t0 + 2, -274.0), (t0 + 3, 1e300), (t0 + 4, 600.0), (t0 + 5, 25.0)]
     joints = [(t0 + 10 * i * 10**6, 0.1 + 0.001 * i) for i in range(200)]
-    live = PrecisionMonitor(params)
+    live = PrecisionMonitor(wear_axis_params(params))
     reasons = [live.on_temperature(t, c) for t, c in temps]
     assert reasons == [TEMPERATURE_IMPLAUSIBLE] * 4 + [None]
     live.on_load(t0, 1000.0)
@@ -914,7 +916,7 @@ def test_implausible_temperatures_are_counted_rejections_live_and_offline(config
                      np.array([joints[-1][0]], dtype=np.int64), np.array([20e-6]),
                      temperature_t_ns=np.array([t for t, _ in temps], dtype=np.int64),
                      temperature_c=np.array([c for _, c in temps]))
-    offline = PrecisionMonitor(params)
+    offline = PrecisionMonitor(wear_axis_params(params))
     offline.process_run(run)
     a, b = live.report(), offline.report()
     assert a[rejected_key(TEMPERATURE_IMPLAUSIBLE)] == b[rejected_key(TEMPERATURE_IMPLAUSIBLE)] == 4

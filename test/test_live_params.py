@@ -134,7 +134,7 @@ def test_set_parameters_service_refuses_bad_values_and_applies_good_ones(spinnin
     assert not inverted.successful and inverted.reason.startswith("life_error_h (25.0 h) must be below life_warn_h")
     too_slow = client.set("diagnostics_period_s", 2000.0)        # duty_window_s 3600 < 3 periods
     assert not too_slow.successful and "at least 3 diagnostics periods" in too_slow.reason
-    assert node.get_parameter("life_warn_h").value == 20.0 and node.monitor.params["life_error_h"] == 10.0
+    assert node.get_parameter("life_warn_h").value == 20.0 and node.monitor.params.life_error_h == 10.0
     assert status_of(node)[0] == 0                               # nothing refused reached the model
 
     good = client.set("life_warn_h", 50)                         # an integer sets the float parameter

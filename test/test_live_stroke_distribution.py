@@ -25,6 +25,7 @@ from guide_health.analysis.discrepancy.duty import duty_cells_from_runs
 from guide_health.analysis.discrepancy.workflow import diagnose_cells
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.params import simulation_params, wear_monitor_params
+from guide_health.params.typed import wear_axis_params
 from guide_health.sim.machine import simulate_machine
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -47,7 +48,7 @@ def lives(seed: int) -> dict:
     result = diagnose_cells(duty_cells_from_runs(run, params["slider_length_m"]), params)
 
     def report(p, r):
-        monitor = PrecisionMonitor(p)
+        monitor = PrecisionMonitor(wear_axis_params(p))
         monitor.process_run(r)
         return monitor.report()
 

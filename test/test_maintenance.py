@@ -15,6 +15,7 @@ from guide_health.errors import InputError
 from guide_health.models.wear.axis import AxisMonitor
 from guide_health.models.wear.maintenance import MaintenanceEvent
 from guide_health.params import machine_axes_params, simulation_params, wear_monitor_params
+from guide_health.params.typed import wear_axis_params
 from guide_health.sim.machine import START_TIME_NS, apply_maintenance_truth, parse_maintenance, simulate_machine
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -40,14 +41,14 @@ def regrind(at_h: float, after_um: float | None = 10.0, guide: str = "") -> Main
 def test_regrind_restarts_straightness_from_the_measured_value_and_keeps_k():
     params, run = bench_run()
     event = regrind(1.0)
-    model = AxisMonitor(params)
+    model = AxisMonitor(wear_axis_params(params))
     model.schedule(event)
     head_end = int(np.searchsorted(run.joint_t_ns, event.t_ns, side="right"))
     model.process_run(run)
     assert [e.key for e in model.events] == [event.key] and not model.pending
     # independent: a monitor whose guide is new at the event (A0 = 10 um, prior K = the posterior at the
     # event) fed the samples after it gives the same straightness
-    before = AxisMonitor(params)
+    before = AxisMonitor(wear_axis_params(params))
     from guide_health.models.wear.axis import split_run
 
     head, tail = split_run(run, event.t_ns)
@@ -57,8 +58,8 @@ def test_regrind_restarts_straightness_from_the_measured_value_and_keeps_k():
     slid_before = before.primary.integrator.sliding_distance_m
     worn_um = before.report()["straightness_um"]
     assert worn_um > 14.0                                                # worn before the regrind
-    fresh = AxisMonitor(dict(params, straightness_initial_m=10e-6, wear_coefficient=k_before,
-                             wear_coefficient_prior_rel_sd=k_sd / k_before))
+    fresh = AxisMonitor(wear_axis_params(dict(params, straightness_initial_m=10e-6, wear_coefficient=k_before,
+                             wear_coefficient_prior_rel_sd=k_sd / k_before)))
     fresh.primary.integrator = before.primary.integrator                 # same motion state, wear reset below
     fresh.primary.integrator.archard_work_nm = 0.0
     fresh.primary.integrator.profile_work_n[:] = 0.0
@@ -76,7 +77,7 @@ def test_regrind_restarts_straightness_from_the_measured_value_and_keeps_k():
 
 def test_straightness_right_after_a_regrind_is_the_post_regrind_value():
     params, run = bench_run(hours=1.0)
-    model = AxisMonitor(params)
+    model = AxisMonitor(wear_axis_params(params))
     model.process_run(run)
     assert model.report()["straightness_um"] > 12.0
     t_now = model.last_t_ns
@@ -96,7 +97,7 @@ def test_straightness_right_after_a_regrind_is_the_post_regrind_value():
     (MaintenanceEvent(0, "polish", "x", "", math.nan), "unknown maintenance kind"),
 ])
 def test_bad_events_are_rejected_and_change_nothing(event, reason):
-    model = AxisMonitor(wear_monitor_params(BENCH))
+    model = AxisMonitor(wear_axis_params(wear_monitor_params(BENCH)))
     assert reason in model.schedule(event)
     assert model.events == [] and model.pending == []
 
@@ -105,7 +106,7 @@ def test_carriage_replacement_resets_fatigue_and_keeps_the_rail_wear():
     params = dict(wear_monitor_params(NSK), guides=["left", "right"], guide_load_shares=[0.5, 0.5])
     sim = dict(simulation_params(BENCH), duration_h=0.5, joint_state_rate_hz=10.0, load_rate_hz=1.0)
     run = simulate_machine(params, sim, seed=2)
-    model = AxisMonitor(params)
+    model = AxisMonitor(wear_axis_params(params))
     model.process_run(run)
     used = {n: g.fatigue_report()["life_used_fraction"] for n, g in model.guides.items()}
     straight = {n: model.guide(n).report()["straightness_um"] for n in model.guides}
@@ -122,10 +123,10 @@ def test_carriage_replacement_resets_fatigue_and_keeps_the_rail_wear():
 
 def test_maintenance_state_survives_a_restart():
     params, run = bench_run(hours=1.0)
-    model = AxisMonitor(params)
+    model = AxisMonitor(wear_axis_params(params))
     model.process_run(run)
     model.schedule(MaintenanceEvent(model.last_t_ns, "regrind", "x", "", 9.0e-6))
-    again = AxisMonitor(params)
+    again = AxisMonitor(wear_axis_params(params))
     again.primary.restore(model.primary.state())
     again.restore_maintenance(json.loads(json.dumps(model.maintenance_state())))
     assert again.report()["straightness_um"] == pytest.approx(9.0, abs=1e-9)

@@ -10,6 +10,7 @@ import pytest
 from guide_health.models.wear.measurement_plan import life_interval_half_width, longest_measurement_interval_h
 from guide_health.params import wear_monitor_params
 from guide_health.params.machine import axes_params
+from guide_health.params.typed import wear_axis_params
 
 ROOT = Path(__file__).resolve().parents[1]
 Z90 = 1.6448536269514722
@@ -17,7 +18,7 @@ Z90 = 1.6448536269514722
 
 @pytest.fixture(scope="module")
 def x_axis():
-    return axes_params(wear_monitor_params(ROOT / "config" / "machine_xyz.yaml"))["x"]
+    return wear_axis_params(axes_params(wear_monitor_params(ROOT / "config" / "machine_xyz.yaml"))["x"])
 
 
 def test_without_measurements_the_interval_is_the_priors(x_axis):

@@ -38,6 +38,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import reference_wear as ref  # noqa: E402
 from live_feed import feed_per_sample  # noqa: E402
 
+from guide_health.params.typed import wear_axis_params
+
 ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT / "config" / "bench_000.yaml"
 JOBS = ROOT / "config" / "machine_jobs.yaml"
@@ -68,7 +70,7 @@ def bench_running_in(seed: int, rate_hz: float = 10.0):
 
 
 def replay_life(params: dict, run) -> tuple[float, float, float]:
-    monitor = PrecisionMonitor(params)
+    monitor = PrecisionMonitor(wear_axis_params(params))
     monitor.process_run(run)
     r = monitor.report()
     return r["remaining_life_h"], r["remaining_life_h_low"], r["remaining_life_h_high"]
@@ -79,8 +81,9 @@ def coverage(seeds) -> list[dict]:
     for seed in seeds:
         params, run = bench_running_in(seed)
         truth = true_remaining_life_h(run, params["straightness_limit_m"])
-        cells = duty_cells_from_runs(run, params["slider_length_m"], limits=InputLimits.from_params(params),
-                                     sliding_deadband_m=params["sliding_deadband_m"])
+        cells = duty_cells_from_runs(run, params["slider_length_m"],
+            limits=InputLimits.from_params(wear_axis_params(params)),
+            sliding_deadband_m=params["sliding_deadband_m"])
         result = diagnose_cells(cells, params)
         with_file = replay_life({**params, **result["model_file"]}, run)
         plain = replay_life(params, run)
@@ -127,7 +130,7 @@ def test_live_effects_integrate_the_independent_reference(effects, live):
         stroke_sum_m=sum(stroke))
     wear_ref = expected - params["straightness_initial_m"]
     for extra, should_match in ((live, True), ({}, False)):
-        monitor = PrecisionMonitor({**fixed, **extra})
+        monitor = PrecisionMonitor(wear_axis_params({**fixed, **extra}))
         monitor.process_run(run)
         got = monitor.straightness_m(k, monitor.measurement_losses_per_k_m()) - params["straightness_initial_m"]
         assert got.size == wear_ref.size
@@ -144,9 +147,9 @@ def test_live_per_sample_path_equals_the_vectorised_path():
     p = {**params, "effects": "running_in,retract_asymmetry,stroke_distribution", "running_in_ratio": 1.0,
          "running_in_distance_m": 300.0, "retract_wear_factor": 0.4, "stroke_distribution_weight": 0.6,
          "effect_covariance": list(np.diag([1e-14, 0.01, 100.0, 0.001, 0, 0, 0, 0, 0, 0.01, 0, 0, 0]).ravel())}
-    offline = PrecisionMonitor(p)
+    offline = PrecisionMonitor(wear_axis_params(p))
     offline.process_run(run)
-    live = PrecisionMonitor(p)
+    live = PrecisionMonitor(wear_axis_params(p))
     feed_per_sample(live, run)
     a, b = offline.report(), live.report()
     assert live.effect_wear.effective_work_nm == pytest.approx(offline.effect_wear.effective_work_nm, rel=1e-9)
@@ -160,7 +163,7 @@ def test_live_per_sample_path_equals_the_vectorised_path():
                 "wear_coefficient"):
         assert b[key] == pytest.approx(a[key], rel=1e-6), key
     # persisted and restored, the effect state goes on identically
-    again = PrecisionMonitor(p)
+    again = PrecisionMonitor(wear_axis_params(p))
     again.restore(json.loads(json.dumps(offline.state())))
     assert again.report()["remaining_life_h"] == pytest.approx(a["remaining_life_h"], rel=1e-9)
 
@@ -211,8 +214,9 @@ def test_running_in_life_interval_is_calibrated_on_noise_redraws():
     params, run = bench_running_in(0, rate_hz=5.0)
     truth_m = np.asarray(run.metadata["truth"]["straightness_m"])
     truth_h = true_remaining_life_h(run, params["straightness_limit_m"])
-    cells = duty_cells_from_runs(run, params["slider_length_m"], limits=InputLimits.from_params(params),
-                                 sliding_deadband_m=params["sliding_deadband_m"])
+    cells = duty_cells_from_runs(run, params["slider_length_m"],
+        limits=InputLimits.from_params(wear_axis_params(params)),
+        sliding_deadband_m=params["sliding_deadband_m"])
     rng = np.random.default_rng(2026)
     errors, sds, hits = [], [], 0
     for _ in range(120):
@@ -289,7 +293,7 @@ def test_the_life_interval_carries_a0_as_a_rerun_moves_the_life():
 
     none, one = life({}, 0.0), life({}, sd ** 2)
     assert one[0] == pytest.approx(none[0], rel=1e-12)
-    monitor = PrecisionMonitor(live)
+    monitor = PrecisionMonitor(wear_axis_params(live))
     monitor.process_run(run)
     t90 = float(stdtrit(monitor.estimator.count - 1, 0.95))      # the interval's quantile
     half_none, half_one = (math.log(x[2] / x[0]) for x in (none, one))   # t90 x the sd of ln(life)
@@ -318,8 +322,9 @@ def test_a_fitted_a0_life_interval_is_calibrated_on_noise_redraws():
         params, run = bench_running_in(seed, rate_hz=5.0)
         truth_m = np.asarray(run.metadata["truth"]["straightness_m"])
         truth_h = true_remaining_life_h(run, params["straightness_limit_m"])
-        cells = duty_cells_from_runs(run, params["slider_length_m"], limits=InputLimits.from_params(params),
-                                     sliding_deadband_m=params["sliding_deadband_m"])
+        cells = duty_cells_from_runs(run, params["slider_length_m"],
+            limits=InputLimits.from_params(wear_axis_params(params)),
+            sliding_deadband_m=params["sliding_deadband_m"])
         free = {**params, "straightness_initial_m": 0.0}
         rng = np.random.default_rng(2026 + seed)
         errors, sds, held_sds, hits = [], [], [], 0
@@ -388,8 +393,9 @@ def other_form_rows(forms, seeds, rate_hz: float) -> list[dict]:
     for form in forms:
         for seed in seeds:
             params, run, truth_h = running_in_of_form(form, seed, rate_hz)
-            cells = duty_cells_from_runs(run, params["slider_length_m"], limits=InputLimits.from_params(params),
-                                         sliding_deadband_m=params["sliding_deadband_m"])
+            cells = duty_cells_from_runs(run, params["slider_length_m"],
+                limits=InputLimits.from_params(wear_axis_params(params)),
+                sliding_deadband_m=params["sliding_deadband_m"])
             result = diagnose_cells(cells, params)
             rows.append({"form": form, "seed": seed, "named": result["named_effects"], "truth_h": truth_h,
                          "flag": bool(result.get("unexplained_structure")),
@@ -659,18 +665,19 @@ def test_a_regrind_restarts_running_in_as_on_a_new_guide():
     a0_known = {**live, "effect_covariance": np.diag(variances[:-1] + [0.0]).ravel().tolist()}
     t_regrind = int(run.joint_t_ns[0]) + int(1.7 * 3600e9) + 123_456_789
     event = MaintenanceEvent(t_regrind, "regrind", params["joint"], straightness_m=20e-6)
-    axis = AxisMonitor(live)
+    axis = AxisMonitor(wear_axis_params(live))
     axis.schedule(event)
     axis.process_run(run)
     reground = axis.primary
-    old = PrecisionMonitor(live)
+    old = PrecisionMonitor(wear_axis_params(live))
     old.process_run(split_run(run, t_regrind)[0])
     k, k_sd, _ = old.estimator.posterior(old.measurement_losses_per_k_m())
-    before = PrecisionMonitor(a0_known)
+    before = PrecisionMonitor(wear_axis_params(a0_known))
     before.process_run(split_run(run, t_regrind)[0])
     assert old.report()["remaining_life_h_high"] != pytest.approx(before.report()["remaining_life_h_high"], rel=1e-3)
-    new = PrecisionMonitor({**a0_known, "wear_coefficient": k, "wear_coefficient_prior_rel_sd": k_sd / k,
-                            "straightness_initial_m": 20e-6})
+    new = PrecisionMonitor(wear_axis_params({**a0_known, "wear_coefficient": k,
+                                             "wear_coefficient_prior_rel_sd": k_sd / k,
+                                             "straightness_initial_m": 20e-6}))
     new.process_run(_tail_from(run, t_regrind))
     assert new.estimator.count == 3 and reground.estimator.count == 3
     assert reground.effect_wear.effective_work_nm == pytest.approx(new.effect_wear.effective_work_nm, rel=1e-9)
@@ -680,7 +687,7 @@ def test_a_regrind_restarts_running_in_as_on_a_new_guide():
                 "remaining_life_h_high", "wear_coefficient"):
         assert a[key] == pytest.approx(b[key], rel=1e-9), key
     # live: the node's per-sample path over the same bag and event
-    per_sample = AxisMonitor(live)
+    per_sample = AxisMonitor(wear_axis_params(live))
     per_sample.schedule(event)
     feed_per_sample(per_sample, run)
     c = per_sample.primary.report()
@@ -713,7 +720,7 @@ def test_simulated_regrind_runs_in_again_as_the_live_model():
         live = {**params, "stroke_min_m": truth["stroke_min_m"], "stroke_max_m": truth["stroke_max_m"],
                 "sliding_deadband_m": 0.0, "effects": "running_in", "running_in_ratio": 2.5,
                 "running_in_distance_m": sim["running_in_distance_m"]}
-        axis = AxisMonitor(live)
+        axis = AxisMonitor(wear_axis_params(live))
         axis.schedule(event)
         axis.process_run(run)
         monitor = axis.primary

@@ -16,6 +16,7 @@ import pytest
 import yaml
 
 from guide_health.models.levels import OK
+from guide_health.params.typed import wear_axis_params
 
 K_MAIN, K_SPARE = 4.0e-6, 9.0e-6
 
@@ -29,9 +30,10 @@ def test_rolling_guide_load_cap_is_the_smaller_of_the_two_limits():
 
     p = WEAR_MONITOR_SCHEMA.defaults() | {"guide_type": "rolling", "dynamic_load_rating_n": 1.0e4, "carriages": 2,
                                           "load_max_rating_multiple": 3.0}
-    assert InputLimits.from_params(p | {"load_max_n": 1.0e6}).load_max_n == 6.0e4
-    assert InputLimits.from_params(p | {"load_max_n": 5.0e4}).load_max_n == 5.0e4
-    assert InputLimits.from_params(p | {"guide_type": "sliding", "load_max_n": 1.0e6}).load_max_n == 1.0e6
+    assert InputLimits.from_params(wear_axis_params(p | {"load_max_n": 1.0e6})).load_max_n == 6.0e4
+    assert InputLimits.from_params(wear_axis_params(p | {"load_max_n": 5.0e4})).load_max_n == 5.0e4
+    sliding = wear_axis_params(p | {"guide_type": "sliding", "load_max_n": 1.0e6})
+    assert InputLimits.from_params(sliding).load_max_n == 1.0e6
 
 
 @pytest.mark.parametrize("rebase_samples", [1, 2, 3])
@@ -244,7 +246,7 @@ def test_rail_replacement_and_relubrication_on_every_guide_of_an_axis():
                   guide_load_shares=[0.5, 0.5])
     sim = dict(simulation_params(root / "bench_000.yaml"), duration_h=0.5, joint_state_rate_hz=10.0,
                load_rate_hz=1.0)
-    model = AxisMonitor(params)
+    model = AxisMonitor(wear_axis_params(params))
     model.process_run(simulate_machine(params, sim, seed=2))
     event = MaintenanceEvent(model.last_t_ns, "replace_rail", "x", "", 12e-6)
     assert check_event(event, ("left", "right"), params["straightness_limit_m"]) is None

@@ -26,10 +26,10 @@ def test_loss_counter_counts_sequence_gaps_of_a_single_writer():
 
 
 def test_executor_auto_follows_sensor_qos():
-    assert resolve_executor({"executor": "auto", "sensor_qos": "auto"}) == "events"
-    assert resolve_executor({"executor": "auto", "sensor_qos": "best_effort"}) == "single_threaded"
-    assert resolve_executor({"executor": "events", "sensor_qos": "best_effort"}) == "events"
-    assert resolve_executor({"executor": "auto", "sensor_qos": "auto"}, use_sim_time=True) == "single_threaded"
+    assert resolve_executor("auto", "auto") == "events"
+    assert resolve_executor("auto", "best_effort") == "single_threaded"
+    assert resolve_executor("events", "best_effort") == "events"
+    assert resolve_executor("auto", "auto", use_sim_time=True) == "single_threaded"
 
 
 rclpy = pytest.importorskip("rclpy")

@@ -14,11 +14,13 @@ from guide_health.params.typed import (
     TYPED_CLASSES,
     AxisParams,
     GuideParams,
+    WearAxisParams,
     as_dict,
     guide_params,
     slewing_monitor_params,
     typed_params,
     vibration_monitor_params,
+    wear_axis_params,
     with_changes,
 )
 
@@ -66,6 +68,21 @@ def test_guide_params_hold_the_per_axis_physics_and_lists_as_tuples():
     assert g.life_factors == (1.0, 0.9, 1.0, 1.2) and g.carriages == 2
     a = AxisParams()
     assert [f.name for f in dataclasses.fields(a)][:len(AXIS_PARAMS)] == [p.name for p in AXIS_PARAMS]
+
+
+def test_wear_axis_params_hold_a_guides_physics_and_the_axis_of_a_single_joint_section_or_an_axis_dict():
+    names = [f.name for f in dataclasses.fields(WearAxisParams)]
+    assert names == ([f.name for f in dataclasses.fields(GuideParams)] + [p.name for p in AXIS_PARAMS]
+                     + ["axis", "output_prefix", "guide_load_shares"])
+    single = wear_axis_params({**SCHEMAS["wear_monitor"].defaults(), "joint": "z", "wear_coefficient": 2e-6})
+    assert (single.axis, single.joint, single.guides, single.guide_load_shares) == ("z", "z", ("guide",), (1.0,))
+    assert single.wear_coefficient == 2e-6 and single.alarm_clear_margin == 0.05      # the schema's default
+    two = wear_axis_params({"axis": "y", "joint": "y", "guides": ["front", "rear"]})
+    assert two.guide_load_shares == (0.5, 0.5)
+    shared = wear_axis_params({"axis": "y", "guides": ["front", "rear"], "guide_load_shares": [0.75, 0.25]})
+    assert shared.guide_load_shares == (0.75, 0.25) and shared.joint == "x"      # the section's joint default
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        single.wear_coefficient = 1.0
 
 
 def test_with_changes_gives_a_new_object_with_only_its_own_names():

@@ -22,7 +22,7 @@ from guide_health.analysis.discrepancy.duty import duty_cells_from_runs
 from guide_health.models.wear.feed import StampAlignedFeed
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.params import wear_monitor_params
-from guide_health.params.typed import guide_params, slewing_monitor_params
+from guide_health.params.typed import guide_params, slewing_monitor_params, wear_axis_params
 from guide_health.runs import MachineRun
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -83,7 +83,7 @@ def test_item1_reverse_load_is_charged_on_a_rolling_guide():
     assert expected == pytest.approx(15956.3, abs=0.1)
     results = []
     for path in ("live", "feed", "batch"):
-        m = PrecisionMonitor(rolling_params(preload_n=0.0))
+        m = PrecisionMonitor(wear_axis_params(rolling_params(preload_n=0.0)))
         if path == "live":
             live(m, run)
         elif path == "feed":
@@ -105,7 +105,7 @@ def test_item1_reverse_rating_factor_and_preload():
     """A reverse rating factor 0.5 doubles the reverse load; with the LH45 preload (385 N) the +5 kN metre is
     charged 8577 N (item 2) and the -20 kN metre (beyond the 16.7 kN relief) 20 kN / factor."""
     run = push_pull_run()
-    m = PrecisionMonitor(rolling_params(reverse_load_rating_factor=0.5))
+    m = PrecisionMonitor(wear_axis_params(rolling_params(reverse_load_rating_factor=0.5)))
     m.process_run(run)
     expected = ((8577.26 ** 3 + 40000.0 ** 3) / 2.0) ** (1.0 / 3.0)
     assert m.fatigue_report()["equivalent_load_n"] == pytest.approx(expected, rel=1e-4)
@@ -116,7 +116,7 @@ def test_item1_lift_off_does_not_wear_the_main_way_of_a_sliding_guide():
     run = push_pull_run()
     works = []
     for path in ("live", "feed", "batch"):
-        m = PrecisionMonitor(sliding_params())
+        m = PrecisionMonitor(wear_axis_params(sliding_params()))
         (live if path == "live" else fed if path == "feed" else lambda mm, r: mm.process_run(r))(m, run)
         assert m.rejected.total == 0
         assert m.integrator.sliding_distance_m == pytest.approx(2.0, rel=1e-12)
@@ -148,7 +148,7 @@ def test_item2_preload_in_the_equivalent_fatigue_load(carriage_load_n, ball_n, r
     assert rep["upper_ball_load_n"] == pytest.approx(ball_n, abs=0.1)
     assert (rep["equivalent_fatigue_load_n"] / carriage_load_n) ** 3 == pytest.approx(ratio, rel=0.01)
     assert rep["contact_load_n"] == pytest.approx(ball_n, abs=0.1)
-    m = PrecisionMonitor(rolling_params())
+    m = PrecisionMonitor(wear_axis_params(rolling_params()))
     run = push_pull_run()
     run.load_n = np.array([carriage_load_n, carriage_load_n])
     m.process_run(run)
@@ -317,7 +317,7 @@ def test_item6_the_oil_temperature_in_force_is_the_last_reading_stamped_at_or_be
     the last reading stamped at or before it (a later arrival wins at the same stamp), among all that have
     arrived; before any, the configured one. The rule written here independently of
     input_rules.reading_in_force_index (which the rolling guide and the thermal_drift correction share)."""
-    monitor = PrecisionMonitor(rolling_params())
+    monitor = PrecisionMonitor(wear_axis_params(rolling_params()))
     rolling = monitor.rolling
     configured = rolling.regime_model.oil_temperature_c
     arrived: list[tuple[int, int, float]] = []     # (stamp, arrival, degC)
@@ -347,9 +347,9 @@ def test_item6_temperature_topic_feeds_the_viscosity_live_equal_to_offline(ros_c
 
     run = temperature_run()
     p = rolling_params()
-    offline = PrecisionMonitor(p)
+    offline = PrecisionMonitor(wear_axis_params(p))
     offline.process_run(run)
-    constant = PrecisionMonitor(p)
+    constant = PrecisionMonitor(wear_axis_params(p))
     constant.process_run(MachineRun("x", run.joint_t_ns, run.joint_position_m, np.zeros(0), run.load_t_ns,
                                     run.load_n, np.zeros(0, np.int64), np.zeros(0)))
     names = ("guide_type", "ball_radius_m", "groove_conformity", "contact_angle_deg", "balls_per_row", "preload_n",

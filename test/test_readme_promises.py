@@ -20,6 +20,7 @@ from guide_health.models.levels import Level
 from guide_health.models.wear.input_rules import STRAIGHTNESS_WITHOUT_TIME_BASE, rejected_key
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.params import wear_monitor_params
+from guide_health.params.typed import wear_axis_params
 from guide_health.runs import MachineRun
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -57,7 +58,7 @@ def params(**over) -> dict:
 
 def live_monitor(run: MachineRun, p: dict) -> PrecisionMonitor:
     """Sample by sample, loads first at equal stamps (the live node's order with the stamp-aligned feed)."""
-    m = PrecisionMonitor(p)
+    m = PrecisionMonitor(wear_axis_params(p))
     li = 0
     for t, x in zip(run.joint_t_ns.tolist(), run.joint_position_m.tolist()):
         while li < run.load_t_ns.size and run.load_t_ns[li] <= t:
@@ -84,7 +85,7 @@ def test_remaining_life_after_a_change_of_duty_follows_the_duty_window(path):
                                  (900.0, W2_N * SPEED)):
         n = int(round((T_CHANGE_S + after_s) / DT_S)) + 1         # last stamp T0 + T_CHANGE + after + 0.05
         run = schedule(n)
-        m = live_monitor(run, params()) if path == "live" else PrecisionMonitor(params())
+        m = live_monitor(run, params()) if path == "live" else PrecisionMonitor(wear_axis_params(params()))
         if path == "offline":
             m.process_run(run)
         r = m.report()
@@ -102,7 +103,7 @@ def test_remaining_life_after_a_change_of_duty_follows_the_duty_window(path):
 
 def _levels(p_over: dict) -> tuple[int, str]:
     run = schedule(3001)                        # 300 s at 6000 N: g known by hand
-    m = PrecisionMonitor(params(**p_over))
+    m = PrecisionMonitor(wear_axis_params(params(**p_over)))
     m.process_run(run)
     r = m.report()
     return r["level"], r["message"], r
@@ -141,10 +142,10 @@ def test_straightness_before_any_motion_is_rejected_and_counted(path):
     run.straightness_t_ns = np.array([run.joint_t_ns[0] - NS, run.joint_t_ns[1000], run.joint_t_ns[2000]])
     run.straightness_m = np.array([15.0e-6, 15.5e-6, 16.0e-6])
     if path == "offline":
-        m = PrecisionMonitor(params())
+        m = PrecisionMonitor(wear_axis_params(params()))
         m.process_run(run)
     else:
-        m = PrecisionMonitor(params())
+        m = PrecisionMonitor(wear_axis_params(params()))
         assert m.on_straightness(int(run.straightness_t_ns[0]), 15.0e-6) == STRAIGHTNESS_WITHOUT_TIME_BASE
         for t_ns, x in zip(run.joint_t_ns.tolist(), run.joint_position_m.tolist()):
             if t_ns == run.joint_t_ns[0]:

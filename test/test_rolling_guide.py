@@ -9,6 +9,7 @@ import pytest
 from guide_health.models.rolling.rating_life import rating_life_km
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.params import wear_monitor_params
+from guide_health.params.typed import wear_axis_params
 from guide_health.runs import MachineRun
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -52,7 +53,7 @@ def travel(run):
 def test_constant_duty_fatigue_closed_form():
     p = params(carriages=2, preload_n=0.0)    # the catalogue closed form is for a carriage without preload
     run = duty_run([(600.0, 0.2, 6000.0)])
-    m = PrecisionMonitor(p)
+    m = PrecisionMonitor(wear_axis_params(p))
     m.process_run(run)
     f = m.fatigue_report()
     s_km = travel(run) / 1000.0
@@ -67,7 +68,7 @@ def test_constant_duty_fatigue_closed_form():
 
 def test_two_level_duty_is_the_cubic_mean_over_travel():
     run = duty_run([(300.0, 0.1, 2000.0), (300.0, 0.3, 8000.0)])
-    m = PrecisionMonitor(params(preload_n=0.0))     # preload: test_physics_review item 2
+    m = PrecisionMonitor(wear_axis_params(params(preload_n=0.0)))     # preload: test_physics_review item 2
     m.process_run(run)
     x, t = run.joint_position_m, run.joint_t_ns
     ds = np.abs(np.diff(x))
@@ -80,9 +81,9 @@ def test_two_level_duty_is_the_cubic_mean_over_travel():
 
 def test_live_samples_equal_offline_and_state_round_trip():
     run = duty_run([(120.0, 0.004, 3000.0), (120.0, 0.05, 6000.0), (120.0, 0.5, 1500.0)], rate_hz=20.0)
-    offline = PrecisionMonitor(params())
+    offline = PrecisionMonitor(wear_axis_params(params()))
     offline.process_run(run)
-    live = PrecisionMonitor(params())
+    live = PrecisionMonitor(wear_axis_params(params()))
     loads = iter(zip(run.load_t_ns.tolist(), run.load_n.tolist()))
     next_load = next(loads)
     half = run.joint_t_ns.size // 2
@@ -93,7 +94,7 @@ def test_live_samples_equal_offline_and_state_round_trip():
         assert live.on_joint(t, x) is None
         if i == half:                                   # persistence mid-run: restore into a new object
             state = live.state()
-            live = PrecisionMonitor(params())
+            live = PrecisionMonitor(wear_axis_params(params()))
             live.restore(state)
     a, b = live.fatigue_report(), offline.fatigue_report()
     for key in ("equivalent_load_n", "travel_km", "life_used_fraction", "remaining_life_km", "duty_load_n"):
@@ -107,29 +108,30 @@ def test_live_samples_equal_offline_and_state_round_trip():
 def test_slow_travel_runs_in_boundary_lubrication_and_warns():
     """Seed 001 trend: lambda < 0.4 below 0.1 m/s; below 0.0005 m/s (Fig. 8) the contacts run in boundary
     lubrication (68# oil at 21 degC, config/nsk_lh45.yaml)."""
-    slow = PrecisionMonitor(params(boundary_share_warn=0.5))
+    slow = PrecisionMonitor(wear_axis_params(params(boundary_share_warn=0.5)))
     slow.process_run(duty_run([(600.0, 0.0003, 3000.0)], rate_hz=10.0))
     r = slow.report()
     assert r["lubrication_regime"] == "boundary" and r["lambda"] < 0.4
     assert r["boundary_share_recent"] == pytest.approx(1.0)
     assert r["level"] >= 1 and "boundary lubrication" in r["message"]
-    fast = PrecisionMonitor(params())
+    fast = PrecisionMonitor(wear_axis_params(params()))
     fast.process_run(duty_run([(600.0, 0.5, 3000.0)], rate_hz=10.0))
     rf = fast.report()
     assert rf["boundary_share_recent"] < 1e-6 and rf["lambda"] > r["lambda"] * 10   # only the reversals
     # a speed ramp: the recent share follows the duty (exponential window over travel)
-    ramp = PrecisionMonitor(params(boundary_window_m=20.0))
+    ramp = PrecisionMonitor(wear_axis_params(params(boundary_window_m=20.0)))
     ramp.process_run(duty_run([(6000.0, 0.0003, 3000.0), (300.0, 0.4, 3000.0)], rate_hz=10.0))
     assert ramp.report()["boundary_share_recent"] < 0.01 < ramp.report()["boundary_share_total"]
 
 
 def test_life_thresholds():
-    heavy = PrecisionMonitor(params(dynamic_load_rating_n=1500.0, life_used_warn=0.8, life_used_error=1.0,
-                                    load_max_rating_multiple=0.0))   # 8 C: beyond the plausible-load check
+    heavy = PrecisionMonitor(wear_axis_params(params(dynamic_load_rating_n=1500.0, life_used_warn=0.8,
+                                                     life_used_error=1.0, load_max_rating_multiple=0.0)))
+    # 8 C: beyond the plausible-load check
     heavy.process_run(duty_run([(600.0, 0.3, 12000.0)]))
     f = heavy.fatigue_report()
     assert f["life_used_fraction"] > 1.0 and f["level"] == 2
-    mid = PrecisionMonitor(params(life_used_warn=1e-9))
+    mid = PrecisionMonitor(wear_axis_params(params(life_used_warn=1e-9)))
     mid.process_run(duty_run([(60.0, 0.3, 6000.0)]))
     assert mid.fatigue_report()["level"] == 1
 

@@ -24,11 +24,19 @@ from test_input_rules import PARAMS as RULE_PARAMS  # noqa: E402 - arbitrary run
 from test_input_rules import bad_runs  # noqa: E402
 
 from guide_health.params import wear_monitor_params  # noqa: E402
+from guide_health.params.typed import wear_axis_params  # noqa: E402
 
 ROLLING_PARAMS = dict(wear_monitor_params(Path(__file__).resolve().parents[1] / "config" / "nsk_lh45.yaml"),
                       joint="x")
 
 PARAMS = dict(WEAR_MONITOR_DEFAULTS, machine_id="m1", joint="x")
+
+
+def fingerprint(params: dict) -> dict:
+    """The saved state's fingerprint of a wear_monitor parameter dict (models/wear/state_schema.py)."""
+    return state_fingerprint(params["machine_id"], wear_axis_params(params))
+
+
 #: every live effect of a model file (docs/model_file.md), the duty and thermal ones included
 EFFECTS = {"effects": "running_in,retract_asymmetry,load_exponent,load_along_rail,wear_rate_change,"
                       "lubrication_interval,thermal_drift,stroke_distribution", "stroke_distribution_weight": 0.4,
@@ -49,7 +57,7 @@ def populated_state(params: dict = PARAMS) -> dict:
     effects also guide temperatures and a relubrication (its time base)."""
     from guide_health.models.wear.maintenance import relubricate
 
-    monitor = PrecisionMonitor(params)
+    monitor = PrecisionMonitor(wear_axis_params(params))
     t0 = 1_700_000_000 * 10**9
     for i in range(4000):
         t = t0 + i * 10**7
@@ -173,14 +181,14 @@ def _integral_floats_as_int(value):
 @pytest.fixture(scope="module")
 def store(tmp_path_factory):
     store = StateStore(tmp_path_factory.mktemp("prop") / "state.db")
-    store.save({KEY: BASE}, state_fingerprint(PARAMS))
+    store.save({KEY: BASE}, fingerprint(PARAMS))
     yield store
     store.close()
 
 
 def test_the_uncorrupted_row_loads_exactly(store):
-    monitor = PrecisionMonitor(PARAMS)
-    assert resume_monitor(store, KEY, state_fingerprint(PARAMS), monitor)
+    monitor = PrecisionMonitor(wear_axis_params(PARAMS))
+    assert resume_monitor(store, KEY, fingerprint(PARAMS), monitor)
     assert _comparable(monitor.state()) == _comparable(BASE)
     assert monitor.estimator.count == 4 and monitor.integrator.samples == 4000
 
@@ -188,14 +196,14 @@ def test_the_uncorrupted_row_loads_exactly(store):
 @pytest.fixture(scope="module")
 def effect_store(tmp_path_factory):
     store = StateStore(tmp_path_factory.mktemp("prop_effects") / "state.db")
-    store.save({KEY: EFFECT_BASE}, state_fingerprint(EFFECT_PARAMS))
+    store.save({KEY: EFFECT_BASE}, fingerprint(EFFECT_PARAMS))
     yield store
     store.close()
 
 
 def test_the_uncorrupted_effects_row_loads_exactly(effect_store):
-    monitor = PrecisionMonitor(EFFECT_PARAMS)
-    assert resume_monitor(effect_store, KEY, state_fingerprint(EFFECT_PARAMS), monitor)
+    monitor = PrecisionMonitor(wear_axis_params(EFFECT_PARAMS))
+    assert resume_monitor(effect_store, KEY, fingerprint(EFFECT_PARAMS), monitor)
     assert _comparable(monitor.state()) == _comparable(EFFECT_BASE)
     assert monitor.estimator.count == 4 and len(EFFECT_BASE["temperatures"]["reading_t_ns"]) == 40
     assert EFFECT_BASE["effects"]["last_relubrication_t_ns"] is not None
@@ -221,9 +229,9 @@ def check_refused_with_one_line_or_loaded_exactly(store, params: dict, text: str
     """``text`` as the saved row of KEY: refused with one InputError line naming the file and what to do, or
     loaded exactly (the monitor's state is the row) with a working report."""
     store._db.execute("UPDATE monitor_state SET state_json = ? WHERE key = ?", (text, KEY))
-    monitor = PrecisionMonitor(params)
+    monitor = PrecisionMonitor(wear_axis_params(params))
     try:
-        resumed = resume_monitor(store, KEY, state_fingerprint(params), monitor)
+        resumed = resume_monitor(store, KEY, fingerprint(params), monitor)
     except InputError as exc:
         message = str(exc)
         assert "\n" not in message and str(store.path) in message and "move the file away" in message, message
@@ -262,7 +270,7 @@ def test_every_state_a_monitor_reaches_is_accepted_and_round_trips(params, run, 
     stop a restarted node), and its report works."""
     from guide_health.models.wear.maintenance import relubricate
 
-    monitor = PrecisionMonitor(params)
+    monitor = PrecisionMonitor(wear_axis_params(params))
     for dt, value in temperatures if params is EFFECT_RULE_PARAMS else ():     # the node checks a rolling
         monitor.on_temperature(1_700_000_000_000_000_000 + dt, value)           # guide's oil temperature first
     if monitor.effect_wear is not None and run.joint_t_ns.size:
@@ -272,9 +280,9 @@ def test_every_state_a_monitor_reaches_is_accepted_and_round_trips(params, run, 
     with tempfile.TemporaryDirectory() as tmp:
         store = StateStore(Path(tmp) / "s.db")
         try:
-            store.save({KEY: monitor.state()}, state_fingerprint(params))
-            again = PrecisionMonitor(params)
-            assert resume_monitor(store, KEY, state_fingerprint(params), again)
+            store.save({KEY: monitor.state()}, fingerprint(params))
+            again = PrecisionMonitor(wear_axis_params(params))
+            assert resume_monitor(store, KEY, fingerprint(params), again)
             assert _comparable(again.state()) == _comparable(monitor.state())
         finally:
             store.close()

@@ -17,9 +17,15 @@ from guide_health.io.state_store import StateStore, resolve_state_path
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.models.wear.state_schema import check_precision_state, state_fingerprint
 from guide_health.params import WEAR_MONITOR_DEFAULTS
+from guide_health.params.typed import wear_axis_params
 
 ROOT = Path(__file__).resolve().parents[1]
 PARAMS = dict(WEAR_MONITOR_DEFAULTS, machine_id="m1")
+
+
+def fingerprint(params: dict) -> dict:
+    """The saved state's fingerprint of a wear_monitor parameter dict (models/wear/state_schema.py)."""
+    return state_fingerprint(params["machine_id"], wear_axis_params(params))
 
 
 def _one_line(exc, *words):
@@ -92,7 +98,7 @@ def test_auto_path_is_derived_from_ros_home_machine_and_node(monkeypatch, tmp_pa
 
 
 def _state():
-    return PrecisionMonitor(PARAMS).state()
+    return PrecisionMonitor(wear_axis_params(PARAMS)).state()
 
 
 @pytest.mark.parametrize("edit,words", [
@@ -131,7 +137,7 @@ def test_nan_sentinels_of_a_fresh_monitor_are_accepted_and_a_saved_state_round_t
 def test_a_measurement_before_the_stroke_is_known_round_trips(tmp_path):
     """A straightness taken before any stroke has g_j = NaN (Eq. 7 undefined): a legal saved state, found by
     test_live_replay's SIGKILL restart (the node refused its own state)."""
-    monitor = PrecisionMonitor(dict(WEAR_MONITOR_DEFAULTS))
+    monitor = PrecisionMonitor(wear_axis_params(dict(WEAR_MONITOR_DEFAULTS)))
     state = monitor.state()
     state["estimator"].update(measurement_t_ns=[5], measurement_m=[1e-6], measurement_loss_per_k_m=[float("nan")],
                               measurement_work_nm=[0.0])
@@ -168,13 +174,13 @@ def test_unwritable_folder_is_one_line(tmp_path):
 
 def test_fingerprint_refuses_another_geometry_or_machine(tmp_path):
     store = StateStore(tmp_path / "s.db")
-    store.save({"m1/x/precision": _state()}, state_fingerprint(PARAMS))
-    assert store.load("m1/x/precision", state_fingerprint(PARAMS)) is not None
+    store.save({"m1/x/precision": _state()}, fingerprint(PARAMS))
+    assert store.load("m1/x/precision", fingerprint(PARAMS)) is not None
     with pytest.raises(InputError) as err:
-        store.load("m1/x/precision", state_fingerprint(dict(PARAMS, rail_length_m=0.9)))
+        store.load("m1/x/precision", state_fingerprint("m1", wear_axis_params(dict(PARAMS, rail_length_m=0.9))))
     _one_line(err, "saved for another guide", "rail_length_m 0.5 (now 0.9)")
     with pytest.raises(InputError) as err:
-        store.load("m2/x/precision", state_fingerprint(dict(PARAMS, machine_id="m2")))
+        store.load("m2/x/precision", state_fingerprint("m2", wear_axis_params(PARAMS)))
     _one_line(err, "machine_id 'm1'")
     store.close()
 
@@ -320,7 +326,7 @@ def test_a_failed_checkpoint_write_is_one_line_and_the_node_keeps_running(ros_co
 
 def strokes_and_measurements(params: dict) -> PrecisionMonitor:
     """A monitor after 200 s of 20 Hz triangular strokes under 2 kN with 4 straightness measurements."""
-    monitor = PrecisionMonitor(dict(params))
+    monitor = PrecisionMonitor(wear_axis_params(dict(params)))
     t = 0
     for i in range(4000):
         t += 50_000_000
@@ -340,17 +346,17 @@ def test_a_state_saved_before_the_effect_fields_were_added_is_accepted_and_resto
     monitor = strokes_and_measurements(params)
     full = monitor.state()
     assert len(full["effects"]["buckets"]) > 0 and len(full["effects"]["measurement_gradients"]) == 4
-    check_precision_state(full, PrecisionMonitor(dict(params)).state())       # its own state (was refused)
+    check_precision_state(full, PrecisionMonitor(wear_axis_params(dict(params))).state())  # its own state (was refused)
     bad = json.loads(json.dumps(full))
     bad["effects"]["buckets"][0][1] = "x"
     with pytest.raises(InputError, match="buckets"):
-        check_precision_state(bad, PrecisionMonitor(dict(params)).state())
+        check_precision_state(bad, PrecisionMonitor(wear_axis_params(dict(params))).state())
     old = json.loads(json.dumps(full))
     for name in ("measurement_gradients", "surface_start_m"):
         assert name in old["effects"]
         del old["effects"][name]
-    check_precision_state(old, PrecisionMonitor(dict(params)).state())
-    again = PrecisionMonitor(dict(params))
+    check_precision_state(old, PrecisionMonitor(wear_axis_params(dict(params))).state())
+    again = PrecisionMonitor(wear_axis_params(dict(params)))
     again.restore(old)
     assert again.effect_wear.surface_start_m == 0.0 and again.effect_wear.measurement_gradients == []
     before, after = monitor.report(), again.report()
@@ -360,7 +366,7 @@ def test_a_state_saved_before_the_effect_fields_were_added_is_accepted_and_resto
     assert after["remaining_life_h_low"] <= after["remaining_life_h"] <= after["remaining_life_h_high"]
     del old["effects"]["effective_work_nm"]
     with pytest.raises(InputError):
-        check_precision_state(old, PrecisionMonitor(dict(params)).state())
+        check_precision_state(old, PrecisionMonitor(wear_axis_params(dict(params))).state())
 
 
 def test_an_effects_state_from_before_the_duty_effects_is_accepted_and_restores():
@@ -382,8 +388,8 @@ def test_an_effects_state_from_before_the_duty_effects_is_accepted_and_restores(
     eff["buckets"] = [r[:7] for r in eff["buckets"]]
     eff["measurement_gradients"] = [g[:5] for g in eff["measurement_gradients"]]
     del eff["last_relubrication_t_ns"], eff["first_sample_t_ns"]
-    check_precision_state(old, PrecisionMonitor(dict(params)).state())
-    again = PrecisionMonitor(dict(params))
+    check_precision_state(old, PrecisionMonitor(wear_axis_params(dict(params))).state())
+    again = PrecisionMonitor(wear_axis_params(dict(params)))
     again.restore(old)
     assert len(again.effect_wear.work_gradient) == phi and all(len(r) == row - 1
                                                                for r in again.effect_wear.buckets.values())
@@ -396,7 +402,7 @@ def test_an_effects_state_from_before_the_duty_effects_is_accepted_and_restores(
         bad = json.loads(json.dumps(now))
         bad["effects"]["buckets"] = bad_rows
         with pytest.raises(InputError, match="buckets"):
-            check_precision_state(bad, PrecisionMonitor(dict(params)).state())
+            check_precision_state(bad, PrecisionMonitor(wear_axis_params(dict(params))).state())
 
 
 def test_an_effects_state_from_stop_11_is_accepted_and_restores():
@@ -417,8 +423,8 @@ def test_an_effects_state_from_stop_11_is_accepted_and_restores():
     for name in ("pass_work_n", "pass_direction", "pass_length_m", "pass_open_work_nm", "pass_open_buckets",
                  "measurement_pass_work_n"):
         del eff[name]
-    check_precision_state(old, PrecisionMonitor(dict(params)).state())
-    again = PrecisionMonitor(dict(params))
+    check_precision_state(old, PrecisionMonitor(wear_axis_params(dict(params))).state())
+    again = PrecisionMonitor(wear_axis_params(dict(params)))
     again.restore(json.loads(json.dumps(old)))
     before, after = monitor.report(), again.report()
     keys = ("straightness_um", "wear_coefficient", "remaining_life_h", "remaining_life_h_low", "remaining_life_h_high")
@@ -427,7 +433,7 @@ def test_an_effects_state_from_stop_11_is_accepted_and_restores():
     with_w = {**params, "effects": "running_in,retract_asymmetry,stroke_distribution",
               "stroke_distribution_weight": 0.5}
     fresh = strokes_and_measurements(with_w)
-    restored = PrecisionMonitor(dict(with_w))
+    restored = PrecisionMonitor(wear_axis_params(dict(with_w)))
     restored.restore(json.loads(json.dumps(old)))
     assert restored.effect_wear.pass_work_now_n() == pytest.approx(fresh.effect_wear.pass_work_now_n(), rel=1e-9)
     a, b = fresh.report(), restored.report()
@@ -446,7 +452,7 @@ def test_an_effects_state_from_stop_11_is_accepted_and_restores():
         restored.on_joint(t, 0.1 + 0.1 * abs(((i % 80) - 40) / 40.0), 0.2)
     assert restored.on_straightness(t, 6e-6) is None
     saved = json.loads(json.dumps(restored.state()))
-    check_precision_state(saved, PrecisionMonitor(dict(with_w)).state())
-    again = PrecisionMonitor(dict(with_w))
+    check_precision_state(saved, PrecisionMonitor(wear_axis_params(dict(with_w))).state())
+    again = PrecisionMonitor(wear_axis_params(dict(with_w)))
     again.restore(saved)
     assert again.report()["remaining_life_h"] == pytest.approx(restored.report()["remaining_life_h"], rel=1e-12)

@@ -12,6 +12,7 @@ from guide_health.cli.app import main
 from guide_health.io.bag.metadata import run_metadata_json
 from guide_health.io.outputs.json_text import json_text, number, plain
 from guide_health.models.wear.calibration import Z90
+from guide_health.params.typed import wear_axis_params
 
 BENCH = Path(__file__).resolve().parents[1] / "config" / "bench_000.yaml"
 REL_SD = 1.0            # prior sd of K relative to K: the 90 % interval's lower K bound K (1 - Z90) is < 0
@@ -48,7 +49,7 @@ def test_replay_with_an_unbounded_remaining_life_writes_strict_json(tmp_path, ca
                measurement_interval_h=1.0)                                   # no measurement: the prior alone
     run = simulate_machine(params, sim, seed=1)
     write_machine_bag(run, tmp_path / "bag")
-    monitor = PrecisionMonitor(params)
+    monitor = PrecisionMonitor(wear_axis_params(params))
     monitor.process_run(run)
     truth = monitor.report()
     assert params["wear_coefficient"] * (1.0 - Z90 * REL_SD) < 0                # closed form: no upper life bound

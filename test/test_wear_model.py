@@ -17,6 +17,7 @@ from guide_health.models.wear.calibration import WearCoefficientEstimator, fit_p
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.models.wear.straightness import StrokeTracker, minimum_zone_straightness_m
 from guide_health.params import simulation_params, wear_monitor_params
+from guide_health.params.typed import wear_axis_params
 from guide_health.sim.machine import simulate_machine
 from guide_health.sim.motion import machine_knots
 
@@ -77,7 +78,7 @@ def test_simulated_bench_20h_gives_eq11():
     sim = simulation_params(BENCH)
     run = simulate_machine(p, sim, seed=11)
     p_fixed_k = dict(p, wear_coefficient_prior_rel_sd=1e-9)     # K stays at the published value
-    monitor = PrecisionMonitor(p_fixed_k)
+    monitor = PrecisionMonitor(wear_axis_params(p_fixed_k))
     monitor.process_run(run)
     r = monitor.report()
     eq11 = straightness_loss_eq11_m(K_PUBLISHED, LOAD_N, SPEED, 20 * 3600.0, L_MIN, L_MAX, WIDTH, H_HT200)
@@ -91,7 +92,7 @@ def test_live_and_vectorised_integration_are_identical():
     p = bench_params(straightness_model="profile")
     sim = dict(simulation_params(BENCH), duration_h=0.3)
     run = simulate_machine(p, sim, seed=5)
-    live, offline = PrecisionMonitor(p), PrecisionMonitor(p)
+    live, offline = PrecisionMonitor(wear_axis_params(p)), PrecisionMonitor(wear_axis_params(p))
     li = 0
     for t, x in zip(run.joint_t_ns.tolist(), run.joint_position_m.tolist()):
         while li < run.load_t_ns.size and run.load_t_ns[li] <= t:
@@ -113,7 +114,7 @@ def test_profile_volume_is_archard_volume():
     p = bench_params(straightness_model="profile", rail_start_m=-0.2, rail_length_m=0.8)
     sim = dict(simulation_params(BENCH), duration_h=0.5)
     t, x, w, _ = machine_knots(np.random.default_rng(2), sim)
-    integ = WearIntegrator(WearGeometry.from_params(p))
+    integ = WearIntegrator(WearGeometry.from_params(wear_axis_params(p)))
     integ.advance_many((t * 1e9).astype(np.int64), x, w)
     volume_profile = integ.profile_depth_per_k_m().sum() * p["profile_bin_m"] * p["contact_width_m"]
     assert volume_profile == pytest.approx(integ.wear_volume_per_k_m3(), rel=1e-3)
@@ -125,7 +126,7 @@ def _profile_and_eq7(sim_overrides, seed=3):
     t, x, w, strokes = machine_knots(np.random.default_rng(seed), sim)
     out = {}
     for model in ("eq7", "profile"):
-        integ = WearIntegrator(WearGeometry.from_params(dict(p, straightness_model=model)))
+        integ = WearIntegrator(WearGeometry.from_params(wear_axis_params(dict(p, straightness_model=model))))
         integ.advance_many((t * 1e9).astype(np.int64), x, w)
         out[model] = integ.straightness_loss_per_k_m()
     return out, strokes
@@ -200,7 +201,7 @@ def test_k_update_recovers_true_k_and_life_interval_from_bag(tmp_path):
         bag = tmp_path / f"k15_{seed}"
         write_machine_bag(run, bag)
         machine = read_machine_bag(bag, joint="x")
-        monitor = PrecisionMonitor(p)
+        monitor = PrecisionMonitor(wear_axis_params(p))
         monitor.process_run(machine)
         r = monitor.report()
         assert r["measurements"] == 10
@@ -240,12 +241,12 @@ def test_stamp_aligned_feed_gives_the_offline_load_rule_whatever_the_arrival_ord
     x = 0.1 + 0.1 * np.abs(((np.arange(4000) * 0.005) % 0.4) / 0.2 - 1.0)   # zigzag 0.1..0.2 m
     lt = T0_NS + np.arange(0, 400) * 1_000_000_000                 # 1 Hz loads, varying
     lw = rng.uniform(2000.0, 8000.0, lt.size)
-    offline = PrecisionMonitor(params)
+    offline = PrecisionMonitor(wear_axis_params(params))
     offline.process_run(MachineRun("x", t, x, np.zeros(0), lt, lw, np.zeros(0, np.int64), np.zeros(0)))
 
     def live(window_s, lag):
         """Loads delivered `lag` joint samples late (another writer), arrival clock 1 ms per message."""
-        monitor = PrecisionMonitor(params)
+        monitor = PrecisionMonitor(wear_axis_params(params))
         feed = StampAlignedFeed(monitor.axis, window_s)
         events = [(i, "j") for i in range(t.size)] + [(k * 10 + lag, "l") for k in range(lt.size)]
         now = 0.0
@@ -267,7 +268,7 @@ def test_stamp_aligned_feed_gives_the_offline_load_rule_whatever_the_arrival_ord
     assert live(0.5, lag=-3) == pytest.approx(offline.integrator.archard_work_nm, rel=1e-12)
     assert live(0.0, lag=-3) == pytest.approx(offline.integrator.archard_work_nm, rel=1e-12)
     # a load stream slower than the window: samples go with the latest load after the window
-    monitor = PrecisionMonitor(params)
+    monitor = PrecisionMonitor(wear_axis_params(params))
     feed = StampAlignedFeed(monitor.axis, window_s=0.5)
     feed.load(int(T0_NS), 6000.0, 0.0)
     feed.joint(int(T0_NS + 1e8), 0.10, 0.0, 0.1)
@@ -295,11 +296,11 @@ def test_first_load_overtaking_the_first_joint_samples_leaves_them_unloaded():
     t = T0_NS + np.arange(20) * 100_000_000
     x = 0.005 * np.arange(20)                                       # 5 mm per sample, one way
     lt, lw = np.array([T0_NS + 500_000_000, T0_NS + 1_500_000_000]), np.array([6000.0, 6000.0])
-    offline = PrecisionMonitor(params)
+    offline = PrecisionMonitor(wear_axis_params(params))
     offline.process_run(MachineRun("x", t, x, np.zeros(0), lt, lw, np.zeros(0, np.int64), np.zeros(0)))
     assert offline.integrator.archard_work_nm == pytest.approx(6000.0 * 0.005 * 15, rel=1e-12)   # t0+0.6 s on
     for window_s in (0.5, 0.0):
-        monitor = PrecisionMonitor(params)
+        monitor = PrecisionMonitor(wear_axis_params(params))
         feed = StampAlignedFeed(monitor.axis, window_s)
         assert feed.joint(int(t[0]), float(x[0]), 0.0, 0.0) == []
         assert feed.load(int(lt[0]), float(lw[0]), 0.01) == []       # overtakes samples 1..4

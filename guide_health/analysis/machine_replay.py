@@ -15,6 +15,7 @@ from guide_health.io.outputs.files import open_output, write_text
 from guide_health.io.outputs.json_text import json_text
 from guide_health.models.levels import LEVEL_NAMES
 from guide_health.models.wear.axis import PRECISION_KEYS, AxisMonitor
+from guide_health.params.typed import wear_axis_params
 
 ROLES = ("guide/load", "guide/straightness", "guide/temperature")
 TOPIC_KEYS = ("load_topic", "straightness_topic", "temperature_topic")
@@ -50,7 +51,7 @@ def analyse_machine_bag(bag, axes: dict[str, dict], namespace: str | None = None
     messages = 0
     tallies = {}
     for axis, params in axes.items():
-        model = models[axis] = AxisMonitor(params)
+        model = models[axis] = AxisMonitor(wear_axis_params(params))
         tally = tallies[axis] = InputTally()
         for event in bag_events:
             if event.axis == axis:

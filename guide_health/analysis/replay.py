@@ -20,6 +20,7 @@ from guide_health.io.outputs.files import open_output, write_text
 from guide_health.io.outputs.json_text import json_text
 from guide_health.models.wear.axis import AxisMonitor
 from guide_health.models.wear.precision import PrecisionMonitor
+from guide_health.params.typed import wear_axis_params
 
 
 def monitor_report(monitor: PrecisionMonitor) -> dict:
@@ -32,7 +33,7 @@ def monitor_report(monitor: PrecisionMonitor) -> dict:
 
 def analyse(run, params: dict, progress=None) -> tuple[PrecisionMonitor, dict]:
     """Run the precision model over a MachineRun; returns the monitor and its report."""
-    monitor = PrecisionMonitor(params)
+    monitor = PrecisionMonitor(wear_axis_params(params))
     monitor.process_run(run, progress=progress)
     report = monitor_report(monitor)
     report["messages"] = run.messages
@@ -56,7 +57,7 @@ def analyse_bag(bag, params: dict, namespace: str | None = None, progress=None,
     the bag's size); identical to analyse(read_machine_bag(bag)) to rounding. ``bag``: a path or a BagSet
     (io/bag/bag_set.py: several bags in time order, one model streaming across them). Returns the monitor,
     its report and timings {read_s, model_s}."""
-    model = AxisMonitor(params)      # one guide: the PrecisionMonitor, plus the bag's maintenance events
+    model = AxisMonitor(wear_axis_params(params))   # one guide: the PrecisionMonitor, plus the bag's events
     events = source_events(bag, namespace)
     for event in events:
         if event.axis == model.axis:

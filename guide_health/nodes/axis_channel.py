@@ -34,6 +34,7 @@ from guide_health.models.wear.input_rules import (
 )
 from guide_health.models.wear.maintenance import KINDS, MaintenanceEvent, stamp_text
 from guide_health.nodes.status import RejectionLog, StatusTask
+from guide_health.params.typed import wear_axis_params
 
 # status keys (README "Diagnostics"): the first tuple of each task always, 'nan' until known; the rest when known
 EXTRA_PRECISION_KEYS = ("wear_coefficient_low", "wear_coefficient_high", "measurements", "duty_load_speed_w",
@@ -80,7 +81,8 @@ class AxisChannel:
         self.params = params
         self.name = params["axis"]
         self.joint = params["joint"]
-        self.model = AxisMonitor(params)
+        self.model_params = wear_axis_params(params)     # as started (the saved state's fingerprint)
+        self.model = AxisMonitor(self.model_params)
         self.feed = StampAlignedFeed(self.model, params["input_align_window_s"])
         prefix = "rejected input: " if single else f"rejected input on axis {self.name}: "
         self.rejections = RejectionLog(node.get_logger(), prefix=prefix)

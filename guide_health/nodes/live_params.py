@@ -52,7 +52,7 @@ def apply_wear_changes(changed: dict, axes: Iterable, feeds: Iterable, updater, 
     """wear_monitor: every axis's model (AxisMonitor.apply_params: its guides and its input gate), every
     axis's feed, the STALE rule, the timers, the alarms."""
     for axis in axes:
-        axis.apply_params(changed, LIMIT_PARAMS)
+        axis.apply_params(changed, with_changes, LIMIT_PARAMS)
     if "input_align_window_s" in changed:
         for feed in feeds:
             feed.window_s = float(changed["input_align_window_s"])

@@ -52,14 +52,14 @@ def reader_profile(kind: str, depth: int):
     return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(depth), reliability=ReliabilityPolicy.BEST_EFFORT)
 
 
-def resolve_executor(params: dict, use_sim_time: bool = False) -> str:
-    """``events`` or ``single_threaded``; ``auto``: events (raw CDR, fastest) unless every sensor topic is
-    best effort (``sensor_qos: best_effort``), where the exact loss count needs message info, or the node runs
-    on ``/clock`` (``use_sim_time``): rclpy 7.1.6's EventsExecutor stopped taking messages then (three runs of
-    test/test_sim_time.py: bag_player's data never acknowledged)."""
-    executor = params.get("executor", "auto")
+def resolve_executor(executor: str, sensor_qos: str, use_sim_time: bool = False) -> str:
+    """``events`` or ``single_threaded`` for the parameters ``executor`` and ``sensor_qos``; ``auto``: events
+    (raw CDR, fastest) unless every sensor topic is best effort (``sensor_qos: best_effort``), where the exact
+    loss count needs message info, or the node runs on ``/clock`` (``use_sim_time``): rclpy 7.1.6's
+    EventsExecutor stopped taking messages then (three runs of test/test_sim_time.py: bag_player's data never
+    acknowledged)."""
     if executor == "auto":
-        slow = params.get("sensor_qos") == "best_effort" or use_sim_time
+        slow = sensor_qos == "best_effort" or use_sim_time
         return "single_threaded" if slow else "events"
     return executor
 

@@ -81,7 +81,8 @@ class WearMonitorNode(Node):
         self.startup_warnings = [w for w in {hardness_units_warning(p) for p in self.axes.values()} if w]
         for warning in self.startup_warnings:     # a real hardness in Pa with seed 000's K (units mix-up)
             self.get_logger().warning(warning)
-        self.raw = resolve_executor(params, self.get_parameter("use_sim_time").value) == "events"
+        self.raw = resolve_executor(params["executor"], params["sensor_qos"],
+                                    self.get_parameter("use_sim_time").value) == "events"
         # cost accounting since start: callback wall time per message and the model's part of it
         self._callback_s = 0.0
         self._model_s = 0.0
@@ -134,7 +135,7 @@ class WearMonitorNode(Node):
 
     def _resume(self) -> None:
         for channel in self.channels:
-            fingerprint = state_fingerprint(channel.params)
+            fingerprint = state_fingerprint(self.params["machine_id"], channel.model_params)
             for name, key in channel.model.state_keys(self.params["machine_id"]).items():
                 guide = channel.model.guide(name)
                 if not resume_monitor(self.store, key, fingerprint, guide):     # validated whole, one line
@@ -257,7 +258,8 @@ class WearMonitorNode(Node):
         self.process_inputs()
         for channel in self.channels:    # one transaction per axis (each axis has its own fingerprint)
             try:
-                self.store.save(channel.states(self.params["machine_id"]), state_fingerprint(channel.params))
+                self.store.save(channel.states(self.params["machine_id"]),
+                                state_fingerprint(self.params["machine_id"], channel.model_params))
             except InputError as exc:       # disk full, permissions: logged, retried at the next checkpoint
                 self.get_logger().error(str(exc), throttle_duration_sec=60.0)
 

@@ -10,11 +10,13 @@ second declaration to keep in step. The field types come from the defaults' type
   :class:`LifeTestSimulationParams`: one per schema (YAML section);
 * :class:`GuideParams`: the physics of one guide of a wear_monitor axis (the wear parameters an axis may
   override, i.e. all but the machine-wide ones); :class:`AxisParams`: an axis's own parameters (joint, topics,
-  guides and their load shares).
+  guides and their load shares); :class:`WearAxisParams`: both of one axis, what the wear core of an axis
+  (models/wear/axis.AxisMonitor, its gate and its guides) takes.
 
 Builders: ``slewing_monitor_params(values)`` etc. merge a dict over the schema's defaults, validate it with the
 schema (ranges and cross-checks, the InputError messages of the loader) and return the frozen object;
-``guide_params(axis_values)`` converts an already validated wear_monitor axis dict (params/machine.py).
+``guide_params(axis_values)`` converts an already validated wear_monitor axis dict (params/machine.py);
+``wear_axis_params(axis_values)`` the same dict (or a single-joint wear_monitor section) for the wear core.
 ``with_changes(obj, changed)``: the object with an accepted run-time change (``ros2 param set``) applied.
 """
 from __future__ import annotations
@@ -77,7 +79,18 @@ GuideParams = _typed_class("GuideParams", GUIDE_PARAMS,
                            "The wear and rolling-guide physics of one guide of a wear_monitor axis.")
 AxisParams = _typed_class(
     "AxisParams", AXIS_PARAMS, "An axis's own parameters: joint, topics, guides (axes_params fills the topics).",
-    extra=(("axis", str, ""), ("output_prefix", str, "guide"), ("guide_load_shares", tuple[float, ...], (1.0,))))
+    extra=(("axis", str, ""), ("output_prefix", str, "guide"), ("guide_load_shares", tuple[float, ...], (1.0,)),
+           # machine-wide, read by the axis's maintenance (a repeated event within the window is refused)
+           ("maintenance_repeat_window_s", float,
+            WEAR_MONITOR_SCHEMA.by_name["maintenance_repeat_window_s"].default)))
+
+WearAxisParams = _typed_class(
+    "WearAxisParams", GUIDE_PARAMS + AXIS_PARAMS,
+    "One wear_monitor axis as the wear core takes it: its guides' physics and its own parameters.",
+    extra=(("axis", str, ""), ("output_prefix", str, "guide"), ("guide_load_shares", tuple[float, ...], (1.0,)),
+           # machine-wide, read by the axis's maintenance (a repeated event within the window is refused)
+           ("maintenance_repeat_window_s", float,
+            WEAR_MONITOR_SCHEMA.by_name["maintenance_repeat_window_s"].default)))
 
 #: the typed class of every schema by its section name
 TYPED_CLASSES: dict[str, type] = {
@@ -131,6 +144,16 @@ def guide_params(values: dict[str, Any]) -> Any:
 def axis_params(values: dict[str, Any]) -> Any:
     """:class:`AxisParams` of one wear_monitor axis dict (params/machine.axes_params)."""
     return _from_values(AxisParams, values)
+
+
+def wear_axis_params(values: dict[str, Any]) -> Any:
+    """:class:`WearAxisParams` of one wear_monitor axis dict (params/machine.axes_params, already validated) or
+    of a single-joint wear_monitor section: its axis is named after its joint, its guides share the load
+    equally unless ``guide_load_shares`` says otherwise."""
+    merged = {**{p.name: p.default for p in AXIS_PARAMS}, **WEAR_MONITOR_SCHEMA.defaults(), **values}
+    merged.setdefault("axis", merged["joint"])
+    merged.setdefault("guide_load_shares", [1.0 / len(merged["guides"])] * len(merged["guides"]))
+    return _from_values(WearAxisParams, merged)
 
 
 def with_changes(obj: Any, changed: dict[str, Any]) -> Any:

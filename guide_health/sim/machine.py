@@ -18,6 +18,7 @@ from guide_health.models.wear.archard import WearGeometry, WearIntegrator, strai
 from guide_health.models.wear.effects import (
     EffectParameters,
     asperity_load_share,
+    effect_multiplier,
     load_along_rail_factor,
     measured_straightness_m,
     pass_weight_per_m,
@@ -25,7 +26,6 @@ from guide_health.models.wear.effects import (
     running_in_factor_mean,
     straightness_wear_m,
     wear_rate_change_factor,
-    wear_rate_multiplier,
 )
 from guide_health.models.wear.effects.registry import (
     BY_ID,
@@ -34,6 +34,7 @@ from guide_health.models.wear.effects.registry import (
 )
 from guide_health.models.wear.maintenance import KINDS, MaintenanceEvent, check_event, straightness_from_text
 from guide_health.params.schema import Param
+from guide_health.params.typed import guide_params, wear_axis_params
 from guide_health.params.wear_monitor import WEAR_MONITOR_SCHEMA
 from guide_health.runs import MachineRun
 from guide_health.sim.motion import (
@@ -90,7 +91,7 @@ def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
         knots = jerk_limited_knots(knots, sim)
     # encoder noise and the load clock's jitter come from streams of their own: a twin without them is the same run
     encoder_rng, load_clock_rng = np.random.default_rng([seed, 1]), np.random.default_rng([seed, 2])
-    geometry = WearGeometry.from_params(params)
+    geometry = WearGeometry.from_params(guide_params(params))
     if effects and geometry.straightness_model != "eq7":
         raise InputError("--effect needs straightness_model: eq7 (the baseline the effects are defined against)")
     wear_effects = EffectParameters.from_values(
@@ -242,7 +243,7 @@ def true_straightness_loss_per_k_m(params: dict[str, Any], knot_t: np.ndarray, k
                                    knot_w: np.ndarray, at_s: np.ndarray, strokes: np.ndarray) -> np.ndarray:
     """Straightness loss per unit K of the exact motion at times ``at_s`` (the monitor's model family:
     Eq. 7 with the true stroke range, or the wear profile integrated over the exact knots)."""
-    geometry = WearGeometry.from_params(params)
+    geometry = WearGeometry.from_params(guide_params(params))
     # insert the evaluation times as knots (position interpolated, load of the enclosing segment)
     seg = np.clip(np.searchsorted(knot_t, at_s, side="right"), 1, knot_t.size - 1)
     all_t = np.concatenate((knot_t, at_s))
@@ -287,11 +288,11 @@ def effective_work_at(knots: MachineKnots, at_s: np.ndarray, effects: EffectPara
     if knots.curve is not None and math.isfinite(effects.lift_speed_m_s):
         # the asperity share varies along a double-S move: its distance-weighted mean (Gauss-Legendre, 1e-9)
         share = s_curve_mean(knots.curve, lambda v: asperity_load_share(v, effects.lift_speed_m_s))[1:]
-        m = share * wear_rate_multiplier(replace(effects, lift_speed_m_s=math.inf), speed, load,
-                                         knots.retract[1:], running_in)
+        m = share * effect_multiplier(replace(effects, lift_speed_m_s=math.inf), speed, load,
+                                      knots.retract[1:], running_in, duty_factor(effects, knots))
     else:
-        m = wear_rate_multiplier(effects, speed, load, knots.retract[1:], running_in)
-    work = load * ds * m * duty_factor(effects, knots)
+        m = effect_multiplier(effects, speed, load, knots.retract[1:], running_in, duty_factor(effects, knots))
+    work = load * ds * m
     pass_work = work * pass_weight_per_m(knots.pass_length_m[1:], slider_length_m)
     g = np.concatenate(([0.0], np.cumsum(work)))
     p = np.concatenate(([0.0], np.cumsum(pass_work)))
@@ -388,7 +389,8 @@ def parse_maintenance(items: list[str] | None, axes: dict[str, dict], start_ns: 
         when, _, value = when.partition("=")
         event = MaintenanceEvent(start_ns + int(round(_duration_s(item, when) * 1e9)), kind, axis, guide,
                                  _straightness_m(item, value), "simulate")
-        reason = check_event(event, list(axes[axis].get("guides", ["guide"])), axes[axis]["straightness_limit_m"])
+        axis_params = wear_axis_params(axes[axis])
+        reason = check_event(event, list(axis_params.guides), axis_params.straightness_limit_m)
         if reason is not None:
             raise InputError(f"--maintenance {item!r}: {reason}")
         events.append(event)

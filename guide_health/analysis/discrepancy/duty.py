@@ -46,6 +46,7 @@ from guide_health.models.wear.input_rules import (
     main_way_load_n,
 )
 from guide_health.params import WEAR_MONITOR_DEFAULTS
+from guide_health.params.typed import wear_axis_params
 from guide_health.runs import MachineRun
 
 # per-cell sums: work-weighted where the name says *_w
@@ -413,7 +414,7 @@ def bag_accumulator(params: dict, resets=()) -> DutyCellAccumulator:
     ``resets``: the axis's wear resets as (t_ns, straightness after [m], NaN: A0). An axis of a machine
     (``guide_load_shares``) counts the load of its most loaded guide, whose straightness the axis reports."""
     shares = params["guide_load_shares"] if params["axes"] else None
-    return DutyCellAccumulator(params["slider_length_m"], limits=InputLimits.from_params(params),
+    return DutyCellAccumulator(params["slider_length_m"], limits=InputLimits.from_params(wear_axis_params(params)),
                                sliding_deadband_m=params["sliding_deadband_m"], resets_ns=[r[0] for r in resets],
                                reset_straightness_m=[r[1] for r in resets],
                                load_share=max(shares) if shares else 1.0)

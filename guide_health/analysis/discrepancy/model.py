@@ -12,6 +12,7 @@ with m the product of the wear-rate multipliers of the effects in the model. The
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -24,6 +25,7 @@ from guide_health.models.wear.effect_life import symmetrised
 from guide_health.models.wear.effects import (
     CANDIDATE_IDS,
     EffectParameters,
+    effect_multiplier,
     load_along_rail_factor,
     lubrication_interval_factor,
     measured_straightness_m,
@@ -31,7 +33,6 @@ from guide_health.models.wear.effects import (
     running_in_factor_spread,
     straightness_wear_m,
     wear_rate_change_factor,
-    wear_rate_multiplier,
 )
 from guide_health.models.wear.effects.base import FitContext
 from guide_health.models.wear.effects.base import FitParameter as ParamSpec
@@ -119,6 +120,8 @@ def rel_errors(pred: np.ndarray, meas: np.ndarray) -> np.ndarray:
 
 #: the fewest straightness measurements the workflow fits (K, an effect's parameters, a held-out forecast)
 MIN_MEASUREMENTS = 6
+#: the EffectParameters fields a fit may hold (the load reference is the problem's own)
+_EFFECT_FIELDS = tuple(f.name for f in dataclasses.fields(EffectParameters) if f.name != "load_reference_n")
 
 
 class WearProblem:
@@ -139,10 +142,10 @@ class WearProblem:
         self.a0_m = float(params["straightness_initial_m"])
         self.a0_free = not self.a0_m > 0
         # l_min + l_max: parameters, else the observed passes (as the live monitor does)
-        if params.get("stroke_min_m", 0) > 0 and params.get("stroke_max_m", 0) > 0:
+        if params["stroke_min_m"] > 0 and params["stroke_max_m"] > 0:
             self.stroke_sum_m = float(params["stroke_min_m"] + params["stroke_max_m"])
         else:
-            strokes = cells.pass_lengths_m[cells.pass_lengths_m >= params.get("stroke_detect_min_m", 0.005)]
+            strokes = cells.pass_lengths_m[cells.pass_lengths_m >= params["stroke_detect_min_m"]]
             if strokes.size == 0:
                 raise ValueError("no strokes longer than stroke_detect_min_m in the bag")
             self.stroke_sum_m = float(strokes.min() + strokes.max())
@@ -236,27 +239,18 @@ class WearProblem:
     def predict_m(self, values: dict[str, float]) -> np.ndarray:
         """Measured straightness [m] at every measurement for physical parameter values."""
         c = self.cells
-        eff = EffectParameters(
-            running_in_ratio=values.get("running_in_ratio", 0.0),
-            running_in_distance_m=values.get("running_in_distance_m", 1.0),
-            retract_wear_factor=values.get("retract_wear_factor", 1.0),
-            lift_speed_m_s=values.get("lift_speed_m_s", math.inf),
-            load_exponent=values.get("load_exponent", 1.0),
-            load_reference_n=self.load_reference_n,
-            stroke_distribution_weight=values.get("stroke_distribution_weight", 0.0),
-            thermal_drift_m_per_k=values.get("thermal_drift_m_per_k", 0.0),
-            initial_offset_m=values.get("initial_offset_m", 0.0),
-        )
+        # the fitted effect parameters; one not fitted keeps EffectParameters' no-effect value
+        eff = EffectParameters(load_reference_n=self.load_reference_n,
+                               **{name: values[name] for name in _EFFECT_FIELDS if name in values})
         ri = None
         if eff.running_in_ratio != 0.0:
             ri = running_in_factor_spread(c.sliding_distance_m, c.sliding_distance_var_m2, eff.running_in_ratio,
                                           eff.running_in_distance_m)
-        m = wear_rate_multiplier(eff, c.speed_m_s, c.load_n, self.retract, ri)
-        m = m * self._duty_factors(values)
+        m = effect_multiplier(eff, c.speed_m_s, c.load_n, self.retract, ri, self._duty_factors(values))
         g, p = self._work_since_reset(c.work_nm * m), self._work_since_reset(c.pass_work_n * m)
         wear = straightness_wear_m(values["wear_coefficient"], self.hardness_pa, self.width_m, g, p,
                                    self.stroke_sum_m, eff.stroke_distribution_weight)
-        a0 = self.initial_straightness_m(values.get("straightness_initial_m", 0.0) if self.a0_free else self.a0_m)
+        a0 = self.initial_straightness_m(values["straightness_initial_m"] if self.a0_free else self.a0_m)
         temp = self.temperature_change_k
         y = measured_straightness_m(wear, a0, temp, eff)
         # c_T (T - T_ref) = c_T (T - T_0) + b with b = -c_T dT_ref: fitted linear in b (no local minima)

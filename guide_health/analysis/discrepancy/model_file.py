@@ -78,7 +78,7 @@ def duty_effect_parameters(problem, v: dict[str, float], live: list[str]) -> dic
 def model_parameters(problem, final, named: list[str]) -> dict[str, Any]:
     """The wear_monitor parameters of a fitted model (``problem``: WearProblem, ``final``: its FitResult)."""
     v = final.values
-    a0 = v.get("straightness_initial_m", problem.a0_m) if problem.a0_free else problem.a0_m
+    a0 = v["straightness_initial_m"] if problem.a0_free else problem.a0_m     # a free A0 is always fitted
     a0 += v.get("initial_offset_m", 0.0)
     live = [e for e in named if e in LIVE_EFFECT_IDS]
     out: dict[str, Any] = {
@@ -120,8 +120,8 @@ def live_parameter_text(model: dict[str, Any]) -> str:
     parameters with their standard errors (the covariance's diagonal). These are refitted on every
     measurement, so they differ from the selection's values (fitted without the held-out span)."""
     n = len(COVARIANCE_NAMES)
-    cov = np.asarray(model.get("effect_covariance", [0.0] * n * n), dtype=float).reshape(n, n)
-    effects = [e for e in str(model.get("effects", "")).split(",") if e]
+    cov = np.asarray(model["effect_covariance"], dtype=float).reshape(n, n)
+    effects = [e for e in str(model["effects"]).split(",") if e]
     names = ["wear_coefficient"] + [p for e in effects for p in EFFECT_PARAMETERS.get(e, ())]
     if "thermal_drift" in effects:       # T_ref, and the gauge's offset there (0 at the fitted values)
         names += ["thermal_reference_c", "thermal_gauge_offset_m"]

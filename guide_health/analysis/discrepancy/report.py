@@ -24,8 +24,8 @@ def _fmt(v: float, unit: str = "") -> str:
 def model_file_lines(result: dict[str, Any]) -> list[str]:
     """What model.yaml (beside the report) gives the live monitor, and how to load it."""
     model = result.get("model_file") or {}
-    live = [e for e in str(model.get("effects", "")).split(",") if e]
-    out = [f"`model.yaml` holds K = {model.get('wear_coefficient', math.nan):.4g} and "
+    live = [e for e in str(model["effects"]).split(",") if e] if model else []
+    out = [f"`model.yaml` holds K = {model['wear_coefficient'] if model else math.nan:.4g} and "
            + (f"the effects the live monitor integrates: {', '.join(live)}." if live else "no effect (plain Archard).")]
     if model:
         out.append(f"Refitted on every measurement (the values above left the held-out span out): "

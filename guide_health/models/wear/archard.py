@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -165,8 +166,9 @@ class WearGeometry:
     sliding_deadband_m: float = 0.0   # reversals shorter than this are not sliding (sliding_positions_m)
 
     @classmethod
-    def from_params(cls, params: dict) -> WearGeometry:
-        return cls(**{k: params[k] for k in cls.__dataclass_fields__ if k in params})
+    def from_params(cls, params: Any) -> WearGeometry:
+        """The geometry of a guide's frozen wear_monitor parameters (the fields of the same names)."""
+        return cls(**{k: getattr(params, k) for k in cls.__dataclass_fields__ if hasattr(params, k)})
 
     def bin_centres_m(self) -> np.ndarray:
         n = max(1, int(round(self.rail_length_m / self.profile_bin_m)))

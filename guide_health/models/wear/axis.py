@@ -60,16 +60,16 @@ PRECISION_KEYS = ("straightness_um", "straightness_measured_um", "straightness_l
 
 
 class AxisMonitor:
-    """The input gate and the guides of one axis (parameters: one axis of guide_health.params.machine.axes_params;
-    ``guides``: their names, default the parameter ``guides``)."""
+    """The input gate and the guides of one axis (``params``: its frozen parameters,
+    guide_health.params.typed.WearAxisParams; ``guides``: their names, default the parameter ``guides``)."""
 
-    def __init__(self, params: dict[str, Any], guides=None):
-        self.params = dict(params)
-        self.axis = params.get("axis", params["joint"])
-        names = list(params.get("guides", ["guide"]) if guides is None else guides)
+    def __init__(self, params: Any, guides=None):
+        self.params = params
+        self.axis = params.axis
+        names = list(params.guides if guides is None else guides)
         shares = [1.0 / len(names)] * len(names)          # named guides: equal shares
         if guides is None:
-            shares = list(params.get("guide_load_shares", shares))
+            shares = list(params.guide_load_shares)
         self.shares = dict(zip(names, shares))
         self.gate = InputGate(params, self.shares[names[0]])     # every input rule, once per sample
         self.guides = {name: GuideWear(params) for name in names}   # physics only
@@ -77,7 +77,7 @@ class AxisMonitor:
         self.pending: list[MaintenanceEvent] = []      # stamped after the present: applied when time gets there
         self.baselines: dict[str, dict] = {}           # guide -> what a wear reset changed
         # load_source model: the normal load of every accepted joint sample from the masses and the motion
-        self.load_model = NormalLoadModel.from_params(params) if params["load_source"] == "model" else None
+        self.load_model = NormalLoadModel.from_params(params) if params.load_source == "model" else None
 
     # --- maintenance events ------------------------------------------------------------------------
     def schedule(self, event: MaintenanceEvent) -> str | None:
@@ -85,7 +85,7 @@ class AxisMonitor:
         sample), else when the first joint sample stamped after it arrives (live and offline alike).
         Returns a rejection reason (the event is not applied; counted under its input_rules reason), or None
         (applied, pending, or the same event seen again: the node's own event back from the topic)."""
-        rejection = event_rejection(event, list(self.guides), self.params["straightness_limit_m"])
+        rejection = event_rejection(event, list(self.guides), self.params.straightness_limit_m)
         if rejection is not None:
             return self.reject_event(*rejection)
         if any(e.key == event.key for e in self.events + self.pending):
@@ -101,7 +101,7 @@ class AxisMonitor:
 
     def repeat_of(self, event: MaintenanceEvent) -> MaintenanceEvent | None:
         """The applied or pending event that ``event`` repeats within maintenance_repeat_window_s, or None."""
-        return repeat_of(event, self.events + self.pending, self.params["maintenance_repeat_window_s"])
+        return repeat_of(event, self.events + self.pending, self.params.maintenance_repeat_window_s)
 
     def reject_event(self, reason: str, details: str) -> str:
         """Count a maintenance event not applied under ``reason``; returns the reason with the details."""
@@ -340,7 +340,7 @@ class AxisMonitor:
         p = guide.params
         k_low, k, k_high = guide.estimator.interval90(guide.measurement_losses_per_k_m())
         loss_per_k, rate_per_k = guide.loss_per_k_m(), guide.integrator.straightness_rate_per_k_m_s()
-        now = LifeNow(p["straightness_initial_m"], p["straightness_limit_m"], loss_per_k, rate_per_k, k, k_low, k_high)
+        now = LifeNow(p.straightness_initial_m, p.straightness_limit_m, loss_per_k, rate_per_k, k, k_low, k_high)
         if guide.effect_wear is not None and math.isfinite(loss_per_k) and math.isfinite(rate_per_k):
             return now, guide.effect_life_interval_s(k)
         return now, remaining_life_interval_s(now)
@@ -351,7 +351,7 @@ class AxisMonitor:
         p = guide.params
         now, (life, life_low, life_high) = self._life(name)
         k, loss_per_k = now.wear_coefficient, now.loss_per_k_m
-        limit = p["straightness_limit_m"]
+        limit = p.straightness_limit_m
         straightness = guide.straightness_m(k, loss_per_k) if math.isfinite(loss_per_k) else math.nan
         l_min, l_max = guide.integrator.stroke_range_m()
         measured = guide.estimator.measurement_m[-1] if guide.estimator.count else self.measured_after_reset(name)
@@ -368,8 +368,8 @@ class AxisMonitor:
             "wear_coefficient": k,
             "wear_coefficient_low": now.wear_coefficient_low,
             "wear_coefficient_high": now.wear_coefficient_high,
-            "wear_coefficient_configured": p["wear_coefficient"],
-            "effects": p.get("effects", ""),
+            "wear_coefficient_configured": p.wear_coefficient,
+            "effects": p.effects,
             "measurements": guide.estimator.count,
             "duty_load_speed_w": guide.integrator.duty_work_rate_w(),
             "stroke_min_m": l_min,
@@ -388,7 +388,7 @@ class AxisMonitor:
             # straightness_measured_um is the corrected reading; this is what was taken off the last one
             result["straightness_thermal_correction_um"] = guide.thermal_correction_m * 1e6
         judged = PrecisionNow(result["straightness_um"], result["straightness_limit_um"], result["remaining_life_h"],
-                              guide.integrator.samples, p["joint"])
+                              guide.integrator.samples, p.joint)
         recent = RecentInputs(share, stream, reason, len(gate.recent[stream]) if stream else 0)
         result["level"], result["message"], clear = judge(judged, recent, Thresholds.from_params(p))
         gaps = gate.stream_gaps.message()
@@ -411,7 +411,7 @@ class AxisMonitor:
         (models/wear/running_time.py)."""
         clock = guide.integrator.clock
         utilisation = clock.utilisation()
-        out = {"load_source": guide.params["load_source"], "utilisation": utilisation,
+        out = {"load_source": guide.params.load_source, "utilisation": utilisation,
                **limit_dates(clock.last_t_ns, tuple(s / 3600.0 for s in life_s), utilisation)}
         idle = clock.idle_since_ns()
         if idle is not None:
@@ -458,16 +458,13 @@ class AxisMonitor:
         return report
 
     # --- run-time parameter changes ----------------------------------------------------------------
-    def apply_params(self, changed: dict, limit_params=()) -> None:
-        """An accepted run-time change (nodes/live_params.py): every guide's parameters, the rolling models,
-        K's measurement noise; the gate's limits (any of ``limit_params`` changed) and recent windows."""
-        self.params.update(changed)
+    def apply_params(self, changed: dict, with_changes, limit_params=()) -> None:
+        """An accepted run-time change (nodes/live_params.py): every guide's parameters (``with_changes(params,
+        changed)``: the new frozen object), the rolling models, K's measurement noise; the gate's limits (any of
+        ``limit_params`` changed) and recent windows."""
+        self.params = with_changes(self.params, changed)
         for guide in self.guides.values():
-            guide.params.update(changed)
-            if guide.rolling is not None:
-                from guide_health.params.typed import with_changes  # KNOWN_UPWARD_IMPORTS
-
-                guide.rolling.params = with_changes(guide.rolling.params, changed)
+            guide.set_params(with_changes(guide.params, changed))
             if "straightness_noise_m" in changed:
                 guide.estimator.noise_sd_m = float(changed["straightness_noise_m"])
         if any(name in changed for name in limit_params):

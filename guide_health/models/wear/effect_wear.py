@@ -32,7 +32,7 @@ from guide_health.models.wear.effects import (
     speed_dependent_wear,
     wear_rate_change,
 )
-from guide_health.models.wear.effects.multiplier import wear_rate_multiplier
+from guide_health.models.wear.effects.multiplier import combined_multiplier, wear_rate_multiplier
 from guide_health.models.wear.effects.parameters import EffectParameters
 from guide_health.models.wear.effects.registry import (
     BUCKET_ROW_LENGTHS,
@@ -136,7 +136,8 @@ class EffectWear:
         base = work * m                                      # without the duty factors
         eff = base * m_duty
         ri = running_in.running_in_factor_mean(s_a, s_a + ds, e.running_in_ratio, e.running_in_distance_m)
-        self.effective_work_nm += float((eff * ri).sum())
+        work_ri = work * combined_multiplier(m, ri, m_duty)        # the effective work of each segment
+        self.effective_work_nm += float(work_ri.sum())
         share = speed_dependent_wear.asperity_load_share(speed, e.lift_speed_m_s)
         # d(effective work)/d(each rate parameter) without running-in (the duty buckets' sums)
         rate = {"retract_wear_factor": retract_asymmetry.live_gradient(eff, work * m_duty, retract,
@@ -157,7 +158,7 @@ class EffectWear:
             row = self.buckets.setdefault(int(b), [0.0] * _SUMS)
             for j, column in sums.items():
                 row[j] += float(column[i])
-        self._add_passes(np.sign(xb - xa).astype(np.int64), ds, eff * ri, eff, bucket)
+        self._add_passes(np.sign(xb - xa).astype(np.int64), ds, work_ri, eff, bucket)
         newest = max(self.buckets)
         for b in [b for b in self.buckets if b <= newest - self.duty_buckets]:
             del self.buckets[b]

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter, deque
+from typing import Any
 
 import numpy as np
 
@@ -44,16 +45,16 @@ STREAMS = ("joint_states", "guide/load")     # the inputs whose recent rejected 
 
 
 class InputGate:
-    """The input rules of one axis (parameters: one axis of guide_health.params.machine.axes_params);
+    """The input rules of one axis (``params``: its frozen parameters, guide_health.params.typed.WearAxisParams);
     ``load_share``: the share of the axis load the load rule judges (the first guide's)."""
 
-    def __init__(self, params: dict, load_share: float = 1.0):
+    def __init__(self, params: Any, load_share: float = 1.0):
         self.limits = InputLimits.from_params(params)
         self.load_share = float(load_share)
         self.joint_base = StampBase()         # time bases of the joint and load streams (input_rules)
         self.load_base = StampBase()
         self.rejected = RejectionCounter()    # by reason; the node counts its message-level reasons here too
-        window = int(params["rejected_window_samples"])
+        window = int(params.rejected_window_samples)
         self.recent = {name: deque(maxlen=window) for name in STREAMS}
         self.stream_gaps = StreamGaps()       # samples missing by stamp gaps (not persisted: a count of this run)
         self.load_n = math.nan                # latest accepted axis load [N]

@@ -50,12 +50,13 @@ TEMPERATURE_HISTORY = 4096
 
 
 class GuideWear:
-    """The physics of one sliding or rolling guide (parameters: guide_health.params.WEAR_MONITOR_DEFAULTS)."""
+    """The physics of one sliding or rolling guide (``params``: the frozen wear parameters of its axis,
+    guide_health.params.typed.WearAxisParams; a change is a new object, :meth:`set_params`)."""
 
     STATE_VERSION = 1
 
-    def __init__(self, params: dict[str, Any]):
-        self.params = dict(params)
+    def __init__(self, params: Any):
+        self.params = params
         self.geometry = WearGeometry.from_params(params)
         self.integrator = WearIntegrator(self.geometry)
         # the effects diagnose learnt (DIR/model.yaml): K stays linear over the effective work
@@ -63,23 +64,27 @@ class GuideWear:
         self.effect_wear = None
         self._attach_effects()
         self.estimator = WearCoefficientEstimator(
-            prior_wear_coefficient=params["wear_coefficient"],
-            prior_rel_sd=params["wear_coefficient_prior_rel_sd"],
-            noise_sd_m=params["straightness_noise_m"],
-            straightness_initial_m=params["straightness_initial_m"],
+            prior_wear_coefficient=params.wear_coefficient,
+            prior_rel_sd=params.wear_coefficient_prior_rel_sd,
+            noise_sd_m=params.straightness_noise_m,
+            straightness_initial_m=params.straightness_initial_m,
         )
+        # the configured A0 while a wear reset's measured A0 is in force (models/wear/maintenance.reset_wear)
+        self.straightness_initial_configured_m: float | None = None
         # guide/temperature readings by stamp (the last TEMPERATURE_HISTORY): the thermal_drift correction
         # takes the one in force at a measurement's stamp
         self.temperature_t_ns: list[int] = []
         self.temperature_c: list[float] = []
         self.thermal_correction_m = 0.0   # the last correction applied (c_T (T - T_ref)) [m]
         self.rolling = None
-        if params.get("guide_type") == "rolling":
-            # the rolling-guide models take typed parameters, the wear core still holds the dict: the one
-            # known upward import left (test_code_quality.KNOWN_UPWARD_IMPORTS)
-            from guide_health.params.typed import guide_params
+        if params.guide_type == "rolling":
+            self.rolling = RollingGuideMonitor(params)
 
-            self.rolling = RollingGuideMonitor(guide_params(params))
+    def set_params(self, params: Any) -> None:
+        """Parameters changed at run time (a new frozen object); the rolling models take them too."""
+        self.params = params
+        if self.rolling is not None:
+            self.rolling.params = params
 
     # --- accepted samples ------------------------------------------------------------------------
     def advance(self, t_ns: int, position_m: float, load_n: float) -> None:
@@ -254,14 +259,14 @@ class GuideWear:
         else:                           # no measurement yet, or a state saved before the gradients were kept
             k_sens = np.zeros(n_phi)
         now = EffectLifeNow(
-            margin0=self.params["straightness_limit_m"] - self.params["straightness_initial_m"],
+            margin0=self.params.straightness_limit_m - self.params.straightness_initial_m,
             work=work, pass_work=self.effect_wear.pass_work_now_n(), loss_work=loss_work, loss_pass=loss_pass,
             work_gradient=np.asarray(self.effect_wear.work_gradient), k_sensitivity=k_sens,
             rate_work_per_k=f["rate_work_per_k_m_s"], rate_pass_per_k=f["rate_pass_per_k_m_s"],
             dln_rate=np.asarray(f["dln_rate"]), s_now=f["sliding_distance_m"], v_s=f["sliding_speed_m_s"],
             lubrication=f["lubrication"],
-            a0_measured=self.params["straightness_initial_m"] != self.params.get(
-                "straightness_initial_configured_m", self.params["straightness_initial_m"]))
+            a0_measured=(self.straightness_initial_configured_m is not None
+                         and self.params.straightness_initial_m != self.straightness_initial_configured_m))
         z = float(stdtrit(n - 1, 0.95)) if n >= 3 else Z90
         return life_interval_s(k, k_sd, self.effects, now, z)
 
@@ -280,7 +285,7 @@ class GuideWear:
     def straightness_m(self, wear_coefficient: float, loss_per_k_m):
         """Straightness [m] = A0 + K g (seed 000 Eq. 11 with the initial straightness A0), for a loss per
         unit K ``g`` [m] (a number or an array, e.g. :meth:`measurement_losses_per_k_m`)."""
-        return self.params["straightness_initial_m"] + wear_coefficient * loss_per_k_m
+        return self.params.straightness_initial_m + wear_coefficient * loss_per_k_m
 
     def running_in(self, wear_coefficient: float) -> RunningIn | None:
         """The effect-aware forecast's inputs (running-in or lubrication_interval), None without them."""
@@ -330,10 +335,10 @@ class GuideWear:
         est = state["estimator"]
         self.estimator = WearCoefficientEstimator.from_state(est)
         # parameters win over the saved prior (a user may re-tune them); measurements are kept
-        self.estimator.prior_wear_coefficient = self.params["wear_coefficient"]
-        self.estimator.prior_rel_sd = self.params["wear_coefficient_prior_rel_sd"]
-        self.estimator.noise_sd_m = self.params["straightness_noise_m"]
-        self.estimator.straightness_initial_m = self.params["straightness_initial_m"]
+        self.estimator.prior_wear_coefficient = self.params.wear_coefficient
+        self.estimator.prior_rel_sd = self.params.wear_coefficient_prior_rel_sd
+        self.estimator.noise_sd_m = self.params.straightness_noise_m
+        self.estimator.straightness_initial_m = self.params.straightness_initial_m
         if self.thermal_drift and self.effect_wear is not None and self.temperature_t_ns:   # saved without T - T_ref
             self.effect_wear.rebuild_temperature_offsets(self.estimator.measurement_t_ns, self.temperature_t_ns[0],
                                                          self.thermal_offset_at_k)

@@ -51,6 +51,7 @@ from __future__ import annotations
 import bisect
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -202,19 +203,19 @@ class InputLimits:
     rebase_samples: int = 1
 
     @classmethod
-    def from_params(cls, p: dict) -> InputLimits:
-        """The limits of a wear_monitor parameter set (guide_health.params.wear_monitor)."""
-        margin = p["travel_margin_m"]
-        load_max = p["load_max_n"]
-        rating = p.get("dynamic_load_rating_n", 0.0) * p.get("carriages", 1)
-        if p.get("guide_type") == "rolling" and rating > 0 and p["load_max_rating_multiple"] > 0:
-            load_max = min(load_max, p["load_max_rating_multiple"] * rating)
-        return cls(position_min_m=p["rail_start_m"] - margin,
-                   position_max_m=p["rail_start_m"] + p["rail_length_m"] + margin,
+    def from_params(cls, p: Any) -> InputLimits:
+        """The limits of a guide's frozen wear_monitor parameters (guide_health.params.typed.WearAxisParams)."""
+        margin = p.travel_margin_m
+        load_max = p.load_max_n
+        rating = p.dynamic_load_rating_n * p.carriages
+        if p.guide_type == "rolling" and rating > 0 and p.load_max_rating_multiple > 0:
+            load_max = min(load_max, p.load_max_rating_multiple * rating)
+        return cls(position_min_m=p.rail_start_m - margin,
+                   position_max_m=p.rail_start_m + p.rail_length_m + margin,
                    load_max_n=load_max,
-                   straightness_max_m=p["straightness_max_multiple"] * p["straightness_limit_m"],
-                   stamp_horizon_ns=int(round(p["stamp_horizon_s"] * NS_PER_S)),
-                   rebase_samples=int(p["stamp_rebase_samples"]))
+                   straightness_max_m=p.straightness_max_multiple * p.straightness_limit_m,
+                   stamp_horizon_ns=int(round(p.stamp_horizon_s * NS_PER_S)),
+                   rebase_samples=int(p.stamp_rebase_samples))
 
 
 NO_LIMITS = InputLimits()

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -104,9 +105,10 @@ class Thresholds:
     alarm_clear_margin: float = 0.0
 
     @classmethod
-    def from_params(cls, p: dict) -> Thresholds:
-        return cls(p["straightness_warn_fraction"], p["life_warn_h"], p["life_error_h"], p["rejected_share_warn"],
-                   float(p.get("alarm_clear_margin", 0.0)))
+    def from_params(cls, p: Any) -> Thresholds:
+        """The thresholds of a guide's frozen wear_monitor parameters (guide_health.params.typed)."""
+        return cls(p.straightness_warn_fraction, p.life_warn_h, p.life_error_h, p.rejected_share_warn,
+                   float(p.alarm_clear_margin))
 
 
 @dataclass(frozen=True)

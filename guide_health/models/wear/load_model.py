@@ -60,9 +60,10 @@ class NormalLoadModel:
         self.history: deque = deque()      # (t_ns, position_m, velocity_m_s) from the lag sample on
 
     @classmethod
-    def from_params(cls, p: dict) -> NormalLoadModel:
-        return cls(float(p["moving_mass_kg"]), float(p["workpiece_mass_kg"]), float(p["axis_incline_deg"]),
-                   float(p["load_lever_ratio"]), float(p["acceleration_window_s"]))
+    def from_params(cls, p) -> NormalLoadModel:
+        """From an axis's typed parameters (params.typed.WearAxisParams)."""
+        return cls(float(p.moving_mass_kg), float(p.workpiece_mass_kg), float(p.axis_incline_deg),
+                   float(p.load_lever_ratio), float(p.acceleration_window_s))
 
     @property
     def mass_kg(self) -> float:

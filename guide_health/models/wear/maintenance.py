@@ -33,6 +33,7 @@ reason of models/wear/input_rules.py (``rejected: maintenance event <reason>``).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import asdict, dataclass
 from datetime import UTC, datetime
@@ -181,7 +182,7 @@ BASELINE_KEYS = ("straightness_initial_m", "wear_coefficient", "wear_coefficient
 
 def apply_baseline(monitor, values: dict) -> None:
     """Re-apply a :func:`baseline` (a restored monitor takes its prior and A0 from the parameters)."""
-    monitor.params.update({key: values[key] for key in BASELINE_KEYS})
+    monitor.params = dataclasses.replace(monitor.params, **{key: values[key] for key in BASELINE_KEYS})
     est = monitor.estimator
     est.straightness_initial_m = float(values["straightness_initial_m"])
     est.prior_wear_coefficient = float(values["wear_coefficient"])
@@ -193,8 +194,11 @@ def reset_wear(monitor, straightness_after_m: float) -> None:
     the configured A0."""
     a_after = straightness_after_m
     if math.isnan(a_after):
-        a_after = monitor.params.get("straightness_initial_configured_m", monitor.params["straightness_initial_m"])
-    monitor.params.setdefault("straightness_initial_configured_m", monitor.params["straightness_initial_m"])
+        a_after = monitor.straightness_initial_configured_m
+        if a_after is None:
+            a_after = monitor.params.straightness_initial_m
+    if monitor.straightness_initial_configured_m is None:
+        monitor.straightness_initial_configured_m = monitor.params.straightness_initial_m
     k, k_sd, _ = monitor.estimator.posterior(monitor.measurement_losses_per_k_m())
     integ = monitor.integrator
     integ.archard_work_nm = 0.0

@@ -19,14 +19,14 @@ from guide_health.models.wear.calibration import WearCoefficientEstimator
 from guide_health.models.wear.life import LifeNow, remaining_life_interval_s
 
 
-def life_interval_half_width(params: dict, life_new_h: float, interval_h: float, at_h: float) -> float:
+def life_interval_half_width(params, life_new_h: float, interval_h: float, at_h: float) -> float:
     """max(life - low, high - life) / life of the remaining life at ``at_h`` running hours, with straightness
-    measured every ``interval_h`` running hours (none: the prior's interval); ``params``: the guide's
-    wear_coefficient, wear_coefficient_prior_rel_sd, straightness_noise_m, straightness_initial_m and
-    straightness_limit_m."""
-    k0, a0, a_max = params["wear_coefficient"], params["straightness_initial_m"], params["straightness_limit_m"]
+    measured every ``interval_h`` running hours (none: the prior's interval); ``params``: the axis's typed
+    parameters (params.typed.WearAxisParams): its wear_coefficient, wear_coefficient_prior_rel_sd,
+    straightness_noise_m, straightness_initial_m and straightness_limit_m."""
+    k0, a0, a_max = params.wear_coefficient, params.straightness_initial_m, params.straightness_limit_m
     per_k_per_h = (a_max - a0) / (k0 * life_new_h)            # dg/dt [m per unit K per running hour]
-    est = WearCoefficientEstimator(k0, params["wear_coefficient_prior_rel_sd"], params["straightness_noise_m"], a0)
+    est = WearCoefficientEstimator(k0, params.wear_coefficient_prior_rel_sd, params.straightness_noise_m, a0)
     for i, t_h in enumerate(np.arange(interval_h, at_h + 1e-9, interval_h)):
         g = per_k_per_h * t_h
         est.add(i, a0 + k0 * g, g, 0.0)

@@ -20,12 +20,12 @@ __all__ = ["STREAMS", "TEMPERATURE_HISTORY", "GuideWear", "PrecisionMonitor"]
 
 
 class PrecisionMonitor(GuideView):
-    """Sliding-guide precision monitor (parameters: guide_health.params.WEAR_MONITOR_DEFAULTS): one guide,
-    its input gate and its report."""
+    """Sliding-guide precision monitor (parameters: the frozen guide_health.params.typed.WearAxisParams): one
+    guide, its input gate and its report."""
 
     STATE_VERSION = GuideWear.STATE_VERSION
 
-    def __init__(self, params: dict[str, Any] | None = None, axis: AxisMonitor | None = None):
+    def __init__(self, params: Any = None, axis: AxisMonitor | None = None):
         """``params``: a guide of its own (an axis of one guide); ``axis``: the first guide of that axis, its
         inputs going to the whole axis (the single-joint node's ``monitor``)."""
         axis = AxisMonitor(params, guides=("guide",)) if axis is None else axis

@@ -31,9 +31,10 @@ PARALLEL_LISTS = {
 }
 
 
-def state_fingerprint(params: dict[str, Any]) -> dict[str, Any]:
-    """{name: value} of FINGERPRINT_PARAMS in ``params``."""
-    return {name: params[name] for name in FINGERPRINT_PARAMS if name in params}
+def state_fingerprint(machine_id: str, params: Any) -> dict[str, Any]:
+    """{name: value} of FINGERPRINT_PARAMS: the node's ``machine_id`` and the others of an axis's frozen wear
+    parameters (guide_health.params.typed.WearAxisParams)."""
+    return {name: machine_id if name == "machine_id" else getattr(params, name) for name in FINGERPRINT_PARAMS}
 
 
 def fingerprint_mismatch(saved: dict[str, Any], current: dict[str, Any]) -> str:

@@ -21,7 +21,12 @@ from guide_health.models.wear.effects.lubrication_interval import (
     relubrication_growth_factor,
     time_since_relubrication_s,
 )
-from guide_health.models.wear.effects.multiplier import measured_straightness_m, wear_rate_multiplier
+from guide_health.models.wear.effects.multiplier import (
+    combined_multiplier,
+    effect_multiplier,
+    measured_straightness_m,
+    wear_rate_multiplier,
+)
 from guide_health.models.wear.effects.parameters import EffectParameters
 from guide_health.models.wear.effects.registry import (
     CANDIDATE_IDS,
@@ -43,4 +48,5 @@ __all__ = ["CANDIDATE_IDS", "DUTY_EFFECT_IDS", "EFFECT_IDS", "EFFECT_VALUE", "LU
            "lubrication_interval_factor", "measured_straightness_m", "pass_weight_per_m",
            "relubrication_growth_factor", "running_in_factor", "running_in_factor_mean",
            "running_in_factor_spread", "straightness_wear_m", "time_since_relubrication_s",
-           "wear_rate_change_factor", "wear_rate_multiplier"]
+           "wear_rate_change_factor", "wear_rate_multiplier",
+           "combined_multiplier", "effect_multiplier"]

@@ -7,14 +7,17 @@ relubrications, ``lubrication_interval_s`` = 0) or a [-] of m = 1 + a (tau mod T
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from guide_health.models.wear.effects.registry import (
     BY_ID,
     COVARIANCE_NAMES,
+    PARAMETER_OWNER,
     PHI_NAMES,
     simulate_field,
 )
@@ -61,39 +64,41 @@ class EffectParameters:
         return cls(effects=tuple(values), **fields)
 
     @classmethod
-    def from_params(cls, p: dict) -> EffectParameters | None:
-        """The live model's (wear_monitor parameters, ``diagnose --out``'s model file); None without effects.
-        An effect not named keeps its no-effect value."""
-        ids = tuple(e.strip() for e in str(p.get("effects", "")).split(",") if e.strip())
+    def from_params(cls, p: Any) -> EffectParameters | None:
+        """The live model's (a guide's frozen wear_monitor parameters, guide_health.params.typed, which hold
+        ``diagnose --out``'s model file); None without effects. An effect not named keeps its no-effect value."""
+        ids = tuple(e.strip() for e in str(p.effects).split(",") if e.strip())
         if not ids:
             return None
+        no_effect = {f.name: f.default for f in dataclasses.fields(cls)}
+
+        def rate(name: str, field: str = "") -> float:
+            """``name``'s value when the effect owning it (registry.PARAMETER_OWNER) is named, else the field's
+            no-effect value."""
+            return float(getattr(p, name)) if PARAMETER_OWNER[name] in ids else no_effect[field or name]
+
         return cls(
             effects=ids,
-            running_in_ratio=float(p["running_in_ratio"]) if "running_in" in ids else 0.0,
-            running_in_distance_m=float(p["running_in_distance_m"]),
-            retract_wear_factor=float(p["retract_wear_factor"]) if "retract_asymmetry" in ids else 1.0,
-            retract_sign=1 if p.get("retract_direction", "-x") == "+x" else -1,
-            lift_speed_m_s=(float(p["lift_speed_m_s"]) if "speed_dependent_wear" in ids and p["lift_speed_m_s"] > 0
-                            else math.inf),
-            load_exponent=float(p["load_exponent"]) if "load_exponent" in ids else 1.0,
-            load_reference_n=float(p["load_reference_n"]),
-            load_gradient_per_m=float(p.get("load_gradient_per_m", 0.0)) if "load_along_rail" in ids else 0.0,
-            load_reference_position_m=float(p.get("load_reference_position_m", 0.0)),
-            wear_rate_change_factor=(float(p.get("wear_rate_change_factor", 1.0)) if "wear_rate_change" in ids
-                                     else 1.0),
-            wear_rate_change_time_s=(float(p.get("wear_rate_change_stamp_s", math.inf))
-                                     if "wear_rate_change" in ids else math.inf),
-            lubrication_wear_growth=(float(p.get("lubrication_wear_growth", 0.0)) if "lubrication_interval" in ids
-                                     else 0.0),
-            lubrication_interval_s=float(p.get("lubrication_interval_s", 0.0)),
-            lubrication_reference_stamp_s=float(p.get("lubrication_reference_stamp_s", 0.0)),
-            lubrication_forecast_interval_s=float(p.get("lubrication_forecast_interval_s", 0.0)),
-            thermal_drift_m_per_k=float(p.get("thermal_drift_m_per_k", 0.0)) if "thermal_drift" in ids else 0.0,
-            thermal_reference_c=float(p.get("thermal_reference_c", 20.0)),
-            stroke_distribution_weight=(float(p.get("stroke_distribution_weight", 0.0))
-                                        if "stroke_distribution" in ids else 0.0),
-            slider_length_m=float(p.get("slider_length_m", 0.0)),
-            covariance=tuple(float(v) for v in p.get("effect_covariance", ())),
+            running_in_ratio=rate("running_in_ratio"),
+            running_in_distance_m=float(p.running_in_distance_m),
+            retract_wear_factor=rate("retract_wear_factor"),
+            retract_sign=1 if p.retract_direction == "+x" else -1,
+            lift_speed_m_s=rate("lift_speed_m_s") if p.lift_speed_m_s > 0 else math.inf,
+            load_exponent=rate("load_exponent"),
+            load_reference_n=float(p.load_reference_n),
+            load_gradient_per_m=rate("load_gradient_per_m"),
+            load_reference_position_m=float(p.load_reference_position_m),
+            wear_rate_change_factor=rate("wear_rate_change_factor"),
+            wear_rate_change_time_s=rate("wear_rate_change_stamp_s", "wear_rate_change_time_s"),
+            lubrication_wear_growth=rate("lubrication_wear_growth"),
+            lubrication_interval_s=float(p.lubrication_interval_s),
+            lubrication_reference_stamp_s=float(p.lubrication_reference_stamp_s),
+            lubrication_forecast_interval_s=float(p.lubrication_forecast_interval_s),
+            thermal_drift_m_per_k=rate("thermal_drift_m_per_k"),
+            thermal_reference_c=float(p.thermal_reference_c),
+            stroke_distribution_weight=rate("stroke_distribution_weight"),
+            slider_length_m=float(p.slider_length_m),
+            covariance=tuple(float(v) for v in p.effect_covariance),
         )
 
     def phi(self) -> np.ndarray:
