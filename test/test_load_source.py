@@ -15,6 +15,7 @@ from guide_health.io.bag.writer import write_machine_bag
 from guide_health.models.wear.load_model import NormalLoadModel, normal_load_n
 from guide_health.params import WEAR_MONITOR_DEFAULTS, WEAR_MONITOR_SCHEMA
 from guide_health.params.simulation import REALISTIC_MOTION, SIMULATION_SCHEMA
+from guide_health.params.typed import wear_axis_params
 from guide_health.sim.machine import simulate_machine
 
 G = 9.80665
@@ -120,7 +121,7 @@ def test_live_feed_one_by_one_equals_batches():
     params = dict(WEAR_MONITOR_DEFAULTS, load_source="model", **MASSES)
     t = 1_700_000_000 * 10**9 + np.arange(4000, dtype=np.int64) * 20_000_000
     x = 0.1 + 0.1 * np.sin(np.arange(4000) * 0.02)
-    one, many = AxisMonitor(params), AxisMonitor(params)
+    one, many = AxisMonitor(wear_axis_params(params)), AxisMonitor(wear_axis_params(params))
     feed_one, feed_many = StampAlignedFeed(one, 0.5), StampAlignedFeed(many, 0.5)
     for ti, xi in zip(t.tolist(), x.tolist()):
         feed_one.joint(ti, xi, 0.0, 0.0)

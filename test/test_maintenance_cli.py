@@ -27,6 +27,7 @@ from guide_health.models.wear.input_rules import (
 from guide_health.models.wear.life import PrecisionNow, RecentInputs, Thresholds, judge, judge_precision
 from guide_health.models.wear.maintenance import MaintenanceEvent, straightness_from_text
 from guide_health.params import wear_monitor_params
+from guide_health.params.typed import wear_axis_params
 
 ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT / "config" / "bench_000.yaml"
@@ -55,7 +56,7 @@ def worn_axis():
 
     params = wear_monitor_params(BENCH)
     sim = dict(simulation_params(BENCH), duration_h=1.0, joint_state_rate_hz=10.0, load_rate_hz=1.0)
-    model = AxisMonitor(params)
+    model = AxisMonitor(wear_axis_params(params))
     model.process_run(simulate_machine(params, sim, seed=5))
     return params, model
 
@@ -72,7 +73,7 @@ def test_a_regrind_at_4_um_is_the_measured_straightness_and_keeps_k():
     assert after["straightness_um"] == pytest.approx(4.0, rel=1e-12)
     assert after["wear_coefficient"] == pytest.approx(before["wear_coefficient"], rel=1e-12)
     # kept over a restart (the axis's maintenance state), and a regrind without a value measures nothing
-    again = AxisMonitor(params)
+    again = AxisMonitor(wear_axis_params(params))
     again.primary.restore(model.primary.state())
     again.restore_maintenance(_json.loads(_json.dumps(model.maintenance_state())))
     assert again.report()["straightness_measured_um"] == pytest.approx(4.0, rel=1e-12)
@@ -106,7 +107,7 @@ def test_the_same_maintenance_within_the_window_is_refused_and_counted():
     (MaintenanceEvent(0, "measure", "x", "", 1e308), MAINTENANCE_STRAIGHTNESS_IMPLAUSIBLE),
 ])
 def test_a_rejected_event_counts_under_one_fixed_reason(event, reason):
-    model = AxisMonitor(wear_monitor_params(BENCH))
+    model = AxisMonitor(wear_axis_params(wear_monitor_params(BENCH)))
     assert model.schedule(event).startswith(reason + ": ")
     report = model.report()
     assert report[rejected_key(reason)] == 1 and report["rejected_samples"] == 1
@@ -233,14 +234,14 @@ def test_rolling_guide_levels_name_their_thresholds():
 
     from guide_health.models.wear.precision import PrecisionMonitor
 
-    slow = PrecisionMonitor(params(boundary_share_warn=0.5))
+    slow = PrecisionMonitor(wear_axis_params(params(boundary_share_warn=0.5)))
     slow.process_run(duty_run([(600.0, 0.0003, 3000.0)], rate_hz=10.0))
     assert "100% of the recent travel in boundary lubrication > boundary_share_warn 50%" in slow.report()["message"]
-    heavy = PrecisionMonitor(params(dynamic_load_rating_n=1500.0, life_used_warn=0.8, life_used_error=1.0,
-                                    load_max_rating_multiple=0.0))
+    heavy = PrecisionMonitor(wear_axis_params(params(dynamic_load_rating_n=1500.0, life_used_warn=0.8,
+                                                     life_used_error=1.0, load_max_rating_multiple=0.0)))
     heavy.process_run(duty_run([(600.0, 0.3, 12000.0)]))
     assert heavy.fatigue_report()["message"].endswith(">= life_used_error 100%")
-    mid = PrecisionMonitor(params(life_used_warn=1e-9))
+    mid = PrecisionMonitor(wear_axis_params(params(life_used_warn=1e-9)))
     mid.process_run(duty_run([(60.0, 0.3, 6000.0)]))
     assert mid.fatigue_report()["message"].endswith("of the rating life used >= life_used_warn 0%")
 

@@ -25,7 +25,7 @@ def test_without_measurements_the_interval_is_the_priors(x_axis):
     """No measurement before ``at``: K in k0 (1 -+ z90 r). At constant duty the remaining life after ``at``
     running hours is L(K) = k0 L0 / K - at (the wear so far, K g, scales with K too), so the long side is
     (L0 / (1 - z90 r) - at) / (L0 - at) - 1 (L0 = 2000 h, at = 500 h, r = 0.5: 6.175)."""
-    r = x_axis["wear_coefficient_prior_rel_sd"]
+    r = x_axis.wear_coefficient_prior_rel_sd
     expected = (2000.0 / (1 - Z90 * r) - 500.0) / (2000.0 - 500.0) - 1
     assert life_interval_half_width(x_axis, 2000.0, 1000.0, 500.0) == pytest.approx(expected, rel=1e-9)
 

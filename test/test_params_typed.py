@@ -73,7 +73,7 @@ def test_guide_params_hold_the_per_axis_physics_and_lists_as_tuples():
 def test_wear_axis_params_hold_a_guides_physics_and_the_axis_of_a_single_joint_section_or_an_axis_dict():
     names = [f.name for f in dataclasses.fields(WearAxisParams)]
     assert names == ([f.name for f in dataclasses.fields(GuideParams)] + [p.name for p in AXIS_PARAMS]
-                     + ["axis", "output_prefix", "guide_load_shares"])
+                     + ["axis", "output_prefix", "guide_load_shares", "maintenance_repeat_window_s"])
     single = wear_axis_params({**SCHEMAS["wear_monitor"].defaults(), "joint": "z", "wear_coefficient": 2e-6})
     assert (single.axis, single.joint, single.guides, single.guide_load_shares) == ("z", "z", ("guide",), (1.0,))
     assert single.wear_coefficient == 2e-6 and single.alarm_clear_margin == 0.05      # the schema's default

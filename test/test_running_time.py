@@ -12,6 +12,7 @@ import pytest
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.models.wear.running_time import RunningClock
 from guide_health.params import WEAR_MONITOR_DEFAULTS
+from guide_health.params.typed import wear_axis_params
 from guide_health.runs import MachineRun
 
 T0 = 1_700_000_000 * 10**9
@@ -35,8 +36,8 @@ def _run(t_ns: np.ndarray, x: np.ndarray, load_n: float = 2000.0) -> MachineRun:
 
 
 def _monitor(**over) -> PrecisionMonitor:
-    return PrecisionMonitor(dict(WEAR_MONITOR_DEFAULTS, **{"idle_after_s": IDLE_AFTER_S, "rail_start_m": -0.1,
-                                                           "rail_length_m": 0.5, **over}))
+    return PrecisionMonitor(wear_axis_params(dict(WEAR_MONITOR_DEFAULTS, **{
+        "idle_after_s": IDLE_AFTER_S, "rail_start_m": -0.1, "rail_length_m": 0.5, **over})))
 
 
 def test_clock_sample_by_sample_equals_arrays():

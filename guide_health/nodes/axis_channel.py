@@ -292,7 +292,7 @@ class AxisChannel:
             response.success = False
             response.message = (f"already applied at {stamp_text(earlier.t_ns)}: {event_text(earlier)}, straightness "
                                 f"entered {_um(earlier.straightness_m)}; nothing applied "
-                                f"(maintenance_repeat_window_s {self.model.params['maintenance_repeat_window_s']:g} s)")
+                                f"(maintenance_repeat_window_s {self.model.params.maintenance_repeat_window_s:g} s)")
             return response
         reason = self.model.schedule(event)
         if reason is not None:
