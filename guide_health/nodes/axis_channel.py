@@ -21,6 +21,7 @@ from guide_health.io.bag.cdr import RawBatchDecoder, RawMessageDecoder
 from guide_health.io.bag.interfaces import JOINT_STATE, WRENCH_STAMPED
 from guide_health.models.wear.axis import PRECISION_KEYS, AxisMonitor
 from guide_health.models.wear.feed import StampAlignedFeed
+from guide_health.models.wear.fit_watch import FIT_STATUS_KEYS
 from guide_health.models.wear.input_rules import (
     EMPTY_JOINT_STATES,
     INVALID_STAMP,
@@ -45,7 +46,7 @@ EXTRA_PRECISION_KEYS = ("wear_coefficient_low", "wear_coefficient_high", "measur
                         "samples_missing_estimate", "joint_samples_missing_estimate",
                         "load_samples_missing_estimate", "joint_period_estimate_us", "joint_stamp_pauses",
                         # the thermal_drift effect (docs/model_file.md): taken off the last measurement
-                        "straightness_thermal_correction_um")
+                        "straightness_thermal_correction_um") + FIT_STATUS_KEYS
 TIMING_KEYS = ("load_samples", "callback_time_us", "model_time_us")
 ROLLING_PRECISION_KEYS = ("lambda", "asperity_load_share", "boundary_share_recent", "boundary_share_total",
                           "oil_viscosity_pa_s", "oil_temperature_c")
