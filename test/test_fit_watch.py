@@ -205,3 +205,40 @@ def test_a_regrind_clears_the_alarm():
     assert r["model_fit_since_utc"] == fit_watch.utc_text(t)
     # the first alarm's time stays in the report (replay JSON: when the test first fired)
     assert r["model_fit_first_fired_utc"] != ""
+
+
+@pytest.mark.ros
+def test_live_node_reports_the_fit_keys_as_replay(tmp_path, ros_test_env):
+    """A bench bag with a 3 um gauge offset from 1 h through bag_player -> wear_monitor: every fit key of
+    /diagnostics equals the offline replay's (texts exactly, numbers to 1e-6: the measurement-dating gap of
+    test_live_replay is ~1e-9 here)."""
+    pytest.importorskip("rclpy")
+    from guide_health.analysis.replay import analyse
+    from guide_health.io.bag.reader import read_machine_bag
+    from guide_health.io.bag.writer import write_machine_bag
+    from guide_health.nodes.session import bag_counts, clean_fastdds_shm, settled_status_after_bag
+
+    params = wear_monitor_params(BENCH)
+    sim = dict(simulation_params(BENCH), duration_h=1.6, joint_state_rate_hz=10.0, load_rate_hz=1.0,
+               measurement_interval_h=0.25)
+    run = simulate_machine(params, sim, seed=7)
+    run.straightness_m[run.straightness_t_ns > run.straightness_t_ns[0] + HOUR_NS] += 3e-6
+    bag = tmp_path / "gauge_offset"
+    write_machine_bag(run, bag, storage="sqlite3")
+    offline = analyse(read_machine_bag(bag, joint="x"), params)[1]
+    assert offline["model_fit"] == "broken"
+    env = ros_test_env()
+    try:
+        live = settled_status_after_bag("guide_health.nodes.wear_monitor", BENCH,
+                                        {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25},
+                                        env, bag, "bench_000/wear_monitor: x precision", tmp_path / "node.log",
+                                        collector_name="fit_collector", counts=bag_counts(offline))
+    finally:
+        clean_fastdds_shm()
+    values = live["values"]
+    for key in fit_watch.FIT_STATUS_KEYS:
+        if isinstance(offline[key], str):
+            assert values[key] == offline[key], key
+        else:
+            assert float(values[key]) == pytest.approx(offline[key], rel=1e-6, abs=1e-9), key
+    assert live["message"].startswith("the model no longer fits since")
