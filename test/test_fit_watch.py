@@ -13,6 +13,7 @@ from guide_health.models.wear import fit_watch
 from guide_health.models.wear.axis import AxisMonitor
 from guide_health.models.wear.fit_watch import FitWatch, cusum_arl0, predict
 from guide_health.models.wear.maintenance import MaintenanceEvent
+from guide_health.models.wear.state_schema import check_precision_state
 from guide_health.params import simulation_params, wear_monitor_params
 from guide_health.sim.machine import simulate_machine
 
@@ -187,6 +188,8 @@ def test_broken_warns_widens_the_life_interval_and_is_saved():
     old = axis.guide_state("guide")
     del old["fit_watch"]
     again = AxisMonitor(params)
+    check_precision_state(old, again.guide_state("guide"))          # the state check takes it
+    check_precision_state(axis.guide_state("guide"), again.guide_state("guide"))
     again.restore_guide("guide", old)
     assert again.report()["model_fit"] == "ok"
     # another model (a new model file: here another K prior) starts the test anew
@@ -209,7 +212,7 @@ def test_a_regrind_clears_the_alarm():
 
 @pytest.mark.ros
 def test_live_node_reports_the_fit_keys_as_replay(tmp_path, ros_test_env):
-    """A bench bag with a 3 um gauge offset from 1 h through bag_player -> wear_monitor: every fit key of
+    """A bench bag with a 6 um gauge offset from 1 h (1 h in, K's wide prior still absorbs 3 um) through bag_player -> wear_monitor: every fit key of
     /diagnostics equals the offline replay's (texts exactly, numbers to 1e-6: the measurement-dating gap of
     test_live_replay is ~1e-9 here)."""
     pytest.importorskip("rclpy")
@@ -219,10 +222,10 @@ def test_live_node_reports_the_fit_keys_as_replay(tmp_path, ros_test_env):
     from guide_health.nodes.session import bag_counts, clean_fastdds_shm, settled_status_after_bag
 
     params = wear_monitor_params(BENCH)
-    sim = dict(simulation_params(BENCH), duration_h=1.6, joint_state_rate_hz=10.0, load_rate_hz=1.0,
+    sim = dict(simulation_params(BENCH), duration_h=2.1, joint_state_rate_hz=10.0, load_rate_hz=1.0,
                measurement_interval_h=0.25)
     run = simulate_machine(params, sim, seed=7)
-    run.straightness_m[run.straightness_t_ns > run.straightness_t_ns[0] + HOUR_NS] += 3e-6
+    run.straightness_m[run.straightness_t_ns > run.straightness_t_ns[0] + HOUR_NS] += 6e-6
     bag = tmp_path / "gauge_offset"
     write_machine_bag(run, bag, storage="sqlite3")
     offline = analyse(read_machine_bag(bag, joint="x"), params)[1]

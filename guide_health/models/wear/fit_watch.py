@@ -32,7 +32,6 @@ from dataclasses import asdict, dataclass, field
 from datetime import UTC, datetime
 
 import numpy as np
-from scipy.optimize import brentq
 
 #: the stated false-alarm rate of the fit test per measurement (both tests together) on a fitting model
 FALSE_ALARM_RATE = 1e-3
@@ -53,8 +52,9 @@ FIT_STATUS_KEYS = ("last_innovation_sigma", "innovation_cusum", "innovation_cusu
 def cusum_arl0(h: float, k: float = CUSUM_REFERENCE) -> float:
     """In-control average run length of the two-sided CUSUM on N(0, 1) inputs [measurements].
 
-    Siegmund's approximation of a one-sided CUSUM with drift D = mu - k = -k (Siegmund 1985, Sequential
-    Analysis, Sec. X.2; Montgomery, Introduction to Statistical Quality Control, Eq. 9.13):
+    Siegmund's approximation of a one-sided CUSUM with drift D = mu - k = -k (D. Siegmund, Sequential
+    Analysis, Springer 1985; as given in D. C. Montgomery, Introduction to Statistical Quality Control,
+    Sec. 9.1, whose table of the two-sided k = 0.5 CUSUM lists ARL0 168 at h = 4 and 465 at h = 5):
     ARL1 = (exp(-2 D b) + 2 D b - 1) / (2 D^2), b = h + 1.166; two sides: 1/ARL = 1/ARL1+ + 1/ARL1-, = ARL1/2.
     """
     b = h + 1.166
@@ -64,9 +64,13 @@ def cusum_arl0(h: float, k: float = CUSUM_REFERENCE) -> float:
 
 
 def cusum_threshold(false_alarm_rate: float, k: float = CUSUM_REFERENCE) -> float:
-    """h with :func:`cusum_arl0` (h, k) = 1 / false_alarm_rate."""
+    """h with :func:`cusum_arl0` (h, k) = 1 / false_alarm_rate (bisection: the ARL rises with h)."""
     target = 1.0 / false_alarm_rate
-    return float(brentq(lambda h: cusum_arl0(h, k) - target, 0.0, 100.0))
+    low, high = 0.0, 100.0
+    for _ in range(100):
+        mid = 0.5 * (low + high)
+        low, high = (mid, high) if cusum_arl0(mid, k) < target else (low, mid)
+    return 0.5 * (low + high)
 
 
 def band_count_threshold(false_alarm_rate: float, window: int = WINDOW_MEASUREMENTS, p_out: float = 0.01) -> int:
