@@ -183,7 +183,8 @@ def test_broken_warns_widens_the_life_interval_and_is_saved():
     params = axis.guides["guide"].params
     again = AxisMonitor(params)
     again.restore_guide("guide", axis.guide_state("guide"))
-    assert {k: again.report()[k] for k in fit_watch.FIT_STATUS_KEYS} == {k: r[k] for k in fit_watch.FIT_STATUS_KEYS}
+    restored = again.report()
+    assert {k: restored[k] for k in fit_watch.FIT_STATUS_KEYS} == {k: r[k] for k in fit_watch.FIT_STATUS_KEYS}
     # a state saved before the watch existed loads, with a new test
     old = axis.guide_state("guide")
     del old["fit_watch"]
@@ -212,9 +213,9 @@ def test_a_regrind_clears_the_alarm():
 
 @pytest.mark.ros
 def test_live_node_reports_the_fit_keys_as_replay(tmp_path, ros_test_env):
-    """A bench bag with a 6 um gauge offset from 1 h (1 h in, K's wide prior still absorbs 3 um) through bag_player -> wear_monitor: every fit key of
-    /diagnostics equals the offline replay's (texts exactly, numbers to 1e-6: the measurement-dating gap of
-    test_live_replay is ~1e-9 here)."""
+    """A bench bag with a 6 um gauge offset from 1 h (1 h in, K's wide prior still absorbs 3 um) through
+    bag_player -> wear_monitor: every fit key of /diagnostics equals the offline replay's (texts exactly,
+    numbers to 1e-6: the measurement-dating gap of test_live_replay is ~1e-9 here)."""
     pytest.importorskip("rclpy")
     from guide_health.analysis.replay import analyse
     from guide_health.io.bag.reader import read_machine_bag
