@@ -189,8 +189,8 @@ def test_running_in_remaining_life_coverage_seeds_0_to_9():
     """Seeds 0-9 (~40 s): point estimate within 10 % in every seed; coverage measured 7/10 with the file; without
     it 10/10 since the fit test finds the model broken and widens its interval (docs/model_file.md). The
     interval is calibrated (next test; seeds 100-159: 56/60); seeds 0, 8 and 9 miss because their last
-    measurements' noise is extreme (last-ten means +0.39, -0.35, +0.31 um: 2.0 to 2.4 sigma), which moves the fitted present straightness by 0.3-0.5 um: errors of 2.0-2.6 predicted sd,
-    none beyond 3."""
+    measurements' noise is extreme (last-ten means +0.39, -0.35, +0.31 um: 2.0 to 2.4 sigma), which moves
+    the fitted present straightness by 0.3-0.5 um: errors of 2.0-2.6 predicted sd, none beyond 3."""
     rows = coverage(range(10))
     hits = sum(covers(r["model"], r["truth_h"]) for r in rows)
     plain_hits = sum(covers(r["plain"], r["truth_h"]) for r in rows)
