@@ -61,12 +61,12 @@ def test_innovation_by_hand():
     assert inn.predicted_m == pytest.approx(37.1e-6, rel=1e-12)
     assert inn.predictive_sd_m == pytest.approx(math.sqrt(5.1341) * 1e-6, rel=1e-12)
     assert inn.sigma == pytest.approx(2.9 / math.sqrt(5.1341), rel=1e-12)
-    # the thermal term adds in quadrature: dT = 4 K, var c_T = (0.1 um/K)^2, var e = (0.3 um)^2, cov 0:
-    # s_T^2 = 16 x 0.01 + 0.09 = 0.25 um^2
-    s_t = fit_watch.thermal_sd_m(4.0, [[1e-14, 0.0], [0.0, 0.09e-12]])
-    assert s_t == pytest.approx(0.5e-6, rel=1e-12)
+    # the thermal term adds in quadrature: dT = 4 K, var c_T = (0.1 um/K)^2, var e = (0.3 um)^2,
+    # cov(c_T, e) = 0.02 um^2/K: s_T^2 = 16 x 0.01 + 2 x 4 x 0.02 + 0.09 = 0.41 um^2
+    s_t = fit_watch.thermal_sd_m(4.0, [[1e-14, 0.02e-12], [0.02e-12, 0.09e-12]])
+    assert s_t == pytest.approx(math.sqrt(0.41) * 1e-6, rel=1e-12)
     assert predict(40e-6, 15e-6, 5.0, 4.42e-6, 0.442e-6, 0.5e-6, s_t).predictive_sd_m == pytest.approx(
-        math.sqrt(5.3841) * 1e-6, rel=1e-12)
+        math.sqrt(5.5441) * 1e-6, rel=1e-12)
 
 
 def test_guide_innovation_is_the_posterior_before_the_update():
