@@ -174,5 +174,6 @@ def judge_model_fit(level: Level, text: str, fit: dict) -> tuple[Level, str]:
         return level, text
     return max(level, Level.WARN), (
         f"the model no longer fits since {fit['model_fit_since_utc']} ({fit['innovations_outside_99']} of the "
-        f"last {fit['innovation_window']} measurements outside the 99 % band): run `guide-health diagnose` on "
-        f"the bags since then; {text}")
+        f"last {fit['innovation_window']} measurements outside the 99 % band, innovation CUSUM "
+        f"{fit['innovation_cusum']:.1f} of {fit['innovation_cusum_threshold']:.2f}): run `guide-health diagnose` "
+        f"on the bags since then; {text}")
