@@ -155,7 +155,7 @@ def _comparable(state: dict) -> str:
     effects = state.get("effects")
     if isinstance(effects, dict):
         for name in ("measurement_pass_work_n", "measurement_temperature_offset_k"):   # not kept: NaN each
-            effects.setdefault(name, [math.nan] * len(effects.get("measurement_gradients", [])))
+            effects.setdefault(name, _encode([math.nan] * len(effects.get("measurement_gradients", []))))
         for name, default in ADDED_FIELDS.items():
             effects.setdefault(name, default)
 

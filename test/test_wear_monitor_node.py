@@ -177,7 +177,7 @@ def test_diagnostics_keys_levels_and_stale(ros_context, tmp_path):
         status = node.published[-1].status[0]
         texts = {kv.key: kv.value for kv in status.values}
         assert texts["load_source"] == "topic" and texts["limit_date_utc"].endswith("Z")   # the text keys
-        values = {k: float(v) for k, v in texts.items() if k not in ("lubrication_regime", "load_source")
+        values = {k: float(v) for k, v in texts.items() if k not in ("lubrication_regime", "load_source", "model_fit")
                   and "_utc" not in k}
         assert status.level == b"\x00", status.message
         assert values["sliding_distance_m"] == pytest.approx(1.2, rel=1e-6)

@@ -21,6 +21,7 @@ from guide_health.io.bag.cdr import RawBatchDecoder, RawMessageDecoder
 from guide_health.io.bag.interfaces import JOINT_STATE, WRENCH_STAMPED
 from guide_health.models.wear.axis import PRECISION_KEYS, AxisMonitor
 from guide_health.models.wear.feed import StampAlignedFeed
+from guide_health.models.wear.fit_watch import FIT_STATUS_KEYS
 from guide_health.models.wear.input_rules import (
     INVALID_STAMP,
     LOAD_INPUT,
@@ -48,7 +49,7 @@ EXTRA_PRECISION_KEYS = ("wear_coefficient_low", "wear_coefficient_high", "measur
                         "straightness_thermal_correction_um",
                         # where the load comes from; running hours and calendar (models/wear/running_time.py)
                         "load_source", "utilisation", "limit_date_utc", "limit_date_utc_low",
-                        "limit_date_utc_high", "idle_since_utc")
+                        "limit_date_utc_high", "idle_since_utc") + FIT_STATUS_KEYS
 TIMING_KEYS = ("load_samples", "callback_time_us", "model_time_us")
 # a sliding guide has no lubrication regime (absent, not nan)
 ROLLING_PRECISION_KEYS = ("lubrication_regime", "lambda", "asperity_load_share", "boundary_share_recent",

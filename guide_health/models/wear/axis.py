@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from guide_health.models.wear.fit_watch import widened_life_interval_s
 from guide_health.models.wear.gate import InputGate
 from guide_health.models.wear.guide import GuideWear
 from guide_health.models.wear.input_rules import (
@@ -38,6 +39,7 @@ from guide_health.models.wear.life import (
     Thresholds,
     forecast,
     judge,
+    judge_model_fit,
     remaining_life_interval_s,
 )
 from guide_health.models.wear.load_model import NormalLoadModel
@@ -120,6 +122,7 @@ class AxisMonitor:
                     self.baselines[name] = baseline(self.guides[name])
                     if math.isfinite(event.straightness_m):     # the value measured after it
                         self.baselines[name]["straightness_measured_m"] = float(event.straightness_m)
+                    self.guides[name].fit_watch.clear(int(event.t_ns))   # a new surface: a new fit test
         self.events.append(event)
         return reason
 
@@ -342,8 +345,12 @@ class AxisMonitor:
         loss_per_k, rate_per_k = guide.loss_per_k_m(), guide.integrator.straightness_rate_per_k_m_s()
         now = LifeNow(p.straightness_initial_m, p.straightness_limit_m, loss_per_k, rate_per_k, k, k_low, k_high)
         if guide.effect_wear is not None and math.isfinite(loss_per_k) and math.isfinite(rate_per_k):
-            return now, guide.effect_life_interval_s(k)
-        return now, remaining_life_interval_s(now)
+            life = guide.effect_life_interval_s(k)
+        else:
+            life = remaining_life_interval_s(now)
+        if guide.fit_watch.model_fit == "broken":     # the interval from the innovations' observed spread
+            life = widened_life_interval_s(life, guide.fit_watch.rms_sigma())
+        return now, life
 
     def guide_report(self, name: str) -> dict[str, Any]:
         """The numbers of one guide's `<axis> precision` status (INTERFACES.md keys) plus level and message."""
@@ -382,6 +389,7 @@ class AxisMonitor:
             "rejected_recent_share": share,
             **{rejected_key(r): n for r, n in gate.rejected.items()},
             **gate.stream_gaps.values(),
+            **guide.fit_watch.values(),
         }
         result.update(self._calendar(guide, life, life_low, life_high))
         if guide.thermal_drift:
@@ -391,6 +399,8 @@ class AxisMonitor:
                               guide.integrator.samples, p.joint)
         recent = RecentInputs(share, stream, reason, len(gate.recent[stream]) if stream else 0)
         result["level"], result["message"], clear = judge(judged, recent, Thresholds.from_params(p))
+        result["level"], result["message"] = judge_model_fit(result["level"], result["message"], result)
+        clear = judge_model_fit(clear, "", result)[0]
         gaps = gate.stream_gaps.message()
         if gaps:
             result["message"] = f"{result['message']}; {gaps}"

@@ -34,7 +34,8 @@ from guide_health.models.wear.effect_life import (
 from guide_health.models.wear.effect_wear import EffectWear
 from guide_health.models.wear.effects import straightness_wear_m
 from guide_health.models.wear.effects.parameters import EffectParameters
-from guide_health.models.wear.effects.registry import PHI_INDEX, RATE_NAMES, RATE_SUMS, SUM_INDEX
+from guide_health.models.wear.effects.registry import COVARIANCE_INDEX, PHI_INDEX, RATE_NAMES, RATE_SUMS, SUM_INDEX
+from guide_health.models.wear.fit_watch import FitWatch, model_key, predict, thermal_sd_m
 from guide_health.models.wear.input_rules import (
     MEASUREMENT_ALREADY_APPLIED,
     STRAIGHTNESS_TIME_BACKWARDS,
@@ -76,6 +77,8 @@ class GuideWear:
         self.temperature_t_ns: list[int] = []
         self.temperature_c: list[float] = []
         self.thermal_correction_m = 0.0   # the last correction applied (c_T (T - T_ref)) [m]
+        # the model-fit test on the innovations of the measurements (models/wear/fit_watch.py)
+        self.fit_watch = FitWatch(model_key=model_key(params, self.effects))
         self.rolling = None
         if params.guide_type == "rolling":
             self.rolling = RollingGuideMonitor(params)
@@ -158,10 +161,27 @@ class GuideWear:
             return STRAIGHTNESS_WITHOUT_TEMPERATURE
         correction = self.effects.thermal_drift_m_per_k * offset if self.thermal_drift else 0.0   # c_T (T - T_ref)
         self.thermal_correction_m = correction
+        self._watch_fit(t_ns, straightness_m - correction, offset)
         self.estimator.add(t_ns, straightness_m - correction, self.loss_per_k_m(), self.work_nm())
         if self.effect_wear is not None:
             self.effect_wear.on_measurement(offset)
         return None
+
+    def _watch_fit(self, t_ns: int, corrected_m: float, offset_k: float) -> None:
+        """The fit test's innovation of a measurement (corrected for thermal_drift) before K takes it: the
+        posterior of the measurements so far predicts it (fit_watch.predict)."""
+        g = self.loss_per_k_m()
+        if not math.isfinite(g):
+            return                      # no prediction before the stroke range is known
+        k, k_sd, _ = self.estimator.posterior(self.measurement_losses_per_k_m())
+        thermal = 0.0
+        if self.thermal_drift:
+            rows = [COVARIANCE_INDEX[n] for n in ("thermal_drift_m_per_k", "thermal_gauge_offset_m")]
+            thermal = thermal_sd_m(offset_k, self.effects.covariance_matrix()[np.ix_(rows, rows)])
+        z = predict(corrected_m, self.params["straightness_initial_m"], g, k, k_sd, self.estimator.noise_sd_m,
+                    thermal).sigma
+        if math.isfinite(z):
+            self.fit_watch.update(t_ns, z)
 
     # --- the wear effects (models/wear/effect_wear.py) ---------------------------------------------
     def _attach_effects(self) -> None:
@@ -310,6 +330,7 @@ class GuideWear:
             "load_t_ns": load_t_ns,
             "load_samples": load_samples,
             "rolling": None if self.rolling is None else self.rolling.state(),
+            "fit_watch": self.fit_watch.state(),
             **({} if self.effect_wear is None else {"effects": self.effect_wear.state()}),
             # thermal_drift: the readings a later measurement may take (by stamp)
             **({} if not self.thermal_drift else {"temperatures": {"reading_t_ns": list(self.temperature_t_ns),
@@ -344,3 +365,8 @@ class GuideWear:
                                                          self.thermal_offset_at_k)
         if self.rolling is not None and state.get("rolling"):
             self.rolling.restore(state["rolling"])
+        # the fit test goes on; another model than the saved one's (a new model file) starts it anew
+        self.fit_watch = FitWatch.from_state(state.get("fit_watch"))
+        key = model_key(self.params, self.effects)
+        if self.fit_watch.model_key != key:
+            self.fit_watch.clear(self.last_measurement_t_ns, key)

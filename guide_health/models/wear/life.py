@@ -179,3 +179,15 @@ def judge(now: PrecisionNow, recent: RecentInputs, th: Thresholds) -> tuple[Leve
     level, text = judge_inputs(*judge_precision(now, th), recent, th)
     clear = judge_inputs(*judge_precision(now, th, th.alarm_clear_margin), recent, th)[0]
     return level, text, clear
+
+
+def judge_model_fit(level: Level, text: str, fit: dict) -> tuple[Level, str]:
+    """WARN while the model-fit test says ``broken`` (models/wear/fit_watch.py; ``fit``: its status values),
+    naming since when and what to do."""
+    if fit["model_fit"] != "broken":
+        return level, text
+    return max(level, Level.WARN), (
+        f"the model no longer fits since {fit['model_fit_since_utc']} ({fit['innovations_outside_99']} of the "
+        f"last {fit['innovation_window']} measurements outside the 99 % band, innovation CUSUM "
+        f"{fit['innovation_cusum']:.1f} of {fit['innovation_cusum_threshold']:.2f}): run `guide-health diagnose` "
+        f"on the bags since then; {text}")

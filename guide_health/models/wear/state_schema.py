@@ -53,7 +53,8 @@ NON_NEGATIVE = frozenset({
     "sliding_distance_m", "archard_work_nm", "samples", "stroke_count", "stroke_sum_m",
     "stroke_sum_sq_m2", "stroke_min_m", "stroke_max_m", "load_samples", "travel_m",
     "load_power_travel", "recent_travel_m", "recent_load_power_travel", "boundary_travel_m", "window_travel_m",
-    "boundary", "mixed", "full_film", "reverse_travel_m", "pass_length_m"})
+    "boundary", "mixed", "full_film", "reverse_travel_m", "pass_length_m",
+    "cusum_high", "cusum_low", "innovations"})
 #: element kind of lists that are empty in a fresh monitor (the template cannot show it)
 #: (a NaN element marks a measurement taken before the stroke was known: Eq. 7's g_j not yet defined)
 #: fields added to the state after it was first written, with the value a state saved before them restores to
@@ -72,7 +73,9 @@ ADDED_FIELDS = {"measurement_gradients": [], "surface_start_m": 0.0,
                 "oil_temperature_t_ns": None,
                 # the running clock (models/wear/running_time.py): a state without it ran without idle pauses
                 "idle_ns": 0, "last_motion_t_ns": None, "last_counted_t_ns": None, "idle_pause_start_ns": [],
-                "idle_pause_end_ns": []}
+                "idle_pause_end_ns": [],
+                # the model-fit test (models/wear/fit_watch.py): a state without it starts a new test
+                "fit_watch": None}
 EMPTY_LIST_ELEMENT = {"duty_bucket_index": 0, "measurement_t_ns": 0, "measurement_loss_per_k_m": float("nan"),
                       "reading_t_ns": 0, "idle_pause_start_ns": 0, "idle_pause_end_ns": 0,
                       # NaN: a measurement restored from a state saved before these were kept (effect_wear.restore)
