@@ -2,6 +2,7 @@
 against Siegmund's approximation and a Monte Carlo run length, the false-alarm rate on clean simulated bench
 runs, detection of a K step x2 and of a 3 um gauge offset at 15 h, the WARN, the widened life interval, the
 saved state, and the clearing by a regrind or a new model file."""
+import dataclasses
 import math
 from pathlib import Path
 
@@ -15,6 +16,7 @@ from guide_health.models.wear.fit_watch import FitWatch, cusum_arl0, predict
 from guide_health.models.wear.maintenance import MaintenanceEvent
 from guide_health.models.wear.state_schema import check_precision_state
 from guide_health.params import simulation_params, wear_monitor_params
+from guide_health.params.typed import wear_axis_params
 from guide_health.sim.machine import simulate_machine
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -39,7 +41,7 @@ def run_watch(seed: int, hours: float, change: str = ""):
     run = simulate_machine(params, dict(sim, duration_h=hours), seed=seed, effects=effects)
     if change == "gauge":
         run.straightness_m[run.straightness_t_ns > run.straightness_t_ns[0] + CHANGE_H * HOUR_NS] += 3e-6
-    axis = AxisMonitor(params)
+    axis = AxisMonitor(wear_axis_params(params))
     axis.process_run(run)
     return axis, run
 
@@ -79,7 +81,7 @@ def test_guide_innovation_is_the_posterior_before_the_update():
     y = est.measurement_m[-1] + 1e-6          # a later reading 1 um above the last, at the present wear
     t = int(guide.integrator.last_t_ns)
     assert axis.on_straightness(t, y) is None
-    z = (y - (guide.params["straightness_initial_m"] + k * g)) / math.sqrt((g * k_sd) ** 2 + 0.5e-6 ** 2)
+    z = (y - (guide.params.straightness_initial_m + k * g)) / math.sqrt((g * k_sd) ** 2 + 0.5e-6 ** 2)
     assert guide.fit_watch.last_sigma == pytest.approx(z, rel=1e-9)
     assert est.count == len(before) + 1
 
@@ -140,7 +142,7 @@ def test_clean_runs_false_alarm_rate_over_50_seeds():
     alarms, watched = 0, 0
     for seed in range(50):
         run = simulate_machine(params, dict(sim, duration_h=30.0, joint_state_rate_hz=50.0), seed=seed)
-        axis = AxisMonitor(params)
+        axis = AxisMonitor(wear_axis_params(params))
         axis.process_run(run)
         w = axis.guides["guide"].fit_watch
         alarms += w.first_fired_t_ns is not None
@@ -194,7 +196,7 @@ def test_broken_warns_widens_the_life_interval_and_is_saved():
     again.restore_guide("guide", old)
     assert again.report()["model_fit"] == "ok"
     # another model (a new model file: here another K prior) starts the test anew
-    again = AxisMonitor(dict(params, wear_coefficient=params["wear_coefficient"] * 2))
+    again = AxisMonitor(dataclasses.replace(params, wear_coefficient=params.wear_coefficient * 2))
     again.restore_guide("guide", axis.guide_state("guide"))
     assert again.report()["model_fit"] == "ok" and again.report()["level"] == Level.OK
 

@@ -53,7 +53,7 @@ from guide_health.models.wear.maintenance import (
     repeat_of,
     stamp_text,
 )
-from guide_health.models.wear.running_time import limit_dates, utc_text
+from guide_health.models.wear.running_time import calendar_keys
 
 #: the keys every `<axis> precision` status carries ('nan' until known; README "Diagnostics")
 PRECISION_KEYS = ("straightness_um", "straightness_measured_um", "straightness_limit_um", "remaining_life_h",
@@ -391,7 +391,8 @@ class AxisMonitor:
             **gate.stream_gaps.values(),
             **guide.fit_watch.values(),
         }
-        result.update(self._calendar(guide, life, life_low, life_high))
+        result.update(load_source=guide.params.load_source,
+                      **calendar_keys(guide.integrator.clock, life, life_low, life_high))
         if guide.thermal_drift:
             # straightness_measured_um is the corrected reading; this is what was taken off the last one
             result["straightness_thermal_correction_um"] = guide.thermal_correction_m * 1e6
@@ -415,18 +416,6 @@ class AxisMonitor:
             else:
                 result["message"] = f"{result['message']}; {text}"
         return result
-
-    def _calendar(self, guide: GuideWear, *life_s: float) -> dict[str, Any]:
-        """Which load source, the utilisation, the limit's calendar dates and, while idle, since when
-        (models/wear/running_time.py)."""
-        clock = guide.integrator.clock
-        utilisation = clock.utilisation()
-        out = {"load_source": guide.params.load_source, "utilisation": utilisation,
-               **limit_dates(clock.last_t_ns, tuple(s / 3600.0 for s in life_s), utilisation)}
-        idle = clock.idle_since_ns()
-        if idle is not None:
-            out["idle_since_utc"] = utc_text(idle)
-        return out
 
     def guide_forecast(self, name: str, points: int = 60) -> dict[str, Any]:
         """One guide's straightness from now to the limit (models/wear/life.forecast): {} without a finite

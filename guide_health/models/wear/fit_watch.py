@@ -128,10 +128,10 @@ def utc_text(t_ns: int | None) -> str:
 MODEL_PARAMS = ("wear_coefficient", "wear_coefficient_prior_rel_sd", "straightness_initial_m", "straightness_noise_m")
 
 
-def model_key(params: dict, effects) -> str:
+def model_key(params, effects) -> str:
     """A short digest of the model the test judges (MODEL_PARAMS and the effect parameters, covariance
     included): another model file gives another key."""
-    text = repr([params.get(n) for n in MODEL_PARAMS] + [effects])
+    text = repr([getattr(params, n) for n in MODEL_PARAMS] + [effects])
     return hashlib.sha1(text.encode()).hexdigest()[:12]
 
 

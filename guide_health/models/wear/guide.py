@@ -178,7 +178,7 @@ class GuideWear:
         if self.thermal_drift:
             rows = [COVARIANCE_INDEX[n] for n in ("thermal_drift_m_per_k", "thermal_gauge_offset_m")]
             thermal = thermal_sd_m(offset_k, self.effects.covariance_matrix()[np.ix_(rows, rows)])
-        z = predict(corrected_m, self.params["straightness_initial_m"], g, k, k_sd, self.estimator.noise_sd_m,
+        z = predict(corrected_m, self.params.straightness_initial_m, g, k, k_sd, self.estimator.noise_sd_m,
                     thermal).sigma
         if math.isfinite(z):
             self.fit_watch.update(t_ns, z)

@@ -189,3 +189,15 @@ def limit_dates(now_ns: int | None, life_h: tuple[float, float, float], utilisat
     if now_ns is None:
         return dict.fromkeys(keys, "")
     return {key: utc_text(now_ns + calendar_hours(h, utilisation) * 3600.0 * NS_PER_S) for key, h in zip(keys, life_h)}
+
+
+def calendar_keys(clock: RunningClock, *life_s: float) -> dict:
+    """The utilisation, the limit's calendar dates at it (``life_s``: remaining life, low, high [running s])
+    and, while idle, since when: the status keys of the running clock."""
+    utilisation = clock.utilisation()
+    out = {"utilisation": utilisation,
+           **limit_dates(clock.last_t_ns, tuple(s / 3600.0 for s in life_s), utilisation)}
+    idle = clock.idle_since_ns()
+    if idle is not None:
+        out["idle_since_utc"] = utc_text(idle)
+    return out
