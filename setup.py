@@ -24,7 +24,7 @@ setup(
     maintainer_email="guide-health@example.com",
     description="Guideway and slewing-bearing condition monitoring for ROS 2",
     license="Apache-2.0",
-    extras_require={"test": ["pytest", "hypothesis", "zstandard", "contactmechanics", "SurfaceTopography", "ruff"]},
+    extras_require={"test": ["pytest", "pytest-xdist", "hypothesis", "zstandard", "contactmechanics", "SurfaceTopography", "ruff"]},
     entry_points={
         "console_scripts": [
             "guide-health = guide_health.cli:main",
