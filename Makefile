@@ -6,6 +6,9 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.guide_health-installed
 PYTEST_ARGS ?=
+# the suite on two pytest-xdist workers (CI's machine has two cores; each file's tests stay on one worker, so a
+# module fixture is built once). `make test XDIST=` runs it in one process.
+XDIST  ?= -n 2 --dist loadfile
 
 .PHONY: venv demo test test-all bench clean
 
@@ -22,10 +25,10 @@ demo: $(STAMP)
 	$(PY) -m guide_health.demo --out out/demo
 
 test: $(STAMP)
-	$(PY) -m pytest -q $(PYTEST_ARGS)
+	$(PY) -m pytest -q $(XDIST) $(PYTEST_ARGS)
 
 test-all: $(STAMP)
-	$(PY) -m pytest -q -m "" $(PYTEST_ARGS)
+	$(PY) -m pytest -q -m "" $(XDIST) $(PYTEST_ARGS)
 
 clean:
 	rm -rf out build install log *.egg-info

@@ -25,7 +25,8 @@ setup(
     maintainer_email="guide-health@example.com",
     description="Guideway and slewing-bearing condition monitoring for ROS 2",
     license="Apache-2.0",
-    extras_require={"test": ["pytest", "hypothesis", "zstandard", "mcap", "contactmechanics", "SurfaceTopography", "ruff"]},
+    extras_require={"test": ["pytest", "pytest-xdist", "hypothesis", "zstandard", "mcap", "contactmechanics",
+                             "SurfaceTopography", "ruff"]},
     entry_points={
         "console_scripts": [
             "guide-health = guide_health.cli:main",

@@ -47,6 +47,9 @@ IMPORTS: dict[str, tuple[str, str | None]] = {
 }
 #: tools the tests run as programs (no import): package.xml key, pip requirement, the test that runs it
 TOOLS = {"ruff": ("ruff", "ruff", "test_code_quality.py")}
+#: pytest plugins a command line loads (no import): package.xml key, pip requirement, the file and the option
+#: that load it (`make test` runs the suite on two xdist workers)
+PLUGINS = {"xdist": ("python3-pytest-xdist", "pytest-xdist", "Makefile", "-n 2")}
 #: standard library from Python 3.14 on (guide_health/io/bag/mcap_records.py falls back to backports.zstd)
 STDLIB_LATER = {"compression"}
 #: namespace packages, named by their first two components
@@ -146,11 +149,15 @@ def test_package_xml_declares_every_import():
     for tool, (key, _, test_file) in TOOLS.items():
         assert tool in (ROOT / "test" / test_file).read_text()
         assert key in keys["test"], f"{tool} (run by {test_file}) has no <test_depend>"
+    for plugin, (key, _, user, option) in PLUGINS.items():
+        assert option in (ROOT / user).read_text(), f"{user} no longer loads {plugin} ({option})"
+        assert key in keys["test"], f"{plugin} (loaded by {user}) has no <test_depend>"
 
 
 def test_package_xml_declares_nothing_unused():
     keys = package_xml_keys()
-    test_only = {IMPORTS[name][0] for name in set(TESTS) - set(RUNTIME)} | {k for k, _, _ in TOOLS.values()}
+    test_only = {IMPORTS[name][0] for name in set(TESTS) - set(RUNTIME)} | {k for k, _, _ in TOOLS.values()} | {
+        k for k, _, _, _ in PLUGINS.values()}
     assert keys["exec"] == {IMPORTS[name][0] for name in RUNTIME}, "exec_depend keys no import needs (or missing)"
     assert keys["test"] == test_only, "test_depend keys: only what the tests alone import or run"
 
@@ -176,6 +183,8 @@ def test_setup_py_and_requirements_txt_install_every_import():
         assert requirement in wanted, f"{name}: {requirement} not in requirements.txt"
     for tool, (_, requirement, _) in TOOLS.items():
         assert requirement in test_extra and requirement in wanted, tool
+    for plugin, (_, requirement, _, _) in PLUGINS.items():
+        assert requirement in test_extra and requirement in wanted, plugin
     # the colcon install test (test_colcon_install.py) runs where `make test` installed colcon
     assert "colcon-common-extensions" in wanted
 
