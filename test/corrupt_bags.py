@@ -7,6 +7,7 @@ import struct
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 from guide_health.io.bag.interfaces import JOINT_STATE
 from guide_health.io.bag.typestore import header, message, typestore
@@ -36,8 +37,20 @@ def replace_rows(bag: Path, data_of_row: dict[int, bytes]) -> None:
 
 
 def delete_rows(bag: Path, rows) -> None:
+    """Delete messages and recount metadata.yaml (a count above the stored rows is a refused bag)."""
     with sqlite3.connect(db_file(bag)) as db:
         db.executemany("DELETE FROM messages WHERE id = ?", [(int(i),) for i in rows])
+        counts = dict(db.execute("SELECT t.name, COUNT(m.id) FROM topics t LEFT JOIN messages m "
+                                 "ON m.topic_id = t.id GROUP BY t.name").fetchall())
+    path = Path(bag) / "metadata.yaml"
+    info = yaml.safe_load(path.read_text())
+    meta = info["rosbag2_bagfile_information"]
+    for entry in meta["topics_with_message_count"]:
+        entry["message_count"] = counts.get(entry["topic_metadata"]["name"], 0)
+    meta["message_count"] = sum(counts.values())
+    for f in meta.get("files", []):
+        f["message_count"] = sum(counts.values())
+    path.write_text(yaml.safe_dump(info, sort_keys=False))
 
 
 def joint_state(t_ns: int, names, positions, velocities=()) -> bytes:

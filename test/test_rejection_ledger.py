@@ -33,6 +33,7 @@ from guide_health.io.bag.payload import PayloadCheck, min_cdr_size
 from guide_health.io.bag.reader import read_machine_bag
 from guide_health.io.bag.typestore import header, message, typestore
 from guide_health.models.wear import input_rules as rules
+from guide_health.params.typed import wear_axis_params
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -282,7 +283,7 @@ def test_message_rejections_enter_the_recent_window_at_their_place():
     from guide_health.models.wear.gate import InputGate
     from guide_health.params import WEAR_MONITOR_DEFAULTS
 
-    gate = InputGate(dict(WEAR_MONITOR_DEFAULTS))
+    gate = InputGate(wear_axis_params(dict(WEAR_MONITOR_DEFAULTS)))
     bad, missing = rules.MALFORMED_JOINT_STATES, rules.joint_missing("x")
     gate.accept_run(_run_with_messages([("joint_states", 0, bad), ("joint_states", 3, missing),
                                         ("guide/load", 5, rules.MALFORMED_LOAD),

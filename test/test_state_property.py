@@ -245,6 +245,10 @@ def check_refused_with_one_line_or_loaded_exactly(store, params: dict, text: str
         # (GuideWear.restore, effect_wear.estimate_pass_work); everything else loads exactly
         assert state["effects"]["pass_work_n"] >= 0.0
         effects["pass_work_n"], effects["buckets"] = state["effects"]["pass_work_n"], state["effects"]["buckets"]
+    if "fit_watch" not in saved:
+        # a row without the model-fit test (saved before it existed): restore starts a new test
+        assert state["fit_watch"]["innovations"] == 0 and state["fit_watch"]["model_fit"] == "ok"
+        saved["fit_watch"] = state["fit_watch"]
     assert _comparable(state) == _comparable(_decode_like_store(saved))
     report = monitor.report()
     assert set(report) >= {"level", "message", "straightness_um"}
