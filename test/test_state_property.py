@@ -209,6 +209,17 @@ def test_the_uncorrupted_effects_row_loads_exactly(effect_store):
     assert EFFECT_BASE["effects"]["last_relubrication_t_ns"] is not None
 
 
+def test_an_effects_row_without_temperature_offsets_rebuilds_them_from_its_readings(effect_store):
+    """A row saved before T - T_ref was kept per measurement: restore rebuilds the offsets from the row's
+    temperature readings (finite, one per measurement), and the rest loads exactly."""
+    row = json.loads(json.dumps(_encode(EFFECT_BASE)))
+    saved = row["effects"].pop("measurement_temperature_offset_k")
+    check_refused_with_one_line_or_loaded_exactly(effect_store, EFFECT_PARAMS, json.dumps(row))
+    monitor = PrecisionMonitor(wear_axis_params(EFFECT_PARAMS))
+    assert resume_monitor(effect_store, KEY, fingerprint(EFFECT_PARAMS), monitor)
+    assert monitor.state()["effects"]["measurement_temperature_offset_k"] == pytest.approx(saved, abs=1e-9)
+
+
 @hypothesis.settings(max_examples=200, deadline=None, derandomize=True,
                      suppress_health_check=[hypothesis.HealthCheck.function_scoped_fixture])
 @hypothesis.given(corrupted_rows(EFFECT_BASE, EFFECT_PATHS))
@@ -245,6 +256,12 @@ def check_refused_with_one_line_or_loaded_exactly(store, params: dict, text: str
         # (GuideWear.restore, effect_wear.estimate_pass_work); everything else loads exactly
         assert state["effects"]["pass_work_n"] >= 0.0
         effects["pass_work_n"], effects["buckets"] = state["effects"]["pass_work_n"], state["effects"]["buckets"]
+    if isinstance(effects, dict) and "measurement_temperature_offset_k" not in effects:
+        # a row without T - T_ref per measurement: restore rebuilds them from the temperature readings where it
+        # holds them (GuideWear.restore, effect_wear.rebuild_temperature_offsets), NaN otherwise
+        rebuilt = state["effects"]["measurement_temperature_offset_k"]
+        assert len(rebuilt) == len(state["effects"]["measurement_gradients"])
+        effects["measurement_temperature_offset_k"] = rebuilt
     if "fit_watch" not in saved:
         # a row without the model-fit test (saved before it existed): restore starts a new test
         assert state["fit_watch"]["innovations"] == 0 and state["fit_watch"]["model_fit"] == "ok"
