@@ -22,7 +22,6 @@ from typing import Any
 
 import numpy as np
 
-from guide_health.models.wear.fit_watch import widened_life_interval_s
 from guide_health.models.wear.gate import InputGate
 from guide_health.models.wear.guide import GuideWear
 from guide_health.models.wear.input_rules import (
@@ -40,7 +39,6 @@ from guide_health.models.wear.life import (
     forecast,
     judge,
     judge_model_fit,
-    remaining_life_interval_s,
 )
 from guide_health.models.wear.load_model import NormalLoadModel
 from guide_health.models.wear.maintenance import (
@@ -53,6 +51,7 @@ from guide_health.models.wear.maintenance import (
     repeat_of,
     stamp_text,
 )
+from guide_health.models.wear.planning import LifeInputs, life_interval
 from guide_health.models.wear.running_time import calendar_keys
 
 #: the keys every `<axis> precision` status carries ('nan' until known; README "Diagnostics")
@@ -339,18 +338,23 @@ class AxisMonitor:
     def _life(self, name: str) -> tuple[LifeNow, tuple[float, float, float]]:
         """One guide's :class:`~guide_health.models.wear.life.LifeNow` and its (life, low, high) [s]: with the
         effects effect_life.life_interval_s (delta method), else life.remaining_life_interval_s."""
+        inputs = self.life_inputs(name)
+        return inputs.now, life_interval(inputs)
+
+    def life_inputs(self, name: str) -> LifeInputs:
+        """What one guide's remaining life is computed from (models/wear/planning.py: the status and every
+        planning scenario go through planning.life_interval)."""
         guide = self.guides[name]
         p = guide.params
         k_low, k, k_high = guide.estimator.interval90(guide.measurement_losses_per_k_m())
         loss_per_k, rate_per_k = guide.loss_per_k_m(), guide.integrator.straightness_rate_per_k_m_s()
         now = LifeNow(p.straightness_initial_m, p.straightness_limit_m, loss_per_k, rate_per_k, k, k_low, k_high)
+        effect = None
         if guide.effect_wear is not None and math.isfinite(loss_per_k) and math.isfinite(rate_per_k):
-            life = guide.effect_life_interval_s(k)
-        else:
-            life = remaining_life_interval_s(now)
-        if guide.fit_watch.model_fit == "broken":     # the interval from the innovations' observed spread
-            life = widened_life_interval_s(life, guide.fit_watch.rms_sigma())
-        return now, life
+            effect = guide.effect_life_inputs(k)
+        # while the model-fit test says broken: the interval from the innovations' observed spread
+        widen = guide.fit_watch.rms_sigma() if guide.fit_watch.model_fit == "broken" else None
+        return LifeInputs(now, effect, widen)
 
     def guide_report(self, name: str) -> dict[str, Any]:
         """The numbers of one guide's `<axis> precision` status (INTERFACES.md keys) plus level and message."""

@@ -247,6 +247,10 @@ class GuideWear:
     def effect_life_interval_s(self, k: float):
         """(life, low, high) [s] with the effects (models/wear/effect_life.life_interval_s): K's online spread
         and the model file's covariance of K and the effect parameters."""
+        return life_interval_s(*self.effect_life_inputs(k))
+
+    def effect_life_inputs(self, k: float) -> tuple:
+        """The arguments (k, k_sd, effects, EffectLifeNow, z) of effect_life.life_interval_s now."""
         f = self.effect_forecast()
         work = self.work_nm()
         est = self.estimator
@@ -288,7 +292,7 @@ class GuideWear:
             a0_measured=(self.straightness_initial_configured_m is not None
                          and self.params.straightness_initial_m != self.straightness_initial_configured_m))
         z = float(stdtrit(n - 1, 0.95)) if n >= 3 else Z90
-        return life_interval_s(k, k_sd, self.effects, now, z)
+        return k, k_sd, self.effects, now, z
 
     def measurement_losses_per_k_m(self) -> np.ndarray:
         """g_j of each measurement: for Eq. 7 recomputed with the present stroke estimate."""

@@ -136,11 +136,15 @@ class RunningClock:
         if span <= 0:
             return math.nan
         start = now - span
+        idle = sum(max(0, min(b, now) - max(a, start)) for a, b in self.idle_pauses())
+        return 1.0 - idle / span
+
+    def idle_pauses(self) -> list[tuple[int, int]]:
+        """The idle pauses (start, end) [ns] the window remembers, the ongoing one ending at the latest sample."""
         pauses = list(zip(self.idle_pause_start_ns, self.idle_pause_end_ns))
         if self.idle_since_ns() is not None:
-            pauses.append((self.last_counted_t_ns, now))
-        idle = sum(max(0, min(b, now) - max(a, start)) for a, b in pauses)
-        return 1.0 - idle / span
+            pauses.append((self.last_counted_t_ns, self.last_t_ns))
+        return pauses
 
     def _forget(self, t_ns: int) -> None:
         """Forget the pauses that ended before the utilisation window ending at ``t_ns`` (the latest pause's
