@@ -23,6 +23,7 @@ from guide_health.io.outputs.json_text import json_text
 COMMANDS: list[tuple[tuple[str, ...], str, str]] = [
     (("simulate",), "simulate:SIMULATE", "write a rosbag2 bag of a simulated machine run"),
     (("replay",), "replay:REPLAY", "offline analysis of a bag with the live node's models"),
+    (("plan",), "plan:PLAN", "limit dates at the observed utilisation and under what-if scenarios"),
     (("diagnose",), "diagnose:DIAGNOSE", "find and name the physics the model misses (discrepancy workflow)"),
     (("calibrate", "pin-on-disc"), "calibrate:PIN_ON_DISC", "wear coefficient K from pin-on-disc rows"),
     (("contact", "slewing"), "contact:SLEWING", "slewing-bearing roller/raceway stresses"),

@@ -280,6 +280,7 @@ def plan_scenario(inputs: LifeInputs, observed: Utilisation, now_ns: int, s: Sce
                              f"{utc_text(now_ns)}")
         out["regrind_utc"] = utc_text(s.regrind_t_ns)
         out["regrind_late"] = bool(stamps[0] <= s.regrind_t_ns)
+        out["present_limit_t_ns"] = stamps[0]                                 # the present surface's
         if not out["regrind_late"]:
             fresh = life_interval(scenario_inputs(inputs, s, fresh=True))
             before = (s.regrind_t_ns - now_ns) / NS_PER_S * u.mean            # running s until the regrind
