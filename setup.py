@@ -26,7 +26,7 @@ setup(
     description="Guideway and slewing-bearing condition monitoring for ROS 2",
     license="Apache-2.0",
     extras_require={"test": ["pytest", "pytest-xdist", "hypothesis", "zstandard", "mcap", "contactmechanics",
-                             "SurfaceTopography", "ruff"]},
+                             "SurfaceTopography", "ruff", "icalendar"]},
     entry_points={
         "console_scripts": [
             "guide-health = guide_health.cli:main",

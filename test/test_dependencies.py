@@ -44,6 +44,7 @@ IMPORTS: dict[str, tuple[str, str | None]] = {
     "mcap": ("python3-mcap-pip", "mcap"),
     "ContactMechanics": ("python3-contactmechanics-pip", "contactmechanics"),
     "SurfaceTopography": ("python3-surfacetopography-pip", "surfacetopography"),
+    "icalendar": ("python3-icalendar", "icalendar"),
 }
 #: tools the tests run as programs (no import): package.xml key, pip requirement, the test that runs it
 TOOLS = {"ruff": ("ruff", "ruff", "test_code_quality.py")}

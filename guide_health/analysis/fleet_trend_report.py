@@ -12,10 +12,14 @@ import html
 import math
 from pathlib import Path
 
+from guide_health.analysis.fleet_plan import dues_from_history, plan_section_html, schedule
 from guide_health.analysis.fleet_trend import MachineTrend, iso, ranking, read_trends, safe_name, write_trend_csv
 from guide_health.analysis.fleet_trend_plots import plot_fleet_overview, plot_machine_trend
 from guide_health.errors import InputError
 from guide_health.io.outputs.files import open_output, write_text
+
+#: the page's maintenance plan: `fleet plan`'s defaults
+PLAN_HORIZON_S, PLAN_GROUP_DAYS = 12 * 7 * 86400.0, 7.0
 
 
 def write_trend_report(db: Path, out: Path, machine: str | None = None, days: float | None = None) -> dict:
@@ -38,7 +42,7 @@ def write_trend_report(db: Path, out: Path, machine: str | None = None, days: fl
         writer.writeheader()
         writer.writerows(rows)
     page = out / "index.html"
-    write_text(page, trend_html(db, rows, trends, overview, files))
+    write_text(page, trend_html(db, rows, trends, overview, files, plan_section(db)))
     return {"history": str(db), "machines": len(trends), "rows": sum(len(t.t_unix_s) for t in trends.values()),
             "ranking": rows, "level_changes": {m: t.level_changes() for m, t in trends.items()},
             "files": {"html": str(page), "overview_png": str(overview), "ranking_csv": str(out / "ranking.csv"),
@@ -60,9 +64,20 @@ def _fmt(value: float, digits: str = ".1f") -> str:
     return "&ndash;" if not isinstance(value, float) or math.isnan(value) else format(value, digits)
 
 
+def plan_section(db: Path) -> str:
+    """The maintenance plan's section (analysis/fleet_plan.py, `fleet plan`'s defaults: 12 weeks from the
+    newest row, stops of 7 days); '' when no status carries a limit date."""
+    dues, newest = dues_from_history(db)
+    if not dues:
+        return ""
+    return plan_section_html(schedule(dues, newest, PLAN_HORIZON_S, PLAN_GROUP_DAYS), newest, PLAN_HORIZON_S,
+                             PLAN_GROUP_DAYS)
+
+
 def trend_html(db: Path, rows: list[dict], trends: dict[str, MachineTrend], overview: Path,
-               files: dict[str, dict[str, str]]) -> str:
-    """The static page: ranking table, fleet overview, per machine its plot and level changes."""
+               files: dict[str, dict[str, str]], plan_html: str = "") -> str:
+    """The static page: ranking table, the maintenance plan, fleet overview, per machine its plot and level
+    changes."""
     e = html.escape
     colour = {"OK": "#d5f5e3", "WARN": "#fdebd0", "ERROR": "#f5b7b1", "STALE": "#e5e7e9"}
     table = "".join(
@@ -94,6 +109,7 @@ Ranked by the latest remaining precision life (least first).</p>
 <table><tr><th>#</th><th>machine</th><th>level</th><th>remaining life [h]</th><th>straightness [um]</th>
 <th>life used</th><th>end-stress ratio</th><th>level changes</th><th>last seen (UTC)</th></tr>{table}</table>
 <p>Data (embedded): {_embedded_csv(overview.parent / "ranking.csv")}</p>
+{plan_html}
 <h2>Fleet overview</h2><img alt="fleet overview" src="{_data_uri(overview)}">
 {''.join(sections)}
 </body></html>

@@ -31,6 +31,7 @@ COMMANDS: list[tuple[tuple[str, ...], str, str]] = [
     (("life",), "life:LIFE", "rating life, Miner consumption and C from life tests"),
     (("fleet", "replay"), "fleet:FLEET_REPLAY", "replay many bags on Dask: one report each, a fleet table"),
     (("fleet", "diagnose"), "fleet:FLEET_DIAGNOSE", "diagnose many bags on Dask: one report each, a fleet table"),
+    (("fleet", "plan"), "fleet_plan:FLEET_PLAN", "machines/axes due for a regrind within a horizon, grouped stops"),
     (("fleet", "prior"), "fleet:FLEET_PRIOR", "K prior of a machine type from its replayed/diagnosed machines"),
     (("fleet", "trend"), "fleet:FLEET_TREND", "per-machine trends and an HTML page from the fleet_monitor history"),
     (("maintenance",), "maintenance:MAINTENANCE", "enter a maintenance event on a running wear_monitor (rclpy)"),
