@@ -32,11 +32,15 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
+from std_srvs.srv import Trigger
 
+from guide_health.analysis.plan_report import plan_axis
 from guide_health.errors import InputError
 from guide_health.io.bag.maintenance import MAINTENANCE_TOPIC, EventDecodeError, event_from_status, event_values
+from guide_health.io.outputs.json_text import json_text
 from guide_health.io.state_store import StateStore, resolve_state_path, resume_monitor, resume_with
 from guide_health.models.wear.input_rules import INVALID_STAMP, MAINTENANCE_MALFORMED
+from guide_health.models.wear.planning import parse_scenario
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.models.wear.state_schema import state_fingerprint
 from guide_health.nodes.axis_channel import (  # noqa: F401 - the status keys are part of this module's API
@@ -119,6 +123,7 @@ class WearMonitorNode(Node):
         # maintenance events (docs/machine.md): published by the services, taken from any publisher or bag
         self.event_pub = self.create_publisher(DiagnosticArray, MAINTENANCE_TOPIC, EVENT_QOS)
         self.create_subscription(DiagnosticArray, MAINTENANCE_TOPIC, self._on_events, EVENT_READ_QOS)
+        self.create_service(Trigger, "plan", self._on_plan)     # parameter plan_scenario: docs/planning.md
         self.periodic.create("diagnostics_period_s", params["diagnostics_period_s"], self.publish_diagnostics)
         if self.store is not None:
             self.periodic.create("checkpoint_period_s", params["checkpoint_period_s"], self.checkpoint)
@@ -219,6 +224,22 @@ class WearMonitorNode(Node):
         values = {name: self.get_parameter(name).value for name in names}
         self.set_parameters([Parameter(name, value=WEAR_MONITOR_SCHEMA[name].default) for name in names])
         return values
+
+    def _on_plan(self, request, response):
+        """std_srvs/Trigger `plan`: the limit date of every guide of every axis as observed and under the
+        ``plan_scenario`` parameter's scenario, now (the inputs received so far integrated first); ``message``
+        the JSON of `guide-health plan --json` ({machine, rows}); a bad scenario: success False, the reason."""
+        self.process_inputs()
+        machine = str(self.params["machine_id"])
+        text = str(self.get_parameter("plan_scenario").value)
+        try:
+            scenarios = [parse_scenario(text)] if text.strip() else []
+            rows = [row for channel in self.channels for row in plan_axis(machine, channel.model, scenarios)]
+        except (ValueError, InputError) as exc:
+            response.success, response.message = False, str(exc).splitlines()[0]
+            return response
+        response.success, response.message = True, json_text({"machine": machine, "rows": rows})
+        return response
 
     def publish_event(self, event) -> None:
         msg = DiagnosticArray()

@@ -20,7 +20,8 @@ from guide_health.params.schema import NodeSchema, Param, check_unknown_keys, co
 #: wear_monitor parameters that hold for the whole node (not overridable per axis)
 MACHINE_WIDE = ("machine_id", "machine_type", "axes", "joint", "diagnostics_period_s", "input_timeout_s",
                 "checkpoint_period_s", "input_align_window_s", "executor", "state_file", "maintenance_guide",
-                "maintenance_straightness_m", "maintenance_time_s", "maintenance_note", "maintenance_repeat_window_s")
+                "maintenance_straightness_m", "maintenance_time_s", "maintenance_note", "maintenance_repeat_window_s",
+                "plan_scenario")
 #: guide_health_simulation parameters shared by all axes (one JointState carries every joint)
 SIMULATION_WIDE = ("duration_h", "joint_state_rate_hz", "measurement_interval_h")
 
@@ -45,6 +46,12 @@ MAINTENANCE_PARAMS = (
           "the same maintenance (axis, guide, kind, value) stamped again within this time of an applied one "
           "is a repeat: refused ('already applied at ...'), never applied twice [s, machine time base]",
           dynamic=True),
+)
+
+#: the scenario the `plan` service answers (std_srvs/Trigger; docs/planning.md)
+PLAN_PARAMS = (
+    Param("plan_scenario", "", "", "", "what-if of the next `plan` service call, the `guide-health plan --scenario` "
+          "grammar ('load=0.8, shift=8x5'); '' = as observed", dynamic=True),
 )
 
 AXIS_PARAMS = (

@@ -17,7 +17,7 @@ from guide_health.models.wear.effects.registry import (
     LIVE_EFFECT_IDS,
     LIVE_PARAMETERS,
 )
-from guide_health.params.machine import AXES_PARAM, MAINTENANCE_PARAMS
+from guide_health.params.machine import AXES_PARAM, MAINTENANCE_PARAMS, PLAN_PARAMS
 from guide_health.params.schema import NodeSchema, Param, alarm_and_sensor_qos_params
 
 _N = len(COVARIANCE_NAMES)
@@ -286,7 +286,8 @@ def hardness_units_warning(p: dict[str, Any]) -> str | None:
     return None
 
 
-WEAR_MONITOR_SCHEMA = NodeSchema("wear_monitor", SLIDING_GUIDE_PARAMS + ROLLING_GUIDE_PARAMS + MAINTENANCE_PARAMS,
+WEAR_MONITOR_SCHEMA = NodeSchema("wear_monitor", SLIDING_GUIDE_PARAMS + ROLLING_GUIDE_PARAMS + MAINTENANCE_PARAMS
+                                 + PLAN_PARAMS,
                                  _wear_all_checks)
 
 
