@@ -65,7 +65,8 @@ def dues_from_fleet_dir(path: Path) -> list[Due]:
         if entry["summary"]["command"] != "replay":
             raise InputError(f"{path}: a fleet diagnose forecasts no date; give a fleet replay directory")
         r = entry.get("result") or {}
-        axes = r["axes"] if isinstance(r.get("axes"), dict) else {str(r.get("axis", "axis")): r}
+        # a machine report: its axes; a single guide's report: one axis, named "axis"
+        axes = r["axes"] if "axes" in r and isinstance(r["axes"], dict) else {"axis": r}
         for axis, values in axes.items():
             due = _due(entry["machine"], axis, values) if isinstance(values, dict) else None
             if due is not None:

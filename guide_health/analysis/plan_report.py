@@ -7,6 +7,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from guide_health.analysis.plan_plots import plot_plan
 from guide_health.errors import InputError
 from guide_health.io.outputs.files import open_output, write_text
 from guide_health.io.outputs.json_text import json_text
@@ -81,8 +82,6 @@ def write_plan(out: Path, machine: str, rows: list[dict[str, Any]], plot: bool =
     files = {"csv": str(out / "plan.csv"), "json": str(out / "plan.json")}
     write_plan_csv(Path(files["csv"]), rows)
     if plot:
-        from guide_health.analysis.plan_plots import plot_plan
-
         files["png"] = str(out / f"plan_{machine}.png")
         plot_plan(Path(files["png"]), machine, rows)
     write_text(files["json"], json_text({"machine": machine, "rows": rows, "files": files}, indent=2,
