@@ -66,6 +66,30 @@ def test_no_change_scenario_is_the_live_status_exactly():
     assert plan["utilisation"] == report["utilisation"] == 1.0 and math.isfinite(plan["life_h"])
 
 
+def test_status_dates_carry_the_daily_utilisation_spread():
+    """Five days running 24, 4, 12, 12 and 20 h, each to its end (1 Hz samples): the window's 4 whole days back
+    from the latest sample vary; the status's limit_date_utc band is the plan's as observed (life band and
+    utilisation spread on ln), wider than now + (low, high) / u alone."""
+    day = 86400 * S
+    t = np.concatenate([T0 + (i + 1) * day - np.arange(hours * 3600, 0, -1) * S
+                        for i, hours in enumerate((24, 4, 12, 12, 20))])
+    phase = ((t - T0) / S) % 8.0
+    monitor = PrecisionMonitor(wear_axis_params(dict(WEAR_MONITOR_DEFAULTS, rail_start_m=-0.1, rail_length_m=0.5)))
+    monitor.process_run(MachineRun(joint_t_ns=t, joint_position_m=np.where(phase < 4.0, SPEED * phase,
+                                                                           2 * STROKE - SPEED * phase),
+                                   joint_velocity_m_s=np.zeros(0), load_t_ns=np.array([T0 - 1], np.int64),
+                                   load_n=np.array([200.0])))      # a light load: far from the limit
+    report, plan = monitor.report(), _plan(monitor)
+    assert report["remaining_life_h_low"] > 100
+    assert plan["utilisation_days"] == 4 and plan["utilisation_cv_daily"] > 0.3
+    for key in ("limit_date_utc", "limit_date_utc_low", "limit_date_utc_high"):
+        assert report[key] == plan[key]
+    now, u = monitor.integrator.clock.last_t_ns, report["utilisation"]
+    assert plan["limit_t_ns_low"] < now + report["remaining_life_h_low"] / u * 3600 * S - 3600 * S
+    assert plan["limit_t_ns_high"] > now + report["remaining_life_h_high"] / u * 3600 * S + 3600 * S
+    assert report["limit_date_utc"] == _utc(now + report["remaining_life_h"] / u * 3600 * S)
+
+
 def test_one_shift_date_is_the_running_life_over_the_weekly_hours_by_hand():
     """Known duty and K: Eq. 7/12 by hand, L = (A_max - A_now) / (K W v / H x 2 / (b (l_min + l_max))),
     A_now = A0 + K W s / H x 2 / (b (l_min + l_max)); at 8 h x 5 days the date is now + L / 40 h weeks."""

@@ -51,8 +51,7 @@ from guide_health.models.wear.maintenance import (
     repeat_of,
     stamp_text,
 )
-from guide_health.models.wear.planning import LifeInputs, life_interval
-from guide_health.models.wear.running_time import calendar_keys
+from guide_health.models.wear.planning import LifeInputs, life_interval, status_calendar_keys
 
 #: the keys every `<axis> precision` status carries ('nan' until known; README "Diagnostics")
 PRECISION_KEYS = ("straightness_um", "straightness_measured_um", "straightness_limit_um", "remaining_life_h",
@@ -396,7 +395,7 @@ class AxisMonitor:
             **guide.fit_watch.values(),
         }
         result.update(load_source=guide.params.load_source,
-                      **calendar_keys(guide.integrator.clock, life, life_low, life_high))
+                      **status_calendar_keys(guide.integrator.clock, (life, life_low, life_high)))
         if guide.thermal_drift:
             # straightness_measured_um is the corrected reading; this is what was taken off the last one
             result["straightness_thermal_correction_um"] = guide.thermal_correction_m * 1e6

@@ -33,6 +33,7 @@ from guide_health.models.wear.running_time import NS_PER_S, RunningClock, utc_te
 
 DAY_S = 86400.0
 WEEK_H = 168.0
+LIMIT_KEYS = ("limit_date_utc", "limit_date_utc_low", "limit_date_utc_high")
 _LN_RATE = {name: i for i, name in enumerate(RATE_NAMES)}
 
 
@@ -248,7 +249,7 @@ def calendar_band_s(life: tuple[float, float, float], u: Utilisation) -> tuple[f
     if not (u.mean > 0 and math.isfinite(mid) and mid >= 0):
         return (mid / u.mean if u.mean > 0 else math.nan,) * 3
     spread = Z90 * u.sd_ln(mid / u.mean / DAY_S)
-    if spread == 0.0:
+    if spread == 0.0 or mid == 0.0:
         return mid / u.mean, low / u.mean, high / u.mean
     h_low = math.log(mid / low) if low > 0 else math.inf
     h_high = math.log(high / mid) if mid > 0 and math.isfinite(high) else math.inf
@@ -258,6 +259,20 @@ def calendar_band_s(life: tuple[float, float, float], u: Utilisation) -> tuple[f
 
 def _stamp(now_ns: int, calendar_s: float) -> float:
     return now_ns + calendar_s * NS_PER_S if math.isfinite(calendar_s) else math.inf
+
+
+def status_calendar_keys(clock: RunningClock, life_s: tuple[float, float, float]) -> dict:
+    """The status's calendar keys: ``utilisation``, ``limit_date_utc`` and its band ``_low`` / ``_high`` (the
+    band of :func:`calendar_band_s`, the observed utilisation's daily spread included: the plan's 'as
+    observed' dates) from the latest sample, '' where unknown or never; while idle, ``idle_since_utc``."""
+    u, now = observed_utilisation(clock), clock.last_t_ns
+    cal = calendar_band_s(life_s, u) if now is not None else (math.nan,) * 3
+    out = {"utilisation": u.mean,
+           **{key: utc_text(_stamp(now, c)) if now is not None else "" for key, c in zip(LIMIT_KEYS, cal)}}
+    idle = clock.idle_since_ns()
+    if idle is not None:
+        out["idle_since_utc"] = utc_text(idle)
+    return out
 
 
 def plan_scenario(inputs: LifeInputs, observed: Utilisation, now_ns: int, s: Scenario | None = None) -> dict:

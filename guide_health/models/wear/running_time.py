@@ -19,7 +19,8 @@ A pause with no samples at all (machine or recorder off) is idle by the same rul
 Utilisation over a calendar window D (``utilisation_window_days``) ending at the latest sample t_now:
     u = 1 - (idle time in [t_now - S, t_now]) / S,      S = min(D, t_now - t_first)
 (the ongoing pause, (t_c, t_now] while idle, counts as idle). The remaining running life L [h] then lasts
-L / u calendar hours: the limit's calendar date is t_now + L / u (and its 90 % band from L's interval).
+L / u calendar hours: the limit's calendar date is t_now + L / u (its 90 % band from L's interval and the
+daily utilisation's spread: models/wear/planning.py status_calendar_keys).
 """
 from __future__ import annotations
 
@@ -169,13 +170,6 @@ class RunningClock:
         self.idle_pause_end_ns = [int(v) for v in state.get("idle_pause_end_ns", [])]
 
 
-def calendar_hours(running_hours: float, utilisation: float) -> float:
-    """Calendar hours that ``running_hours`` take at ``utilisation`` (L / u); NaN when either is unknown."""
-    if not (utilisation > 0) or math.isnan(running_hours):
-        return math.nan
-    return running_hours / utilisation
-
-
 def utc_text(t_ns: float) -> str:
     """ISO-8601 UTC date and time of a stamp [ns] to the second ('' when not finite or out of range)."""
     if not math.isfinite(t_ns):
@@ -184,24 +178,3 @@ def utc_text(t_ns: float) -> str:
         return datetime.fromtimestamp(t_ns * 1e-9, tz=UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
     except (OverflowError, OSError, ValueError):
         return ""
-
-
-def limit_dates(now_ns: int | None, life_h: tuple[float, float, float], utilisation: float) -> dict[str, str]:
-    """``limit_date_utc`` and its 90 % band ``_low`` (the short life) / ``_high``: now + L / u for the
-    remaining running life and its interval ends [h]; '' where a life or u is unknown or infinite."""
-    keys = ("limit_date_utc", "limit_date_utc_low", "limit_date_utc_high")
-    if now_ns is None:
-        return dict.fromkeys(keys, "")
-    return {key: utc_text(now_ns + calendar_hours(h, utilisation) * 3600.0 * NS_PER_S) for key, h in zip(keys, life_h)}
-
-
-def calendar_keys(clock: RunningClock, *life_s: float) -> dict:
-    """The utilisation, the limit's calendar dates at it (``life_s``: remaining life, low, high [running s])
-    and, while idle, since when: the status keys of the running clock."""
-    utilisation = clock.utilisation()
-    out = {"utilisation": utilisation,
-           **limit_dates(clock.last_t_ns, tuple(s / 3600.0 for s in life_s), utilisation)}
-    idle = clock.idle_since_ns()
-    if idle is not None:
-        out["idle_since_utc"] = utc_text(idle)
-    return out
