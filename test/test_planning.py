@@ -154,8 +154,9 @@ def test_relubrication_interval_moves_the_life_through_the_effect():
     same = _plan(monitor, parse_scenario("relube=2h"))
     assert often["life_h"] > _plan(monitor)["life_h"] > rarely["life_h"]
     assert same["life_h"] == _plan(monitor)["life_h"]
-    with pytest.raises(ValueError, match="lubrication_interval"):
-        _plan(_monitor(), parse_scenario("relube=30min"))
+    for other in ({}, {"effects": "load_exponent", "load_exponent": 1.2, "load_reference_n": LOAD_N}):
+        with pytest.raises(ValueError, match="lubrication_interval"):
+            _plan(_monitor(**other), parse_scenario("relube=30min"))
 
 
 def test_daily_utilisation_spread_widens_the_date_band():

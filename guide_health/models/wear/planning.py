@@ -179,8 +179,6 @@ def _effect_inputs(effect: tuple, s: Scenario, fresh: bool) -> tuple:
         dln[_LN_RATE["lift_speed_m_s"]] *= new / old if old > 0 else 1.0
     lub = now.lubrication
     if s.relubrication_interval_s is not None:
-        if lub is None:
-            raise ValueError("scenario relube needs the lubrication_interval effect named, with a growth, in the model")
         lub = dict(lub, interval_s=float(s.relubrication_interval_s))
     changes = dict(rate_work_per_k=now.rate_work_per_k * factor, rate_pass_per_k=now.rate_pass_per_k * factor,
                    v_s=now.v_s * s.speed_scale, dln_rate=dln, lubrication=lub)
@@ -193,7 +191,7 @@ def _effect_inputs(effect: tuple, s: Scenario, fresh: bool) -> tuple:
 def scenario_inputs(inputs: LifeInputs, s: Scenario, fresh: bool = False) -> LifeInputs:
     """The live inputs under a scenario's duty (``fresh``: on a reground surface, A = A0 now). Without the
     effects only the rate per K moves (and the straightness now when fresh)."""
-    if s.relubrication_interval_s is not None and inputs.effect is None:
+    if s.relubrication_interval_s is not None and (inputs.effect is None or inputs.effect[3].lubrication is None):
         raise ValueError("scenario relube needs the lubrication_interval effect named, with a growth, in the model")
     if inputs.effect is not None:
         effect = _effect_inputs(inputs.effect, s, fresh)
