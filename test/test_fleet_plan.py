@@ -90,7 +90,8 @@ def test_history_plan_and_the_trend_page_section(tmp_path, capsys):
         return datetime.fromtimestamp(t0 + d * DAY_S, tz=UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
 
     history = FleetHistory(str(tmp_path / "fleet.db"), period_s=0.0)
-    days = {"m1": 200, "m2": 10, "m3": 12, "m4": -1, "m5": 30, "m6": 90}     # lower-bound day after t0
+    # lower-bound day after t0 (the limit 5 days later: m7's lower bound is within 12 weeks, its limit not)
+    days = {"m1": 200, "m2": 10, "m3": 12, "m4": -1, "m5": 30, "m6": 90, "m7": 80}
     for m, d in days.items():
         history.record(t0 - 5 * DAY_S, m, "x precision", 0, "ok", {"limit_date_utc_low": iso(1),
                                                                   "limit_date_utc": iso(2), "limit_date_utc_high": ""})
@@ -99,15 +100,15 @@ def test_history_plan_and_the_trend_page_section(tmp_path, capsys):
     history.commit()
     code, plan = run_cli(capsys, ["fleet", "plan", str(tmp_path / "fleet.db"), "--out", str(tmp_path / "p")])
     assert code == 0 and plan["start_utc"].startswith("2027-01-04")
-    assert [r["machine"] for r in plan["rows"]] == ["m4", "m2", "m3", "m5"]        # 12 weeks: not m6 (90 d)
+    assert [r["machine"] for r in plan["rows"]] == ["m4", "m2", "m3", "m5", "m7"]   # 12 weeks: not m6 (90 d)
     assert [(s["date"], [d["machine"] for d in s["dues"]]) for s in plan["stops"]] == [
-        ("2027-01-04", ["m4"]), ("2027-01-14", ["m2", "m3"]), ("2027-02-03", ["m5"])]
-    assert [r["overdue"] for r in plan["rows"]] == [True, False, False, False]
+        ("2027-01-04", ["m4"]), ("2027-01-14", ["m2", "m3"]), ("2027-02-03", ["m5"]), ("2027-03-25", ["m7"])]
+    assert [r["overdue"] for r in plan["rows"]] == [True, False, False, False, False]
     assert plan["stops"][0]["dues"][0]["limit_date_utc_high"] == ""                 # never: no upper bound
     assert main(["fleet", "trend", str(tmp_path / "fleet.db"), "--out", str(tmp_path / "trend")]) == 0
     page = (tmp_path / "trend" / "index.html").read_text()
     section = page[page.index("<h2 id='plan'>"):page.index("<h2>Fleet overview</h2>")]
-    assert section.count("<tr><td>") == 4 and "3 stops" in section and "overdue" in section
+    assert section.count("<tr><td>") == 5 and "4 stops" in section and "overdue" in section
 
 
 def test_schedule_rule_and_ics_folding():
