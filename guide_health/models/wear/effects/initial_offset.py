@@ -10,7 +10,15 @@ from guide_health.models.wear.effects.base import (
     SimulateValue,
 )
 
-EFFECT = Effect(
+
+class InitialOffset(Effect):
+    """A measurement term: the initial straightness is A0 + delta."""
+
+    def reading_offset_m(self, e) -> float:
+        return e.initial_offset_m
+
+
+EFFECT = InitialOffset(
     id="initial_offset",
     term="A0 is A0 + delta",
     meaning="initial offset: the initial straightness is not the A0 of the parameters",

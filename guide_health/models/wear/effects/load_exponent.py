@@ -14,7 +14,18 @@ from guide_health.models.wear.effects.base import (
     SimulateValue,
 )
 
-EFFECT = Effect(
+
+class LoadExponent(Effect):
+    """A material factor: (W / W_ref)^(n - 1)."""
+
+    def rate_factor(self, e, speed_m_s, load_n, retract):
+        return load_exponent_factor(load_n, e.load_exponent, e.load_reference_n)
+
+    def live_rate_gradients(self, e, seg):
+        return {self.rate_row: live_gradient(seg.effective_work_nm, seg.load_n, e.load_reference_n)}
+
+
+EFFECT = LoadExponent(
     id="load_exponent",
     term="wear rate ∝ W^n: factor (W/W_ref)^(n-1)",
     meaning="load exponent: wear grows faster (or slower) than linearly with the load",

@@ -14,7 +14,19 @@ from guide_health.models.wear.effects.base import (
     SimulateValue,
 )
 
-EFFECT = Effect(
+
+class RetractAsymmetry(Effect):
+    """A material factor: rho on retract segments (none at rho = 1)."""
+
+    def rate_factor(self, e, speed_m_s, load_n, retract):
+        return None if e.retract_wear_factor == 1.0 else retract_factor(retract, e.retract_wear_factor)
+
+    def live_rate_gradients(self, e, seg):
+        return {self.rate_row: live_gradient(seg.effective_work_nm, seg.work_nm * seg.duty, seg.retract,
+                                             e.retract_wear_factor)}
+
+
+EFFECT = RetractAsymmetry(
     id="retract_asymmetry",
     term="the retract stroke wears rho x the feed per unit Archard work",
     meaning="feed/retract asymmetry: the retract stroke wears less per unit Archard work",

@@ -14,7 +14,28 @@ from guide_health.models.wear.effects.base import (
     SimulateValue,
 )
 
-EFFECT = Effect(
+
+class RunningInEffect(Effect):
+    """K decaying over the sliding distance on the present surface."""
+
+    def is_on(self, e) -> bool:
+        return e.running_in_ratio > 0
+
+    def decay(self, e) -> tuple[float, float]:
+        """(r, s0 [m]) of K(s) = K (1 + r exp(-s / s0))."""
+        return e.running_in_ratio, e.running_in_distance_m
+
+    def live_factor_mean(self, e, s_start_m, s_end_m):
+        """Mean K(s)/K of segments [s_start, s_end] on the present surface (:func:`running_in_factor_mean`)."""
+        return running_in_factor_mean(s_start_m, s_end_m, e.running_in_ratio, e.running_in_distance_m)
+
+    def live_decay_gradients(self, e, effective_work_nm, s_start_m, ds_m) -> dict:
+        """{row name: d(effective work)/d(r), d/d(s0)} of segments (:func:`live_gradients`)."""
+        d_r, d_s0 = live_gradients(effective_work_nm, s_start_m, ds_m, e.running_in_ratio, e.running_in_distance_m)
+        return dict(zip(self.row_names, (d_r, d_s0)))
+
+
+EFFECT = RunningInEffect(
     id="running_in",
     term="K(s) = K (1 + r e^(-s/s0)) over the sliding distance s",
     meaning="running-in: K starts high and decays over the sliding distance",

@@ -17,7 +17,15 @@ from guide_health.models.wear.effects.base import (
     SimulateValue,
 )
 
-EFFECT = Effect(
+
+class StrokeDistribution(Effect):
+    """The straightness term: the weight w of the pass work P against Eq. 7's work G."""
+
+    def weight(self, e) -> float:
+        return e.stroke_distribution_weight
+
+
+EFFECT = StrokeDistribution(
     id="stroke_distribution",
     term=("the always-travelled zone gets K W/(H b) per pass whatever the stroke length (Eq. 6); weight w "
           "between that and Eq. 5's j = 1/2"),

@@ -16,7 +16,15 @@ from guide_health.models.wear.effects.base import (
     SimulateValue,
 )
 
-EFFECT = Effect(
+
+class WearRateChange(Effect):
+    """A duty factor of when the work is done."""
+
+    def live_duty_factor(self, e, t_s, x_m, last_relubrication_s):
+        return live_factor(t_s, e.wear_rate_change_time_s, e.wear_rate_change_factor)
+
+
+EFFECT = WearRateChange(
     id="wear_rate_change",
     term="m = f after t_c (share of the interval's work after t_c)",
     meaning="wear-rate change: the wear coefficient changed by a factor at a time (contamination, "
