@@ -93,6 +93,15 @@ class Effect:
     needs_temperature: bool = False          # a candidate only with a temperature record
     needs_given_a0: bool = False             # a candidate only when the parameters give A0 (else A0 is fitted)
     reported_extra: tuple[str, ...] = ()     # values the report adds to its fitted parameters
+    #: its fields of the one parameter type (parameters.EffectParameters): (name, no-effect value, meaning);
+    #: None: the default of its wear_monitor parameter of that name
+    fields: tuple[tuple[str, Any, str], ...] = ()
+
+    def live_values(self, p: Any, named: bool) -> dict[str, Any]:
+        """Its EffectParameters fields from a guide's frozen wear_monitor parameters ``p`` (``named``: the
+        ``effects`` parameter names it); a field of a wear_monitor parameter it owns takes the parameter's value
+        when named (else its no-effect value), the others (references, intervals) always."""
+        return {}
 
     @property
     def rate_row(self) -> str:

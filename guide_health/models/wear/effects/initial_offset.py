@@ -27,6 +27,7 @@ EFFECT = InitialOffset(
     live=False,
     needs_given_a0=True,         # with A0 = 0 the baseline fits A0 itself
     fitted_aliases=(("initial_offset_m", "straightness_initial_m"),),     # the model file's A0 = A0 + delta
+    fields=(("initial_offset_m", 0.0, "delta (offline; live folded into A0)"),),
 )
 
 

@@ -18,6 +18,10 @@ from guide_health.models.wear.effects.base import (
 class LoadExponent(Effect):
     """A material factor: (W / W_ref)^(n - 1)."""
 
+    def live_values(self, p, named):
+        return {"load_exponent": float(p.load_exponent) if named else 1.0,
+                "load_reference_n": float(p.load_reference_n)}
+
     def rate_factor(self, e, speed_m_s, load_n, retract):
         return load_exponent_factor(load_n, e.load_exponent, e.load_reference_n)
 
@@ -40,6 +44,7 @@ EFFECT = LoadExponent(
     ),
     fitted_to_file=("load_exponent",),
     covariance_rows=(CovarianceRow("load_exponent", 5, 1, rate=True),),
+    fields=(("load_exponent", 1.0, "n"), ("load_reference_n", None, "W_ref")),
 )
 
 

@@ -23,6 +23,12 @@ from guide_health.models.wear.effects.base import (
 class LubricationInterval(Effect):
     """A duty factor of the time since relubrication, and the relubrication schedule of the life forecast."""
 
+    def live_values(self, p, named):
+        return {"lubrication_wear_growth": float(p.lubrication_wear_growth) if named else 0.0,
+                "lubrication_interval_s": float(p.lubrication_interval_s),
+                "lubrication_reference_stamp_s": float(p.lubrication_reference_stamp_s),
+                "lubrication_forecast_interval_s": float(p.lubrication_forecast_interval_s)}
+
     def live_duty_factor(self, e, t_s, x_m, last_relubrication_s):
         return live_factor(self.live_tau_s(e, t_s, last_relubrication_s), e.lubrication_wear_growth,
                            e.lubrication_interval_s)
@@ -89,6 +95,11 @@ EFFECT = LubricationInterval(
     # the model file's growth, interval and reference come from the fit's form (model_file.duty_effect_parameters)
     fitted_aliases=(("lubrication_wear_growth_per_s", "lubrication_wear_growth"),),
     covariance_rows=(CovarianceRow("lubrication_wear_growth", 8, 2, rate=True),),
+    fields=(("lubrication_wear_growth", 0.0, "b [1/s] or a [-]"),
+            ("lubrication_interval_s", 0.0, "T (0: the recorded relubrications are the time base)"),
+            ("lubrication_reference_stamp_s", 0.0, "live t_ref"),
+            ("lubrication_forecast_interval_s", 0.0, "live, recorded form: the future relubrications' interval"),
+            ("relubrication_t_s", (), "offline: recorded relubrications [s from the start]")),
 )
 
 

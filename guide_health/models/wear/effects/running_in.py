@@ -18,6 +18,10 @@ from guide_health.models.wear.effects.base import (
 class RunningInEffect(Effect):
     """K decaying over the sliding distance on the present surface."""
 
+    def live_values(self, p, named):
+        return {"running_in_ratio": float(p.running_in_ratio) if named else 0.0,
+                "running_in_distance_m": float(p.running_in_distance_m)}
+
     def is_on(self, e) -> bool:
         return e.running_in_ratio > 0
 
@@ -49,6 +53,7 @@ EFFECT = RunningInEffect(
     ),
     fitted_to_file=("running_in_ratio", "running_in_distance_m"),
     covariance_rows=(CovarianceRow("running_in_ratio", 1, 1), CovarianceRow("running_in_distance_m", 2, 1)),
+    fields=(("running_in_ratio", 0.0, "r: K(s=0) = (1 + r) K"), ("running_in_distance_m", None, "s0")),
 )
 
 

@@ -24,6 +24,10 @@ LUBRICATION_SPEED_EXPONENT = 0.7     # lambda ~ v^0.7 (Hamrock-Dowson film thick
 class SpeedDependentWear(Effect):
     """A material factor: the asperity share of the load."""
 
+    def live_values(self, p, named):
+        return {"lift_speed_m_s": (float(p.lift_speed_m_s) if named else math.inf) if p.lift_speed_m_s > 0
+                else math.inf}
+
     def rate_factor(self, e, speed_m_s, load_n, retract):
         return asperity_load_share(speed_m_s, e.lift_speed_m_s)
 
@@ -46,6 +50,7 @@ EFFECT = SpeedDependentWear(
     fitted_to_file=("lift_speed_m_s",),
     covariance_rows=(CovarianceRow("lift_speed_m_s", 4, 1, rate=True),),
     requires=LiveRequirement("lift_speed_m_s", "> 0"),
+    fields=(("lift_speed_m_s", math.inf, "v_lift"),),
 )
 
 

@@ -22,6 +22,10 @@ from guide_health.models.wear.effects.base import (
 class ThermalDrift(Effect):
     """The gauge's temperature term: each straightness reading is corrected by c_T (T - T_ref)."""
 
+    def live_values(self, p, named):
+        return {"thermal_drift_m_per_k": float(p.thermal_drift_m_per_k) if named else 0.0,
+                "thermal_reference_c": float(p.thermal_reference_c)}
+
     def is_on(self, e) -> bool:
         return e is not None and e.thermal_drift_m_per_k != 0.0
 
@@ -66,6 +70,7 @@ EFFECT = ThermalDrift(
     requires=LiveRequirement("thermal_drift_m_per_k", "!= 0"),
     needs_temperature=True,
     reported_extra=("thermal_reference_offset_k",),      # dT_ref = -b / c_T (analysis/discrepancy/model.py)
+    fields=(("thermal_drift_m_per_k", 0.0, "c_T"), ("thermal_reference_c", None, "live T_ref")),
 )
 
 

@@ -4,6 +4,8 @@ d centred at t the share of the work after t_c is clip((t + d/2 - t_c) / d, 0, 1
 cell); live, each segment at its middle."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from guide_health.models.wear.effects.base import (
@@ -19,6 +21,10 @@ from guide_health.models.wear.effects.base import (
 
 class WearRateChange(Effect):
     """A duty factor of when the work is done."""
+
+    def live_values(self, p, named):
+        return {"wear_rate_change_factor": float(p.wear_rate_change_factor) if named else 1.0,
+                "wear_rate_change_time_s": float(p.wear_rate_change_stamp_s) if named else math.inf}
 
     def live_duty_factor(self, e, t_s, x_m, last_relubrication_s):
         return live_factor(t_s, e.wear_rate_change_time_s, e.wear_rate_change_factor)
@@ -42,6 +48,7 @@ EFFECT = WearRateChange(
     fitted_to_file=("wear_rate_change_factor",),
     covariance_rows=(CovarianceRow("wear_rate_change_factor", 7, 2, rate=True),),
     requires=LiveRequirement("wear_rate_change_stamp_s", "> 0", " (when it changed)"),
+    fields=(("wear_rate_change_factor", 1.0, "f"), ("wear_rate_change_time_s", math.inf, "t_c")),
 )
 
 
