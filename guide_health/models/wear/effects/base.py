@@ -46,6 +46,7 @@ class SimulateValue:
     no_effect: float
     range_text: str = ""
     field: str = ""
+    note: str = ""      # ``simulate --help``'s words on the simulation parameters that go with it
 
 
 @dataclass(frozen=True)
@@ -96,6 +97,8 @@ class Effect:
     #: its fields of the one parameter type (parameters.EffectParameters): (name, no-effect value, meaning);
     #: None: the default of its wear_monitor parameter of that name
     fields: tuple[tuple[str, Any, str], ...] = ()
+    #: its ``guide_health_simulation`` parameters (params/simulation.py; the simulator's truth beyond the value)
+    simulation: tuple[EffectParameter, ...] = ()
 
     def live_values(self, p: Any, named: bool) -> dict[str, Any]:
         """Its EffectParameters fields from a guide's frozen wear_monitor parameters ``p`` (``named``: the

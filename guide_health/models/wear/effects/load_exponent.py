@@ -44,6 +44,7 @@ EFFECT = LoadExponent(
     ),
     fitted_to_file=("load_exponent",),
     covariance_rows=(CovarianceRow("load_exponent", 5, 1, rate=True),),
+    simulation=(EffectParameter("load_reference_n", 1000.0, "N", "(0, inf)", "W_ref of the load_exponent effect"),),
     fields=(("load_exponent", 1.0, "n"), ("load_reference_n", None, "W_ref")),
 )
 

@@ -74,7 +74,9 @@ EFFECT = LubricationInterval(
     separating_duty="relubrication at recorded times (maintenance events) at another interval",
     # b per second of the time since the last relubricate event (simulation relubrication_interval_h, or
     # --maintenance relubricate events)
-    simulate=SimulateValue("lubrication_wear_growth_per_s", "1/s", 0.0, "[0, 0.01]", field="lubrication_wear_growth"),
+    simulate=SimulateValue("lubrication_wear_growth_per_s", "1/s", 0.0, "[0, 0.01]", field="lubrication_wear_growth",
+                           note="relubrications every relubrication_interval_h and the --maintenance relubricate "
+                                "events"),
     duty=True,
     parameters=(
         EffectParameter("lubrication_wear_growth", 0.0, "-", "[-1, 1e3]",
@@ -95,6 +97,9 @@ EFFECT = LubricationInterval(
     # the model file's growth, interval and reference come from the fit's form (model_file.duty_effect_parameters)
     fitted_aliases=(("lubrication_wear_growth_per_s", "lubrication_wear_growth"),),
     covariance_rows=(CovarianceRow("lubrication_wear_growth", 8, 2, rate=True),),
+    simulation=(EffectParameter("relubrication_interval_h", 0.0, "h", "[0, inf)",
+                                "relubricate every this (recorded as maintenance events; the lubrication_interval "
+                                "effect's time base); 0 = only --maintenance relubricate events"),),
     fields=(("lubrication_wear_growth", 0.0, "b [1/s] or a [-]"),
             ("lubrication_interval_s", 0.0, "T (0: the recorded relubrications are the time base)"),
             ("lubrication_reference_stamp_s", 0.0, "live t_ref"),

@@ -44,7 +44,7 @@ EFFECT = RunningInEffect(
     term="K(s) = K (1 + r e^(-s/s0)) over the sliding distance s",
     meaning="running-in: K starts high and decays over the sliding distance",
     separating_duty="a longer record (running-in decays with sliding distance and is over after 3 s0)",
-    simulate=SimulateValue("running_in_ratio", "-", 0.0),     # s0 = simulation running_in_distance_m
+    simulate=SimulateValue("running_in_ratio", "-", 0.0, note="s0 is running_in_distance_m"),
     material=True,
     parameters=(
         EffectParameter("running_in_ratio", 0.0, "-", "[0, 100]", "running_in r: K(s) = K (1 + r exp(-s / s0))"),
@@ -53,6 +53,8 @@ EFFECT = RunningInEffect(
     ),
     fitted_to_file=("running_in_ratio", "running_in_distance_m"),
     covariance_rows=(CovarianceRow("running_in_ratio", 1, 1), CovarianceRow("running_in_distance_m", 2, 1)),
+    simulation=(EffectParameter("running_in_distance_m", 100.0, "m", "(0, inf)",
+                                "s0 of the running_in effect (models/wear/effects/)"),),
     fields=(("running_in_ratio", 0.0, "r: K(s=0) = (1 + r) K"), ("running_in_distance_m", None, "s0")),
 )
 

@@ -36,7 +36,7 @@ EFFECT = WearRateChange(
     meaning="wear-rate change: the wear coefficient changed by a factor at a time (contamination, "
             "a damaged wiper, another lubricant)",
     separating_duty="the same duty before and after a suspected event, with the event logged",
-    simulate=SimulateValue("wear_rate_change_factor", "-", 1.0),     # t_c = simulation wear_rate_change_h
+    simulate=SimulateValue("wear_rate_change_factor", "-", 1.0, note="t_c wear_rate_change_h"),
     duty=True,
     parameters=(
         EffectParameter("wear_rate_change_factor", 1.0, "-", "(0, 100]",
@@ -48,6 +48,8 @@ EFFECT = WearRateChange(
     fitted_to_file=("wear_rate_change_factor",),
     covariance_rows=(CovarianceRow("wear_rate_change_factor", 7, 2, rate=True),),
     requires=LiveRequirement("wear_rate_change_stamp_s", "> 0", " (when it changed)"),
+    simulation=(EffectParameter("wear_rate_change_h", 10.0, "h", "[0, inf)",
+                                "t_c of the wear_rate_change effect, from the start"),),
     fields=(("wear_rate_change_factor", 1.0, "f"), ("wear_rate_change_time_s", math.inf, "t_c")),
 )
 
