@@ -18,7 +18,8 @@ ALL = frozenset(e.id for e in registry.EFFECTS)
 #: files outside an effect's home that may still name it: {file: (the effects it may name, why)}
 ALLOWED = {
     "models/wear/effects/__init__.py": (
-        ALL - {"initial_offset", "retract_asymmetry", "thermal_drift"}, "re-exports the effects' functions that sim/machine.py and analysis/discrepancy/ import by name"),
+        ALL - {"initial_offset", "retract_asymmetry", "thermal_drift"},
+        "re-exports the effects' functions that sim/machine.py and analysis/discrepancy/ import by name"),
     "models/wear/fit_watch.py": (
         {"thermal_drift"}, "two docstrings; the live fit watch is being changed in parallel (reword at merge)"),
     "sim/machine.py": (
