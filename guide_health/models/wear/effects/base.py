@@ -100,10 +100,10 @@ class Effect:
     #: its ``guide_health_simulation`` parameters (params/simulation.py; the simulator's truth beyond the value)
     simulation: tuple[EffectParameter, ...] = ()
 
-    def live_values(self, p: Any, named: bool) -> dict[str, Any]:
-        """Its EffectParameters fields from a guide's frozen wear_monitor parameters ``p`` (``named``: the
-        ``effects`` parameter names it); a field of a wear_monitor parameter it owns takes the parameter's value
-        when named (else its no-effect value), the others (references, intervals) always."""
+    def live_values(self, p: dict[str, Any], named: bool) -> dict[str, Any]:
+        """Its EffectParameters fields from the values of its own wear_monitor parameters ``p`` (``named``: the
+        ``effects`` parameter names it); a field of a parameter it owns takes the parameter's value when named
+        (else its no-effect value), the others (references, intervals) always."""
         return {}
 
     @property

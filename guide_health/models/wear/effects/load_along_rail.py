@@ -19,8 +19,8 @@ class LoadAlongRail(Effect):
     """A duty factor of where the work is done."""
 
     def live_values(self, p, named):
-        return {"load_gradient_per_m": float(p.load_gradient_per_m) if named else 0.0,
-                "load_reference_position_m": float(p.load_reference_position_m)}
+        return {"load_gradient_per_m": float(p["load_gradient_per_m"]) if named else 0.0,
+                "load_reference_position_m": float(p["load_reference_position_m"])}
 
     def live_duty_factor(self, e, t_s, x_m, last_relubrication_s):
         return live_factor(x_m, e.load_gradient_per_m, e.load_reference_position_m)

@@ -19,8 +19,8 @@ class LoadExponent(Effect):
     """A material factor: (W / W_ref)^(n - 1)."""
 
     def live_values(self, p, named):
-        return {"load_exponent": float(p.load_exponent) if named else 1.0,
-                "load_reference_n": float(p.load_reference_n)}
+        return {"load_exponent": float(p["load_exponent"]) if named else 1.0,
+                "load_reference_n": float(p["load_reference_n"])}
 
     def rate_factor(self, e, speed_m_s, load_n, retract):
         return load_exponent_factor(load_n, e.load_exponent, e.load_reference_n)

@@ -24,10 +24,10 @@ class LubricationInterval(Effect):
     """A duty factor of the time since relubrication, and the relubrication schedule of the life forecast."""
 
     def live_values(self, p, named):
-        return {"lubrication_wear_growth": float(p.lubrication_wear_growth) if named else 0.0,
-                "lubrication_interval_s": float(p.lubrication_interval_s),
-                "lubrication_reference_stamp_s": float(p.lubrication_reference_stamp_s),
-                "lubrication_forecast_interval_s": float(p.lubrication_forecast_interval_s)}
+        return {"lubrication_wear_growth": float(p["lubrication_wear_growth"]) if named else 0.0,
+                "lubrication_interval_s": float(p["lubrication_interval_s"]),
+                "lubrication_reference_stamp_s": float(p["lubrication_reference_stamp_s"]),
+                "lubrication_forecast_interval_s": float(p["lubrication_forecast_interval_s"])}
 
     def live_duty_factor(self, e, t_s, x_m, last_relubrication_s):
         return live_factor(self.live_tau_s(e, t_s, last_relubrication_s), e.lubrication_wear_growth,

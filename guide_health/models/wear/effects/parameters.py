@@ -40,8 +40,9 @@ class _EffectParameterMethods:
         if not ids:
             return None
         values: dict[str, Any] = {}
-        for effect in EFFECTS:
-            values.update(effect.live_values(p, effect.id in ids))
+        for effect in EFFECTS:     # each effect reads its own parameters only (plain values)
+            own = {q.name: getattr(p, q.name) for q in effect.parameters}
+            values.update(effect.live_values(own, effect.id in ids))
         return cls(effects=ids, slider_length_m=float(p.slider_length_m),
                    covariance=tuple(float(v) for v in p.effect_covariance), **values)
 

@@ -19,8 +19,8 @@ class RetractAsymmetry(Effect):
     """A material factor: rho on retract segments (none at rho = 1)."""
 
     def live_values(self, p, named):
-        return {"retract_wear_factor": float(p.retract_wear_factor) if named else 1.0,
-                "retract_sign": 1 if p.retract_direction == "+x" else -1}
+        return {"retract_wear_factor": float(p["retract_wear_factor"]) if named else 1.0,
+                "retract_sign": 1 if p["retract_direction"] == "+x" else -1}
 
     def rate_factor(self, e, speed_m_s, load_n, retract):
         return None if e.retract_wear_factor == 1.0 else retract_factor(retract, e.retract_wear_factor)

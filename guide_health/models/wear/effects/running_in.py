@@ -19,8 +19,8 @@ class RunningInEffect(Effect):
     """K decaying over the sliding distance on the present surface."""
 
     def live_values(self, p, named):
-        return {"running_in_ratio": float(p.running_in_ratio) if named else 0.0,
-                "running_in_distance_m": float(p.running_in_distance_m)}
+        return {"running_in_ratio": float(p["running_in_ratio"]) if named else 0.0,
+                "running_in_distance_m": float(p["running_in_distance_m"])}
 
     def is_on(self, e) -> bool:
         return e.running_in_ratio > 0

@@ -25,7 +25,7 @@ class SpeedDependentWear(Effect):
     """A material factor: the asperity share of the load."""
 
     def live_values(self, p, named):
-        return {"lift_speed_m_s": (float(p.lift_speed_m_s) if named else math.inf) if p.lift_speed_m_s > 0
+        return {"lift_speed_m_s": (float(p["lift_speed_m_s"]) if named else math.inf) if p["lift_speed_m_s"] > 0
                 else math.inf}
 
     def rate_factor(self, e, speed_m_s, load_n, retract):

@@ -22,7 +22,7 @@ class StrokeDistribution(Effect):
     """The straightness term: the weight w of the pass work P against Eq. 7's work G."""
 
     def live_values(self, p, named):
-        return {"stroke_distribution_weight": float(p.stroke_distribution_weight) if named else 0.0}
+        return {"stroke_distribution_weight": float(p["stroke_distribution_weight"]) if named else 0.0}
 
     def weight(self, e) -> float:
         return e.stroke_distribution_weight

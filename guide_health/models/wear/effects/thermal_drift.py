@@ -23,8 +23,8 @@ class ThermalDrift(Effect):
     """The gauge's temperature term: each straightness reading is corrected by c_T (T - T_ref)."""
 
     def live_values(self, p, named):
-        return {"thermal_drift_m_per_k": float(p.thermal_drift_m_per_k) if named else 0.0,
-                "thermal_reference_c": float(p.thermal_reference_c)}
+        return {"thermal_drift_m_per_k": float(p["thermal_drift_m_per_k"]) if named else 0.0,
+                "thermal_reference_c": float(p["thermal_reference_c"])}
 
     def is_on(self, e) -> bool:
         return e is not None and e.thermal_drift_m_per_k != 0.0

@@ -23,8 +23,8 @@ class WearRateChange(Effect):
     """A duty factor of when the work is done."""
 
     def live_values(self, p, named):
-        return {"wear_rate_change_factor": float(p.wear_rate_change_factor) if named else 1.0,
-                "wear_rate_change_time_s": float(p.wear_rate_change_stamp_s) if named else math.inf}
+        return {"wear_rate_change_factor": float(p["wear_rate_change_factor"]) if named else 1.0,
+                "wear_rate_change_time_s": float(p["wear_rate_change_stamp_s"]) if named else math.inf}
 
     def live_duty_factor(self, e, t_s, x_m, last_relubrication_s):
         return live_factor(t_s, e.wear_rate_change_time_s, e.wear_rate_change_factor)
