@@ -3,12 +3,11 @@
 An effect's module (this package) holds its parameters, its wear-rate multiplier (or straightness term) and
 gradient, its live form and the report's words (base.Effect and its subclass there); the rest of guide_health
 reaches it through the roles below and the effect's methods, never by its name (test/test_effect_home.py).
-Everything that lists effects is derived here,
-by name: the candidates of ``diagnose`` and the ``--effect`` values of ``simulate`` (catalogue order below),
-the live effect ids, the wear_monitor parameters of the effects (params/wear_monitor.py), the model file's
-keys and the rows of its effect_covariance (with the sizes older files had), the lengths of the saved live
-state's lists, and the docs table (:func:`docs_table`). test/test_effect_registry.py holds every derived place
-to the registry. docs/adding_an_effect.md: how to add one.
+Everything that lists effects is derived here, by name: the candidates of ``diagnose`` and the ``--effect`` values
+of ``simulate`` (catalogue order below), the live effect ids, the wear_monitor parameters of the effects
+(params/wear_monitor.py), the model file's keys and the rows of its effect_covariance (with the sizes older files
+had), the lengths of the saved live state's lists, and the docs table (:func:`docs_table`).
+test/test_effect_registry.py holds every derived place to the registry. docs/adding_an_effect.md: how to add one.
 """
 from __future__ import annotations
 
