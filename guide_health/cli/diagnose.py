@@ -91,7 +91,7 @@ def _diagnose(args, params: dict, bag, events: list, pending, bar, threshold, t0
     cells, messages = pending.result()
     bar.close()
     t_read = time.perf_counter() - t0
-    # recorded relubrications (maintenance events in the bag): the lubrication_interval effect's time base
+    # recorded relubrications (maintenance events in the bag): the relubrication effect's time base
     relube = relubrication_times_s(events, params.get("axis", params["joint"]), cells.t0_ns)
     try:
         result = diagnose_cells(cells, params, heldout_fraction=args.heldout_fraction, bic_threshold=threshold,

@@ -68,9 +68,7 @@ def add_arguments(parser) -> None:
                              "docs/discrepancy.md's table), VALUE in SI: " + ", ".join(
                                  f"{e.id}={e.simulate.name}" + (f" [{e.simulate.unit}]" if e.simulate.unit != "-"
                                                                 else "") for e in EFFECTS)
-                             + "; running_in's s0 is running_in_distance_m, wear_rate_change's t_c "
-                             "wear_rate_change_h, lubrication_interval's relubrications every relubrication_interval_h "
-                             "and the --maintenance relubricate events")
+                             + "; " + ", ".join(f"{e.id}'s {e.simulate.note}" for e in EFFECTS if e.simulate.note))
     parser.add_argument("--maintenance", action="append", metavar="KIND:AXIS[.GUIDE]@TIME[=VALUE]",
                         help="a maintenance event on maintenance/events (docs/machine.md): KIND regrind, "
                              "replace_rail, replace_carriage, relubricate or measure; TIME from the start in h "

@@ -45,7 +45,7 @@ EXTRA_PRECISION_KEYS = ("wear_coefficient_low", "wear_coefficient_high", "measur
                         # models/wear/stream_gaps.py: samples missing by stamp gaps (what messages_lost misses)
                         "samples_missing_estimate", "joint_samples_missing_estimate",
                         "load_samples_missing_estimate", "joint_period_estimate_us", "joint_stamp_pauses",
-                        # the thermal_drift effect (docs/model_file.md): taken off the last measurement
+                        # the gauge's temperature term (docs/model_file.md): taken off the last measurement
                         "straightness_thermal_correction_um",
                         # where the load comes from; running hours and calendar (models/wear/running_time.py)
                         "load_source", "utilisation", "limit_date_utc", "limit_date_utc_low",
@@ -253,7 +253,7 @@ class AxisChannel:
         self.rejections.log(self.model.on_straightness(t, float(msg.data)))
 
     def on_temperature(self, msg: Temperature) -> None:
-        """The rolling guide's Walther oil viscosity and the thermal_drift correction, by stamp as offline; an
+        """The rolling guide's Walther oil viscosity and the gauge's temperature correction, by stamp as offline; an
         implausible reading or an invalid stamp is a counted rejection."""
         self.node.process_inputs()
         t = stamp_ns(msg.header)

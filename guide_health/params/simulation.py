@@ -8,6 +8,7 @@ from __future__ import annotations
 from typing import Any
 
 from guide_health.errors import InputError
+from guide_health.models.wear.effects.registry import EFFECTS
 from guide_health.params.schema import NodeSchema, Param
 
 MACHINE_SIMULATION_PARAMS = (
@@ -35,12 +36,8 @@ MACHINE_SIMULATION_PARAMS = (
     Param("retract_load_max_n", 0.0, "N", "[0, inf)", "per job uniform retract_load_n .. min(this, feed load)"),
     Param("stroke_mean_max_m", 0.0, "m", "[0, inf)", "per job uniform stroke_mean_m .. this"),
     Param("stroke_skew_max", 0.0, "-", "[0, inf)", "per job stroke_skew + uniform(-this, this)"),
-    Param("running_in_distance_m", 100.0, "m", "(0, inf)", "s0 of the running_in effect (models/wear/effects/)"),
-    Param("load_reference_n", 1000.0, "N", "(0, inf)", "W_ref of the load_exponent effect"),
-    Param("wear_rate_change_h", 10.0, "h", "[0, inf)", "t_c of the wear_rate_change effect, from the start"),
-    Param("relubrication_interval_h", 0.0, "h", "[0, inf)",
-          "relubricate every this (recorded as maintenance events; the lubrication_interval effect's time "
-          "base); 0 = only --maintenance relubricate events"),
+    # the effects' simulation parameters (the effect registry's: models/wear/effects/)
+    *(Param(p.name, p.default, p.unit, p.range_text, p.meaning) for e in EFFECTS for p in e.simulation),
     Param("temperature_rate_hz", 0.0, "Hz", "[0, inf)", "rate of guide/temperature; 0 = no temperature topic"),
     Param("ambient_temperature_c", 20.0, "degC", "[-100, 200]", "mean ambient temperature"),
     Param("ambient_swing_k", 1.0, "K", "[0, 100]", "daily amplitude of the ambient temperature"),

@@ -14,6 +14,7 @@ from guide_health.models.wear.effects.registry import (
     BY_ID,
     COVARIANCE_NAMES,
     COVARIANCE_SIZES,
+    GAUGE_TEMPERATURE,
     LIVE_EFFECT_IDS,
     LIVE_PARAMETERS,
 )
@@ -95,7 +96,8 @@ SLIDING_GUIDE_PARAMS = (
     *(Param(e.name, e.default, e.unit, e.range_text, e.meaning, choices=e.choices) for e in LIVE_PARAMETERS),
     Param("effect_covariance", [0.0] * len(COVARIANCE_NAMES) ** 2, "SI", "",
           f"covariance (row-major {_N} x {_N}) of the fitted {', '.join(COVARIANCE_NAMES[:-1])} and "
-          f"{COVARIANCE_NAMES[-1]} (SI; thermal_gauge_offset_m: the gauge's offset at thermal_reference_c, 0 at the "
+          f"{COVARIANCE_NAMES[-1]} (SI; {GAUGE_TEMPERATURE.row_names[1]}: the gauge's offset at "
+          f"{GAUGE_TEMPERATURE.fields[1][0]}, 0 at the "
           "fitted values; straightness_initial_m: A0 when fitted); widens the remaining-life interval (the "
           f"{' or '.join(f'{n} x {n}' for n in COVARIANCE_SIZES[:-1])} of an older model file loads as the "
           "leading block)"),

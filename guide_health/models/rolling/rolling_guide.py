@@ -71,7 +71,7 @@ class RollingGuideMonitor:
         """A guide/temperature reading [degC] stamped ``t_ns``: the oil viscosity of every travel segment
         ending at or after the stamp (no effect with a constant ``oil_viscosity_pa_s``). The reading in force
         at a segment's end is the last one stamped at or before it (input_rules.reading_in_force_index, the
-        rule of the thermal_drift correction): a reading arriving after a later-stamped one took force is
+        rule of the gauge's temperature correction): a reading arriving after a later-stamped one took force is
         superseded and dropped."""
         if not math.isfinite(temperature_c) or self.regime_model.guide.oil is None:
             return

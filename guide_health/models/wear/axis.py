@@ -275,7 +275,7 @@ class AxisMonitor:
 
     def on_temperature(self, t_ns: int, temperature_c: float) -> str | None:
         """A guide/temperature reading: every rolling guide's oil viscosity from its stamp on (Walther oil),
-        every guide's thermal_drift correction; the rejection reason of an implausible one, else None."""
+        every guide's temperature correction of the gauge; the rejection reason of an implausible one, else None."""
         reason = self.gate.accept_temperature(temperature_c)
         if reason is None:
             for guide in self.guides.values():
@@ -396,7 +396,7 @@ class AxisMonitor:
         }
         result.update(load_source=guide.params.load_source,
                       **status_calendar_keys(guide.integrator.clock, (life, life_low, life_high)))
-        if guide.thermal_drift:
+        if guide.temperature_corrected:
             # straightness_measured_um is the corrected reading; this is what was taken off the last one
             result["straightness_thermal_correction_um"] = guide.thermal_correction_m * 1e6
         judged = PrecisionNow(result["straightness_um"], result["straightness_limit_um"], result["remaining_life_h"],
@@ -426,7 +426,7 @@ class AxisMonitor:
         guide, r = self.guides[name], self.guide_report(name)
         now = ForecastNow(r["remaining_life_h"], r["remaining_life_h_low"], r["remaining_life_h_high"],
                           r["straightness_um"], r["straightness_limit_um"], guide.integrator.last_t_ns,
-                          guide.integrator.first_t_ns, guide.running_in(r["wear_coefficient"]))
+                          guide.integrator.first_t_ns, guide.forecast_terms(r["wear_coefficient"]))
         return forecast(now, points)
 
     def guide_reports(self) -> dict[str, dict]:

@@ -3,7 +3,7 @@
 The remaining life (seed 000 Eq. 12 from the present state) integrates the running-in decay forward:
 A(t_now + T) - A(t_now) = K c [T + r s0 / v_s e^(-s/s0) (1 - e^(-v_s T / s0))], c = dA/dt per K at steady
 wear of the present duty, v_s the present sliding speed (closed-form integral of K(s) = K (1 + r e^(-s/s0))),
-and lubrication_interval's multiplier follows its relubrication schedule (:func:`wear_time_s`).
+and the relubrication factor (registry.RELUBRICATION) follows its schedule (:func:`wear_time_s`).
 Its interval (:func:`life_interval_s`) profiles K out, as the live model does: the effect parameters phi are
 held at the model file's values and K is the online estimate K(phi) from the measurements. A change of phi
 moves K(phi) (d K / d phi from the measurements' effective-work gradients, :func:`online_k_sensitivity`),
@@ -23,13 +23,22 @@ from scipy.optimize import brentq
 
 from guide_health.models.wear.effect_wear import EffectWear, time_since_relubrication_s
 from guide_health.models.wear.effects.parameters import EffectParameters
-from guide_health.models.wear.effects.registry import COVARIANCE_NAMES, PHI_INDEX, RATE_NAMES, RATE_PHI
+from guide_health.models.wear.effects.registry import (
+    COVARIANCE_NAMES,
+    PASS_WEIGHTING,
+    PHI_INDEX,
+    RATE_NAMES,
+    RATE_PHI,
+    RELUBRICATION,
+    SLIDING_DECAY,
+)
 
-#: places in phi (registry.PHI_NAMES) the life reads by name: w, A0's deviation, b and b among the rate terms
-W_INDEX, A0_INDEX, B_INDEX = (PHI_INDEX[n] for n in ("stroke_distribution_weight", "straightness_initial_m",
-                                                     "lubrication_wear_growth"))
-B_RATE_INDEX = RATE_NAMES.index("lubrication_wear_growth")
-R_INDEX, S0_INDEX = PHI_INDEX["running_in_ratio"], PHI_INDEX["running_in_distance_m"]
+#: places in phi (registry.PHI_NAMES) the life reads, by the roles' rows: the pass weight w, A0's deviation, the
+#: relubrication growth b and b among the rate terms, running-in's r and s0
+W_INDEX, A0_INDEX, B_INDEX = (PHI_INDEX[n] for n in (PASS_WEIGHTING.row_names[0], "straightness_initial_m",
+                                                     RELUBRICATION.rate_row))
+B_RATE_INDEX = RATE_NAMES.index(RELUBRICATION.rate_row)
+R_INDEX, S0_INDEX = (PHI_INDEX[n] for n in SLIDING_DECAY.row_names)
 #: ln of the largest float: exp() of more than this overflows
 _LN_FLOAT_MAX = math.log(np.finfo(float).max)
 
@@ -89,7 +98,7 @@ def running_in_extra_m_per_rate(horizon_s, ratio: float, distance_m: float, s_no
 
 
 def lubrication_multiplier_integral_s(horizon_s, growth_per_s: float, tau_now_s: float, interval_s: float):
-    """int_0^T max(1 + b tau(u), 0) du [s]: lubrication_interval's wear multiplier (its live form, m = max(1 + b
+    """int_0^T max(1 + b tau(u), 0) du [s]: the relubrication factor's wear multiplier (its live form, m = max(1 + b
     tau, 0)) over a horizon T from now. tau(u) = tau_now + u until the next relubrication, due at interval -
     tau_now (now, when overdue), then 0 .. interval, every interval; interval 0: none expected. Closed form
     per relubrication cycle (the multiplier is linear in tau, clipped at 0 for a negative b)."""
@@ -210,7 +219,7 @@ def life_interval_s(k: float, k_sd: float, e: EffectParameters, now: EffectLifeN
     and K's own spread given phi is the online posterior sd ``k_sd``.
 
     ``now`` (:class:`EffectLifeNow`): margin0 = A_max - A0 [m]; work G = effective work [N m] and pass_work
-    P [N] (stroke_distribution),
+    P [N] (the pass work),
     with straightness per unit K and G, loss_work = 2 / (H b (l_min + l_max)) [m / (N m)], and per unit K and
     P, loss_pass = 1 / (H b) [m / N] (effects.straightness_wear_m: loss = (1 - w) loss_work G + w loss_pass P);
     work_gradient (d G / d phi; P moves in proportion), k_sensitivity (d K / d phi), rate_work_per_k and
@@ -270,23 +279,13 @@ def life_interval_s(k: float, k_sd: float, e: EffectParameters, now: EffectLifeN
 
 
 def lubrication_schedule(e: EffectParameters, wear: EffectWear, now_ns: int | None, dln_b: float) -> dict | None:
-    """lubrication_interval's schedule from now (:func:`wear_time_s`): the time since the last relubrication,
-    the interval of the next ones (the fitted T; recorded events: lubrication_forecast_interval_s, 0 = none
-    expected), the growth per unit of the file's b (1, or 1 / T) and the duty window's mean multiplier
-    m_w = 1 / (1 - b dln_b), dln_b = d ln(window rate) / d b (the window's effective work without the
-    multiplier is eff (1 - b dln_b)). None without the effect or before any sample."""
-    if "lubrication_interval" not in e.effects or e.lubrication_wear_growth == 0.0 or now_ns is None:
+    """The relubrication schedule from now (:func:`wear_time_s`; registry.RELUBRICATION.forecast_schedule at the
+    present time since the last relubrication). None without the effect or before any sample."""
+    if now_ns is None:
         return None
     now_s = np.array([now_ns * 1e-9])
     tau = float(time_since_relubrication_s(e, now_s, wear.relubrication_base_s(now_s))[0])
-    if e.lubrication_interval_s > 0:
-        interval, per_unit = e.lubrication_interval_s, 1.0 / e.lubrication_interval_s
-    else:
-        interval, per_unit = e.lubrication_forecast_interval_s, 1.0
-    lubfree_share = 1.0 - e.lubrication_wear_growth * dln_b
-    if not (math.isfinite(lubfree_share) and lubfree_share > 0.05 and math.isfinite(tau)):
-        return None
-    return {"growth_per_unit": per_unit, "tau_now_s": tau, "interval_s": interval, "window_mean": 1.0 / lubfree_share}
+    return RELUBRICATION.forecast_schedule(e, tau, dln_b)
 
 
 def schedule_tuple(lub: dict | None, growth: float, window_scale: float = 1.0) -> tuple | None:

@@ -7,7 +7,7 @@ retract strokes. :class:`EffectWear` receives every sliding segment of the
 the vectorised offline path alike) and keeps
 
 - the effective work G_eff = sum W ds m [N m] (what the online K update regresses on: K stays linear);
-- stroke_distribution's pass work P = sum over passes of (W ds m) / max(L, L_s) [N] (a pass: a run of one
+- the pass work P = sum over passes of (W ds m) / max(L, L_s) [N] (a pass: a run of one
   direction of sliding, L its length, L_s the slider's; the straightness per unit K is
   [(1 - w) 2 G / (l_min + l_max) + w P] / (H b), effects.straightness_wear_m);
 - per duty bucket (the integrator's buckets): the work, the effective work without running-in, the sliding
@@ -23,23 +23,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from guide_health.models.wear.effects import (
-    load_along_rail,
-    load_exponent,
-    lubrication_interval,
-    retract_asymmetry,
-    running_in,
-    speed_dependent_wear,
-    wear_rate_change,
-)
+from guide_health.models.wear.effects.base import LiveSegments
 from guide_health.models.wear.effects.multiplier import combined_multiplier, wear_rate_multiplier
 from guide_health.models.wear.effects.parameters import EffectParameters
 from guide_health.models.wear.effects.registry import (
     BUCKET_ROW_LENGTHS,
     BUCKET_SUMS,
+    DUTY_FACTORS,
+    MATERIAL_FACTORS,
     PHI_INDEX,
     PHI_LENGTHS,
     PHI_NAMES,
+    RELUBRICATION,
+    SLIDING_DECAY,
     SUM_INDEX,
 )
 
@@ -48,31 +44,35 @@ _SUMS = len(BUCKET_SUMS)
 PASS_SUM = SUM_INDEX["pass_work_n"]
 #: lengths of the saved lists (a work gradient, a bucket row: index then sums, a measurement's gradient):
 #: (now, earlier ones); a state of an earlier length is zero-padded on restore (the terms added since were zero
-#: then: w, c_T, e and A0 have no work gradient, and the pass sums only count for stroke_distribution)
+#: then: the straightness and gauge terms and A0 have no work gradient, and the pass sums only count with a
+#: weighted pass work)
 STATE_LIST_LENGTHS = {"work_gradient": PHI_LENGTHS, "buckets": BUCKET_ROW_LENGTHS,
                       "measurement_gradients": PHI_LENGTHS, "pass_open_buckets": (2,)}
 
 
 def time_since_relubrication_s(e: EffectParameters, t_s, last_relubrication_s):
-    """lubrication_interval's live tau [s] at times t [s since the stamps' epoch]
-    (lubrication_interval.live_time_since_relubrication_s with the parameters of ``e``)."""
-    return lubrication_interval.live_time_since_relubrication_s(
-        t_s, e.lubrication_interval_s, e.lubrication_reference_stamp_s, last_relubrication_s)
+    """The relubrication duty factor's live tau [s] at times t [s since the stamps' epoch] with the parameters
+    of ``e`` (registry.RELUBRICATION)."""
+    return RELUBRICATION.live_tau_s(e, t_s, last_relubrication_s)
 
 
 def duty_factor_terms(e: EffectParameters, t_s: np.ndarray, x_m: np.ndarray, last_relubrication_s: np.ndarray):
-    """The duty multipliers of load_along_rail, wear_rate_change and lubrication_interval (their live forms) at
-    segment mid-times t [s since the stamps' epoch] and mid-positions x [m]: (m, dm/dg, dm/df, dm/db)
-    (``last_relubrication_s``: the recorded form's time base per segment)."""
-    m_rail, d_g = load_along_rail.live_factor(x_m, e.load_gradient_per_m, e.load_reference_position_m)
-    m_change, after = wear_rate_change.live_factor(t_s, e.wear_rate_change_time_s, e.wear_rate_change_factor)
-    tau = time_since_relubrication_s(e, t_s, last_relubrication_s)
-    m_lube, d_b = lubrication_interval.live_factor(tau, e.lubrication_wear_growth, e.lubrication_interval_s)
-    m = m_rail * m_change * m_lube
-    dm_g = m_change * m_lube * d_g                  # d_g is 0 where the rail factor is clipped
-    dm_f = np.where(after, m_rail * m_lube, 0.0)
-    dm_b = m_rail * m_change * d_b
-    return m, dm_g, dm_f, dm_b
+    """The duty multipliers (registry.DUTY_FACTORS, their live forms) at segment mid-times t [s since the stamps'
+    epoch] and mid-positions x [m]: (m, {rate row name: dm/d(its parameter)}), m the product in DUTY_FACTORS
+    order and dm/d(one) its own derivative times the others' product (``last_relubrication_s``: the recorded
+    relubrications' time base per segment)."""
+    terms = [f.live_duty_factor(e, t_s, x_m, last_relubrication_s) for f in DUTY_FACTORS]
+    m = terms[0][0]
+    for factor, _ in terms[1:]:
+        m = m * factor
+    dm = {}
+    for i, effect in enumerate(DUTY_FACTORS):
+        others = [factor for j, (factor, _) in enumerate(terms) if j != i]
+        product = others[0]
+        for factor in others[1:]:
+            product = product * factor
+        dm[effect.rate_row] = product * terms[i][1]     # 0 where the factor is clipped or not yet in force
+    return m, dm
 
 
 @dataclass
@@ -91,11 +91,11 @@ class EffectWear:
     # the guide's sliding distance when the present surface was made (0, or at the last regrind / new rail):
     # running-in counts the distance slid on this surface [m]
     surface_start_m: float = 0.0
-    # lubrication_interval's time base (recorded form): the last relubricate event seen, and the first stamp
+    # the relubrication factor's time base (recorded form): the last relubricate event seen, and the first stamp
     # this guide integrated (the record's start, before the first event) [ns since the epoch]; None: not yet
     last_relubrication_ns: int | None = None
     first_t_ns: int | None = None
-    # stroke_distribution's pass work on the present surface (effects.straightness_wear_m's P): a pass (a run of
+    # the pass work on the present surface (effects.straightness_wear_m's P): a pass (a run of
     # one direction of sliding, as diagnose's duty cells count it) weighs 1 / max(L, L_s), known when it ends;
     # the open pass counts with its length so far. P of the ended passes [N] (with running-in), the open
     # pass's direction (+-1, 0 before any), length so far [m], effective work with running-in [N m] and
@@ -107,7 +107,7 @@ class EffectWear:
     pass_open_buckets: dict = field(default_factory=dict)
     # pass_work_now_n at each straightness measurement (parallel to measurement_gradients)
     measurement_pass_work_n: list = field(default_factory=list)
-    # thermal_drift: T - T_ref of the reading that corrected each measurement [K] (0 without the effect)
+    # the gauge's temperature term: T - T_ref of the reading that corrected each measurement [K] (0 without the effect)
     measurement_temperature_offset_k: list = field(default_factory=list)
 
     def add_segments(self, t_start_ns, t_end_ns, xa_m, xb_m, load_n, s_start_m) -> None:
@@ -130,24 +130,20 @@ class EffectWear:
         m = wear_rate_multiplier(e, speed, np.maximum(w, 1e-12), retract)
         # the duty effects at the segment's middle (time in s since the stamps' epoch, position)
         t_mid_s = 0.5 * (ta_ns + tb_ns) * 1e-9
-        m_duty, dm_g, dm_f, dm_b = duty_factor_terms(e, t_mid_s, 0.5 * (xa + xb),
-                                                     self.relubrication_base_s(t_mid_s))
+        m_duty, dm_duty = duty_factor_terms(e, t_mid_s, 0.5 * (xa + xb), self.relubrication_base_s(t_mid_s))
         work = w * ds
         base = work * m                                      # without the duty factors
         eff = base * m_duty
-        ri = running_in.running_in_factor_mean(s_a, s_a + ds, e.running_in_ratio, e.running_in_distance_m)
+        ri = SLIDING_DECAY.live_factor_mean(e, s_a, s_a + ds)
         work_ri = work * combined_multiplier(m, ri, m_duty)        # the effective work of each segment
         self.effective_work_nm += float(work_ri.sum())
-        share = speed_dependent_wear.asperity_load_share(speed, e.lift_speed_m_s)
         # d(effective work)/d(each rate parameter) without running-in (the duty buckets' sums)
-        rate = {"retract_wear_factor": retract_asymmetry.live_gradient(eff, work * m_duty, retract,
-                                                                       e.retract_wear_factor),
-                "lift_speed_m_s": speed_dependent_wear.live_gradient(eff, share, e.lift_speed_m_s),
-                "load_exponent": load_exponent.live_gradient(eff, w, e.load_reference_n),
-                "load_gradient_per_m": base * dm_g, "wear_rate_change_factor": base * dm_f,
-                "lubrication_wear_growth": base * dm_b}
-        d_r, d_s0 = running_in.live_gradients(eff, s_a, ds, e.running_in_ratio, e.running_in_distance_m)
-        grads = {"running_in_ratio": d_r, "running_in_distance_m": d_s0} | {n: g * ri for n, g in rate.items()}
+        seg = LiveSegments(w, speed, retract, work, eff, m_duty)
+        rate = {}
+        for effect in MATERIAL_FACTORS:
+            rate.update(effect.live_rate_gradients(e, seg))
+        rate.update({name: base * d for name, d in dm_duty.items()})
+        grads = SLIDING_DECAY.live_decay_gradients(e, eff, s_a, ds) | {n: g * ri for n, g in rate.items()}
         for name, g in grads.items():
             self.work_gradient[PHI_INDEX[name]] += float(g.sum())
         bucket = (tb_ns * 1e-9 // self.duty_bucket_s).astype(np.int64)
@@ -165,7 +161,7 @@ class EffectWear:
 
     def _add_passes(self, direction: np.ndarray, ds: np.ndarray, work_ri: np.ndarray, work: np.ndarray,
                     bucket: np.ndarray) -> None:
-        """stroke_distribution's passes: segments in time order with their direction (+-1), length [m],
+        """The passes of the pass work: segments in time order with their direction (+-1), length [m],
         effective work with and without running-in [N m] and duty bucket. A change of direction ends the
         open pass; the passes that end here add W ds m / max(L, L_s) to P and to their buckets' pass sums."""
         if int(direction[0]) != self.pass_direction:
@@ -237,11 +233,11 @@ class EffectWear:
         last relubrication of the record diagnose fitted, or its start)."""
         known = [v * 1e-9 for v in (self.last_relubrication_ns, self.first_t_ns) if v is not None]
         base = np.full_like(t_s, max(known) if known else -np.inf)
-        ref = self.effects.lubrication_reference_stamp_s
+        ref = RELUBRICATION.reference_stamp_s(self.effects)
         return np.where(t_s >= ref, np.maximum(base, ref), base)
 
     def relubricated(self, t_ns: int) -> None:
-        """A relubricate maintenance event: lubrication_interval's time since relubrication restarts."""
+        """A relubricate maintenance event: the time since relubrication restarts (registry.RELUBRICATION)."""
         self.last_relubrication_ns = int(t_ns)
 
     def window_sums(self, last_t_ns: int | None) -> np.ndarray:
@@ -270,7 +266,7 @@ class EffectWear:
 
     def on_measurement(self, temperature_offset_k: float = 0.0) -> None:
         """A straightness measurement was taken now: keep the work gradient and pass work it saw, and the
-        T - T_ref [K] of the temperature reading that corrected it (thermal_drift)."""
+        T - T_ref [K] of the temperature reading that corrected it (registry.GAUGE_TEMPERATURE)."""
         self.measurement_gradients.append(list(self.work_gradient))
         self.measurement_pass_work_n.append(self.pass_work_now_n())
         self.measurement_temperature_offset_k.append(float(temperature_offset_k))

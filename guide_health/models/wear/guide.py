@@ -4,7 +4,7 @@ A guide holds physics state only: the integrator of the Archard work
 (:class:`~guide_health.models.wear.archard.WearIntegrator`), the live wear effects
 (:class:`~guide_health.models.wear.effect_wear.EffectWear`), the K estimator
 (:class:`~guide_health.models.wear.calibration.WearCoefficientEstimator`), the rolling-guide models and the
-temperature readings the thermal_drift correction takes. It sees only samples its axis's input gate
+temperature readings the gauge's temperature correction takes. It sees only samples its axis's input gate
 (models/wear/gate.py) accepted, with its own share of the axis load; straightness, wear and the numbers of
 the remaining life (models/wear/life.py) come from here (seed 000 Eqs. 7, 10, 11, 12).
 """
@@ -25,6 +25,8 @@ from guide_health.models.wear.archard import (
 )
 from guide_health.models.wear.calibration import Z90, WearCoefficientEstimator
 from guide_health.models.wear.effect_life import (
+    B_RATE_INDEX,
+    W_INDEX,
     EffectLifeNow,
     life_interval_s,
     lubrication_schedule,
@@ -34,7 +36,16 @@ from guide_health.models.wear.effect_life import (
 from guide_health.models.wear.effect_wear import EffectWear
 from guide_health.models.wear.effects import straightness_wear_m
 from guide_health.models.wear.effects.parameters import EffectParameters
-from guide_health.models.wear.effects.registry import COVARIANCE_INDEX, PHI_INDEX, RATE_NAMES, RATE_SUMS, SUM_INDEX
+from guide_health.models.wear.effects.registry import (
+    COVARIANCE_INDEX,
+    GAUGE_TEMPERATURE,
+    PASS_WEIGHTING,
+    PHI_INDEX,
+    RATE_SUMS,
+    RELUBRICATION,
+    SLIDING_DECAY,
+    SUM_INDEX,
+)
 from guide_health.models.wear.fit_watch import FitWatch, model_key, predict, thermal_sd_m
 from guide_health.models.wear.input_rules import (
     MEASUREMENT_ALREADY_APPLIED,
@@ -45,7 +56,7 @@ from guide_health.models.wear.input_rules import (
 )
 from guide_health.models.wear.life import RunningIn
 
-#: guide/temperature readings kept for the thermal_drift correction (by stamp; a measurement takes the one in
+#: guide/temperature readings kept for the gauge's temperature correction (by stamp; a measurement takes the one in
 #: force at its stamp, so a reading may arrive after the measurement it precedes)
 TEMPERATURE_HISTORY = 4096
 
@@ -72,7 +83,7 @@ class GuideWear:
         )
         # the configured A0 while a wear reset's measured A0 is in force (models/wear/maintenance.reset_wear)
         self.straightness_initial_configured_m: float | None = None
-        # guide/temperature readings by stamp (the last TEMPERATURE_HISTORY): the thermal_drift correction
+        # guide/temperature readings by stamp (the last TEMPERATURE_HISTORY): the gauge's temperature correction
         # takes the one in force at a measurement's stamp
         self.temperature_t_ns: list[int] = []
         self.temperature_c: list[float] = []
@@ -104,7 +115,7 @@ class GuideWear:
 
     def add_temperature(self, t_ns: int, temperature_c: float) -> None:
         """A plausible guide/temperature reading: the rolling guide's oil viscosity from its stamp on (Walther
-        oil), kept by stamp for the thermal_drift correction."""
+        oil), kept by stamp for the gauge's temperature correction."""
         if self.rolling is not None:
             self.rolling.add_temperature(t_ns, temperature_c)
         self._keep_temperatures(np.array([t_ns], dtype=np.int64), np.array([temperature_c], dtype=float))
@@ -120,13 +131,14 @@ class GuideWear:
         del self.temperature_t_ns[:-TEMPERATURE_HISTORY], self.temperature_c[:-TEMPERATURE_HISTORY]
 
     @property
-    def thermal_drift(self) -> bool:
-        """The thermal_drift effect is on (its readings are kept, measurements corrected)."""
-        return self.effects is not None and self.effects.thermal_drift_m_per_k != 0.0
+    def temperature_corrected(self) -> bool:
+        """The gauge's temperature term is on (registry.GAUGE_TEMPERATURE: readings kept, measurements
+        corrected)."""
+        return GAUGE_TEMPERATURE.is_on(self.effects)
 
     def _keep_temperatures(self, t_ns: np.ndarray, temperature_c: np.ndarray, keep: int = TEMPERATURE_HISTORY) -> None:
         """Add readings (non-finite ones dropped), sorted by stamp, keeping the last ``keep``."""
-        if not self.thermal_drift or t_ns.size == 0:
+        if not self.temperature_corrected or t_ns.size == 0:
             return
         ok = np.isfinite(temperature_c)
         t = np.concatenate((np.asarray(self.temperature_t_ns, dtype=np.int64), t_ns[ok]))
@@ -135,14 +147,14 @@ class GuideWear:
         self.temperature_t_ns, self.temperature_c = t[order].tolist(), c[order].tolist()
 
     def thermal_offset_at_k(self, t_ns: int) -> float | None:
-        """T - T_ref [K] of the temperature reading in force at ``t_ns`` (thermal_drift; 0 without the
-        effect); None when no reading is stamped at or before it."""
-        if not self.thermal_drift:
+        """T - T_ref [K] of the temperature reading in force at ``t_ns`` (0 without the gauge's temperature
+        term); None when no reading is stamped at or before it."""
+        if not self.temperature_corrected:
             return 0.0
         i = reading_in_force_index(self.temperature_t_ns, int(t_ns))
         if i < 0:
             return None
-        return self.temperature_c[i] - self.effects.thermal_reference_c
+        return GAUGE_TEMPERATURE.temperature_offset_k(self.effects, self.temperature_c[i])
 
     @property
     def last_measurement_t_ns(self) -> int | None:
@@ -151,15 +163,16 @@ class GuideWear:
 
     def measure(self, t_ns: int, straightness_m: float) -> str | None:
         """An accepted straightness measurement [m] (gate.InputGate.straightness): K updated with the reading
-        corrected for thermal_drift. Returns why it cannot be applied to this guide (no temperature reading
-        at its stamp; a guide takes measurements in stamp order, once each), else None."""
+        corrected for the gauge's temperature term. Returns why it cannot be applied to this guide (no
+        temperature reading at its stamp; a guide takes measurements in stamp order, once each), else None."""
         last = self.last_measurement_t_ns
         if last is not None and t_ns <= last:
             return MEASUREMENT_ALREADY_APPLIED if t_ns == last else STRAIGHTNESS_TIME_BACKWARDS
         offset = self.thermal_offset_at_k(t_ns)
         if offset is None:
             return STRAIGHTNESS_WITHOUT_TEMPERATURE
-        correction = self.effects.thermal_drift_m_per_k * offset if self.thermal_drift else 0.0   # c_T (T - T_ref)
+        correction = (GAUGE_TEMPERATURE.correction_m(self.effects, offset) if self.temperature_corrected
+                      else 0.0)    # c_T (T - T_ref)
         self.thermal_correction_m = correction
         self._watch_fit(t_ns, straightness_m - correction, offset)
         self.estimator.add(t_ns, straightness_m - correction, self.loss_per_k_m(), self.work_nm())
@@ -168,15 +181,15 @@ class GuideWear:
         return None
 
     def _watch_fit(self, t_ns: int, corrected_m: float, offset_k: float) -> None:
-        """The fit test's innovation of a measurement (corrected for thermal_drift) before K takes it: the
+        """The fit test's innovation of a measurement (temperature-corrected) before K takes it: the
         posterior of the measurements so far predicts it (fit_watch.predict)."""
         g = self.loss_per_k_m()
         if not math.isfinite(g):
             return                      # no prediction before the stroke range is known
         k, k_sd, _ = self.estimator.posterior(self.measurement_losses_per_k_m())
         thermal = 0.0
-        if self.thermal_drift:
-            rows = [COVARIANCE_INDEX[n] for n in ("thermal_drift_m_per_k", "thermal_gauge_offset_m")]
+        if self.temperature_corrected:
+            rows = [COVARIANCE_INDEX[n] for n in GAUGE_TEMPERATURE.row_names]
             thermal = thermal_sd_m(offset_k, self.effects.covariance_matrix()[np.ix_(rows, rows)])
         z = predict(corrected_m, self.params.straightness_initial_m, g, k, k_sd, self.estimator.noise_sd_m,
                     thermal).sigma
@@ -195,7 +208,7 @@ class GuideWear:
 
     def loss_per_k_m(self) -> float:
         """Straightness loss per unit K now [m] (with the effects: Eq. 7 over the effective work, and
-        stroke_distribution's pass weighting: effects.straightness_wear_m)."""
+        the pass weighting: effects.straightness_wear_m)."""
         if self.effect_wear is None:
             return self.integrator.straightness_loss_per_k_m()
         return float(self._effect_losses_per_k_m(self.work_nm(), self.effect_wear.pass_work_now_n()))
@@ -207,11 +220,11 @@ class GuideWear:
         if not (l_min + l_max > 0):
             return math.nan * np.asarray(work_nm, dtype=float)
         loss = straightness_wear_m(1.0, self.geometry.hardness_pa, self.geometry.contact_width_m, work_nm,
-                                   pass_work_n, l_min + l_max, self.effects.stroke_distribution_weight)
+                                   pass_work_n, l_min + l_max, PASS_WEIGHTING.weight(self.effects))
         return np.maximum(loss, 0.0)
 
     def measurement_pass_work_n(self) -> np.ndarray:
-        """P at each measurement [N] (stroke_distribution). Measurements taken before the pass work was kept
+        """P at each measurement [N] (the pass work). Measurements taken before the pass work was kept
         (a state saved by a version that did not keep it) take the present ratio P / G of their effective work."""
         ew, est = self.effect_wear, self.estimator
         kept = np.asarray(ew.measurement_pass_work_n, dtype=float)
@@ -231,8 +244,8 @@ class GuideWear:
                                                                  "pass_work_n"))
         ratio = eff / work if work > 0 else 1.0
         duty = self.integrator.duty_work_rate_w()
-        w = self.effects.stroke_distribution_weight
-        # stroke_distribution: dP/dt per K over H b, dP/dt = (W v) x the window's pass work per work
+        w = PASS_WEIGHTING.weight(self.effects)
+        # the pass work: dP/dt per K over H b, dP/dt = (W v) x the window's pass work per work
         rate_pass = (duty * passes / work / (self.geometry.hardness_pa * self.geometry.contact_width_m)
                      if work > 0 and math.isfinite(duty) else 0.0)
         dln_rate = [v / eff if eff > 0 else 0.0 for v in sums[RATE_SUMS]]
@@ -242,7 +255,7 @@ class GuideWear:
                 "sliding_distance_m": self.integrator.sliding_distance_m - self.effect_wear.surface_start_m,
                 "dln_rate": dln_rate, "lubrication": lubrication_schedule(self.effects, self.effect_wear,
                                                                          self.integrator.last_t_ns,
-                                                                         dln_rate[RATE_NAMES.index("lubrication_wear_growth")])}
+                                                                         dln_rate[B_RATE_INDEX])}
 
     def effect_life_interval_s(self, k: float):
         """(life, low, high) [s] with the effects (models/wear/effect_life.life_interval_s): K's online spread
@@ -268,16 +281,16 @@ class GuideWear:
             work_j = np.asarray(est.measurement_work_nm, dtype=float)
             per_work = np.divide(g, work_j, out=np.zeros(n), where=work_j > 0)
             dg = per_work[:, None] * grads
-            w_row = PHI_INDEX["stroke_distribution_weight"]
+            w_row = W_INDEX
             dg[:, w_row] = loss_pass * self.measurement_pass_work_n() - loss_work * work_j
-            # A0 + dA0: every rise over A0 falls by dA0; thermal_drift: each reading corrected by
-            # (c_T + dc) (T_j - T_ref) + de
+            # A0 + dA0: every rise over A0 falls by dA0; the gauge's temperature term: each reading corrected
+            # by (c_T + dc) (T_j - T_ref) + de
             dy = np.zeros_like(dg)
             dy[:, PHI_INDEX["straightness_initial_m"]] = -1.0
             offsets = np.asarray(self.effect_wear.measurement_temperature_offset_k, dtype=float)
-            if self.thermal_drift and offsets.size == n and np.all(np.isfinite(offsets)):
-                dy[:, PHI_INDEX["thermal_drift_m_per_k"]] = -offsets
-                dy[:, PHI_INDEX["thermal_gauge_offset_m"]] = -1.0
+            if self.temperature_corrected and offsets.size == n and np.all(np.isfinite(offsets)):
+                for name, rise in GAUGE_TEMPERATURE.rise_gradients(offsets).items():
+                    dy[:, PHI_INDEX[name]] = rise
             k_sens = online_k_sensitivity(g, np.asarray(est.measurement_m) - est.straightness_initial_m,
                                           dg, k, k_sd, sigma, dy)
         else:                           # no measurement yet, or a state saved before the gradients were kept
@@ -311,14 +324,15 @@ class GuideWear:
         unit K ``g`` [m] (a number or an array, e.g. :meth:`measurement_losses_per_k_m`)."""
         return self.params.straightness_initial_m + wear_coefficient * loss_per_k_m
 
-    def running_in(self, wear_coefficient: float) -> RunningIn | None:
-        """The effect-aware forecast's inputs (running-in or lubrication_interval), None without them."""
+    def forecast_terms(self, wear_coefficient: float) -> RunningIn | None:
+        """The effect-aware forecast's inputs (running-in or the relubrication schedule), None without them."""
         f = self.effect_forecast() if self.effect_wear is not None else {}
-        if not (f and (self.effects.running_in_ratio > 0 or f["lubrication"] is not None)):
+        if not (f and (SLIDING_DECAY.is_on(self.effects) or f["lubrication"] is not None)):
             return None
-        return RunningIn(wear_coefficient * f["steady_rate_per_k_m_s"] * 1e6, self.effects.running_in_ratio,
-                         self.effects.running_in_distance_m, f["sliding_distance_m"], f["sliding_speed_m_s"],
-                         schedule_tuple(f["lubrication"], self.effects.lubrication_wear_growth))
+        ratio, distance_m = SLIDING_DECAY.decay(self.effects)
+        return RunningIn(wear_coefficient * f["steady_rate_per_k_m_s"] * 1e6, ratio, distance_m,
+                         f["sliding_distance_m"], f["sliding_speed_m_s"],
+                         schedule_tuple(f["lubrication"], RELUBRICATION.growth(self.effects)))
 
     def fatigue_report(self) -> dict[str, Any] | None:
         """The `<joint> fatigue` numbers, level and message (rolling guides; None for sliding)."""
@@ -336,8 +350,8 @@ class GuideWear:
             "rolling": None if self.rolling is None else self.rolling.state(),
             "fit_watch": self.fit_watch.state(),
             **({} if self.effect_wear is None else {"effects": self.effect_wear.state()}),
-            # thermal_drift: the readings a later measurement may take (by stamp)
-            **({} if not self.thermal_drift else {"temperatures": {"reading_t_ns": list(self.temperature_t_ns),
+            # the gauge's temperature term: the readings a later measurement may take (by stamp)
+            **({} if not self.temperature_corrected else {"temperatures": {"reading_t_ns": list(self.temperature_t_ns),
                                                                  "reading_c": list(self.temperature_c)}}),
         }
 
@@ -364,7 +378,8 @@ class GuideWear:
         self.estimator.prior_rel_sd = self.params.wear_coefficient_prior_rel_sd
         self.estimator.noise_sd_m = self.params.straightness_noise_m
         self.estimator.straightness_initial_m = self.params.straightness_initial_m
-        if self.thermal_drift and self.effect_wear is not None and self.temperature_t_ns:   # saved without T - T_ref
+        if self.temperature_corrected and self.effect_wear is not None and self.temperature_t_ns:
+            # a state saved without T - T_ref per measurement
             self.effect_wear.rebuild_temperature_offsets(self.estimator.measurement_t_ns, self.temperature_t_ns[0],
                                                          self.thermal_offset_at_k)
         if self.rolling is not None and state.get("rolling"):

@@ -55,6 +55,8 @@ from typing import Any
 
 import numpy as np
 
+from guide_health.models.wear.effects.registry import GAUGE_TEMPERATURE
+
 # --- reasons (the text the node logs and the reports count) ---------------------------------------
 NON_FINITE_JOINT = "non-finite joint position/velocity"
 POSITION_OUT_OF_TRAVEL = "joint position outside the rail travel"
@@ -77,7 +79,7 @@ MALFORMED_TEMPERATURE = "malformed guide/temperature message"
 EMPTY_JOINT_STATES = "empty joint_states arrays"
 JOINT_POSITION_MISSING = "joint_states position shorter than name"
 STRAIGHTNESS_WITHOUT_TIME_BASE = "straightness before any joint_states (no time base)"
-STRAIGHTNESS_WITHOUT_TEMPERATURE = "straightness before any guide/temperature (thermal_drift correction)"
+STRAIGHTNESS_WITHOUT_TEMPERATURE = f"straightness before any guide/temperature ({GAUGE_TEMPERATURE.id} correction)"
 TEMPERATURE_IMPLAUSIBLE = "guide temperature non-finite or outside -100..500 degC"
 INVALID_STAMP = "invalid header stamp (nanosec >= 1e9)"
 # maintenance events (models/wear/maintenance.py): an event not applied, counted under
@@ -318,7 +320,7 @@ def plausible_temperature(temperature_c):
 def reading_in_force_index(reading_stamps, at):
     """Index of the reading in force at a stamp: the last one stamped at or before it (zero-order hold), -1
     before the first; ``reading_stamps`` sorted. The one rule for which guide/temperature reading corrects a
-    straightness measurement (thermal_drift), live and in diagnose. A scalar ``at`` gives an int (bisect on
+    straightness measurement (registry.GAUGE_TEMPERATURE), live and in diagnose. A scalar ``at`` gives an int (bisect on
     the kept list: the live path), an array an array (searchsorted: the same rule, vectorised)."""
     if np.ndim(at) == 0:
         return bisect.bisect_right(reading_stamps, at) - 1

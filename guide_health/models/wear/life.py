@@ -5,7 +5,7 @@ as functions of typed inputs (frozen dataclasses; SI units unless the name says 
   at K and at the ends of K's 90 % interval (the higher K, the shorter life); with the wear effects the
   interval comes from :func:`guide_health.models.wear.effect_life.life_interval_s` (delta method).
 - :func:`forecast`: straightness from now to the limit over the horizon, the point forecast (with
-  running-in or lubrication_interval: effect_life.forecast_straightness_m) and the band whose edges reach
+  running-in or the relubrication schedule: effect_life.forecast_straightness_m) and the band whose edges reach
   the limit at the interval's ends.
 - :func:`judge_precision` / :func:`judge_inputs`: the level and message of the `<axis> precision` status
   (thresholds moved by the clear margin for the hysteresis test, guide_health.models.levels).
@@ -52,8 +52,8 @@ class RunningIn:
     """What the effect-aware point forecast takes (effect_life.forecast_straightness_m)."""
 
     rate_um_s: float                   # K x steady dA/dt per K [um/s]
-    running_in_ratio: float
-    running_in_distance_m: float
+    decay_ratio: float                 # r of K(s) = K (1 + r exp(-s / s0)) (registry.SLIDING_DECAY)
+    decay_distance_m: float            # s0
     sliding_distance_m: float          # on the present surface
     sliding_speed_m_s: float
     lubrication: tuple | None          # effect_life.schedule_tuple
@@ -70,7 +70,7 @@ class ForecastNow:
     straightness_limit_um: float
     last_t_ns: int | None              # the last integrated joint sample
     first_t_ns: int | None
-    running_in: RunningIn | None = None
+    effect_terms: RunningIn | None = None
 
 
 def forecast(now: ForecastNow, points: int = 60) -> dict:
@@ -83,9 +83,9 @@ def forecast(now: ForecastNow, points: int = 60) -> dict:
     end = high if math.isfinite(high) else 3.0 * life
     h = np.linspace(0.0, end, points)
     mid = a_now + (limit - a_now) * h / life
-    r = now.running_in
+    r = now.effect_terms
     if r is not None:
-        mid = forecast_straightness_m(h * 3600.0, a_now, r.rate_um_s, r.running_in_ratio, r.running_in_distance_m,
+        mid = forecast_straightness_m(h * 3600.0, a_now, r.rate_um_s, r.decay_ratio, r.decay_distance_m,
                                       r.sliding_distance_m, r.sliding_speed_m_s, r.lubrication)
     band = [a_now + (limit - a_now) * h / x if x > 0 else np.full_like(h, limit) for x in (low, high)]
     return {"now_h": (now.last_t_ns - (now.first_t_ns or 0)) * 1e-9 / 3600.0,

@@ -9,8 +9,8 @@ axis, or the one it names):
   and the lubrication are unchanged, so the posterior of K (mean and sd from every measurement so far)
   becomes the prior of the new surface; the measurements of the old surface are folded into it. Keeps the
   sliding distance, the strokes and the duty (they describe the machine's use, not the surface) and the
-  rolling fatigue (a regrind does not touch the raceways' subsurface). With the running_in effect (model
-  file) the new surface runs in again: the running-in distance counts from the regrind (a fresh scraped or
+  rolling fatigue (a regrind does not touch the raceways' subsurface). With running-in (registry.SLIDING_DECAY,
+  model file) the new surface runs in again: the running-in distance counts from the regrind (a fresh scraped or
   ground surface), the effect model is then that of a new guide.
 * ``replace_rail``: a new rail (way). Resets the wear as a regrind does (straightness: the measured value
   of the new rail or A0) and, for rolling guides, the fatigue life used (new raceways). Keeps K (same
@@ -107,7 +107,7 @@ def straightness_from_text(text: str) -> float:
 
 def relubrication_times_s(events, axis: str, t0_ns: int) -> np.ndarray | None:
     """The recorded relubrications of ``axis`` (of any of its guides) [s from ``t0_ns``], sorted; None when
-    there are none (the lubrication_interval effect of the discrepancy workflow then fits an interval)."""
+    there are none (the discrepancy workflow's relubrication effect then fits an interval)."""
     times = sorted((e.t_ns - t0_ns) * 1e-9 for e in events if e.kind == "relubricate" and e.axis == axis)
     return np.asarray(times, dtype=float) if times else None
 
@@ -225,7 +225,7 @@ def reset_fatigue(monitor) -> None:
 
 def relubricate(monitor, t_ns: int) -> None:
     """Fresh lubricant: the recent boundary-lubrication share restarts (rolling guides); the live
-    lubrication_interval effect's time since relubrication restarts."""
+    relubrication factor's time since relubrication restarts (registry.RELUBRICATION)."""
     if getattr(monitor, "effect_wear", None) is not None:
         monitor.effect_wear.relubricated(t_ns)
     if monitor.rolling is not None:

@@ -45,7 +45,7 @@ def fingerprint_mismatch(saved: dict[str, Any], current: dict[str, Any]) -> str:
 
 
 #: fields that are sums of non-negative terms (distances, counts, work): a negative value is a corrupt state.
-#: (Not measurement_m: with the thermal_drift effect a reading is stored corrected, c_T (T - T_ref) taken off,
+#: (Not measurement_m: with the gauge's temperature term a reading is stored corrected, c_T (T - T_ref) taken off,
 #: which may leave a reading near zero slightly below it.)
 #: Not the per-bin profile and per-bucket/measurement work lists: made by differences, they may round to
 #: -1e-16 in a legal state (found by test_state_property's arbitrary runs).
@@ -62,12 +62,12 @@ NON_NEGATIVE = frozenset({
 #: relubrication time base; older bucket rows and gradients are zero-padded by effect_wear.restore).
 #: Such a state is accepted without them; every other missing field is refused.
 ADDED_FIELDS = {"measurement_gradients": [], "surface_start_m": 0.0,
-                # lubrication_interval's time base
+                # the relubrication factor's time base
                 "last_relubrication_t_ns": None, "first_sample_t_ns": None,
-                # stroke_distribution's pass work (PrecisionMonitor.restore estimates P without it)
+                # the pass work (PrecisionMonitor.restore estimates P without it)
                 "pass_work_n": 0.0, "pass_direction": 0, "pass_length_m": 0.0, "pass_open_work_nm": 0.0,
                 "pass_open_buckets": [], "measurement_pass_work_n": [],
-                # thermal_drift's T - T_ref per measurement (without it c_T's spread is not carried)
+                # the gauge temperature's T - T_ref per measurement (without it c_T's spread is not carried)
                 "measurement_temperature_offset_k": [],
                 # the rolling guide's stamp of the oil temperature reading in force
                 "oil_temperature_t_ns": None,
@@ -80,7 +80,7 @@ EMPTY_LIST_ELEMENT = {"duty_bucket_index": 0, "measurement_t_ns": 0, "measuremen
                       "reading_t_ns": 0, "idle_pause_start_ns": 0, "idle_pause_end_ns": 0,
                       # NaN: a measurement restored from a state saved before these were kept (effect_wear.restore)
                       "measurement_pass_work_n": float("nan"), "measurement_temperature_offset_k": float("nan")}
-#: stamp lists a monitor keeps in stamp order and bounded (the thermal_drift correction's temperature
+#: stamp lists a monitor keeps in stamp order and bounded (the gauge correction's temperature
 #: readings): another order or a longer list is a corrupt state (restoring it would re-sort or trim it)
 STAMP_ORDERED_LISTS = {"reading_t_ns": TEMPERATURE_HISTORY}
 #: lists of rows of finite numbers, empty in a fresh monitor (effect_wear's duty buckets: index then sums; the

@@ -5,14 +5,16 @@ with Eq. 5's j = 1/2, starting from a known A0:
 
     A(t) = A0 + 2 K G(t) / (H b (l_min + l_max)),        G(t) = sum_i W_i ds_i   [N m]
 
-Each effect is a physical term with physical parameters, in its own module here: the wear-rate multipliers
-m_i (dV_i = K W_i ds_i m_i / H) of running_in, retract_asymmetry, speed_dependent_wear, load_exponent and the
-duty effects wear_rate_change, lubrication_interval, load_along_rail; the straightness term of
-stroke_distribution; the measurement terms thermal_drift and initial_offset. The simulator's truth
-(``guide_health.sim.machine``), the candidates of ``guide_health.analysis.discrepancy`` and the live model
-(models/wear/effect_wear.py) evaluate the *same* functions with one parameter type
-(parameters.EffectParameters), so a hidden effect and the candidate that should find it are one model, not a
-fitted curve. registry.py lists the effects and derives every list of them.
+Each effect is a physical term with physical parameters, in its own module here (registry.py lists them and
+derives every list of them): a wear-rate multiplier m_i (dV_i = K W_i ds_i m_i / H) of the material pair or of
+the duty (when and where the work is done), a straightness term, or a measurement term. Its module is its one
+home: its parameters, its multiplier (or term) and gradient, its live form, its report words, its model-file
+keys and simulation parameters; the rest of guide_health reaches it through the registry (the roles and the
+methods of base.Effect), never by its name. The simulator's truth (``guide_health.sim.machine``), the
+candidates of ``guide_health.analysis.discrepancy`` and the live model (models/wear/effect_wear.py) evaluate the
+*same* functions with one parameter type (parameters.EffectParameters), so a hidden effect and the candidate
+that should find it are one model, not a fitted curve. The imports below re-export the effects' functions the
+simulator and the discrepancy fit call by name (test/test_effect_home.py's allow-list).
 """
 from guide_health.models.wear.effects.load_along_rail import load_along_rail_factor
 from guide_health.models.wear.effects.load_exponent import load_exponent_factor

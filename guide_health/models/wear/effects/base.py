@@ -1,8 +1,12 @@
-"""What an effect of the registry declares (plain data, no physics): its parameters, its rows in the model
-file's covariance, its values for ``simulate --effect`` and its words for the report."""
+"""What an effect of the registry declares: its parameters, its rows in the model file's covariance, its values
+for ``simulate --effect`` and its words for the report (plain data), and the interface through which every other
+module reaches its physics (the methods of :class:`Effect`; an effect's module overrides those of its kind)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
 
 
 @dataclass(frozen=True)
@@ -42,6 +46,7 @@ class SimulateValue:
     no_effect: float
     range_text: str = ""
     field: str = ""
+    note: str = ""      # ``simulate --help``'s words on the simulation parameters that go with it
 
 
 @dataclass(frozen=True)
@@ -89,6 +94,57 @@ class Effect:
     needs_temperature: bool = False          # a candidate only with a temperature record
     needs_given_a0: bool = False             # a candidate only when the parameters give A0 (else A0 is fitted)
     reported_extra: tuple[str, ...] = ()     # values the report adds to its fitted parameters
+    #: its fields of the one parameter type (parameters.EffectParameters): (name, no-effect value, meaning);
+    #: None: the default of its wear_monitor parameter of that name
+    fields: tuple[tuple[str, Any, str], ...] = ()
+    #: its ``guide_health_simulation`` parameters (params/simulation.py; the simulator's truth beyond the value)
+    simulation: tuple[EffectParameter, ...] = ()
+
+    def live_values(self, p: dict[str, Any], named: bool) -> dict[str, Any]:
+        """Its EffectParameters fields from the values of its own wear_monitor parameters ``p`` (``named``: the
+        ``effects`` parameter names it); a field of a parameter it owns takes the parameter's value when named
+        (else its no-effect value), the others (references, intervals) always."""
+        return {}
+
+    @property
+    def rate_row(self) -> str:
+        """The name of its covariance row whose multiplier sets the present wear rate ('' without one)."""
+        return next((r.name for r in self.covariance_rows if r.rate), "")
+
+    @property
+    def row_names(self) -> tuple[str, ...]:
+        """The names of its covariance rows, in its order."""
+        return tuple(r.name for r in self.covariance_rows)
+
+    def rate_factor(self, e: Any, speed_m_s: np.ndarray, load_n: np.ndarray,
+                    retract: np.ndarray) -> np.ndarray | None:
+        """A material effect's wear-rate factor of segments with the given speed [m/s], load [N] and direction
+        (``e``: the EffectParameters); None: the factor is 1 (no effect)."""
+        return None
+
+    def live_rate_gradients(self, e: Any, seg: LiveSegments) -> dict[str, np.ndarray]:
+        """A material effect's d(effective work)/d(parameter) of live segments, by covariance row name."""
+        return {}
+
+    def live_duty_factor(self, e: Any, t_s: np.ndarray, x_m: np.ndarray,
+                         last_relubrication_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """A duty effect's live (m, dm/d(its rate parameter)) at segment mid-times t [s since the stamps' epoch]
+        and mid-positions x [m] (``last_relubrication_s``: the recorded relubrications' time base)."""
+        raise NotImplementedError(f"{self.id} is not a duty effect")
+
+
+@dataclass(frozen=True)
+class LiveSegments:
+    """Sliding segments of the live integration (models/wear/effect_wear.py) as a material effect's gradient
+    takes them: load W [N] (at least 1e-12), speed [m/s], retract (bool), plain work W ds [N m], effective work
+    without running-in [N m] and the product of the duty factors m_duty [-]."""
+
+    load_n: np.ndarray
+    speed_m_s: np.ndarray
+    retract: np.ndarray
+    work_nm: np.ndarray
+    effective_work_nm: np.ndarray
+    duty: np.ndarray
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,15 @@ from guide_health.models.wear.effects.base import (
     SimulateValue,
 )
 
-EFFECT = Effect(
+
+class InitialOffset(Effect):
+    """A measurement term: the initial straightness is A0 + delta."""
+
+    def reading_offset_m(self, e) -> float:
+        return e.initial_offset_m
+
+
+EFFECT = InitialOffset(
     id="initial_offset",
     term="A0 is A0 + delta",
     meaning="initial offset: the initial straightness is not the A0 of the parameters",
@@ -19,6 +27,7 @@ EFFECT = Effect(
     live=False,
     needs_given_a0=True,         # with A0 = 0 the baseline fits A0 itself
     fitted_aliases=(("initial_offset_m", "straightness_initial_m"),),     # the model file's A0 = A0 + delta
+    fields=(("initial_offset_m", 0.0, "delta (offline; live folded into A0)"),),
 )
 
 

@@ -14,7 +14,19 @@ from guide_health.models.wear.effects.base import (
     SimulateValue,
 )
 
-EFFECT = Effect(
+
+class LoadAlongRail(Effect):
+    """A duty factor of where the work is done."""
+
+    def live_values(self, p, named):
+        return {"load_gradient_per_m": float(p["load_gradient_per_m"]) if named else 0.0,
+                "load_reference_position_m": float(p["load_reference_position_m"])}
+
+    def live_duty_factor(self, e, t_s, x_m, last_relubrication_s):
+        return live_factor(x_m, e.load_gradient_per_m, e.load_reference_position_m)
+
+
+EFFECT = LoadAlongRail(
     id="load_along_rail",
     term="m = max(1 + g (x - x_ref), 0), x_ref the work-weighted mean position",
     meaning="load along the rail: the load varies along the travel (misalignment, foundation)",
@@ -29,6 +41,7 @@ EFFECT = Effect(
     ),
     fitted_to_file=("load_gradient_per_m",),
     covariance_rows=(CovarianceRow("load_gradient_per_m", 6, 2, rate=True),),
+    fields=(("load_gradient_per_m", 0.0, "g"), ("load_reference_position_m", 0.0, "x_ref")),
 )
 
 

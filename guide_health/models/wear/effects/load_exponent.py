@@ -14,7 +14,22 @@ from guide_health.models.wear.effects.base import (
     SimulateValue,
 )
 
-EFFECT = Effect(
+
+class LoadExponent(Effect):
+    """A material factor: (W / W_ref)^(n - 1)."""
+
+    def live_values(self, p, named):
+        return {"load_exponent": float(p["load_exponent"]) if named else 1.0,
+                "load_reference_n": float(p["load_reference_n"])}
+
+    def rate_factor(self, e, speed_m_s, load_n, retract):
+        return load_exponent_factor(load_n, e.load_exponent, e.load_reference_n)
+
+    def live_rate_gradients(self, e, seg):
+        return {self.rate_row: live_gradient(seg.effective_work_nm, seg.load_n, e.load_reference_n)}
+
+
+EFFECT = LoadExponent(
     id="load_exponent",
     term="wear rate ∝ W^n: factor (W/W_ref)^(n-1)",
     meaning="load exponent: wear grows faster (or slower) than linearly with the load",
@@ -29,6 +44,8 @@ EFFECT = Effect(
     ),
     fitted_to_file=("load_exponent",),
     covariance_rows=(CovarianceRow("load_exponent", 5, 1, rate=True),),
+    simulation=(EffectParameter("load_reference_n", 1000.0, "N", "(0, inf)", "W_ref of the load_exponent effect"),),
+    fields=(("load_exponent", 1.0, "n"), ("load_reference_n", None, "W_ref")),
 )
 
 

@@ -6,6 +6,8 @@ every interval T from the start of the record (relubricated at t = 0, T, 2T, ...
 tau = t mod T. Live: m = max(1 + b tau, 0) (recorded form) or 1 + a ((t - t_ref) mod T) / T (interval form)."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from guide_health.models.wear.effects.base import (
@@ -17,7 +19,54 @@ from guide_health.models.wear.effects.base import (
     SimulateValue,
 )
 
-EFFECT = Effect(
+
+class LubricationInterval(Effect):
+    """A duty factor of the time since relubrication, and the relubrication schedule of the life forecast."""
+
+    def live_values(self, p, named):
+        return {"lubrication_wear_growth": float(p["lubrication_wear_growth"]) if named else 0.0,
+                "lubrication_interval_s": float(p["lubrication_interval_s"]),
+                "lubrication_reference_stamp_s": float(p["lubrication_reference_stamp_s"]),
+                "lubrication_forecast_interval_s": float(p["lubrication_forecast_interval_s"])}
+
+    def live_duty_factor(self, e, t_s, x_m, last_relubrication_s):
+        return live_factor(self.live_tau_s(e, t_s, last_relubrication_s), e.lubrication_wear_growth,
+                           e.lubrication_interval_s)
+
+    def live_tau_s(self, e, t_s, last_relubrication_s):
+        """The live tau [s] at times t [s since the stamps' epoch] (:func:`live_time_since_relubrication_s`
+        with the parameters of ``e``)."""
+        return live_time_since_relubrication_s(t_s, e.lubrication_interval_s, e.lubrication_reference_stamp_s,
+                                               last_relubrication_s)
+
+    def reference_stamp_s(self, e) -> float:
+        """t_ref [s since the stamps' epoch]: the first assumed relubrication, or the last recorded one."""
+        return e.lubrication_reference_stamp_s
+
+    def growth(self, e) -> float:
+        """The model's b (recorded form, 1/s) or a (interval form, -)."""
+        return e.lubrication_wear_growth
+
+    def forecast_schedule(self, e, tau_now_s: float, dln_b: float) -> dict | None:
+        """The schedule the remaining life follows from now (effect_life.wear_time_s): the time since the last
+        relubrication ``tau_now_s``, the interval of the next ones (the fitted T; recorded events: the forecast
+        interval, 0 = none expected), the growth per unit of the file's b (1, or 1 / T) and the duty window's
+        mean multiplier m_w = 1 / (1 - b dln_b), dln_b = d ln(window rate) / d b (the window's effective work
+        without the multiplier is eff (1 - b dln_b)). None without the effect (not named, or no growth)."""
+        if self.id not in e.effects or e.lubrication_wear_growth == 0.0:
+            return None
+        if e.lubrication_interval_s > 0:
+            interval, per_unit = e.lubrication_interval_s, 1.0 / e.lubrication_interval_s
+        else:
+            interval, per_unit = e.lubrication_forecast_interval_s, 1.0
+        lubfree_share = 1.0 - e.lubrication_wear_growth * dln_b
+        if not (math.isfinite(lubfree_share) and lubfree_share > 0.05 and math.isfinite(tau_now_s)):
+            return None
+        return {"growth_per_unit": per_unit, "tau_now_s": tau_now_s, "interval_s": interval,
+                "window_mean": 1.0 / lubfree_share}
+
+
+EFFECT = LubricationInterval(
     id="lubrication_interval",
     term=("recorded relubrications: m = 1 + b tau, tau the time since the last `relubricate` event (the "
           "record's start before the first); else m = 1 + a (t mod T) / T"),
@@ -25,7 +74,9 @@ EFFECT = Effect(
     separating_duty="relubrication at recorded times (maintenance events) at another interval",
     # b per second of the time since the last relubricate event (simulation relubrication_interval_h, or
     # --maintenance relubricate events)
-    simulate=SimulateValue("lubrication_wear_growth_per_s", "1/s", 0.0, "[0, 0.01]", field="lubrication_wear_growth"),
+    simulate=SimulateValue("lubrication_wear_growth_per_s", "1/s", 0.0, "[0, 0.01]", field="lubrication_wear_growth",
+                           note="relubrications every relubrication_interval_h and the --maintenance relubricate "
+                                "events"),
     duty=True,
     parameters=(
         EffectParameter("lubrication_wear_growth", 0.0, "-", "[-1, 1e3]",
@@ -46,6 +97,14 @@ EFFECT = Effect(
     # the model file's growth, interval and reference come from the fit's form (model_file.duty_effect_parameters)
     fitted_aliases=(("lubrication_wear_growth_per_s", "lubrication_wear_growth"),),
     covariance_rows=(CovarianceRow("lubrication_wear_growth", 8, 2, rate=True),),
+    simulation=(EffectParameter("relubrication_interval_h", 0.0, "h", "[0, inf)",
+                                "relubricate every this (recorded as maintenance events; the lubrication_interval "
+                                "effect's time base); 0 = only --maintenance relubricate events"),),
+    fields=(("lubrication_wear_growth", 0.0, "b [1/s] or a [-]"),
+            ("lubrication_interval_s", 0.0, "T (0: the recorded relubrications are the time base)"),
+            ("lubrication_reference_stamp_s", 0.0, "live t_ref"),
+            ("lubrication_forecast_interval_s", 0.0, "live, recorded form: the future relubrications' interval"),
+            ("relubrication_t_s", (), "offline: recorded relubrications [s from the start]")),
 )
 
 

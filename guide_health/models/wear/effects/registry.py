@@ -1,12 +1,13 @@
 """The effect registry: every wear effect of guide_health, one module each, and what is derived from them.
 
 An effect's module (this package) holds its parameters, its wear-rate multiplier (or straightness term) and
-gradient, its live form and the report's words (base.Effect). Everything that lists effects is derived here,
-by name: the candidates of ``diagnose`` and the ``--effect`` values of ``simulate`` (catalogue order below),
-the live effect ids, the wear_monitor parameters of the effects (params/wear_monitor.py), the model file's
-keys and the rows of its effect_covariance (with the sizes older files had), the lengths of the saved live
-state's lists, and the docs table (:func:`docs_table`). test/test_effect_registry.py holds every derived place
-to the registry. docs/adding_an_effect.md: how to add one.
+gradient, its live form and the report's words (base.Effect and its subclass there); the rest of guide_health
+reaches it through the roles below and the effect's methods, never by its name (test/test_effect_home.py).
+Everything that lists effects is derived here, by name: the candidates of ``diagnose`` and the ``--effect`` values
+of ``simulate`` (catalogue order below), the live effect ids, the wear_monitor parameters of the effects
+(params/wear_monitor.py), the model file's keys and the rows of its effect_covariance (with the sizes older files
+had), the lengths of the saved live state's lists, and the docs table (:func:`docs_table`).
+test/test_effect_registry.py holds every derived place to the registry. docs/adding_an_effect.md: how to add one.
 """
 from __future__ import annotations
 
@@ -32,6 +33,16 @@ MODULES = (running_in, retract_asymmetry, speed_dependent_wear, load_exponent, s
            initial_offset, wear_rate_change, lubrication_interval, load_along_rail)
 EFFECTS: tuple[Effect, ...] = tuple(m.EFFECT for m in MODULES)
 BY_ID = {e.id: e for e in EFFECTS}
+#: the roles the wear core reaches an effect by, never by its name (its methods: base.Effect and its module)
+SLIDING_DECAY = running_in.EFFECT              # K(s) decays over the sliding distance of the present surface
+PASS_WEIGHTING = stroke_distribution.EFFECT    # the weight of the pass work in the straightness
+GAUGE_TEMPERATURE = thermal_drift.EFFECT       # the straightness gauge's temperature term
+INITIAL_TERM = initial_offset.EFFECT           # the initial straightness's offset from the parameters' A0
+RELUBRICATION = lubrication_interval.EFFECT    # the duty factor that follows the relubrications
+#: the material factors of the wear rate, in the order their product is taken (the last bit depends on it)
+MATERIAL_FACTORS = (speed_dependent_wear.EFFECT, load_exponent.EFFECT, retract_asymmetry.EFFECT)
+#: the duty factors, in the order their product is taken
+DUTY_FACTORS = (load_along_rail.EFFECT, wear_rate_change.EFFECT, lubrication_interval.EFFECT)
 #: each effect's fitted parameters for a record (base.FitContext -> base.FitParameter list), catalogue order
 FIT_PARAMETERS = {m.EFFECT.id: m.fit_parameters for m in MODULES}
 

@@ -14,7 +14,23 @@ from guide_health.models.wear.effects.base import (
     SimulateValue,
 )
 
-EFFECT = Effect(
+
+class RetractAsymmetry(Effect):
+    """A material factor: rho on retract segments (none at rho = 1)."""
+
+    def live_values(self, p, named):
+        return {"retract_wear_factor": float(p["retract_wear_factor"]) if named else 1.0,
+                "retract_sign": 1 if p["retract_direction"] == "+x" else -1}
+
+    def rate_factor(self, e, speed_m_s, load_n, retract):
+        return None if e.retract_wear_factor == 1.0 else retract_factor(retract, e.retract_wear_factor)
+
+    def live_rate_gradients(self, e, seg):
+        return {self.rate_row: live_gradient(seg.effective_work_nm, seg.work_nm * seg.duty, seg.retract,
+                                             e.retract_wear_factor)}
+
+
+EFFECT = RetractAsymmetry(
     id="retract_asymmetry",
     term="the retract stroke wears rho x the feed per unit Archard work",
     meaning="feed/retract asymmetry: the retract stroke wears less per unit Archard work",
@@ -29,6 +45,8 @@ EFFECT = Effect(
     ),
     fitted_to_file=("retract_wear_factor",),
     covariance_rows=(CovarianceRow("retract_wear_factor", 3, 1, rate=True),),
+    fields=(("retract_wear_factor", 1.0, "rho"),
+            ("retract_sign", -1, "the retract's direction of travel (live; offline: the fit's)")),
 )
 
 

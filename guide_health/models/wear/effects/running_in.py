@@ -14,12 +14,37 @@ from guide_health.models.wear.effects.base import (
     SimulateValue,
 )
 
-EFFECT = Effect(
+
+class RunningInEffect(Effect):
+    """K decaying over the sliding distance on the present surface."""
+
+    def live_values(self, p, named):
+        return {"running_in_ratio": float(p["running_in_ratio"]) if named else 0.0,
+                "running_in_distance_m": float(p["running_in_distance_m"])}
+
+    def is_on(self, e) -> bool:
+        return e.running_in_ratio > 0
+
+    def decay(self, e) -> tuple[float, float]:
+        """(r, s0 [m]) of K(s) = K (1 + r exp(-s / s0))."""
+        return e.running_in_ratio, e.running_in_distance_m
+
+    def live_factor_mean(self, e, s_start_m, s_end_m):
+        """Mean K(s)/K of segments [s_start, s_end] on the present surface (:func:`running_in_factor_mean`)."""
+        return running_in_factor_mean(s_start_m, s_end_m, e.running_in_ratio, e.running_in_distance_m)
+
+    def live_decay_gradients(self, e, effective_work_nm, s_start_m, ds_m) -> dict:
+        """{row name: d(effective work)/d(r), d/d(s0)} of segments (:func:`live_gradients`)."""
+        d_r, d_s0 = live_gradients(effective_work_nm, s_start_m, ds_m, e.running_in_ratio, e.running_in_distance_m)
+        return dict(zip(self.row_names, (d_r, d_s0)))
+
+
+EFFECT = RunningInEffect(
     id="running_in",
     term="K(s) = K (1 + r e^(-s/s0)) over the sliding distance s",
     meaning="running-in: K starts high and decays over the sliding distance",
     separating_duty="a longer record (running-in decays with sliding distance and is over after 3 s0)",
-    simulate=SimulateValue("running_in_ratio", "-", 0.0),     # s0 = simulation running_in_distance_m
+    simulate=SimulateValue("running_in_ratio", "-", 0.0, note="s0 is running_in_distance_m"),
     material=True,
     parameters=(
         EffectParameter("running_in_ratio", 0.0, "-", "[0, 100]", "running_in r: K(s) = K (1 + r exp(-s / s0))"),
@@ -28,6 +53,9 @@ EFFECT = Effect(
     ),
     fitted_to_file=("running_in_ratio", "running_in_distance_m"),
     covariance_rows=(CovarianceRow("running_in_ratio", 1, 1), CovarianceRow("running_in_distance_m", 2, 1)),
+    simulation=(EffectParameter("running_in_distance_m", 100.0, "m", "(0, inf)",
+                                "s0 of the running_in effect (models/wear/effects/)"),),
+    fields=(("running_in_ratio", 0.0, "r: K(s=0) = (1 + r) K"), ("running_in_distance_m", None, "s0")),
 )
 
 

@@ -20,7 +20,23 @@ from guide_health.models.wear.effects.base import (
 
 LUBRICATION_SPEED_EXPONENT = 0.7     # lambda ~ v^0.7 (Hamrock-Dowson film thickness, seed 001)
 
-EFFECT = Effect(
+
+class SpeedDependentWear(Effect):
+    """A material factor: the asperity share of the load."""
+
+    def live_values(self, p, named):
+        return {"lift_speed_m_s": (float(p["lift_speed_m_s"]) if named else math.inf) if p["lift_speed_m_s"] > 0
+                else math.inf}
+
+    def rate_factor(self, e, speed_m_s, load_n, retract):
+        return asperity_load_share(speed_m_s, e.lift_speed_m_s)
+
+    def live_rate_gradients(self, e, seg):
+        share = asperity_load_share(seg.speed_m_s, e.lift_speed_m_s)
+        return {self.rate_row: live_gradient(seg.effective_work_nm, share, e.lift_speed_m_s)}
+
+
+EFFECT = SpeedDependentWear(
     id="speed_dependent_wear",
     term="asperity share of the load 1/(1 + lambda²), lambda = (v/v_lift)^0.7 (seed 001's film-speed exponent)",
     meaning="speed-dependent wear: the lubricant film lifts the load off the asperities at speed",
@@ -34,6 +50,7 @@ EFFECT = Effect(
     fitted_to_file=("lift_speed_m_s",),
     covariance_rows=(CovarianceRow("lift_speed_m_s", 4, 1, rate=True),),
     requires=LiveRequirement("lift_speed_m_s", "> 0"),
+    fields=(("lift_speed_m_s", math.inf, "v_lift"),),
 )
 
 

@@ -17,7 +17,18 @@ from guide_health.models.wear.effects.base import (
     SimulateValue,
 )
 
-EFFECT = Effect(
+
+class StrokeDistribution(Effect):
+    """The straightness term: the weight w of the pass work P against Eq. 7's work G."""
+
+    def live_values(self, p, named):
+        return {"stroke_distribution_weight": float(p["stroke_distribution_weight"]) if named else 0.0}
+
+    def weight(self, e) -> float:
+        return e.stroke_distribution_weight
+
+
+EFFECT = StrokeDistribution(
     id="stroke_distribution",
     term=("the always-travelled zone gets K W/(H b) per pass whatever the stroke length (Eq. 6); weight w "
           "between that and Eq. 5's j = 1/2"),
@@ -32,6 +43,7 @@ EFFECT = Effect(
     ),
     fitted_to_file=("stroke_distribution_weight",),
     covariance_rows=(CovarianceRow("stroke_distribution_weight", 9, 3),),
+    fields=(("stroke_distribution_weight", 0.0, "w"),),
 )
 
 

@@ -18,7 +18,38 @@ from guide_health.models.wear.effects.base import (
     SimulateValue,
 )
 
-EFFECT = Effect(
+
+class ThermalDrift(Effect):
+    """The gauge's temperature term: each straightness reading is corrected by c_T (T - T_ref)."""
+
+    def live_values(self, p, named):
+        return {"thermal_drift_m_per_k": float(p["thermal_drift_m_per_k"]) if named else 0.0,
+                "thermal_reference_c": float(p["thermal_reference_c"])}
+
+    def is_on(self, e) -> bool:
+        return e is not None and e.thermal_drift_m_per_k != 0.0
+
+    def temperature_offset_k(self, e, temperature_c: float) -> float:
+        """T - T_ref [K] of a reading [degC]."""
+        return temperature_c - e.thermal_reference_c
+
+    def correction_m(self, e, offset_k: float) -> float:
+        """c_T (T - T_ref) [m]: what the gauge reads beyond the straightness."""
+        return e.thermal_drift_m_per_k * offset_k
+
+    def reading_term_m(self, e, temperature_change_k):
+        """c_T (T - T_0) [m] of a simulated or fitted reading (None: no term)."""
+        if e.thermal_drift_m_per_k != 0.0 and temperature_change_k is not None:
+            return gauge_term_m(temperature_change_k, e.thermal_drift_m_per_k)
+        return None
+
+    def rise_gradients(self, offsets_k) -> dict:
+        """{row name: d(corrected reading)/d(row)}: the correction with both rows moved is (c_T + dc) (T - T_ref)
+        + de, so a reading falls by the offsets per unit dc and by 1 per unit de."""
+        return dict(zip(self.row_names, (-offsets_k, -1.0)))
+
+
+EFFECT = ThermalDrift(
     id="thermal_drift",
     term=("the measurement reads c_T (T - T_ref) more (needs `guide/temperature`), fitted linearly as c_T (T - "
           "T_0) + b, dT_ref = -b / c_T"),
@@ -39,6 +70,7 @@ EFFECT = Effect(
     requires=LiveRequirement("thermal_drift_m_per_k", "!= 0"),
     needs_temperature=True,
     reported_extra=("thermal_reference_offset_k",),      # dT_ref = -b / c_T (analysis/discrepancy/model.py)
+    fields=(("thermal_drift_m_per_k", 0.0, "c_T"), ("thermal_reference_c", None, "live T_ref")),
 )
 
 

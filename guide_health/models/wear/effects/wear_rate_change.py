@@ -4,6 +4,8 @@ d centred at t the share of the work after t_c is clip((t + d/2 - t_c) / d, 0, 1
 cell); live, each segment at its middle."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from guide_health.models.wear.effects.base import (
@@ -16,13 +18,25 @@ from guide_health.models.wear.effects.base import (
     SimulateValue,
 )
 
-EFFECT = Effect(
+
+class WearRateChange(Effect):
+    """A duty factor of when the work is done."""
+
+    def live_values(self, p, named):
+        return {"wear_rate_change_factor": float(p["wear_rate_change_factor"]) if named else 1.0,
+                "wear_rate_change_time_s": float(p["wear_rate_change_stamp_s"]) if named else math.inf}
+
+    def live_duty_factor(self, e, t_s, x_m, last_relubrication_s):
+        return live_factor(t_s, e.wear_rate_change_time_s, e.wear_rate_change_factor)
+
+
+EFFECT = WearRateChange(
     id="wear_rate_change",
     term="m = f after t_c (share of the interval's work after t_c)",
     meaning="wear-rate change: the wear coefficient changed by a factor at a time (contamination, "
             "a damaged wiper, another lubricant)",
     separating_duty="the same duty before and after a suspected event, with the event logged",
-    simulate=SimulateValue("wear_rate_change_factor", "-", 1.0),     # t_c = simulation wear_rate_change_h
+    simulate=SimulateValue("wear_rate_change_factor", "-", 1.0, note="t_c wear_rate_change_h"),
     duty=True,
     parameters=(
         EffectParameter("wear_rate_change_factor", 1.0, "-", "(0, 100]",
@@ -34,6 +48,9 @@ EFFECT = Effect(
     fitted_to_file=("wear_rate_change_factor",),
     covariance_rows=(CovarianceRow("wear_rate_change_factor", 7, 2, rate=True),),
     requires=LiveRequirement("wear_rate_change_stamp_s", "> 0", " (when it changed)"),
+    simulation=(EffectParameter("wear_rate_change_h", 10.0, "h", "[0, inf)",
+                                "t_c of the wear_rate_change effect, from the start"),),
+    fields=(("wear_rate_change_factor", 1.0, "f"), ("wear_rate_change_time_s", math.inf, "t_c")),
 )
 
 
