@@ -62,7 +62,8 @@ def test_live_node_equals_offline_chain_over_dds(tmp_path, ros_test_env):
     chain = life_test_from_bag(bag, vibration_monitor_params(vib_params()))
     assert offline["failure_travel_km"] == chain["failure_travel_km"] == pytest.approx(450.0, abs=5.0)
     assert chain["c_ratio"] == pytest.approx(0.624, abs=0.003)            # seed 004 Sec. 4.2
-    assert offline["defect"] == "raceway" and offline["level"] == 2        # ERROR: abnormal band + noise drop
+    # 0.16 s snapshots: raceway 75.76 Hz and ball 70.91 Hz lie within the resolution 6.25 Hz of each other
+    assert offline["defect"].startswith("raceway or ball_defect (not separable") and offline["level"] == 2
     params = tmp_path / "vib.yaml"
     params.write_text("vibration_monitor:\n  ros__parameters:\n    load_fraction: 0.3\n    machine_id: bench\n"
                       "    status_period_s: 0.25\n    input_timeout_s: 600.0\n")
@@ -85,9 +86,9 @@ def test_live_node_equals_offline_chain_over_dds(tmp_path, ros_test_env):
     assert live["level"] == offline["level"] == 2 and "end of test" in live["message"]
     assert int(values["blocks"]) == offline["blocks"] == rec.travel_m.size
     for key in ("failure_travel_km", "noise_rise_km", "noise_drop_km", "travel_km", "z_max", "noise_level_db",
-                "defect_frequency_hz"):
+                "defect_frequency_hz", "defect_frequency_uncertainty_hz", "noise_sd_db"):
         assert float(values[key]) == pytest.approx(offline[key], rel=1e-9), key
-    assert values["defect"] == offline["defect"] == "raceway"
+    assert values["defect"] == offline["defect"] and values["travel_source"] == offline["travel_source"]
     assert values["band_energies_m2_s4"] == offline["band_energies_m2_s4"]
     assert len(values["band_energies_m2_s4"].split()) == 32
     assert float(values["false_alarm_k_of_n"]) == pytest.approx(1e-8)       # C(5,3) (1e-3)^3
