@@ -46,8 +46,8 @@ class LevelShift:
     After ``learn_samples`` levels: reference mu = their median, sd = :func:`robust_noise_sd` (floored at
     ``sd_floor_db``, a meter's resolution). Per level z = (L - mu) / sd, S+ = max(0, S+ + z - k),
     S- = max(0, S- - z - k) (k = allowance_sd); S > h (h = decision_sd) is a shift: the new reference is the
-    median of the levels since that CUSUM left 0 and both sums restart. A downward shift of at least
-    ``min_drop_db`` is a drop (travel, size). For normal noise, k = 1 and h = 10 give an in-control run length
+    median of the levels since that CUSUM left 0 after their most likely change point, and both sums restart.
+    A downward shift of at least ``min_drop_db`` is a drop (travel, size). For normal noise, k = 1 and h = 10 give an in-control run length
     above 1e6 levels per side (Siegmund's approximation), and a 3 dB drop at sd 0.3 dB (10 sd) is found at the
     first level after it."""
 
@@ -79,13 +79,23 @@ class LevelShift:
         self.since_up = self.since_up + [level_db] if self.up > 0 else []
         self.since_down = self.since_down + [level_db] if self.down > 0 else []
         if self.down > self.decision_sd:
-            new = float(np.median(self.since_down))
+            new = self._new_level(self.since_down)
             if self.ref_db - new >= self.min_drop_db:
                 self.drops.append((travel_m, self.ref_db - new))
             self._restart(new)
         elif self.up > self.decision_sd:
-            self.rises.append((travel_m, float(np.median(self.since_up)) - self.ref_db))
-            self._restart(float(np.median(self.since_up)))
+            new = self._new_level(self.since_up)
+            self.rises.append((travel_m, new - self.ref_db))
+            self._restart(new)
+
+    def _new_level(self, run: list) -> float:
+        """The level after the shift: the median of the run's levels after its most likely change point j (least
+        squares of a step from the known reference, sum (x_i<j - mu)^2 + sum (x_i>=j - mean_j)^2 minimal); the
+        run may start with a few noise levels that left the CUSUM above 0 before the shift."""
+        x = np.asarray(run, dtype=float)
+        cost = [float(np.sum((x[:j] - self.ref_db) ** 2) + np.sum((x[j:] - x[j:].mean()) ** 2))
+                for j in range(x.size)]
+        return float(np.median(x[int(np.argmin(cost)):]))
 
     def _restart(self, ref_db: float) -> None:
         self.ref_db, self.up, self.down, self.since_up, self.since_down = ref_db, 0.0, 0.0, [], []
