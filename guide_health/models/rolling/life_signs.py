@@ -47,9 +47,9 @@ class LevelShift:
     ``sd_floor_db``, a meter's resolution). Per level z = (L - mu) / sd, S+ = max(0, S+ + z - k),
     S- = max(0, S- - z - k) (k = allowance_sd); S > h (h = decision_sd) is a shift: the new reference is the
     median of the levels since that CUSUM left 0 after their most likely change point, and both sums restart.
-    A downward shift of at least ``min_drop_db`` is a drop (travel, size). For normal noise, k = 1 and h = 10 give an in-control run length
-    above 1e6 levels per side (Siegmund's approximation), and a 3 dB drop at sd 0.3 dB (10 sd) is found at the
-    first level after it."""
+    A downward shift of at least ``min_drop_db`` is a drop (travel, size). For normal noise, k = 1 and h = 10
+    give an in-control run length above 1e6 levels per side (Siegmund's approximation), and a 3 dB drop at
+    sd 0.3 dB (10 sd) is found at the first level after it."""
 
     learn_samples: int = 20
     allowance_sd: float = 1.0
