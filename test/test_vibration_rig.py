@@ -5,6 +5,7 @@ kinematic frequencies from the closed forms f_race = (v/2)/p, f_ball = v / (pi D
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -194,3 +195,61 @@ def test_malformed_channel_blocks_are_refused():
     bad_t[3, 0] += 1e-3
     with pytest.raises(ValueError):
         decode_channels(fields, 8, 1, step, False, bad_t.tobytes())            # non-uniform sample times
+
+
+# --- many specimens, many rigs -------------------------------------------------------------------------------
+RIGS = (  # speed m/s, ball D m, pitch m, load fraction, spall onset km
+    (0.5, 4.76e-3, 5.0e-3, 0.30, 300.0),
+    (1.0, 6.35e-3, 6.6e-3, 0.40, 200.0),
+    (1.5, 6.35e-3, 8.0e-3, 0.50, 250.0),
+)
+
+
+def test_life_test_of_three_rigs_with_their_own_params(tmp_path, capsys):
+    """Three bags from three rigs (speed 0.5-1.5 m/s, pitch 5-8 mm, F/C 0.3-0.5), each with its own params file:
+    each failure interval is the 5 km block interval ending at its onset; one Weibull fit of the three in
+    rig-free units (life x (F/C)^3 / L_ref); per rig B10 [km] = B10_u L_ref / (F/C)^3 and C_test / C =
+    (F/C) (B10 / L_ref)^(1/3) (seed 004 Eq. 5), the same for every rig."""
+    import json
+
+    from guide_health.cli.app import main
+    from guide_health.io.bag.writer import write_life_test_bag
+    from guide_health.sim.life_test import simulate_life_test
+
+    args = []
+    for k, (v, d, pitch, frac, onset) in enumerate(RIGS):
+        vib = {"carriage_speed_m_s": v, "ball_diameter_m": d, "ball_pitch_m": pitch, "load_fraction": frac}
+        cfg = tmp_path / f"rig{k}.yaml"
+        cfg.write_text("vibration_monitor:\n  ros__parameters:\n" + "".join(f"    {a}: {b}\n" for a, b in vib.items()))
+        sim = (SCHEMAS["vibration_monitor"].defaults() | SCHEMAS["guide_health_life_test_simulation"].defaults()
+               | vib | {"failure_km": onset, "block_every_m": 5000.0, "run_on_fraction": 0.1})
+        bag = write_life_test_bag(simulate_life_test(sim, seed=k), tmp_path / f"bag{k}")
+        args.append(f"{bag}={cfg}")
+    assert main(["life", "test", *args, "--json"]) in (0, None)
+    out = json.loads(capsys.readouterr().out)
+    got = [x for pair in out["intervals_km"] for x in pair]
+    assert got == pytest.approx([x for *_, o in RIGS for x in (o - 5.0, o)], abs=1e-6)       # stamps in ns
+    fit = out["weibull"]
+    assert fit["n"] == 3 and fit["failures"] == 3 and fit["units"].startswith("L_ref at F = C")
+    rigs = fit["rigs"]
+    for (_, _, _, frac, _), rig in zip(RIGS, rigs):
+        assert rig["b10_km"] == pytest.approx(fit["b10"] * 50.0 / frac ** 3, rel=1e-12)
+        assert rig["c_ratio"] == pytest.approx(frac * (rig["b10_km"] / 50.0) ** (1 / 3), rel=1e-12)
+    assert out["c_ratio_per_rig"] == pytest.approx([fit["c_ratio"]] * 3, rel=1e-9)
+    assert fit["c_ratio"] == pytest.approx(fit["b10"] ** (1 / 3), rel=1e-12)
+    # the same bags under one --params (every rig at the default geometry and 0.3): the lives differ, not the units
+    assert main(["life", "test", *(a.split("=")[0] for a in args), "--json"]) in (0, None)
+    assert json.loads(capsys.readouterr().out)["weibull"]["units"] == "km"
+
+
+def test_simulated_failure_travel_drawn_from_the_rigs_weibull():
+    """failure_km 0: onsets drawn from the Weibull (shape 10/9) whose L10 is the rating life at c_ratio_true:
+    L10 = 50 km (0.624 / 0.3)^3 = 450 km; the 10 % quantile of 4000 draws within 6 %."""
+    from guide_health.sim.life_test import failure_travel_km
+
+    bench = vibration_monitor_params({"load_fraction": 0.3})
+    sim = SimpleNamespace(failure_km=0.0, c_ratio_true=0.624, weibull_shape=10.0 / 9.0)
+    rng = np.random.default_rng(2)
+    draws = np.array([failure_travel_km(sim, bench, rng) for _ in range(4000)])
+    assert np.quantile(draws, 0.10) == pytest.approx(50.0 * (0.624 / 0.3) ** 3, rel=0.06)
+    assert failure_travel_km(SimpleNamespace(failure_km=450.0), bench, rng) == 450.0

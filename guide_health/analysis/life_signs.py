@@ -135,6 +135,39 @@ def weibull_of_specimens(intervals_km: list[tuple[float, float]], p: Any, confid
                            for b in fit.b_life_ci_km]}
 
 
+def life_units(p: Any) -> float:
+    """km per unit of the rig-free life u = L (F/C)^3 / L_ref (seed 004 Eq. 5 solved: u = (C_test / C)^3 for a
+    life L at F = load_fraction x C)."""
+    return p.rating_distance_km / p.load_fraction ** 3
+
+
+def weibull_of_rigs(intervals_km: list[tuple[float, float]], ps: list, confidence: float = 0.90) -> dict:
+    """One interval-censored Weibull fit of specimens from several rigs (``ps[i]``: specimen i's parameters).
+    Rigs of one load_fraction and rating distance: the fit in km (:func:`weibull_of_specimens`). Otherwise the
+    lives in rig-free units u = L / life_units (the same guide type gives them one distribution), B10_u and
+    C_test / C = B10_u^(1/3); per rig its B10 [km] at its own load and its C_test / C (Eq. 5)."""
+    keys = {(p.load_fraction, p.rating_distance_km) for p in ps}
+    if len(keys) == 1:
+        fit = weibull_of_specimens(intervals_km, ps[0], confidence) | {"units": "km"}
+        b10_u = fit["b10_km"] / life_units(ps[0])
+    else:
+        scale = np.array([life_units(p) for p in ps])
+        lo = np.array([a for a, _ in intervals_km], dtype=float) / scale
+        up = np.array([b for _, b in intervals_km], dtype=float) / scale
+        w = weibull.fit_weibull(lo, up, np.ones(lo.size), confidence=confidence)
+        b10_u = w.b_life_km
+        fit = {"n": w.n, "failures": w.failures, "shape": w.shape, "scale": w.scale_km, "b10": b10_u,
+               "b10_ci": list(w.b_life_ci_km), "units": "L_ref at F = C (life x (F/C)^3 / L_ref)",
+               "c_ratio": b10_u ** (1.0 / 3.0), "c_ratio_ci": [b ** (1.0 / 3.0) for b in w.b_life_ci_km]}
+    rigs = []
+    for p in ps:
+        b10_km = b10_u * life_units(p)
+        rigs.append({"load_fraction": p.load_fraction, "rating_distance_km": p.rating_distance_km,
+                     "b10_km": b10_km, "c_ratio": float(lm.c_ratio_from_life(p.load_fraction, b10_km,
+                                                                             p.rating_distance_km))})
+    return fit | {"rigs": rigs}
+
+
 ACCEL_TOPIC, ACCEL_CHANNELS_TOPIC = "guide/acceleration", "guide/acceleration_channels"
 PRESSURE_TOPIC, LEVEL_DB_TOPIC, POSITION_TOPIC = "guide/sound_pressure", "guide/sound_level_db", "joint_states"
 
