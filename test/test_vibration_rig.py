@@ -253,3 +253,29 @@ def test_simulated_failure_travel_drawn_from_the_rigs_weibull():
     draws = np.array([failure_travel_km(sim, bench, rng) for _ in range(4000)])
     assert np.quantile(draws, 0.10) == pytest.approx(50.0 * (0.624 / 0.3) ** 3, rel=0.06)
     assert failure_travel_km(SimpleNamespace(failure_km=450.0), bench, rng) == 450.0
+
+
+def test_a_bag_of_the_new_forms_reads_as_the_arrays(tmp_path):
+    """A bag with the 3-channel PointCloud2 blocks, the sound level as std_msgs/Float64 [dB] and the axis
+    positions (a 12 h stop at 60 km) gives the arrays' result: defect channel az, failure travel of the run
+    without the stop, travel from the positions; a pressure <= 0 offline is counted."""
+    from guide_health.analysis.life_signs import life_test_from_bag
+    from guide_health.io.bag.writer import write_life_test_bag
+
+    travel, t, blocks, lt, ldb, stamp = life_test(stop_after_km=60.0)
+    rng = np.random.default_rng(8)
+    az = np.asarray(blocks, dtype=np.float32)
+    record = SimpleNamespace(sample_rate_hz=FS, blocks=az, t_ns=t, level_t_ns=lt, level_db=ldb, metadata={})
+    chans = {"ax": rng.standard_normal(az.shape).astype(np.float32), "ay": np.zeros_like(az), "az": az}
+    pt, px = positions_of(travel, stamp)
+    bag = write_life_test_bag(record, tmp_path / "rig", channels=chans, sound="db", positions=(pt, px))
+    out = life_test_from_bag(bag, rig_params())
+    _, t_ref, _, lt_ref, _, _ = life_test()                                    # the same run without the stop
+    want = feed_life_test(rig_params(), t_ref, list(az.astype(float)), lt_ref, ldb)
+    assert out["channel"] == "az" and out["travel_source"].startswith("position: sum |dx| of joint 'x'")
+    assert out["failure_travel_km"] == pytest.approx(want.signs.failure_travel_m / 1e3, abs=1e-9)
+    assert out["defect"] == want.signs.defect and out["level"] == "ERROR"
+    assert out["rejected_blocks"] == 0 and out["rejected_levels"] == 0
+    record.level_db = np.where(np.arange(ldb.size) == 5, -np.inf, ldb)     # 20 uPa x 10^(-inf) = 0 Pa
+    bag2 = write_life_test_bag(record, tmp_path / "pa", positions=(pt, px))
+    assert life_test_from_bag(bag2, rig_params())["rejected_levels"] == 1
