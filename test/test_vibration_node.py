@@ -247,3 +247,67 @@ def test_dynamic_parameters_reach_the_running_model(ros_context):
         assert float(node.report()[2]["z_threshold"]) == pytest.approx(stats.norm.isf(1e-4 / 32), rel=1e-12)
     finally:
         node.destroy_node()
+
+
+def test_channels_positions_and_db_live_equal_offline(ros_context):
+    """The node fed the 3-channel PointCloud2 blocks, FluidPressure levels and joint_states (a 12 h stop) of the
+    rig written in test_vibration_rig: every status value equal to the offline chain's (the same model object),
+    channel az named, travel from the positions; a non-finite dB(A) level and a joint without position counted."""
+    from rclpy.parameter import Parameter
+    from sensor_msgs.msg import FluidPressure, JointState, PointCloud2, PointField
+    from std_msgs.msg import Float64
+    from test_vibration_rig import FS, N, life_test, pitch_for, positions_of, rig_params
+
+    from guide_health.analysis.life_signs import feed_life_test
+    from guide_health.io.accel_channels import encode_channels
+    from guide_health.nodes.vibration_monitor import VibrationMonitorNode
+
+    travel, t, blocks, lt, ldb, stamp = life_test(stop_after_km=60.0)
+    pt, px = positions_of(travel, stamp)
+    rng = np.random.default_rng(1)
+    chans = [{"ax": rng.standard_normal(N), "ay": rng.standard_normal(N), "az": b} for b in blocks]
+    node = VibrationMonitorNode(context=ros_context, parameter_overrides=[
+        Parameter("ball_pitch_m", value=pitch_for(1.05)), Parameter("status_period_s", value=60.0)])
+
+    def header(msg, t_ns):
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(int(t_ns), 1_000_000_000)
+        return msg
+
+    try:
+        events = sorted([(int(x), 0, i) for i, x in enumerate(pt)] + [(int(x), 1, i) for i, x in enumerate(lt)]
+                        + [(int(x), 2, i) for i, x in enumerate(t)])
+        for t_ns, kind, i in events:
+            if kind == 0:
+                m = header(JointState(), t_ns)
+                m.name, m.position = ["x"], [float(px[i])]
+                node._on_joint_states(m)
+            elif kind == 1:
+                m = header(FluidPressure(), t_ns)
+                m.fluid_pressure = 20e-6 * 10 ** (ldb[i] / 20.0)
+                node._on_pressure(m)
+            else:
+                fields, step, data = encode_channels(FS, chans[i])
+                m = header(PointCloud2(), t_ns)
+                m.height, m.width, m.point_step, m.row_step = 1, N, step, step * N
+                m.fields = [PointField(name=a, offset=o, datatype=d, count=c) for a, o, d, c in fields]
+                m.data = data
+                node._on_channels(m)
+        names = [n for c in chans for n in c]
+        flat = [np.asarray(x, dtype=np.float32).astype(float) for c in chans for x in c.values()]
+        offline = feed_life_test(rig_params(), np.repeat(t, 3), flat, lt, 20.0 * np.log10(
+            20e-6 * 10 ** (ldb / 20.0) / 20e-6), position_t_ns=pt, position_m=px, channels=names,
+            block_rates=[FS] * len(flat))
+        want = vibration_status_values(offline)
+        level, _, live = node.report()
+        assert live["channel"] == want["channel"] == "az" and level == int(offline.signs.level()[0]) == 2
+        for key, value in want.items():
+            assert repr(live[key]) == repr(value), key
+        assert live["travel_source"].startswith("position")
+        bad = Float64()
+        bad.data = math.nan
+        node._on_level_db(bad)
+        node._on_joint_states(header(JointState(name=["x"]), pt[-1]))
+        after = node.report()[2]
+        assert after["rejected_levels"] == 1 and after["rejected_positions"] == 1
+    finally:
+        node.destroy_node()
