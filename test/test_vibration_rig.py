@@ -285,3 +285,22 @@ def test_a_bag_of_the_new_forms_reads_as_the_arrays(tmp_path):
     record.level_db = np.where(np.arange(ldb.size) == 5, -np.inf, ldb)     # 20 uPa x 10^(-inf) = 0 Pa
     bag2 = write_life_test_bag(record, tmp_path / "pa", positions=(pt, px))
     assert life_test_from_bag(bag2, rig_params())["rejected_levels"] == 1
+
+
+def test_contiguous_blocks_resolve_what_one_block_cannot():
+    """Blocks streamed without gaps (stamp = end of the previous block) are measured over up to envelope_max_s
+    = 2 s (resolution 0.5 Hz): impacts at the ball rate, 5 % (3.4 Hz) from the raceway rate, are named
+    ball_defect; the same blocks as 0.16 s snapshots (resolution 6.25 Hz) cannot separate the two."""
+    f = candidates(pitch_for(1.05))
+    rng = np.random.default_rng(21)
+    quiet = [rng.standard_normal(N) for _ in range(25)]
+    hits = impacts(f["ball_defect"], 25 * N / FS, rng)
+    blocks = quiet + list(hits.reshape(25, N))
+    step_ns = N * 1_000_000_000 // int(FS)                                       # 160 ms exactly
+    streamed = feed_life_test(rig_params(), 1_700_000_000_000_000_000 + np.arange(50, dtype=np.int64) * step_ns, blocks, [], [])
+    assert streamed.signs.failure_travel_m is not None
+    assert streamed.signs.defect == "ball_defect"
+    assert streamed.signs.measured.resolution_hz == pytest.approx(0.5, rel=0.1)
+    assert streamed.signs.measured.frequency_hz == pytest.approx(f["ball_defect"], rel=0.01)
+    snapshots = feed_life_test(rig_params(), 1_700_000_000_000_000_000 + np.arange(50, dtype=np.int64) * 1000 * 10**9, blocks, [], [])
+    assert snapshots.signs.defect is None or "not separable" in snapshots.signs.defect
