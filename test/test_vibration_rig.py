@@ -297,10 +297,11 @@ def test_contiguous_blocks_resolve_what_one_block_cannot():
     hits = impacts(f["ball_defect"], 25 * N / FS, rng)
     blocks = quiet + list(hits.reshape(25, N))
     step_ns = N * 1_000_000_000 // int(FS)                                       # 160 ms exactly
-    streamed = feed_life_test(rig_params(), 1_700_000_000_000_000_000 + np.arange(50, dtype=np.int64) * step_ns, blocks, [], [])
+    t0_ns = 1_700_000_000 * 10**9
+    streamed = feed_life_test(rig_params(), t0_ns + np.arange(50, dtype=np.int64) * step_ns, blocks, [], [])
     assert streamed.signs.failure_travel_m is not None
     assert streamed.signs.defect == "ball_defect"
     assert streamed.signs.measured.resolution_hz == pytest.approx(0.5, rel=0.1)
     assert streamed.signs.measured.frequency_hz == pytest.approx(f["ball_defect"], rel=0.01)
-    snapshots = feed_life_test(rig_params(), 1_700_000_000_000_000_000 + np.arange(50, dtype=np.int64) * 1000 * 10**9, blocks, [], [])
+    snapshots = feed_life_test(rig_params(), t0_ns + np.arange(50, dtype=np.int64) * 1000 * 10**9, blocks, [], [])
     assert snapshots.signs.defect is None or "not separable" in snapshots.signs.defect
