@@ -255,7 +255,9 @@ def _run_test_bag(args) -> dict:
             from guide_health.analysis.life_plots import plot_life_test
 
             png = out_dir / f"{Path(bag).name}_life_test.png"
-            one["png"] = str(plot_life_test(png, data, one, p, title=f"{Path(bag).name}: life test (seed 004)"))
+            keep = [i for i, c in enumerate(data["channels"]) if c == one["channel"]]      # the reported channel
+            shown = data | {k: [data[k][i] for i in keep] for k in ("block_t_ns", "blocks")}
+            one["png"] = str(plot_life_test(png, shown, one, p, title=f"{Path(bag).name}: life test (seed 004)"))
         specimens.append(one)
         ps.append(p)
     if len(specimens) == 1:
