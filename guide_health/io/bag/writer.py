@@ -16,6 +16,7 @@ import numpy as np
 
 from ...errors import InputError
 from ...runs import MachineRun, SlewingLoadRun
+from ..accel_channels import encode_channels
 from .cdr import (
     encode_float64,
     encode_joint_states,
@@ -195,8 +196,6 @@ def write_life_test_bag(record, path, storage: str = "sqlite3", namespace: str =
     1/fs: the block carries its sample rate). ``channels`` {name: blocks like record.blocks}: the blocks as
     ``guide/acceleration_channels`` sensor_msgs/PointCloud2 instead (io/accel_channels.py). ``positions``
     (t_ns, x_m): ``joint_states`` of ``joint_name``."""
-    from guide_health.io.accel_channels import encode_channels
-
     fs = float(record.sample_rate_hz)
     n = record.blocks.shape[1] if record.blocks.ndim == 2 else 0
     store = typestore()
