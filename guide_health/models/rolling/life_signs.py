@@ -264,6 +264,7 @@ class LifeTestSigns:
                 "defect_measured_uncertainty_hz": math.nan if m is None else m.uncertainty_hz,
                 "defect_resolution_hz": math.nan if m is None else m.resolution_hz,
                 "defect_spectrum": "" if m is None else m.spectrum,
+                "defect_measurement": None if m is None else m.as_dict(),
                 "z_max": float(r.get("z_max", 0.0)), "z_threshold": self.bands.threshold,
                 "abnormal_band_hz": r.get("band"),
                 "noise_level_db": self.noise.ewma_db, "noise_rise_db": self.noise.rise_db,
