@@ -305,3 +305,25 @@ def test_contiguous_blocks_resolve_what_one_block_cannot():
     assert streamed.signs.measured.frequency_hz == pytest.approx(f["ball_defect"], rel=0.01)
     snapshots = feed_life_test(rig_params(), t0_ns + np.arange(50, dtype=np.int64) * 1000 * 10**9, blocks, [], [])
     assert snapshots.signs.defect is None or "not separable" in snapshots.signs.defect
+
+
+def test_travel_offset_and_start_stamp_on_the_command_line(tmp_path, capsys):
+    """A specimen with 100 km before the recording (--travel-offset-km 100): onset 450 km of the recording is
+    550 km of the specimen; travel 0 set 50 km after the first stamp (--start-stamp at 1 m/s): 400 km."""
+    import json
+
+    from guide_health.cli.app import main
+    from guide_health.io.bag.writer import write_life_test_bag
+    from guide_health.sim.life_test import simulate_life_test
+
+    sim = (SCHEMAS["vibration_monitor"].defaults() | SCHEMAS["guide_health_life_test_simulation"].defaults()
+           | {"failure_km": 450.0, "block_every_m": 5000.0})
+    rec = simulate_life_test(sim, seed=0)
+    bag = str(write_life_test_bag(rec, tmp_path / "bag"))
+    assert main(["life", "test", bag, "--travel-offset-km", "100", "--json"]) in (0, None)
+    assert json.loads(capsys.readouterr().out)["failure_travel_km"] == pytest.approx(550.0, abs=1e-6)
+    start_s = float(rec.t_ns[0]) / 1e9 + 50_000.0
+    assert main(["life", "test", bag, "--start-stamp", repr(start_s), "--json"]) in (0, None)
+    assert json.loads(capsys.readouterr().out)["failure_travel_km"] == pytest.approx(400.0, abs=1e-6)
+    assert main(["life", "test", bag, "--travel-offset-km", "-1", "--json"]) == 2
+    assert "--travel-offset-km must be a finite number >= 0" in capsys.readouterr().err
