@@ -327,3 +327,26 @@ def test_travel_offset_and_start_stamp_on_the_command_line(tmp_path, capsys):
     assert json.loads(capsys.readouterr().out)["failure_travel_km"] == pytest.approx(400.0, abs=1e-6)
     assert main(["life", "test", bag, "--travel-offset-km", "-1", "--json"]) == 2
     assert "--travel-offset-km must be a finite number >= 0" in capsys.readouterr().err
+
+
+def test_a_directory_of_bags_takes_one_params_file(tmp_path, capsys):
+    """DIR=PARAMS: every bag inside DIR is a specimen of that rig (onsets 300 and 450 km, F/C 0.3 from the file)."""
+    import json
+
+    from guide_health.cli.app import main
+    from guide_health.io.bag.writer import write_life_test_bag
+    from guide_health.sim.life_test import simulate_life_test
+
+    cfg = tmp_path / "rig.yaml"
+    cfg.write_text("vibration_monitor:\n  ros__parameters:\n    load_fraction: 0.3\n")
+    sim = SCHEMAS["vibration_monitor"].defaults() | SCHEMAS["guide_health_life_test_simulation"].defaults()
+    for k, onset in enumerate((300.0, 450.0)):
+        write_life_test_bag(simulate_life_test(sim | {"failure_km": onset, "block_every_m": 5000.0}, seed=k),
+                            tmp_path / "rig" / f"s{k}")
+    assert main(["life", "test", f"{tmp_path / 'rig'}={cfg}", "--json"]) in (0, None)
+    out = json.loads(capsys.readouterr().out)
+    assert [s["bag"].rsplit("/", 1)[-1] for s in out["specimens"]] == ["s0", "s1"]
+    got = [x for pair in out["intervals_km"] for x in pair]
+    assert got == pytest.approx([295.0, 300.0, 445.0, 450.0], abs=1e-6)
+    assert out["weibull"]["units"] == "km" and out["load_fraction"] == 0.3
+    assert main(["life", "test", f"{tmp_path}/missing={cfg}", "--json"]) == 2
