@@ -1,12 +1,17 @@
 """vibration_monitor cost at 25.6 kHz (issue 12): per-block model cost and the node's CPU share of a core.
 
-    .venv/bin/python bench/bench_vibration.py [--seconds 20] [--block-samples 4096]
+    .venv/bin/python bench/bench_vibration.py [--seconds 20] [--block-samples 4096] [--model-only]
 
 1. Model: StampedLifeTest.on_block (Welch PSD, band energies, abnormal-band z test, and the fine PSD + tone
    naming on an abnormal block) on simulated seed-004 life-test blocks, healthy and spalled, plus the raw CDR
    decoding of the node (decode_laser_scan_block). Real time at 25.6 kHz is block_samples / 25600 s per block
    (160 ms for 4096 samples).
-2. Node: the vibration_monitor node in its own process on an isolated ROS domain, fed by a publisher in this
+2. Envelope path: the defect measured from the spectrum (models/rolling/envelope.py: kurtosis band, band-pass,
+   Hilbert envelope, envelope and direct spectra, harmonics) on impacts written here, once on one block and once
+   on a 2 s contiguous span (run once per 2 s of new signal: its cost per block is the span's over 12.5 blocks);
+   printed as a share of the block's real time (target < 5 % of a core) and as a ratio to the current per-block
+   path (Welch PSD + band test) measured in the same run.
+3. Node: the vibration_monitor node in its own process on an isolated ROS domain, fed by a publisher in this
    process at the real-time rate (25.6 kHz in blocks, sound levels at 10 Hz) for --seconds; its CPU time
    (utime + stime from /proc/<pid>/stat) over the wall time is its share of one core. Target < 25 %.
 """
@@ -70,6 +75,47 @@ def model_cost(block_samples: int) -> dict:
             "model_spalled_ms_median": float(np.median(per_block[onset:])) * 1e3 if onset < per_block.size else None,
             "model_max_ms": float(per_block.max()) * 1e3, "decode_ms": decode_s * 1e3,
             "model_share_of_real_time_worst": (float(per_block.max()) + decode_s) / real_time_s}
+
+
+def envelope_cost(block_samples: int, repeats: int = 20) -> dict:
+    """Median cost of measure_defect on one block and on a 2 s span of impacts, against the band test's per-block
+    cost (AbnormalBand.update) on the same blocks."""
+    from guide_health.models.rolling.envelope import measure_defect
+    from guide_health.models.rolling.vibration import AbnormalBand
+
+    rng = np.random.default_rng(0)
+    cands = {"raceway": 75.76, "ball_defect": 70.89}
+    span_s = 2.0
+    n_span = int(span_s * FS_HZ)
+    x = rng.standard_normal(n_span)
+    ring = 3.0 * np.exp(-np.arange(400) / FS_HZ / 5e-4) * np.sin(2 * np.pi * 4200.0 * np.arange(400) / FS_HZ)
+    for h in np.arange(0.0, span_s - 0.02, 1.0 / cands["raceway"]):
+        i = int(h * FS_HZ)
+        x[i:i + 400] += ring
+
+    def median_s(fn) -> float:
+        times = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - t0)
+        return float(np.median(times))
+
+    band = AbnormalBand(FS_HZ, baseline_blocks=3)
+    blocks = x[: (n_span // block_samples) * block_samples].reshape(-1, block_samples)
+    for b in blocks[:3]:
+        band.update(b)
+    current = median_s(lambda: band.update(blocks[3]))
+    one = median_s(lambda: measure_defect(blocks[0], FS_HZ, cands, 4.0))
+    span = median_s(lambda: measure_defect(x, FS_HZ, cands, 4.0))
+    real_time_s = block_samples / FS_HZ
+    per_block_span = span / (n_span / block_samples)
+    return {"current_path_ms": current * 1e3, "envelope_one_block_ms": one * 1e3, "envelope_span_2s_ms": span * 1e3,
+            "envelope_per_block_ms": per_block_span * 1e3,
+            "envelope_share_of_core_span": per_block_span / real_time_s,
+            "envelope_share_of_core_every_block": one / real_time_s,
+            "ratio_envelope_per_block_to_current": per_block_span / current,
+            "ratio_envelope_one_block_to_current": one / current}
 
 
 def _cpu_s(pid: int) -> float:
@@ -138,9 +184,11 @@ def main() -> int:
     ap.add_argument("--seconds", type=float, default=20.0)
     ap.add_argument("--block-samples", type=int, default=4096)
     ap.add_argument("--workdir", type=Path, default=Path("/tmp/bench_vibration"))
+    ap.add_argument("--model-only", action="store_true", help="skip the live node (no ROS domain needed)")
     args = ap.parse_args()
-    out = {"model": model_cost(args.block_samples),
-           "node": node_share(args.seconds, args.block_samples, args.workdir)}
+    out = {"model": model_cost(args.block_samples), "envelope": envelope_cost(args.block_samples)}
+    if not args.model_only:
+        out["node"] = node_share(args.seconds, args.block_samples, args.workdir)
     print(json.dumps(out, indent=2))
     return 0
 

@@ -257,9 +257,14 @@ def test_vibration_levels_name_their_rules():
     signs.failure_travel_m = 400e3
     text = f"band z > z_threshold {signs.bands.threshold:.2f} in 3 of 5 blocks from 400.0 km"
     assert signs.level() == (Level.WARN, f"sustained abnormal vibration band: {text}")
-    signs.noise.drop_travel_m = 450e3
+    signs.failure_lower_m = 395e3
+    signs.noise.shift.sd_db = 0.3
+    signs.noise.shift.drops.append((380e3, 5.0))            # before the spall signature: no loosening
+    assert signs.level()[0] == Level.WARN
+    signs.noise.shift.drops.append((450e3, 5.0))
     level, message = signs.level()
-    assert level == Level.ERROR and text in message and "noise drop > drop_db 3 dB" in message
+    assert level == Level.ERROR and text in message
+    assert "noise drop of 5.0 dB at 450.0 km >= noise_drop_db 3 dB (two-sided CUSUM > 10 noise sd 0.3 dB)" in message
 
 
 def test_machine_replay_json_has_no_lubrication_regime_for_sliding_guides(tmp_path):

@@ -62,7 +62,8 @@ def test_live_node_equals_offline_chain_over_dds(tmp_path, ros_test_env):
     chain = life_test_from_bag(bag, vibration_monitor_params(vib_params()))
     assert offline["failure_travel_km"] == chain["failure_travel_km"] == pytest.approx(450.0, abs=5.0)
     assert chain["c_ratio"] == pytest.approx(0.624, abs=0.003)            # seed 004 Sec. 4.2
-    assert offline["defect"] == "raceway" and offline["level"] == 2        # ERROR: abnormal band + noise drop
+    # 0.16 s snapshots: raceway 75.76 Hz and ball 70.91 Hz lie within the resolution 6.25 Hz of each other
+    assert offline["defect"].startswith("raceway or ball_defect (not separable") and offline["level"] == 2
     params = tmp_path / "vib.yaml"
     params.write_text("vibration_monitor:\n  ros__parameters:\n    load_fraction: 0.3\n    machine_id: bench\n"
                       "    status_period_s: 0.25\n    input_timeout_s: 600.0\n")
@@ -85,9 +86,9 @@ def test_live_node_equals_offline_chain_over_dds(tmp_path, ros_test_env):
     assert live["level"] == offline["level"] == 2 and "end of test" in live["message"]
     assert int(values["blocks"]) == offline["blocks"] == rec.travel_m.size
     for key in ("failure_travel_km", "noise_rise_km", "noise_drop_km", "travel_km", "z_max", "noise_level_db",
-                "defect_frequency_hz"):
+                "defect_frequency_hz", "defect_frequency_uncertainty_hz", "noise_sd_db"):
         assert float(values[key]) == pytest.approx(offline[key], rel=1e-9), key
-    assert values["defect"] == offline["defect"] == "raceway"
+    assert values["defect"] == offline["defect"] and values["travel_source"] == offline["travel_source"]
     assert values["band_energies_m2_s4"] == offline["band_energies_m2_s4"]
     assert len(values["band_energies_m2_s4"].split()) == 32
     assert float(values["false_alarm_k_of_n"]) == pytest.approx(1e-8)       # C(5,3) (1e-3)^3
@@ -244,5 +245,69 @@ def test_dynamic_parameters_reach_the_running_model(ros_context):
         assert node.set_parameters([Parameter("false_alarm_per_block", value=1e-4)])[0].successful
         assert bands.baseline is baseline and node.feed.signs.blocks == blocks
         assert float(node.report()[2]["z_threshold"]) == pytest.approx(stats.norm.isf(1e-4 / 32), rel=1e-12)
+    finally:
+        node.destroy_node()
+
+
+def test_channels_positions_and_db_live_equal_offline(ros_context):
+    """The node fed the 3-channel PointCloud2 blocks, FluidPressure levels and joint_states (a 12 h stop) of the
+    rig written in test_vibration_rig: every status value equal to the offline chain's (the same model object),
+    channel az named, travel from the positions; a non-finite dB(A) level and a joint without position counted."""
+    from rclpy.parameter import Parameter
+    from sensor_msgs.msg import FluidPressure, JointState, PointCloud2, PointField
+    from std_msgs.msg import Float64
+    from test_vibration_rig import FS, N, life_test, pitch_for, positions_of, rig_params
+
+    from guide_health.analysis.life_signs import feed_life_test
+    from guide_health.io.accel_channels import encode_channels
+    from guide_health.nodes.vibration_monitor import VibrationMonitorNode
+
+    travel, t, blocks, lt, ldb, stamp = life_test(stop_after_km=60.0)
+    pt, px = positions_of(travel, stamp)
+    rng = np.random.default_rng(1)
+    chans = [{"ax": rng.standard_normal(N), "ay": rng.standard_normal(N), "az": b} for b in blocks]
+    node = VibrationMonitorNode(context=ros_context, parameter_overrides=[
+        Parameter("ball_pitch_m", value=pitch_for(1.05)), Parameter("status_period_s", value=60.0)])
+
+    def header(msg, t_ns):
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(int(t_ns), 1_000_000_000)
+        return msg
+
+    try:
+        events = sorted([(int(x), 0, i) for i, x in enumerate(pt)] + [(int(x), 1, i) for i, x in enumerate(lt)]
+                        + [(int(x), 2, i) for i, x in enumerate(t)])
+        for t_ns, kind, i in events:
+            if kind == 0:
+                m = header(JointState(), t_ns)
+                m.name, m.position = ["x"], [float(px[i])]
+                node._on_joint_states(m)
+            elif kind == 1:
+                m = header(FluidPressure(), t_ns)
+                m.fluid_pressure = 20e-6 * 10 ** (ldb[i] / 20.0)
+                node._on_pressure(m)
+            else:
+                fields, step, data = encode_channels(FS, chans[i])
+                m = header(PointCloud2(), t_ns)
+                m.height, m.width, m.point_step, m.row_step = 1, N, step, step * N
+                m.fields = [PointField(name=a, offset=o, datatype=d, count=c) for a, o, d, c in fields]
+                m.data = data
+                node._on_channels(m)
+        names = [n for c in chans for n in c]
+        flat = [np.asarray(x, dtype=np.float32).astype(float) for c in chans for x in c.values()]
+        offline = feed_life_test(rig_params(), np.repeat(t, 3), flat, lt, 20.0 * np.log10(
+            20e-6 * 10 ** (ldb / 20.0) / 20e-6), position_t_ns=pt, position_m=px, channels=names,
+            block_rates=[FS] * len(flat))
+        want = vibration_status_values(offline)
+        level, _, live = node.report()
+        assert live["channel"] == want["channel"] == "az" and level == int(offline.signs.level()[0]) == 2
+        for key, value in want.items():
+            assert repr(live[key]) == repr(value), key
+        assert live["travel_source"].startswith("position")
+        bad = Float64()
+        bad.data = math.nan
+        node._on_level_db(bad)
+        node._on_joint_states(header(JointState(name=["x"]), pt[-1]))
+        after = node.report()[2]
+        assert after["rejected_levels"] == 1 and after["rejected_positions"] == 1
     finally:
         node.destroy_node()

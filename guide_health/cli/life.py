@@ -14,6 +14,7 @@ import argparse
 import csv
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -73,10 +74,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     _add_rating_options(p, element_default=None)
 
     p = mode("test", "C_test / C from one life-test result (seed 004 Eq. 5), or from a life-test BAG")
-    p.add_argument("bag", nargs="*", default=[], metavar="BAG",
+    p.add_argument("bag", nargs="*", default=[], metavar="BAG[=PARAMS]",
                    help="life-test bag(s): the failure travel is detected from the sound level and vibration "
-                        "(docs/vibration.md; --params gives the vibration_monitor section); several bags = "
-                        "several specimens -> interval-censored Weibull fit, B10 and C_test / C")
+                        "(docs/vibration.md; --params gives the vibration_monitor section, BAG=PARAMS a rig's own "
+                        "file for that bag, or for every bag inside a directory BAG); several bags = several "
+                        "specimens -> one interval-censored Weibull fit, B10 and C_test / C per rig")
+    p.add_argument("--travel-offset-km", type=float, default=None, metavar="KM",
+                   help="with BAG: travel of the specimen before the recording (default travel_offset_km)")
+    p.add_argument("--start-stamp", type=float, default=None, metavar="UNIX_S",
+                   help="with BAG: the stamp of travel 0 [s] (default test_start_time_s, else the first stamp)")
     p.add_argument("--out", default=None, metavar="DIR",
                    help="with BAG: write <bag>_life_test.png (noise vs travel, spectrogram with the defect "
                         "frequency marked) into DIR")
@@ -199,44 +205,82 @@ def _test_load(load_fraction: float, s: dict) -> LifeTestLoad:
     return LifeTestLoad(load_fraction, s["rating_distance_km"], s["exponent"], s["life_factors"])
 
 
+def _bag_params(args, text: str) -> tuple[str, Any]:
+    """(bag, its vibration_monitor parameters): BAG=FILE takes FILE, else --params, else the defaults; the
+    command line's --load-fraction over either."""
+    bag, _, own = text.partition("=")
+    section = SCHEMAS["vibration_monitor"]
+    source = own or args.params
+    loaded = load_node_params(source, section.section, section.defaults()) if source else {}
+    if args.load_fraction is not None:
+        loaded["load_fraction"] = _positive(args.load_fraction, "--load-fraction")
+    return bag, typed_params(section.section, loaded, validate=False)
+
+
+def _bags(args) -> list[tuple[str, Any]]:
+    """Every bag with its parameters; a directory given as BAG=FILE holding bags (no metadata.yaml of its own)
+    stands for each bag inside it."""
+    out = []
+    for text in args.bag:
+        bag, p = _bag_params(args, text)
+        d = Path(bag)
+        if d.is_dir() and not (d / "metadata.yaml").exists():
+            inner = sorted(x for x in d.iterdir() if (x / "metadata.yaml").exists())
+            if not inner:
+                raise InputError(f"{bag}: neither a bag nor a directory of bags")
+            out.extend((str(x), p) for x in inner)
+        else:
+            out.append((bag, p))
+    return out
+
+
 def _run_test_bag(args) -> dict:
     from guide_health.analysis.life_signs import (
         life_test_from_data,
         read_life_test_bag,
         specimen_interval_km,
-        weibull_of_specimens,
+        weibull_of_rigs,
     )
 
-    section = SCHEMAS["vibration_monitor"]
-    loaded = load_node_params(args.params, section.section, section.defaults()) if args.params else {}
-    if args.load_fraction is not None:
-        loaded["load_fraction"] = _positive(args.load_fraction, "--load-fraction")
-    p = typed_params(section.section, loaded, validate=False)
+    offset = None if args.travel_offset_km is None else _non_negative(args.travel_offset_km, "--travel-offset-km")
+    start_ns = None if args.start_stamp is None else int(round(_positive(args.start_stamp, "--start-stamp") * 1e9))
     out_dir = None if args.out is None else Path(args.out)
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)
-    specimens = []
-    for bag in args.bag:
+    specimens, ps = [], []
+    for bag, p in _bags(args):
         data = read_life_test_bag(bag)
-        one = {"bag": bag} | life_test_from_data(bag, data, p)
+        one = {"bag": bag} | life_test_from_data(bag, data, p, offset, start_ns)
         if out_dir is not None:
             from guide_health.analysis.life_plots import plot_life_test
 
             png = out_dir / f"{Path(bag).name}_life_test.png"
-            one["png"] = str(plot_life_test(png, data, one, p, title=f"{Path(bag).name}: life test (seed 004)"))
+            keep = [i for i, c in enumerate(data["channels"]) if c == one["channel"]]      # the reported channel
+            shown = data | {k: [data[k][i] for i in keep] for k in ("block_t_ns", "blocks")}
+            one["png"] = str(plot_life_test(png, shown, one, p, title=f"{Path(bag).name}: life test (seed 004)"))
         specimens.append(one)
+        ps.append(p)
     if len(specimens) == 1:
         out = {"mode": "test"} | specimens[0]
         if out.get("failure_travel_km") is not None:
-            out |= life_test_readings(p.load_fraction, out["failure_travel_km"], [1.0] * 4, _shape(args))
+            out |= life_test_readings(ps[0].load_fraction, out["failure_travel_km"], [1.0] * 4, _shape(args))
         return out | _geometry_check(args)
     intervals = [specimen_interval_km(s) for s in specimens]
     if not any(math.isfinite(u) for _, u in intervals):
         raise InputError(f"no failure detected in any of the {len(intervals)} bags: no Weibull fit")
-    fit = weibull_of_specimens(intervals, p)
+    fit = weibull_of_rigs(intervals, ps)
+    for one, rig in zip(specimens, fit["rigs"]):
+        one["rig"] = rig
     return {"mode": "test", "specimens": specimens, "intervals_km": [list(i) for i in intervals],
             "weibull": fit, "c_ratio": fit["c_ratio"], "c_ratio_ci": fit["c_ratio_ci"],
-            "load_fraction": p.load_fraction} | _geometry_check(args)
+            "c_ratio_per_rig": [r["c_ratio"] for r in fit["rigs"]],
+            "load_fraction": ps[0].load_fraction} | _geometry_check(args)
+
+
+def _non_negative(value: float, name: str) -> float:
+    if not (math.isfinite(value) and value >= 0):
+        raise InputError(f"{name} must be a finite number >= 0, got {value!r}")
+    return float(value)
 
 
 def _shape(args) -> float:
@@ -267,8 +311,8 @@ def _geometry_check(args) -> dict:
 def _run_test(args) -> dict:
     if args.bag:
         return _run_test_bag(args)
-    if args.out is not None:
-        raise InputError("--out needs a life-test BAG")
+    if args.out is not None or args.travel_offset_km is not None or args.start_stamp is not None:
+        raise InputError("--out, --travel-offset-km and --start-stamp need a life-test BAG")
     if args.life_km is None or args.load_fraction is None:
         raise InputError("life test needs --load-fraction and --life-km (or a life-test BAG)")
     s = _rating_setup(args, from_params=False)

@@ -30,7 +30,18 @@ VIBRATION_MONITOR_PARAMS = (
           dynamic=True),
     Param("noise_rise_cusum_db", 6.0, "dB", "(0, 1000]", "CUSUM decision interval h of the noise rise",
           dynamic=True),
-    Param("noise_drop_db", 3.0, "dB", "(0, 60]", "drop below the peak after the rise (loosening)", dynamic=True),
+    Param("noise_drop_db", 3.0, "dB", "(0, 60]", "smallest level drop that counts as loosening (half the sound "
+          "power)", dynamic=True),
+    Param("noise_change_allowance_sd", 1.0, "sd", "[0, 100]", "two-sided CUSUM allowance k of the level shift "
+          "[noise sd]", dynamic=True),
+    Param("noise_change_decision_sd", 10.0, "sd", "(0, 1e4]", "two-sided CUSUM decision interval h of the level "
+          "shift [noise sd]", dynamic=True),
+    Param("envelope_max_s", 2.0, "s", "[0.01, 60]", "longest contiguous signal measured for the defect rate "
+          "(resolution 1 / T)"),
+    Param("pause_gap_s", 10800.0, "s", "(0, 1e9]", "no block and no level for longer: a bench stop (no travel); "
+          "without a position topic"),
+    Param("travel_offset_km", 0.0, "km", "[0, 1e6]", "travel of the specimen before the recording"),
+    Param("test_start_time_s", 0.0, "s", "[0, 4e9]", "stamp of travel 0 (UNIX s); 0 = the first stamp"),
     Param("load_fraction", 0.3, "-", "(0, 10]", "test load F / C (seed 004: 0.3 for its ball guide)"),
     Param("rating_distance_km", 50.0, "km", "(0, inf)", "reference travel of C (seed 004: 50 km)"),
     Param("status_period_s", 1.0, "s", "(0, 3600]", "status publishing period", dynamic=True),

@@ -16,6 +16,7 @@ import numpy as np
 
 from ...errors import InputError
 from ...runs import MachineRun, SlewingLoadRun
+from ..accel_channels import encode_channels
 from .cdr import (
     encode_float64,
     encode_joint_states,
@@ -186,12 +187,15 @@ def write_slewing_bag(run: SlewingLoadRun, path, storage: str = "sqlite3", names
 SOUND_LEVEL_REFERENCE_PA = 20e-6      # 0 dB SPL
 
 
-def write_life_test_bag(record, path, storage: str = "sqlite3", namespace: str = "") -> Path:
+def write_life_test_bag(record, path, storage: str = "sqlite3", namespace: str = "", *, channels=None,
+                        sound: str = "pressure", positions=None, joint_name: str = "x") -> Path:
     """A simulated life test (sim/life_test.py LifeTestRecord) as a bag: ``guide/sound_pressure``
-    sensor_msgs/FluidPressure (rms sound pressure [Pa] = 20 uPa 10^(L/20), header-stamped) and
-    ``guide/acceleration`` sensor_msgs/LaserScan blocks (ranges = acceleration [m/s^2], header stamp = first
-    sample, time_increment = 1/fs: the block carries its sample rate)."""
-
+    sensor_msgs/FluidPressure (rms sound pressure [Pa] = 20 uPa 10^(L/20), header-stamped; ``sound="db"``:
+    ``guide/sound_level_db`` std_msgs/Float64 [dB] at the level's stamp) and ``guide/acceleration``
+    sensor_msgs/LaserScan blocks (ranges = acceleration [m/s^2], header stamp = first sample, time_increment =
+    1/fs: the block carries its sample rate). ``channels`` {name: blocks like record.blocks}: the blocks as
+    ``guide/acceleration_channels`` sensor_msgs/PointCloud2 instead (io/accel_channels.py). ``positions``
+    (t_ns, x_m): ``joint_states`` of ``joint_name``."""
     fs = float(record.sample_rate_hz)
     n = record.blocks.shape[1] if record.blocks.ndim == 2 else 0
     store = typestore()
@@ -202,6 +206,10 @@ def write_life_test_bag(record, path, storage: str = "sqlite3", namespace: str =
             fluid_pressure=SOUND_LEVEL_REFERENCE_PA * 10 ** (float(record.level_db[i]) / 20.0), variance=0.0),
             "sensor_msgs/msg/FluidPressure").tobytes() for i in idx]
 
+    def level_db(idx):
+        return [store.serialize_cdr(message("std_msgs/msg/Float64", data=float(record.level_db[i])),
+                                    "std_msgs/msg/Float64").tobytes() for i in idx]
+
     def blocks(idx):
         return [store.serialize_cdr(message(
             "sensor_msgs/msg/LaserScan", header=header(int(record.t_ns[i])), angle_min=0.0, angle_max=0.0,
@@ -209,10 +217,31 @@ def write_life_test_bag(record, path, storage: str = "sqlite3", namespace: str =
             ranges=np.asarray(record.blocks[i], dtype=np.float32), intensities=np.zeros(0, np.float32)),
             "sensor_msgs/msg/LaserScan").tobytes() for i in idx]
 
-    series = [_TopicSeries(topic_name(namespace, "guide/sound_pressure"), "sensor_msgs/msg/FluidPressure",
-                           np.asarray(record.level_t_ns, np.int64), pressure),
-              _TopicSeries(topic_name(namespace, "guide/acceleration"), "sensor_msgs/msg/LaserScan",
-                           np.asarray(record.t_ns, np.int64), blocks)]
+    def cloud(idx):
+        out = []
+        for i in idx:
+            fields, step, data = encode_channels(fs, {name: b[i] for name, b in channels.items()})
+            out.append(store.serialize_cdr(message(
+                "sensor_msgs/msg/PointCloud2", header=header(int(record.t_ns[i])), height=1, width=n,
+                fields=[message("sensor_msgs/msg/PointField", name=a, offset=o, datatype=d, count=c)
+                        for a, o, d, c in fields],
+                is_bigendian=False, point_step=step, row_step=step * n, data=np.frombuffer(data, np.uint8),
+                is_dense=True), "sensor_msgs/msg/PointCloud2").tobytes())
+        return out
+
+    sound_series = (_TopicSeries(topic_name(namespace, "guide/sound_level_db"), "std_msgs/msg/Float64",
+                                 np.asarray(record.level_t_ns, np.int64), level_db) if sound == "db" else
+                    _TopicSeries(topic_name(namespace, "guide/sound_pressure"), "sensor_msgs/msg/FluidPressure",
+                                 np.asarray(record.level_t_ns, np.int64), pressure))
+    block_series = (_TopicSeries(topic_name(namespace, "guide/acceleration"), "sensor_msgs/msg/LaserScan",
+                                 np.asarray(record.t_ns, np.int64), blocks) if channels is None else
+                    _TopicSeries(topic_name(namespace, "guide/acceleration_channels"), "sensor_msgs/msg/PointCloud2",
+                                 np.asarray(record.t_ns, np.int64), cloud))
+    series = [sound_series, block_series]
+    if positions is not None:
+        pt, px = (np.asarray(a) for a in positions)
+        series.append(_TopicSeries(topic_name(namespace, "joint_states"), JOINT_STATE, pt.astype(np.int64),
+                                   lambda i: encode_joint_states(pt[i], px[i], joint_name=joint_name)))
     return _write_bag(series, path, storage, record.metadata)
 
 
