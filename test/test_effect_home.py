@@ -102,3 +102,7 @@ def test_the_roles_are_the_effects_that_implement_them():
     assert sorted(e.id for e in duty) == sorted(e.id for e in registry.DUTY_FACTORS) == sorted(
         registry.DUTY_EFFECT_IDS)
     assert all(e.rate_row for e in registry.MATERIAL_FACTORS + registry.DUTY_FACTORS)
+    scenario = [e for e in registry.EFFECTS if any(getattr(type(e), name) is not getattr(Effect, name) for name in (
+        "scenario_load_exponent", "scenario_rate_factor", "scenario_dln"))]
+    assert sorted(e.id for e in scenario) == sorted(e.id for e in registry.SCENARIO_FACTORS)
+    assert all(e.rate_row for e in registry.SCENARIO_FACTORS)

@@ -10,6 +10,7 @@ from datetime import UTC, datetime
 import numpy as np
 import pytest
 
+from guide_health.models.wear.effects.registry import RATE_NAMES
 from guide_health.models.wear.planning import (
     Scenario,
     Utilisation,
@@ -19,6 +20,7 @@ from guide_health.models.wear.planning import (
     parse_scenario,
     plan_scenario,
     scenario_from_items,
+    scenario_inputs,
 )
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.models.wear.running_time import RunningClock
@@ -122,6 +124,33 @@ def test_load_scale_changes_the_life_by_archard_or_the_fitted_exponent(exponent)
     n = 1.0 if exponent is None else exponent
     assert less["life_h"] / base["life_h"] == pytest.approx(0.8 ** -n, rel=1e-9)
     assert base["life_h"] == monitor.report()["remaining_life_h"]
+
+
+def test_scenario_moves_the_effects_rate_and_gradients_by_their_closed_forms():
+    """load x0.8, speed x1.5 under load_exponent n and speed_dependent_wear v_lift (registry.SCENARIO_FACTORS):
+    the rate per K x 0.8^n x 1.5 x share(1.5 v) / share(v), share = 1 / (1 + (v / v_lift)^1.4); d ln rate / dn
+    gains ln 0.8; d ln rate / d v_lift = (1 - share) 1.4 / v_lift moves by (1 - share(1.5 v)) / (1 - share(v))."""
+    n, lift = 1.3, 0.04
+    monitor = _monitor(effects="load_exponent,speed_dependent_wear", load_exponent=n, load_reference_n=LOAD_N,
+                       lift_speed_m_s=lift)
+    inputs = monitor.axis.life_inputs(monitor.name)
+    now = inputs.effect[3]
+    moved = scenario_inputs(inputs, parse_scenario("load=0.8, speed=1.5")).effect[3]
+
+    def share(v):
+        return 1.0 / (1.0 + (v / lift) ** 1.4)
+
+    v = now.v_s
+    assert v == pytest.approx(SPEED, rel=1e-3)
+    factor = 0.8 ** n * 1.5 * share(1.5 * v) / share(v)
+    assert moved.rate_work_per_k / now.rate_work_per_k == pytest.approx(factor, rel=1e-12)
+    assert moved.v_s == now.v_s * 1.5
+    i_n, i_lift = RATE_NAMES.index("load_exponent"), RATE_NAMES.index("lift_speed_m_s")
+    assert moved.dln_rate[i_n] - now.dln_rate[i_n] == pytest.approx(math.log(0.8), rel=1e-12)
+    assert moved.dln_rate[i_lift] / now.dln_rate[i_lift] == pytest.approx(
+        (1 - share(1.5 * v)) / (1 - share(v)), rel=1e-12)
+    others = [i for i in range(len(RATE_NAMES)) if i not in (i_n, i_lift)]
+    assert np.array_equal(np.asarray(moved.dln_rate)[others], np.asarray(now.dln_rate)[others])
 
 
 def test_speed_and_stroke_scales_and_the_regrind():

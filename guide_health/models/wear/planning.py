@@ -25,8 +25,7 @@ import numpy as np
 
 from guide_health.models.wear.calibration import Z90
 from guide_health.models.wear.effect_life import life_interval_s
-from guide_health.models.wear.effects import asperity_load_share
-from guide_health.models.wear.effects.registry import RATE_NAMES
+from guide_health.models.wear.effects.registry import RATE_NAMES, RELUBRICATION, SCENARIO_FACTORS
 from guide_health.models.wear.fit_watch import widened_life_interval_s
 from guide_health.models.wear.life import LifeNow, remaining_life_interval_s
 from guide_health.models.wear.running_time import NS_PER_S, RunningClock, utc_text
@@ -62,9 +61,9 @@ class Scenario:
     """A what-if: scales of the future duty, a relubrication interval, a shift pattern, a regrind.
 
     load_scale / speed_scale / stroke_scale multiply the load, the feed speed and the stroke lengths of the
-    present duty; relubrication_interval_s replaces lubrication_interval's interval (None: as observed);
-    hours_per_day x days_per_week replace the observed utilisation (None: observed); regrind_t_ns restores
-    the straightness to A0 at that stamp (None: no regrind)."""
+    present duty; relubrication_interval_s replaces the relubrication effect's interval (None: as observed);
+    hours_per_day x days_per_week replace the observed utilisation (None: observed); regrind_t_ns restores the
+    straightness to A0 at that stamp (None: no regrind)."""
 
     name: str = "as observed"
     load_scale: float = 1.0
@@ -156,15 +155,17 @@ def parse_scenario(text: str) -> Scenario:
 
 # --- the scenario's life: the live inputs transformed ---------------------------------------------------
 def _duty_rate_scale(s: Scenario, e, v_s: float) -> float:
-    """The factor of the steady wear rate per running second: Archard's dV/dt = K W v / H (Eq. 3) times the
-    named effects' multipliers (load_exponent: (W / W_ref)^(n - 1), so W^n in all; speed_dependent_wear: the
-    asperity share at the window's mean sliding speed), over the stroke scale (Eq. 7: A / V = 2 / (b (l_min
-    + l_max)), and per pass: passes per second scale as v / l)."""
-    n = e.load_exponent if e is not None and "load_exponent" in e.effects else 1.0
+    """The factor of the steady wear rate per running second: Archard's dV/dt = K W v / H (Eq. 3) with the load
+    raised to the effect's exponent (W^n, the first of registry.SCENARIO_FACTORS that gives one; 1 without) times
+    the factors' multipliers' change at the scaled duty (scenario_rate_factor), over the stroke scale (Eq. 7: A / V =
+    2 / (b (l_min + l_max)), and per pass: passes per second scale as v / l)."""
+    factors = SCENARIO_FACTORS if e is not None else ()
+    n = next((n for f in factors if (n := f.scenario_load_exponent(e)) is not None), 1.0)
     factor = s.load_scale ** n * s.speed_scale / s.stroke_scale
-    if e is not None and "speed_dependent_wear" in e.effects and s.speed_scale != 1.0 and v_s > 0:
-        factor *= float(asperity_load_share(s.speed_scale * v_s, e.lift_speed_m_s)
-                        / asperity_load_share(v_s, e.lift_speed_m_s))
+    for f in factors:
+        m = f.scenario_rate_factor(e, s, v_s)
+        if m is not None:
+            factor *= m
     return factor
 
 
@@ -172,14 +173,11 @@ def _effect_inputs(effect: tuple, s: Scenario, fresh: bool) -> tuple:
     k, k_sd, e, now, z = effect
     factor = _duty_rate_scale(s, e, now.v_s)
     dln = np.array(now.dln_rate, dtype=float)
-    if "load_exponent" in e.effects and s.load_scale != 1.0:       # d ln rate / d n = ln(W / W_ref)
-        dln[_LN_RATE["load_exponent"]] += math.log(s.load_scale)
-    if "speed_dependent_wear" in e.effects and s.speed_scale != 1.0 and now.v_s > 0:
-        old, new = (1.0 - float(asperity_load_share(v, e.lift_speed_m_s)) for v in (now.v_s, s.speed_scale * now.v_s))
-        dln[_LN_RATE["lift_speed_m_s"]] *= new / old if old > 0 else 1.0
+    for f in SCENARIO_FACTORS:
+        dln[_LN_RATE[f.rate_row]] = f.scenario_dln(e, s, now.v_s, dln[_LN_RATE[f.rate_row]])
     lub = now.lubrication
     if s.relubrication_interval_s is not None:
-        lub = dict(lub, interval_s=float(s.relubrication_interval_s))
+        lub = RELUBRICATION.scenario_schedule(lub, s.relubrication_interval_s)
     changes = dict(rate_work_per_k=now.rate_work_per_k * factor, rate_pass_per_k=now.rate_pass_per_k * factor,
                    v_s=now.v_s * s.speed_scale, dln_rate=dln, lubrication=lub)
     if fresh:    # a reground surface: no past wear, running-in from its start
@@ -192,7 +190,7 @@ def scenario_inputs(inputs: LifeInputs, s: Scenario, fresh: bool = False) -> Lif
     """The live inputs under a scenario's duty (``fresh``: on a reground surface, A = A0 now). Without the
     effects only the rate per K moves (and the straightness now when fresh)."""
     if s.relubrication_interval_s is not None and (inputs.effect is None or inputs.effect[3].lubrication is None):
-        raise ValueError("scenario relube needs the lubrication_interval effect named, with a growth, in the model")
+        raise ValueError(f"scenario relube needs the {RELUBRICATION.id} effect named, with a growth, in the model")
     if inputs.effect is not None:
         effect = _effect_inputs(inputs.effect, s, fresh)
         return dataclasses.replace(inputs, effect=effect)

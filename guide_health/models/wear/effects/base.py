@@ -132,6 +132,21 @@ class Effect:
         and mid-positions x [m] (``last_relubrication_s``: the recorded relubrications' time base)."""
         raise NotImplementedError(f"{self.id} is not a duty effect")
 
+    def scenario_load_exponent(self, e: Any) -> float | None:
+        """The exponent n of the load in the wear rate, W^n, that a planning scenario's load scale is raised to
+        (``e``: the EffectParameters); None: the effect leaves Archard's linear load (seed 000 Eq. 3)."""
+        return None
+
+    def scenario_rate_factor(self, e: Any, scales: Any, v_s: float) -> float | None:
+        """A material effect's multiplier under a planning scenario's duty over the present's (``scales``:
+        load_scale, speed_scale, stroke_scale; ``v_s``: the duty window's mean sliding speed [m/s]); None: 1."""
+        return None
+
+    def scenario_dln(self, e: Any, scales: Any, v_s: float, dln: float) -> float:
+        """d ln(rate) / d(its rate parameter) under a planning scenario's duty, from the present window's
+        ``dln`` (the life's gradient by its covariance row)."""
+        return dln
+
 
 @dataclass(frozen=True)
 class LiveSegments:

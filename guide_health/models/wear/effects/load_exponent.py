@@ -3,6 +3,8 @@ m = (W / W_ref)^(n - 1). W_ref only scales K; the simulator uses ``load_referenc
 work-weighted geometric mean load of the run, so its fitted K stays comparable with the baseline's."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from guide_health.models.wear.effects.base import (
@@ -27,6 +29,16 @@ class LoadExponent(Effect):
 
     def live_rate_gradients(self, e, seg):
         return {self.rate_row: live_gradient(seg.effective_work_nm, seg.load_n, e.load_reference_n)}
+
+    def scenario_load_exponent(self, e):
+        """n when named: a scenario's load scale s_W moves the rate by s_W^n (m = (W / W_ref)^(n - 1))."""
+        return e.load_exponent if self.id in e.effects else None
+
+    def scenario_dln(self, e, scales, v_s, dln):
+        """d ln(rate) / dn = ln(W / W_ref): the scaled load adds ln(s_W)."""
+        if self.id in e.effects and scales.load_scale != 1.0:
+            return dln + math.log(scales.load_scale)
+        return dln
 
 
 EFFECT = LoadExponent(

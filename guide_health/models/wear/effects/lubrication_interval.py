@@ -65,6 +65,10 @@ class LubricationInterval(Effect):
         return {"growth_per_unit": per_unit, "tau_now_s": tau_now_s, "interval_s": interval,
                 "window_mean": 1.0 / lubfree_share}
 
+    def scenario_schedule(self, schedule: dict, relubrication_interval_s: float) -> dict:
+        """The forecast schedule (:meth:`forecast_schedule`) with a planning scenario's relubrication interval."""
+        return dict(schedule, interval_s=float(relubrication_interval_s))
+
 
 EFFECT = LubricationInterval(
     id="lubrication_interval",

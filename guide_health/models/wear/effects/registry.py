@@ -43,6 +43,8 @@ RELUBRICATION = lubrication_interval.EFFECT    # the duty factor that follows th
 MATERIAL_FACTORS = (speed_dependent_wear.EFFECT, load_exponent.EFFECT, retract_asymmetry.EFFECT)
 #: the duty factors, in the order their product is taken
 DUTY_FACTORS = (load_along_rail.EFFECT, wear_rate_change.EFFECT, lubrication_interval.EFFECT)
+#: the factors a planning scenario's duty scales move (models/wear/planning.py), in the order they are applied
+SCENARIO_FACTORS = (load_exponent.EFFECT, speed_dependent_wear.EFFECT)
 #: each effect's fitted parameters for a record (base.FitContext -> base.FitParameter list), catalogue order
 FIT_PARAMETERS = {m.EFFECT.id: m.fit_parameters for m in MODULES}
 

@@ -35,6 +35,20 @@ class SpeedDependentWear(Effect):
         share = asperity_load_share(seg.speed_m_s, e.lift_speed_m_s)
         return {self.rate_row: live_gradient(seg.effective_work_nm, share, e.lift_speed_m_s)}
 
+    def scenario_rate_factor(self, e, scales, v_s):
+        """The asperity share at the scaled mean sliding speed over the present one's (None: no speed change)."""
+        if self.id not in e.effects or scales.speed_scale == 1.0 or not v_s > 0:
+            return None
+        return float(asperity_load_share(scales.speed_scale * v_s, e.lift_speed_m_s)
+                     / asperity_load_share(v_s, e.lift_speed_m_s))
+
+    def scenario_dln(self, e, scales, v_s, dln):
+        """d ln m / d v_lift = (1 - share) 1.4 / v_lift: scales with the film's share 1 - share at the new speed."""
+        if self.id not in e.effects or scales.speed_scale == 1.0 or not v_s > 0:
+            return dln
+        old, new = (1.0 - float(asperity_load_share(v, e.lift_speed_m_s)) for v in (v_s, scales.speed_scale * v_s))
+        return dln * (new / old if old > 0 else 1.0)
+
 
 EFFECT = SpeedDependentWear(
     id="speed_dependent_wear",
