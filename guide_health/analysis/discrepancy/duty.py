@@ -119,6 +119,11 @@ class DutyCells:
         return int(self.work_nm.size)
 
 
+#: the DutyCells fields with one entry per cell (epoch: None without wear resets)
+PER_CELL_FIELDS = ("interval", "direction", "work_nm", "distance_m", "pass_work_n", "time_s", "sliding_distance_m",
+                   "sliding_distance_var_m2", "speed_m_s", "load_n", "position_m", "pass_length_m", "epoch")
+
+
 class DutyCellAccumulator:
     """Builds :class:`DutyCells` from consecutive MachineRun chunks of one machine."""
 
@@ -230,7 +235,7 @@ class DutyCellAccumulator:
         unloaded = moving & np.isnan(seg_load)     # before the first accepted load
         self.rejected += int(unloaded.sum())
         s_start = self._s_m
-        s_end = self._s_m + np.cumsum(np.where(moving, ds, 0.0))
+        s_end = self._s_m + np.cumsum(ds)          # ds = 0 where the axis stands
         self._s_m = float(s_end[-1])
         epoch = self._epochs(t_all[1:], s_start, s_end)
         sel = np.flatnonzero(moving)
@@ -241,8 +246,8 @@ class DutyCellAccumulator:
             "dir": np.sign(dx[sel]).astype(np.int8),
             "speed": ds[sel] / dt[sel],
             "load": seg_load[sel],
-            "s": s_end[sel] - 0.5 * ds[sel] - (np.concatenate(([0.0], self._reset_s_m))[epoch[sel]]
-                                               if self.resets_ns.size else 0.0),
+            "s": (s_end[sel] - 0.5 * ds[sel] - np.concatenate(([0.0], self._reset_s_m))[epoch[sel]]
+                  if self.resets_ns.size else s_end[sel] - 0.5 * ds[sel]),
             "epoch": epoch[sel],
             "x": 0.5 * (x_all[:-1][sel] + x_all[1:][sel]),
         }
@@ -302,8 +307,11 @@ class DutyCellAccumulator:
         loaded = work > 0
         if not loaded.any():
             return
-        seg = {k: v[loaded] for k, v in seg.items()}
-        pass_len, work = pass_len[loaded], work[loaded]
+        kept = np.flatnonzero(loaded)
+        # the loaded segments are mostly one run (all but those before the first load): a slice, not a copy
+        take = slice(kept[0], kept[-1] + 1) if kept[-1] - kept[0] + 1 == kept.size else kept
+        seg = {k: v[take] for k, v in seg.items()}
+        pass_len, work = pass_len[take], work[take]
         ln_v, ln_w = np.log(seg["speed"]), np.log(seg["load"])
         block = self._blocks(seg["t_s"], seg["epoch"])
         v_bin = np.clip(np.floor(ln_v / self.log_bin).astype(np.int64) + _BIN_OFFSET, 0, _BINS - 1)

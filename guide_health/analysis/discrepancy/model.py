@@ -12,6 +12,7 @@ with m the product of the wear-rate multipliers of the effects in the model. The
 """
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 from dataclasses import dataclass, field
@@ -20,7 +21,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
-from guide_health.analysis.discrepancy.duty import DutyCells
+from guide_health.analysis.discrepancy.duty import PER_CELL_FIELDS, DutyCells
 from guide_health.models.wear.effect_life import symmetrised
 from guide_health.models.wear.effects import (
     CANDIDATE_IDS,
@@ -120,6 +121,9 @@ def rel_errors(pred: np.ndarray, meas: np.ndarray) -> np.ndarray:
 
 #: the fewest straightness measurements the workflow fits (K, an effect's parameters, a held-out forecast)
 MIN_MEASUREMENTS = 6
+#: parameters of the prediction that do not enter the multiplier m (Eq. 7/10's factor and the terms added to it)
+_OUTSIDE_THE_SUMS = frozenset({"wear_coefficient", "straightness_initial_m", "stroke_distribution_weight",
+                               "initial_offset_m", "thermal_drift_m_per_k", "thermal_offset_m"})
 #: the EffectParameters fields a fit may hold (the load reference is the problem's own)
 _EFFECT_FIELDS = tuple(f.name for f in dataclasses.fields(EffectParameters) if f.name != "load_reference_n")
 
@@ -194,6 +198,7 @@ class WearProblem:
         self.measurement_epoch = (np.searchsorted(cells.reset_t_s, self.t_s, side="left")
                                   if cells.epoch is not None else None)
         self.specs = _effect_specs(self)
+        self._work_cache: tuple | None = None     # (multiplier parameters, G_j, P_j) of the last prediction
 
     # --- candidates ---------------------------------------------------------------------------
     def available_effects(self) -> list[str]:
@@ -242,12 +247,17 @@ class WearProblem:
         # the fitted effect parameters; one not fitted keeps EffectParameters' no-effect value
         eff = EffectParameters(load_reference_n=self.load_reference_n,
                                **{name: values[name] for name in _EFFECT_FIELDS if name in values})
-        ri = None
-        if eff.running_in_ratio != 0.0:
-            ri = running_in_factor_spread(c.sliding_distance_m, c.sliding_distance_var_m2, eff.running_in_ratio,
-                                          eff.running_in_distance_m)
-        m = effect_multiplier(eff, c.speed_m_s, c.load_n, self.retract, ri, self._duty_factors(values))
-        g, p = self._work_since_reset(c.work_nm * m), self._work_since_reset(c.pass_work_n * m)
+        # the effective work depends on the multiplier's parameters only: a finite-difference step of K, A0 or
+        # a term outside the sums (most of a fit's evaluations) reuses the last sums
+        key = (self.load_reference_n, *sorted((k, v) for k, v in values.items() if k not in _OUTSIDE_THE_SUMS))
+        if self._work_cache is None or self._work_cache[0] != key:
+            ri = None
+            if eff.running_in_ratio != 0.0:
+                ri = running_in_factor_spread(c.sliding_distance_m, c.sliding_distance_var_m2, eff.running_in_ratio,
+                                              eff.running_in_distance_m)
+            m = effect_multiplier(eff, c.speed_m_s, c.load_n, self.retract, ri, self._duty_factors(values))
+            self._work_cache = (key, self._work_since_reset(c.work_nm * m), self._work_since_reset(c.pass_work_n * m))
+        g, p = self._work_cache[1:]
         wear = straightness_wear_m(values["wear_coefficient"], self.hardness_pa, self.width_m, g, p,
                                    self.stroke_sum_m, eff.stroke_distribution_weight)
         a0 = self.initial_straightness_m(values["straightness_initial_m"] if self.a0_free else self.a0_m)
@@ -295,6 +305,27 @@ class WearProblem:
         return m
 
     # --- fitting -------------------------------------------------------------------------------
+    def fit_span(self) -> WearProblem:
+        """This problem cut to the fit span: the measurements before the held-out ones and the cells their
+        wear counts (both prefixes: the held-out measurements are the last, the cells are sorted by interval).
+        Its predict_m equals predict_m(values)[fit_mask] bit for bit (prefix sums, factors cell by cell), at
+        the cost of the fit span's cells only (a fit evaluates the model thousands of times)."""
+        n_fit = int(self.fit_mask.sum())
+        n_cells = int(self.cell_index[n_fit - 1])
+        c = self.cells
+        span = copy.copy(self)
+        span._work_cache = None
+        per_cell = {name: getattr(c, name)[:n_cells] for name in PER_CELL_FIELDS if getattr(c, name) is not None}
+        span.cells = dataclasses.replace(c, **per_cell, measurement_t_s=c.measurement_t_s[:n_fit],
+                                         measurement_m=c.measurement_m[:n_fit])
+        for name in ("retract", "cell_start_s", "cell_end_s"):
+            setattr(span, name, getattr(self, name)[:n_cells])
+        for name in ("t_s", "y_m", "cell_index", "temperature_change_k", "measurement_epoch"):
+            value = getattr(self, name)
+            setattr(span, name, value[:n_fit] if value is not None else None)
+        span.fit_mask, span.heldout_mask = self.fit_mask[:n_fit], self.heldout_mask[:n_fit]
+        return span
+
     def fit(self, effects: tuple[str, ...] | list[str] = (), warm: FitResult | None = None) -> FitResult:
         """Least-squares fit on the fit span of the model with ``effects``; multi-start over the
         nonlinear parameters (parameters of ``warm``, a fit of a sub-model, start from its values);
@@ -303,9 +334,10 @@ class WearProblem:
         specs = self._param_list(effects)
         fit = self.fit_mask
         y_um = self.y_m[fit] * UM
+        span = self.fit_span()
 
         def residual(x):
-            return self.predict_m(self._physical(specs, x))[fit] * UM - y_um
+            return span.predict_m(self._physical(specs, x)) * UM - y_um
 
         lower = np.array([self._to_internal(s, s.lower) for s in specs])
         upper = np.array([self._to_internal(s, s.upper) for s in specs])

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import bisect
 import dataclasses
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -316,6 +317,21 @@ class RegimeSample(NamedTuple):
     ball_load_n: float
 
 
+
+@functools.lru_cache(maxsize=16)
+def _asperity_share_table(guide: RollingGuideContact, log_lambda: tuple[float, ...],
+                          log_ball_load: tuple[float, ...]) -> tuple[tuple[float, ...], ...]:
+    """Asperity load share of the mixed-lubrication contact at lambda = 10^log_lambda and the ball load
+    10^log_ball_load [N] (rows: lambda): a pure function of the contact, computed once per guide (the
+    regime model of every monitor, live or offline, of the same guide takes the same table)."""
+    f52 = greenwood_tripp_f52_table()
+    share = np.empty((len(log_lambda), len(log_ball_load)))
+    for j, lw in enumerate(log_ball_load):
+        contact = guide.hertz(10.0 ** lw)
+        for i, ll in enumerate(log_lambda):
+            share[i, j] = guide.mixed(10.0 ** ll * guide.composite_rms_m, contact, f52).asperity_load_share
+    return tuple(tuple(row) for row in share.tolist())
+
 class LubricationRegimeEstimator:
     """O(1) lambda / regime / asperity share from (carriage speed, carriage vertical load) for a live node.
 
@@ -354,16 +370,11 @@ class LubricationRegimeEstimator:
         self._fu_table = ((1.0 + x) ** 1.5).tolist()
         self._q_unloaded = 2.0 ** 1.5
         # asperity share table over (log10 lambda, log10 ball load)
-        f52 = greenwood_tripp_f52_table()
         log_w = np.linspace(self._LOAD_LOG_SPAN[0], self._LOAD_LOG_SPAN[1], 19)
-        share = np.empty((len(self._LAMBDA_LOG_GRID), len(log_w)))
-        for j, lw in enumerate(log_w):
-            contact = guide.hertz(10.0 ** lw)
-            for i, ll in enumerate(self._LAMBDA_LOG_GRID):
-                share[i, j] = guide.mixed(10.0 ** ll * guide.composite_rms_m, contact, f52).asperity_load_share
         self._log_lambda_axis = self._LAMBDA_LOG_GRID.tolist()
         self._log_load_axis = log_w.tolist()
-        self._share = share.tolist()
+        self._share = [list(row) for row in _asperity_share_table(guide, tuple(self._log_lambda_axis),
+                                                                  tuple(self._log_load_axis))]
 
     def set_oil_temperature(self, temperature_c: float) -> None:
         """Walther viscosity at a new oil temperature [degC] (no effect without a catalogue oil)."""

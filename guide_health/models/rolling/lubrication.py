@@ -111,6 +111,7 @@ Smooth-surface Hamrock-Dowson vs the seed's rough-surface numerical mixed-EHL
 """
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -281,9 +282,11 @@ def jgp_greenwood_tripp(smooth_central_film_m: float, mean_contact_pressure_pa: 
     return MixedLubrication(min(share(t), 1.0), t * composite_rms_m, area_coeff * greenwood_tripp_f2(t))
 
 
+@functools.lru_cache(maxsize=1)
 def greenwood_tripp_f52_table() -> Callable[[float], float]:
     """Fast F_5/2(t): log F on a 0.001-step grid over t in [-12, 12] (from a cubic spline through 1201 quad
-    values), linear interpolation in pure Python (relative error < 1e-6); quad outside the grid."""
+    values), linear interpolation in pure Python (relative error < 1e-6); quad outside the grid. Built once
+    per process (a pure function of nothing: every caller shares it)."""
     from scipy.interpolate import CubicSpline
 
     t_lo, t_hi, step = -12.0, 12.0, 0.001

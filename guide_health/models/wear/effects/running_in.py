@@ -87,7 +87,8 @@ def running_in_factor_spread(mean_distance_m: np.ndarray, distance_var_m2: np.nd
     if ratio == 0.0:
         return np.ones_like(np.asarray(mean_distance_m, dtype=float))
     h = np.sqrt(3.0 * np.asarray(distance_var_m2, dtype=float)) / distance_m
-    shape = np.where(h > 1e-6, np.sinh(h) / np.where(h > 1e-6, h, 1.0), 1.0 + h * h / 6.0)
+    wide = h > 1e-6                       # below: the series 1 + h^2/6 (sinh(h)/h loses its digits)
+    shape = np.sinh(h) / h if wide.all() else np.where(wide, np.sinh(h) / np.where(wide, h, 1.0), 1.0 + h * h / 6.0)
     return 1.0 + ratio * np.exp(-np.asarray(mean_distance_m, dtype=float) / distance_m) * shape
 
 
