@@ -37,6 +37,7 @@ from guide_health.models.wear.effects import (
 from guide_health.models.wear.effects.base import FitContext
 from guide_health.models.wear.effects.base import FitParameter as ParamSpec
 from guide_health.models.wear.effects.registry import BY_ID, FIT_PARAMETERS
+from guide_health.models.wear.form_average import running_in_form_factor_spread
 from guide_health.models.wear.input_rules import reading_in_force_index
 
 UM = 1e6
@@ -194,6 +195,7 @@ class WearProblem:
         self.measurement_epoch = (np.searchsorted(cells.reset_t_s, self.t_s, side="left")
                                   if cells.epoch is not None else None)
         self.specs = _effect_specs(self)
+        self.running_in_form = "exponential"     # running_in's decay law (models/wear/form_average.py)
 
     # --- candidates ---------------------------------------------------------------------------
     def available_effects(self) -> list[str]:
@@ -243,7 +245,10 @@ class WearProblem:
         eff = EffectParameters(load_reference_n=self.load_reference_n,
                                **{name: values[name] for name in _EFFECT_FIELDS if name in values})
         ri = None
-        if eff.running_in_ratio != 0.0:
+        if eff.running_in_ratio != 0.0 and self.running_in_form != "exponential":    # form_average.py's forms
+            ri = running_in_form_factor_spread(self.running_in_form, c.sliding_distance_m, c.sliding_distance_var_m2,
+                                               eff.running_in_ratio, eff.running_in_distance_m)
+        elif eff.running_in_ratio != 0.0:
             ri = running_in_factor_spread(c.sliding_distance_m, c.sliding_distance_var_m2, eff.running_in_ratio,
                                           eff.running_in_distance_m)
         m = effect_multiplier(eff, c.speed_m_s, c.load_n, self.retract, ri, self._duty_factors(values))

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from guide_health.models.wear.fit_watch import widened_life_interval_s
+from guide_health.models.wear.form_average import form_averaged_interval_s
 from guide_health.models.wear.gate import InputGate
 from guide_health.models.wear.guide import GuideWear
 from guide_health.models.wear.input_rules import (
@@ -346,6 +347,9 @@ class AxisMonitor:
         now = LifeNow(p.straightness_initial_m, p.straightness_limit_m, loss_per_k, rate_per_k, k, k_low, k_high)
         if guide.effect_wear is not None and math.isfinite(loss_per_k) and math.isfinite(rate_per_k):
             life = guide.effect_life_interval_s(k)
+            if "running_in" in guide.effects.effects:     # the running-in forms' forecasts averaged in
+                life = form_averaged_interval_s(life, p.running_in_form_ln_life_offsets, p.running_in_form_weights,
+                                                guide.life_z())
         else:
             life = remaining_life_interval_s(now)
         if guide.fit_watch.model_fit == "broken":     # the interval from the innovations' observed spread
