@@ -17,6 +17,7 @@ between its flag-power markers.
 from __future__ import annotations
 
 import argparse
+import json
 import multiprocessing as mp
 import sys
 from pathlib import Path
@@ -28,6 +29,7 @@ AMPLITUDES_M = (0.5e-6, 1e-6, 2e-6)
 MOTIONS = ("jobs", "s_curve")
 LEVELS = (0.01, 0.003, 0.001)
 NOISE_M = 0.3e-6
+ROW = "row "
 MARKERS = ("<!-- flag power table: bench/flag_power.py --write-docs -->", "<!-- end of the flag power table -->")
 
 
@@ -111,24 +113,32 @@ def main() -> None:
     ap.add_argument("--hours", type=float, default=30.0)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--write-docs", action="store_true")
+    ap.add_argument("--from-log", help="the tables from the rows a run printed (stopped early or finished)")
     a = ap.parse_args()
     import independent_structure as gen
 
-    # each motion its own seeds (its own jobs, loads and noise draws): the runs are independent
-    jobs = [(m, "", 0.0, 200 + 1000 * i + s, a.hours) for i, m in enumerate(MOTIONS) for s in range(a.clean_seeds)]
-    jobs += [(m, shape, amp, 300 + 1000 * i + s, a.hours) for i, m in enumerate(MOTIONS) for shape in gen.SHAPES
-             for amp in AMPLITUDES_M for s in range(a.seeds)]
-    rows = []
-    with mp.get_context("spawn").Pool(a.workers) as pool:
-        for r in pool.imap_unordered(one_run, jobs):
-            rows.append(r)
-            print(f"{r['motion']} {r['shape'] or 'clean'} {r['amplitude_um']:g} um seed {r['seed']}: named "
-                  f"{r['named']}, flag {r['flag']}, min p {r['min_p']:.2g} {r['tests']}", flush=True)
+    # each motion its own seeds (its own jobs, loads and noise draws): the runs are independent; seeds outermost,
+    # so that a run stopped early (--from-log) still has every shape, amplitude and motion
+    jobs = []
+    for s in range(max(a.seeds, a.clean_seeds)):
+        for i, m in enumerate(MOTIONS):
+            if s < a.clean_seeds:
+                jobs.append((m, "", 0.0, 200 + 1000 * i + s, a.hours))
+            if s < a.seeds:
+                jobs += [(m, shape, amp, 300 + 1000 * i + s, a.hours) for shape in gen.SHAPES for amp in AMPLITUDES_M]
+    if a.from_log:
+        rows = [json.loads(line[len(ROW):]) for line in Path(a.from_log).read_text().splitlines()
+                if line.startswith(ROW)]
+    else:
+        rows = []
+        with mp.get_context("spawn").Pool(a.workers) as pool:
+            for r in pool.imap_unordered(one_run, jobs):
+                rows.append(r)
+                print(ROW + json.dumps(r), flush=True)
     level = chosen_level(rows)
-    lines = [f"Measured with `bench/flag_power.py --seeds {a.seeds} --clean-seeds {a.clean_seeds} --hours {a.hours:g}`"
-             f" ({len(rows)} runs: {a.clean_seeds} clean and {a.seeds} per shape and amplitude on each of "
-             f"{len(MOTIONS)} motions, noise {NOISE_M * 1e6:g} um, a measurement every 10 min), at the flag's "
-             f"level {FLAG_ALPHA:g}:", ""] + tables(rows, FLAG_ALPHA)
+    lines = [f"Measured with `bench/flag_power.py --hours {a.hours:g}` ({len(rows)} runs of the {len(MOTIONS)} "
+             f"motions, seeds {sorted({r['seed'] for r in rows})[0]}.., noise {NOISE_M * 1e6:g} um, a measurement "
+             f"every 10 min), at the flag's level {FLAG_ALPHA:g}:", ""] + tables(rows, FLAG_ALPHA)
     lines += ["", f"The largest level with <= 5 % false flags on these clean runs: {level:g}."]
     print("\n".join(lines))
     if a.write_docs:

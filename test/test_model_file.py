@@ -409,7 +409,7 @@ def other_form_rows(forms, seeds, rate_hz: float) -> list[dict]:
                 sliding_deadband_m=params["sliding_deadband_m"])
             result = diagnose_cells(cells, params)
             rows.append({"form": form, "seed": seed, "named": result["named_effects"], "truth_h": truth_h,
-                         "flag": bool(result.get("unexplained_structure")),
+                         "flag": bool(result["unexplained_structure"]["present"]),
                          "model": replay_life({**params, **result["model_file"]}, run),
                          "plain": replay_life(params, run)})
     return rows
