@@ -18,6 +18,7 @@ from guide_health.models.wear.effects.registry import (
     LIVE_EFFECT_IDS,
     LIVE_PARAMETERS,
 )
+from guide_health.models.wear.form_average import RUNNING_IN_FORMS
 from guide_health.params.machine import AXES_PARAM, MAINTENANCE_PARAMS, PLAN_PARAMS
 from guide_health.params.schema import NodeSchema, Param, alarm_and_sensor_qos_params
 
@@ -101,6 +102,12 @@ SLIDING_GUIDE_PARAMS = (
           "fitted values; straightness_initial_m: A0 when fitted); widens the remaining-life interval (the "
           f"{' or '.join(f'{n} x {n}' for n in COVARIANCE_SIZES[:-1])} of an older model file loads as the "
           "leading block)"),
+    # the running-in form's uncertainty (models/wear/form_average.py; RUNNING_IN_FORMS order, the library's first)
+    Param("running_in_form_weights", [1.0] + [0.0] * (len(RUNNING_IN_FORMS) - 1), "-", "[0, 1]",
+          f"BIC weights of the running-in decay forms {', '.join(RUNNING_IN_FORMS)} (sum 1; written by diagnose "
+          "with running_in named): the remaining-life interval averages their forecasts"),
+    Param("running_in_form_ln_life_offsets", [0.0] * len(RUNNING_IN_FORMS), "-", "[-50, 50]",
+          "ln(life of the form / life of the named exponential form) at the diagnosed record's end, per form"),
     Param("life_warn_h", 500.0, "h", "(0, 1e7]", "WARN when the remaining precision life drops below this",
           dynamic=True),
     Param("life_error_h", 100.0, "h", "[0, 1e7]",
@@ -217,6 +224,10 @@ def _effect_checks(p: dict[str, Any]) -> None:
     problem = covariance_problem(p["effect_covariance"])
     if problem:
         raise InputError(f"parameter effect_covariance {problem}")
+    weights = p["running_in_form_weights"]
+    if abs(sum(weights) - 1.0) > 1e-6:
+        raise InputError(f"parameter running_in_form_weights must sum to 1 (weights of {', '.join(RUNNING_IN_FORMS)}), "
+                         f"got {weights!r}")
 
 
 def _wear_cross_checks(p: dict[str, Any]) -> None:

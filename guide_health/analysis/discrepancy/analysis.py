@@ -262,33 +262,61 @@ def disagreement(problem: WearProblem, predicted_m: np.ndarray, alpha: float = 0
         r["systematic"] = bool(r["p_value"] < alpha / max(len(binned), 1))
     rows.sort(key=lambda r: r["p_value"])
     out["conditions"] = rows
+    out["condition_tests"] = n_tests          # the Spearman family's Bonferroni count
     out["binned_work"] = sorted(binned, key=lambda r: r["p_value"])
     out["systematic_conditions"] = [r["condition"] for r in rows if r["systematic"]]
     out["systematic_binned"] = [r["condition"] for r in binned if r["systematic"]]
     return out
 
 
-def unexplained_structure(after: dict[str, Any], named: list[str]) -> dict[str, Any]:
-    """The verdict on the residuals after the final fit: ``present`` when they are still systematic in time
-    (runs test, lag-1 autocorrelation or Ljung-Box, p < 0.01), follow an operating condition (Spearman,
-    Bonferroni), the work done in some bins of one (binned work, Bonferroni) or the held-out forecast drifts
-    away (``after["heldout_forecast"]``, :func:`forecast_check`); then ``where`` (time windows
-    of one sign) and ``conditions`` (which, with rho or F) say where and under which condition, and
-    ``message`` says it first: physics outside the effect library, the named effects (if any) are not an
-    explanation."""
-    binned = after.get("systematic_binned", [])
+#: the flag's false-alarm level: the smallest of its tests' p-values (each Bonferroni-adjusted within its family,
+#: :func:`flag_statistic`) below this raises ``unexplained_structure``. Set from the power table of
+#: bench/flag_power.py (docs/discrepancy.md): the level whose false-flag rate on clean runs stays <= 5 %
+FLAG_ALPHA = 0.01
+
+
+def flag_statistic(after: dict[str, Any]) -> dict[str, float]:
+    """The p-values the flag compares with FLAG_ALPHA, one per test: runs test, lag-1 autocorrelation and
+    Ljung-Box as they are; the Spearman correlations and the binned-work F-tests Bonferroni-adjusted over their
+    conditions (min p x count); the held-out forecast's F-test. ``min_p``: the smallest (the flag's statistic)."""
+    conditions = after.get("conditions", [])
+    n_conditions = max(after.get("condition_tests", len(conditions)), 1)
+    binned = after.get("binned_work", [])
     forecast = after.get("heldout_forecast") or {}
-    missed = bool(forecast.get("systematic"))
-    present = bool(after["systematic_in_time"] or after["systematic_conditions"] or binned or missed)
-    out: dict[str, Any] = {"present": present, "where": [], "conditions": [], "message": ""}
+    p = {"runs_test": after["runs_test"]["p_value"], "lag1_autocorrelation": after["lag1_autocorrelation"]["p_value"],
+         "ljung_box": after.get("ljung_box", {}).get("p_value", 1.0),
+         "conditions": min((min(r["p_value"] * n_conditions, 1.0) for r in conditions), default=1.0),
+         "binned_work": min((min(r["p_value"] * len(binned), 1.0) for r in binned), default=1.0),
+         "heldout_forecast": forecast.get("p_value", 1.0)}
+    p = {k: float(v) if math.isfinite(v) else 1.0 for k, v in p.items()}
+    p["min_p"] = min(p.values())
+    return p
+
+
+def unexplained_structure(after: dict[str, Any], named: list[str], alpha: float = FLAG_ALPHA) -> dict[str, Any]:
+    """The verdict on the residuals after the final fit: ``present`` when they are still systematic in time
+    (runs test, lag-1 autocorrelation or Ljung-Box), follow an operating condition (Spearman, Bonferroni), the
+    work done in some bins of one (binned work, Bonferroni) or the held-out forecast drifts away
+    (``after["heldout_forecast"]``, :func:`forecast_check`), each at p < ``alpha`` (:func:`flag_statistic`,
+    FLAG_ALPHA); then ``where`` (time windows of one sign) and ``conditions`` (which, with rho or F) say where
+    and under which condition, and ``message`` says it first: physics outside the effect library, the named
+    effects (if any) are not an explanation. ``statistic``: the tests' p-values and their minimum."""
+    stat = flag_statistic(after)
+    forecast = after.get("heldout_forecast") or {}
+    missed = stat["heldout_forecast"] < alpha
+    present = stat["min_p"] < alpha
+    out: dict[str, Any] = {"present": present, "where": [], "conditions": [], "message": "", "statistic": stat,
+                           "alpha": alpha}
     if not present:
         return out
     out["where"] = [{k: w[k] for k in ("start_h", "end_h", "mean_residual_um", "t_statistic")}
                     for w in after["windows"]]
+    n_conditions, n_binned = max(after.get("condition_tests", 1), 1), max(len(after.get("binned_work", [])), 1)
     out["conditions"] = [{"condition": c["condition"], "rho": c["rho"], "p_value": c["p_value"]}
-                         for c in after["conditions"] if c["systematic"]]
+                         for c in after["conditions"] if c["p_value"] * n_conditions < alpha]
     out["conditions"] += [{"condition": c["condition"], "test": "binned_work", "f": c["f"], "bins": c["bins"],
-                           "p_value": c["p_value"]} for c in after.get("binned_work", []) if c["systematic"]]
+                           "p_value": c["p_value"]} for c in after.get("binned_work", [])
+                          if c["p_value"] * n_binned < alpha]
     rt, ac = after["runs_test"], after["lag1_autocorrelation"]
     lb = after.get("ljung_box", {"p_value": float("nan")})
     parts = [f"runs test p = {rt['p_value']:.2g}, lag-1 autocorrelation {ac['r']:+.2f} (p = {ac['p_value']:.2g}), "

@@ -38,6 +38,7 @@ from guide_health.models.wear.effects import (
 from guide_health.models.wear.effects.base import FitContext
 from guide_health.models.wear.effects.base import FitParameter as ParamSpec
 from guide_health.models.wear.effects.registry import BY_ID, FIT_PARAMETERS
+from guide_health.models.wear.form_average import running_in_form_factor_spread
 from guide_health.models.wear.input_rules import reading_in_force_index
 
 UM = 1e6
@@ -199,6 +200,7 @@ class WearProblem:
                                   if cells.epoch is not None else None)
         self.specs = _effect_specs(self)
         self._work_cache: tuple | None = None     # (multiplier parameters, G_j, P_j) of the last prediction
+        self.running_in_form = "exponential"     # running_in's decay law (models/wear/form_average.py)
 
     # --- candidates ---------------------------------------------------------------------------
     def available_effects(self) -> list[str]:
@@ -247,12 +249,17 @@ class WearProblem:
         # the fitted effect parameters; one not fitted keeps EffectParameters' no-effect value
         eff = EffectParameters(load_reference_n=self.load_reference_n,
                                **{name: values[name] for name in _EFFECT_FIELDS if name in values})
-        # the effective work depends on the multiplier's parameters only: a finite-difference step of K, A0 or
-        # a term outside the sums (most of a fit's evaluations) reuses the last sums
-        key = (self.load_reference_n, *sorted((k, v) for k, v in values.items() if k not in _OUTSIDE_THE_SUMS))
+        # the effective work depends on the multiplier's parameters (and running_in's decay law) only: a
+        # finite-difference step of K, A0 or a term outside the sums (most of a fit's evaluations) reuses the last sums
+        key = (self.load_reference_n, self.running_in_form,
+               *sorted((k, v) for k, v in values.items() if k not in _OUTSIDE_THE_SUMS))
         if self._work_cache is None or self._work_cache[0] != key:
             ri = None
-            if eff.running_in_ratio != 0.0:
+            if eff.running_in_ratio != 0.0 and self.running_in_form != "exponential":    # form_average.py's forms
+                ri = running_in_form_factor_spread(self.running_in_form, c.sliding_distance_m,
+                                                   c.sliding_distance_var_m2, eff.running_in_ratio,
+                                                   eff.running_in_distance_m)
+            elif eff.running_in_ratio != 0.0:
                 ri = running_in_factor_spread(c.sliding_distance_m, c.sliding_distance_var_m2, eff.running_in_ratio,
                                               eff.running_in_distance_m)
             m = effect_multiplier(eff, c.speed_m_s, c.load_n, self.retract, ri, self._duty_factors(values))

@@ -29,11 +29,6 @@ import yaml
 
 from guide_health.io.outputs.files import write_text
 from guide_health.models.wear.effect_life import symmetrised
-
-# the model file's keys and covariance rows come from the effect registry: EFFECT_PARAMETERS (the fitted
-# parameters each live effect carries, same names as the wear_monitor's), MATERIAL_EFFECTS (shared by machines
-# of a type: the fleet prior pools them; the others belong to one machine's history or mounting),
-# COVARIANCE_ALIASES (a fitted parameter's row when its name differs from the live one)
 from guide_health.models.wear.effects.registry import (
     BY_ID,
     COVARIANCE_ALIASES,
@@ -43,9 +38,16 @@ from guide_health.models.wear.effects.registry import (
     LIVE_EFFECT_IDS,
     MATERIAL_EFFECTS,
 )
+
+# the model file's keys and covariance rows come from the effect registry: EFFECT_PARAMETERS (the fitted
+# parameters each live effect carries, same names as the wear_monitor's), MATERIAL_EFFECTS (shared by machines
+# of a type: the fleet prior pools them; the others belong to one machine's history or mounting),
+# COVARIANCE_ALIASES (a fitted parameter's row when its name differs from the live one)
+from guide_health.models.wear.form_average import RUNNING_IN_FORMS, bic_weights, running_in_form_life_s
 from guide_health.params import validate_wear_params
 
-__all__ = ["COVARIANCE_ALIASES", "EFFECT_PARAMETERS", "MATERIAL_EFFECTS", "model_parameters", "write_model_file"]
+__all__ = ["COVARIANCE_ALIASES", "EFFECT_PARAMETERS", "MATERIAL_EFFECTS", "model_parameters", "running_in_forms",
+           "write_model_file"]
 
 
 def duty_effect_parameters(problem, v: dict[str, float], live: list[str]) -> dict[str, Any]:
@@ -113,6 +115,44 @@ def model_parameters(problem, final, named: list[str]) -> dict[str, Any]:
         matrix = symmetrised(jac @ np.where(np.isfinite(fitted), fitted, 0.0) @ jac.T)   # exactly, for the loader
     out["effect_covariance"] = [float(x) for x in matrix.ravel()]
     return out
+
+
+def form_life_s(problem, values: dict[str, float], form: str, limit_m: float) -> float:
+    """The remaining life [s] a fit of running_in in ``form`` forecasts from the last measurement: the steady
+    rate (the model without running-in, over the record's last quarter: the present duty), the margin to the
+    limit from the fitted present straightness, the form's decay on the way (form_average.running_in_form_life_s)
+    at the last quarter's sliding speed."""
+    t, n, c = problem.t_s, problem.t_s.size, problem.cells
+    j = max(0, int(0.75 * n) - 1)
+    steady = problem.predict_m({**values, "running_in_ratio": 0.0})
+    rate = (steady[-1] - steady[j]) / max(t[-1] - t[j], 1e-9)
+    distance = np.cumsum(np.bincount(np.clip(c.interval, 0, n), weights=c.distance_m, minlength=n + 1)[:n])
+    speed = (distance[-1] - distance[j]) / max(t[-1] - t[j], 1e-9)
+    return running_in_form_life_s(form, limit_m - float(problem.predict_m(values)[-1]), float(rate),
+                                  values["running_in_ratio"], values["running_in_distance_m"],
+                                  float(distance[-1]), float(speed))
+
+
+def running_in_forms(problem, final, named: list[str], limit_m: float) -> dict[str, list[float]]:
+    """With running_in named: the model file's per-form BIC weights and ln-life offsets from the named
+    (exponential) form's forecast (models/wear/form_average.py, RUNNING_IN_FORMS order); each other form is
+    the same effect set refitted with that decay law on the same measurements. {} without running_in."""
+    if "running_in" not in named:
+        return {}
+    lives, bics = [], []
+    try:
+        for form in RUNNING_IN_FORMS:
+            problem.running_in_form = form
+            fit = final if form == RUNNING_IN_FORMS[0] else problem.fit(tuple(named), warm=final)
+            lives.append(form_life_s(problem, fit.values, form, limit_m))
+            bics.append(fit.bic)
+    finally:
+        problem.running_in_form = RUNNING_IN_FORMS[0]
+    lives = np.asarray(lives)
+    if not (np.all(np.isfinite(lives)) and np.all(lives > 0)):
+        return {}
+    return {"running_in_form_weights": [float(w) for w in bic_weights(np.asarray(bics))],
+            "running_in_form_ln_life_offsets": [float(x) for x in np.log(lives / lives[0])]}
 
 
 def live_parameter_text(model: dict[str, Any]) -> str:

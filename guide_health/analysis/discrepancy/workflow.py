@@ -16,7 +16,7 @@ from guide_health.analysis.discrepancy.analysis import disagreement, forecast_ch
 from guide_health.analysis.discrepancy.duty import DutyCells
 from guide_health.analysis.discrepancy.fit_pool import FitPool
 from guide_health.analysis.discrepancy.model import FitResult, WearProblem, rel_errors
-from guide_health.analysis.discrepancy.model_file import model_parameters
+from guide_health.analysis.discrepancy.model_file import model_parameters, running_in_forms
 from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD, forward_selection
 from guide_health.models.wear.effects.registry import BY_ID, EFFECTS
 
@@ -185,7 +185,8 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
     # the model file: the named effects refitted on every measurement (the held-out span scored the choice)
     whole = WearProblem(cells, params, heldout_fraction=0.0, relubrication_t_s=relubrication_t_s)
     whole_fit = whole.fit(tuple(named), warm=final)
-    result["model_file"] = model_parameters(whole, whole_fit, named)
+    result["model_file"] = {**model_parameters(whole, whole_fit, named),
+                            **running_in_forms(whole, whole_fit, named, float(params["straightness_limit_m"]))}
     result["forecast"] = fit_forecast(whole, whole_fit, float(params["straightness_limit_m"]))
     result["fit_s"] = time.perf_counter() - t0
     result["series"] = {

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from guide_health.models.wear.effects.registry import SLIDING_DECAY
 from guide_health.models.wear.gate import InputGate
 from guide_health.models.wear.guide import GuideWear
 from guide_health.models.wear.input_rules import (
@@ -348,12 +349,14 @@ class AxisMonitor:
         k_low, k, k_high = guide.estimator.interval90(guide.measurement_losses_per_k_m())
         loss_per_k, rate_per_k = guide.loss_per_k_m(), guide.integrator.straightness_rate_per_k_m_s()
         now = LifeNow(p.straightness_initial_m, p.straightness_limit_m, loss_per_k, rate_per_k, k, k_low, k_high)
-        effect = None
+        effect = forms = None
         if guide.effect_wear is not None and math.isfinite(loss_per_k) and math.isfinite(rate_per_k):
             effect = guide.effect_life_inputs(k)
+            if SLIDING_DECAY.id in guide.effects.effects:     # the decay law's other forms averaged in
+                forms = (p.running_in_form_ln_life_offsets, p.running_in_form_weights, guide.life_z())
         # while the model-fit test says broken: the interval from the innovations' observed spread
         widen = guide.fit_watch.rms_sigma() if guide.fit_watch.model_fit == "broken" else None
-        return LifeInputs(now, effect, widen)
+        return LifeInputs(now, effect, widen, forms)
 
     def guide_report(self, name: str) -> dict[str, Any]:
         """The numbers of one guide's `<axis> precision` status (INTERFACES.md keys) plus level and message."""

@@ -304,8 +304,12 @@ class GuideWear:
             lubrication=f["lubrication"],
             a0_measured=(self.straightness_initial_configured_m is not None
                          and self.params.straightness_initial_m != self.straightness_initial_configured_m))
-        z = float(stdtrit(n - 1, 0.95)) if n >= 3 else Z90
-        return k, k_sd, self.effects, now, z
+        return k, k_sd, self.effects, now, self.life_z()
+
+    def life_z(self) -> float:
+        """The 90 % interval's half-width in sd: Student-t with the measurements' count - 1 dof (normal below 3)."""
+        n = self.estimator.count
+        return float(stdtrit(n - 1, 0.95)) if n >= 3 else Z90
 
     def measurement_losses_per_k_m(self) -> np.ndarray:
         """g_j of each measurement: for Eq. 7 recomputed with the present stroke estimate."""

@@ -27,6 +27,7 @@ from guide_health.models.wear.calibration import Z90
 from guide_health.models.wear.effect_life import life_interval_s
 from guide_health.models.wear.effects.registry import RATE_NAMES, RELUBRICATION, SCENARIO_FACTORS
 from guide_health.models.wear.fit_watch import widened_life_interval_s
+from guide_health.models.wear.form_average import form_averaged_interval_s
 from guide_health.models.wear.life import LifeNow, remaining_life_interval_s
 from guide_health.models.wear.running_time import NS_PER_S, RunningClock, utc_text
 
@@ -40,17 +41,21 @@ _LN_RATE = {name: i for i, name in enumerate(RATE_NAMES)}
 class LifeInputs:
     """What one guide's remaining life is computed from: ``now`` (life.LifeNow), ``effect`` (the arguments
     (k, k_sd, EffectParameters, EffectLifeNow, z) of effect_life.life_interval_s, None without the wear
-    effects) and ``widen_rms`` (the innovations' rms z while the model-fit test says broken, else None)."""
+    effects), ``widen_rms`` (the innovations' rms z while the model-fit test says broken, else None) and
+    ``forms`` (the sliding decay's other forms: (ln-life offsets, BIC weights, z) of form_average, or None)."""
 
     now: LifeNow
     effect: tuple | None = None
     widen_rms: float | None = None
+    forms: tuple | None = None
 
 
 def life_interval(inputs: LifeInputs) -> tuple[float, float, float]:
     """(life, low, high) [running s]: effect_life.life_interval_s with the effects, else
-    life.remaining_life_interval_s (seed 000 Eq. 12); widened by fit_watch while the model is broken."""
+    life.remaining_life_interval_s (seed 000 Eq. 12); the running-in forms averaged in; widened by fit_watch while the model is broken."""
     life = life_interval_s(*inputs.effect) if inputs.effect is not None else remaining_life_interval_s(inputs.now)
+    if inputs.forms is not None:      # the running-in forms' forecasts averaged in (form_average.py)
+        life = form_averaged_interval_s(life, *inputs.forms)
     if inputs.widen_rms is not None:
         life = widened_life_interval_s(life, inputs.widen_rms)
     return life
