@@ -33,9 +33,10 @@ ALLOWED = {
          "lubrication_interval", "load_along_rail"},
         "the fit's offline forms (running-in spread, duty cells, relubrications); changed in parallel"),
     "analysis/discrepancy/model_file.py": (
-        {"retract_asymmetry", "load_exponent", "stroke_distribution", "thermal_drift", "initial_offset",
+        {"running_in", "retract_asymmetry", "load_exponent", "stroke_distribution", "thermal_drift", "initial_offset",
          "wear_rate_change", "lubrication_interval", "load_along_rail"},
-        "the model file's duty-effect form and thermal reference; changed in parallel"),
+        "the model file's duty-effect form and thermal reference, and the running-in forms' refit (its steady "
+        "rate and decay parameters); changed in parallel"),
     "analysis/discrepancy/selection.py": ({"load_exponent"}, "the work-weighted reference load; changed in parallel"),
     "analysis/discrepancy/workflow.py": (
         {"running_in", "retract_asymmetry", "load_exponent", "lubrication_interval"},

@@ -105,7 +105,7 @@ SLIDING_GUIDE_PARAMS = (
     # the running-in form's uncertainty (models/wear/form_average.py; RUNNING_IN_FORMS order, the library's first)
     Param("running_in_form_weights", [1.0] + [0.0] * (len(RUNNING_IN_FORMS) - 1), "-", "[0, 1]",
           f"BIC weights of the running-in decay forms {', '.join(RUNNING_IN_FORMS)} (sum 1; written by diagnose "
-          "with running_in named): the remaining-life interval averages their forecasts"),
+          "with the running-in effect named): the remaining-life interval averages their forecasts"),
     Param("running_in_form_ln_life_offsets", [0.0] * len(RUNNING_IN_FORMS), "-", "[-50, 50]",
           "ln(life of the form / life of the named exponential form) at the diagnosed record's end, per form"),
     Param("life_warn_h", 500.0, "h", "(0, 1e7]", "WARN when the remaining precision life drops below this",

@@ -37,6 +37,7 @@ from guide_health.models.wear.effects.registry import (
     EFFECT_PARAMETERS,
     LIVE_EFFECT_IDS,
     MATERIAL_EFFECTS,
+    SLIDING_DECAY,
 )
 
 # the model file's keys and covariance rows come from the effect registry: EFFECT_PARAMETERS (the fitted
@@ -118,7 +119,7 @@ def model_parameters(problem, final, named: list[str]) -> dict[str, Any]:
 
 
 def form_life_s(problem, values: dict[str, float], form: str, limit_m: float) -> float:
-    """The remaining life [s] a fit of running_in in ``form`` forecasts from the last measurement: the steady
+    """The remaining life [s] a fit of the running-in effect in ``form`` forecasts from the last measurement: the steady
     rate (the model without running-in, over the record's last quarter: the present duty), the margin to the
     limit from the fitted present straightness, the form's decay on the way (form_average.running_in_form_life_s)
     at the last quarter's sliding speed."""
@@ -134,10 +135,10 @@ def form_life_s(problem, values: dict[str, float], form: str, limit_m: float) ->
 
 
 def running_in_forms(problem, final, named: list[str], limit_m: float) -> dict[str, list[float]]:
-    """With running_in named: the model file's per-form BIC weights and ln-life offsets from the named
+    """With the running-in effect named: the model file's per-form BIC weights and ln-life offsets from the named
     (exponential) form's forecast (models/wear/form_average.py, RUNNING_IN_FORMS order); each other form is
-    the same effect set refitted with that decay law on the same measurements. {} without running_in."""
-    if "running_in" not in named:
+    the same effect set refitted with that decay law on the same measurements. {} without it."""
+    if SLIDING_DECAY.id not in named:
         return {}
     lives, bics = [], []
     try:

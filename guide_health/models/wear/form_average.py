@@ -34,7 +34,7 @@ RUNNING_IN_FORMS = ("exponential", "hyperbolic", "inverse_square")
 
 def running_in_form_factor_spread(form: str, mean_distance_m, distance_var_m2, ratio: float,
                                   distance_m: float) -> np.ndarray:
-    """Mean of K(s) / K of ``form`` (not the exponential: effects/running_in.py) over sliding distances spread
+    """Mean of K(s) / K of ``form`` (not the exponential: the running-in effect's module) over sliding distances spread
     uniformly on [m - h, m + h], h = sqrt(3 var) (clipped at s = 0), from the forms' antiderivatives:
     hyperbolic int r / (1 + s/s0) ds = r s0 ln(1 + s/s0); inverse square int r (1 + s/s0)^-2 ds = -r s0 / (1 + s/s0)."""
     m = np.asarray(mean_distance_m, dtype=float)

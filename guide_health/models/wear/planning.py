@@ -52,7 +52,8 @@ class LifeInputs:
 
 def life_interval(inputs: LifeInputs) -> tuple[float, float, float]:
     """(life, low, high) [running s]: effect_life.life_interval_s with the effects, else
-    life.remaining_life_interval_s (seed 000 Eq. 12); the running-in forms averaged in; widened by fit_watch while the model is broken."""
+    life.remaining_life_interval_s (seed 000 Eq. 12); the running-in forms averaged in; widened by fit_watch
+    while the model is broken."""
     life = life_interval_s(*inputs.effect) if inputs.effect is not None else remaining_life_interval_s(inputs.now)
     if inputs.forms is not None:      # the running-in forms' forecasts averaged in (form_average.py)
         life = form_averaged_interval_s(life, *inputs.forms)
