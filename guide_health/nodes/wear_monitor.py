@@ -32,6 +32,7 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
+from std_srvs.srv import Trigger
 
 from guide_health.errors import InputError
 from guide_health.io.bag.maintenance import MAINTENANCE_TOPIC, EventDecodeError, event_from_status, event_values
@@ -51,6 +52,7 @@ from guide_health.nodes.axis_channel import (  # noqa: F401 - the status keys ar
 )
 from guide_health.nodes.common import run_node
 from guide_health.nodes.live_params import PeriodicTimers, apply_wear_changes
+from guide_health.nodes.model_service import on_load_model
 from guide_health.nodes.qos import SensorSubscriptions, resolve_executor
 from guide_health.nodes.status import StatusUpdater
 from guide_health.params import WEAR_MONITOR_SCHEMA, declare_parameters
@@ -119,6 +121,8 @@ class WearMonitorNode(Node):
         # maintenance events (docs/machine.md): published by the services, taken from any publisher or bag
         self.event_pub = self.create_publisher(DiagnosticArray, MAINTENANCE_TOPIC, EVENT_QOS)
         self.create_subscription(DiagnosticArray, MAINTENANCE_TOPIC, self._on_events, EVENT_READ_QOS)
+        # a model file loaded over the running model (nodes/model_service.py)
+        self.create_service(Trigger, "~/load_model", lambda request, response: on_load_model(self, response))
         self.periodic.create("diagnostics_period_s", params["diagnostics_period_s"], self.publish_diagnostics)
         if self.store is not None:
             self.periodic.create("checkpoint_period_s", params["checkpoint_period_s"], self.checkpoint)

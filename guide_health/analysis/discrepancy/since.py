@@ -18,8 +18,8 @@ fitted on the measurements before c (the state before the change): K, A0 and the
 
 The model file describes the machine after the change, from the anchor measurement a on
 (``model_from_stamp_s``, its stamp): ``straightness_initial_m`` the straightness at a on the new line (A0 + K
-g_a + delta), ``wear_coefficient`` the K after the change (K' or K); loaded live (load_model) or by replay
-``--model-file --model-at`` the guide is re-anchored there (models/wear/model_load.py): its straightness is
+g_a + delta), ``wear_coefficient`` the K after the change (K' or K); loaded live (the ``~/load_model`` service) or
+offline (models/wear/model_load.load_model) the guide is re-anchored there (models/wear/model_load.py): its straightness is
 A_a + K (g - g_a), and the measurements up to a are folded into the K prior (the baseline's K sd for an
 offset; the configured prior for a new K, whose only measurements are the ones after a, kept).
 """
@@ -235,8 +235,8 @@ def write_since_model_file(path, base_params: dict[str, Any], result: dict[str, 
     header = [f"# guide-health diagnose --since {result['since_utc']} {source}: the machine after the change "
               f"({result['change']['kind']}), from model_from_stamp_s on.",
               f"# {result['change']['message']}",
-              "# Load it over the running model: wear_monitor's ~/load_model (parameter model_file), or offline",
-              "# guide-health replay BAG --params BASE --model-file model.yaml --model-at <its time>."]
+              "# Load it over the running model: wear_monitor's ~/load_model service (parameter model_file);",
+              "# offline: models/wear/model_load.load_model at the same point of the record."]
     body = yaml.safe_dump({"/**/wear_monitor": {"ros__parameters": model}}, sort_keys=False, width=200)
     write_text(path, "\n".join(header) + "\n" + body)
 

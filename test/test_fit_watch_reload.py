@@ -1,0 +1,198 @@
+"""From the fit alarm to the answer: a K step x2 or a +3 um gauge offset at 15 h fires the fit test,
+``diagnose --since <model_fit_since_utc>`` names the change (and not the other), its model file loaded over
+the running monitor (models/wear/model_load.py) clears the WARN, and the remaining life after it is within
+10 % of the simulator's truth: the noise-free straightness's last 5 h extrapolated linearly to the limit
+(after 15 h the truth's rate is constant: no running-in on bench 000). Live == offline for the load path.
+CI runs seed 0 of each change; the 10-seed version is ``slow``."""
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from test_fit_watch import CHANGE_H, HOUR_NS, bench, measurements_to_fire
+
+from guide_health.analysis.discrepancy.duty import duty_cells_from_runs
+from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD
+from guide_health.analysis.discrepancy.since import diagnose_since, parse_since_ns
+from guide_health.models.levels import Level
+from guide_health.models.wear.axis import AxisMonitor, split_run
+from guide_health.models.wear.model_load import ModelLoadError, load_model
+from guide_health.params import validate_wear_params
+from guide_health.params.typed import wear_axis_params
+from guide_health.sim.machine import simulate_machine
+
+ROOT = Path(__file__).resolve().parents[1]
+LOAD_H = 24.0          # diagnose runs on the record up to here, and its file is loaded here
+END_H = 30.0
+
+
+def changed_run(seed: int, change: str, hours: float = END_H):
+    params, sim = bench()
+    effects = {"wear_rate_change": 2.0} if change == "k_step" else None
+    run = simulate_machine(params, dict(sim, duration_h=hours), seed=seed, effects=effects)
+    if change == "gauge":
+        run.straightness_m[run.straightness_t_ns > run.straightness_t_ns[0] + CHANGE_H * HOUR_NS] += 3e-6
+    return params, run
+
+
+def true_life_h(run, limit_m: float) -> float:
+    """The simulator's noise-free straightness over the last 5 h, extrapolated linearly to the limit [h]."""
+    truth = run.metadata["truth"]
+    t, y = np.asarray(truth["straightness_t_s"]), np.asarray(truth["straightness_m"])
+    last = t >= t[-1] - 5 * 3600.0
+    slope = np.polyfit(t[last], y[last], 1)[0]
+    return (limit_m - y[-1]) / slope / 3600.0
+
+
+def alarm_to_answer(seed: int, change: str) -> dict:
+    """The whole path on one seed: the numbers the tests judge."""
+    params, run = changed_run(seed, change)
+    t0 = int(run.straightness_t_ns[0])
+    before, after = split_run(run, t0 + int(LOAD_H * HOUR_NS))
+    axis = AxisMonitor(wear_axis_params(params))
+    axis.process_run(before)
+    fired = measurements_to_fire(axis, run)
+    warned = axis.report()
+    cells = duty_cells_from_runs(before, params["slider_length_m"])
+    result = diagnose_since(cells, params, parse_since_ns(warned["model_fit_since_utc"]), BIC_THRESHOLD)
+    model = {**params, **result["model_file"]}
+    validate_wear_params(model)
+    load_model(axis, wear_axis_params(model))
+    loaded = axis.report()
+    axis.process_run(after)
+    end = axis.report()
+    return {"fired": fired, "warned": warned, "result": result, "loaded": loaded, "end": end,
+            "truth_h": true_life_h(run, params["straightness_limit_m"]),
+            "k_true": run.metadata["truth"]["wear_coefficient"], "t0_s": t0 * 1e-9}
+
+
+def check(out: dict, change: str) -> None:
+    ch = out["result"]["change"]
+    assert 1 <= out["fired"] <= 3
+    assert out["warned"]["model_fit"] == "broken" and out["warned"]["level"] >= Level.WARN
+    assert out["loaded"]["model_fit"] == "ok" and out["loaded"]["level"] == Level.OK
+    assert "no longer fits" not in out["loaded"]["message"]
+    assert out["end"]["model_fit"] == "ok"
+    # the change sits between the measurements at 15.0 h and 15.5 h: the file is anchored at 15.0 h
+    assert ch["after_h"] == pytest.approx(CHANGE_H, abs=1e-6)
+    assert out["result"]["model_file"]["model_from_stamp_s"] == pytest.approx(out["t0_s"] + CHANGE_H * 3600, abs=1e-3)
+    if change == "k_step":       # the named rate within 3 sd of x2 (sd ~0.015), not an offset
+        assert ch["named_effects"] == ["wear_rate_change"]
+        assert abs(ch["wear_rate_change_factor"] - 2.0) < 3 * ch["wear_rate_change_factor_sd"] + 0.02
+    else:                        # the offset within 3 sd of 3 um (sd ~0.25 um), not a K change
+        assert ch["named_effects"] == ["initial_offset"]
+        assert abs(ch["offset_um"] - 3.0) < 3 * ch["offset_sd_um"]
+    assert out["end"]["remaining_life_h"] == pytest.approx(out["truth_h"], rel=0.10)
+
+
+@pytest.mark.parametrize("change", ["k_step", "gauge"])
+def test_alarm_since_load_clears_and_the_life_follows_the_truth(change):
+    check(alarm_to_answer(0, change), change)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("change", ["k_step", "gauge"])
+def test_alarm_to_answer_over_10_seeds(change):
+    """Every step of check() in >= 9 of 10 seeds; the numbers printed (docs/discrepancy.md quotes them)."""
+    passed = 0
+    for seed in range(10):
+        out = alarm_to_answer(seed, change)
+        ch = out["result"]["change"]
+        size = (f"f {ch.get('wear_rate_change_factor', math.nan):.3f}" if change == "k_step"
+                else f"offset {ch.get('offset_um', math.nan):.2f} um")
+        print(f"{change} seed {seed}: fired at {out['fired']:g}, named {ch['named_effects']}, {size}, life "
+              f"{out['end']['remaining_life_h']:.1f} h vs truth {out['truth_h']:.1f} h "
+              f"({out['end']['remaining_life_h'] / out['truth_h'] - 1:+.1%})")
+        try:
+            check(out, change)
+            passed += 1
+        except AssertionError:
+            pass
+    assert passed >= 9
+
+
+def test_loading_is_all_or_nothing_and_keeps_the_record():
+    params, run = changed_run(1, "k_step", hours=17.0)
+    axis = AxisMonitor(wear_axis_params(params))
+    axis.process_run(run)
+    before = axis.report()
+    guide = axis.guides["guide"]
+    state = axis.guide_state("guide")
+    # a start stamp before the first measurement: refused, nothing changed
+    early = wear_axis_params({**params, "model_from_stamp_s": run.straightness_t_ns[0] * 1e-9 - 10.0})
+    with pytest.raises(ModelLoadError, match="before the guide's first straightness measurement"):
+        load_model(axis, early)
+    assert axis.guides["guide"] is guide and axis.guide_state("guide") == state
+    # effects with a start stamp cannot be re-anchored: refused
+    with pytest.raises(ModelLoadError, match="without effects"):
+        load_model(axis, wear_axis_params({**params, "effects": "running_in", "running_in_ratio": 1.0,
+                                           "model_from_stamp_s": run.straightness_t_ns[5] * 1e-9}))
+    # a whole-record model (no stamp): the same measurements, wear and duty; a new model digest clears the test
+    load_model(axis, wear_axis_params({**params, "wear_coefficient": 2 * params["wear_coefficient"]}))
+    after = axis.report()
+    assert after["model_fit"] == "ok" and before["model_fit"] == "broken"
+    new = axis.guides["guide"]
+    assert new.estimator.measurement_m == guide.estimator.measurement_m
+    assert new.integrator.archard_work_nm == guide.integrator.archard_work_nm
+    assert after["sliding_distance_m"] == before["sliding_distance_m"]
+
+
+def test_anchor_by_hand():
+    """Re-anchored at measurement a: work and the later measurements' works less W_a, the earlier measurements
+    folded into the prior, the straightness now A_a + K (g - g_a) (Eq. 7: g linear in the work)."""
+    params, run = changed_run(2, "k_step", hours=17.0)
+    axis = AxisMonitor(wear_axis_params(params))
+    axis.process_run(run)
+    old = axis.guides["guide"]
+    est = old.estimator
+    a = 20
+    w_a, w_now = est.measurement_work_nm[a], old.integrator.archard_work_nm
+    g_now, g_a = old.loss_per_k_m(), old.loss_per_k_m() * est.measurement_work_nm[a] / w_now
+    model = {**params, "wear_coefficient": 9e-6, "straightness_initial_m": 50e-6,
+             "wear_coefficient_prior_rel_sd": 0.01, "model_from_stamp_s": est.measurement_t_ns[a] * 1e-9 + 1.0}
+    load_model(axis, wear_axis_params(model))
+    new = axis.guides["guide"]
+    assert new.estimator.count == est.count - a - 1
+    assert new.estimator.measurement_work_nm[0] == pytest.approx(est.measurement_work_nm[a + 1] - w_a, rel=1e-12)
+    assert new.integrator.archard_work_nm == pytest.approx(w_now - w_a, rel=1e-12)
+    assert new.loss_per_k_m() == pytest.approx(g_now - g_a, rel=1e-9)
+    k = new.estimator.posterior(new.measurement_losses_per_k_m())[0]
+    assert axis.report()["straightness_um"] == pytest.approx((50e-6 + k * (g_now - g_a)) * 1e6, rel=1e-9)
+
+
+def test_since_date_rules():
+    assert parse_since_ns("2023-11-15T14:43:20Z") == parse_since_ns("2023-11-15T14:43:20+00:00") \
+        == 1700059400 * 10 ** 9
+    for bad, words in (("yesterday", "not an ISO 8601"), ("2023-11-15T14:43:20+01:00", "in UTC")):
+        with pytest.raises(ValueError, match=words):
+            parse_since_ns(bad)
+
+
+def run_cli(*args) -> str:
+    proc = subprocess.run([sys.executable, "-m", "guide_health.cli", *args], capture_output=True, text=True,
+                          cwd=ROOT, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    return proc.stdout
+
+
+def test_diagnose_since_cli(tmp_path):
+    """The CLI on a bag: the change named in the text, since.json and a model file that loads."""
+    from guide_health.io.bag.writer import write_machine_bag
+    from guide_health.models.wear.fit_watch import utc_text
+
+    params, run = changed_run(0, "k_step", hours=20.0)
+    write_machine_bag(run, tmp_path / "bag", storage="sqlite3")
+    limit = tmp_path / "limit.yaml"
+    limit.write_text(yaml.safe_dump({"/**/wear_monitor": {"ros__parameters": {"straightness_limit_m": 1e-3}}}))
+    since = utc_text(int(run.straightness_t_ns[0] + 16 * HOUR_NS))
+    out = run_cli("diagnose", str(tmp_path / "bag"), "--params", str(ROOT / "config" / "bench_000.yaml"),
+                  "--params", str(limit), "--since", since, "--out", str(tmp_path / "d"))
+    assert f"since {since}: the wear rate changed: K x" in out
+    assert "named: wear_rate_change" in out
+    model = yaml.safe_load((tmp_path / "d" / "model.yaml").read_text())["/**/wear_monitor"]["ros__parameters"]
+    assert model["model_from_stamp_s"] == pytest.approx(run.straightness_t_ns[0] * 1e-9 + CHANGE_H * 3600, abs=1e-3)
+    assert model["wear_coefficient"] == pytest.approx(2 * params["wear_coefficient"], rel=0.05)
+    validate_wear_params({**params, **model})
