@@ -196,3 +196,163 @@ def test_diagnose_since_cli(tmp_path):
     assert model["model_from_stamp_s"] == pytest.approx(run.straightness_t_ns[0] * 1e-9 + CHANGE_H * 3600, abs=1e-3)
     assert model["wear_coefficient"] == pytest.approx(2 * params["wear_coefficient"], rel=0.05)
     validate_wear_params({**params, **model})
+
+
+def test_replay_model_at_equals_the_load_between_the_halves(tmp_path):
+    """``replay --model-file --model-at`` (one bag) = the monitor fed the record up to the date, the file
+    loaded (model_load.load_model), then the rest: the same function, the same numbers."""
+    import json
+
+    from guide_health.io.bag.writer import write_machine_bag
+    from guide_health.models.wear.fit_watch import utc_text
+
+    params, run = changed_run(3, "gauge", hours=17.0)
+    t0 = int(run.straightness_t_ns[0])
+    at = t0 + int(16 * HOUR_NS)
+    model = {"wear_coefficient": params["wear_coefficient"], "straightness_initial_m": 70e-6,
+             "model_from_stamp_s": (t0 + CHANGE_H * HOUR_NS) * 1e-9}
+    path = tmp_path / "model.yaml"
+    path.write_text(yaml.safe_dump({"/**/wear_monitor": {"ros__parameters": model}}))
+    limit = tmp_path / "limit.yaml"
+    limit.write_text(yaml.safe_dump({"/**/wear_monitor": {"ros__parameters": {"straightness_limit_m": 1e-3}}}))
+    write_machine_bag(run, tmp_path / "bag", storage="sqlite3")
+    run_cli("replay", str(tmp_path / "bag"), "--params", str(ROOT / "config" / "bench_000.yaml"), "--params",
+            str(limit), "--model-file", str(path), "--model-at", utc_text(at), "--out", str(tmp_path / "r"),
+            "--no-plot")
+    offline = json.loads((tmp_path / "r" / "report.json").read_text())
+    head, tail = split_run(run, at)
+    axis = AxisMonitor(wear_axis_params(params))
+    axis.process_run(head)
+    load_model(axis, wear_axis_params({**params, **model}))
+    axis.process_run(tail)
+    split = axis.report()
+    assert offline["model_loaded"] == {"file": str(path), "at_utc": utc_text(at)}
+    assert offline["model_fit"] == split["model_fit"] == "ok"
+    assert offline["measurements"] == split["measurements"] == 4        # 15.5 .. 17.0 h after the anchor
+    for key in ("straightness_um", "wear_coefficient", "remaining_life_h", "remaining_life_h_low"):
+        assert offline[key] == pytest.approx(split[key], rel=1e-9), key
+
+
+class TriggerClient:
+    """~/load_model and set_parameters of a remote wear_monitor, from a private rclpy context."""
+
+    def __init__(self, target: str = "wear_monitor"):
+        import rclpy
+        from rcl_interfaces.srv import SetParameters
+        from rclpy.executors import SingleThreadedExecutor
+        from std_srvs.srv import Trigger
+
+        self.rclpy = rclpy
+        self.context = rclpy.context.Context()
+        rclpy.init(context=self.context)
+        self.node = rclpy.create_node("load_model_client", context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.trigger = self.node.create_client(Trigger, f"/{target}/load_model")
+        self.set_client = self.node.create_client(SetParameters, f"/{target}/set_parameters")
+        assert self.trigger.wait_for_service(timeout_sec=60.0)
+        assert self.set_client.wait_for_service(timeout_sec=60.0)
+
+    def _call(self, client, request):
+        future = client.call_async(request)
+        self.executor.spin_until_future_complete(future, timeout_sec=60.0)
+        assert future.done()
+        return future.result()
+
+    def load(self):
+        from std_srvs.srv import Trigger
+
+        return self._call(self.trigger, Trigger.Request())
+
+    def set_model_file(self, path: str):
+        from rcl_interfaces.srv import SetParameters
+        from rclpy.parameter import Parameter
+
+        request = SetParameters.Request(parameters=[Parameter("model_file", value=path).to_parameter_msg()])
+        return self._call(self.set_client, request).results[0]
+
+    def close(self):
+        self.executor.shutdown()
+        self.node.destroy_node()
+        self.rclpy.shutdown(context=self.context)
+
+
+@pytest.mark.ros
+def test_live_load_model_equals_replay_with_model_at(tmp_path, ros_test_env):
+    """bag 1 (0-2 h, +6 um from 1 h: the test fires) -> wear_monitor; ~/load_model of an anchored file clears
+    the WARN; a bad file is refused in one line with the model unchanged; bag 2 (2-3 h); every fit key and
+    the model's numbers equal the offline replay of both bags with the file loaded at 2 h (analyse_bag's
+    load: the path of replay --model-at)."""
+    pytest.importorskip("rclpy")
+    from guide_health.analysis.replay import analyse_bag
+    from guide_health.io.bag.bag_set import resolve_bags
+    from guide_health.io.bag.writer import write_machine_bag
+    from guide_health.models.wear import fit_watch
+    from guide_health.nodes.session import (
+        DiagnosticsCollector,
+        bag_counts,
+        clean_fastdds_shm,
+        play_bag,
+        start_node,
+        stop_node,
+    )
+    from guide_health.params import simulation_params, wear_monitor_params
+
+    bench_file = ROOT / "config" / "bench_000.yaml"
+    params = wear_monitor_params(bench_file)
+    sim = dict(simulation_params(bench_file), duration_h=3.1, joint_state_rate_hz=10.0, load_rate_hz=1.0,
+               measurement_interval_h=0.25)
+    run = simulate_machine(params, sim, seed=7)
+    t0 = int(run.straightness_t_ns[0])
+    run.straightness_m[run.straightness_t_ns > t0 + HOUR_NS] += 6e-6
+    at = t0 + 2 * HOUR_NS
+    first, second = split_run(run, at)
+    write_machine_bag(first, tmp_path / "b1", storage="sqlite3")
+    write_machine_bag(second, tmp_path / "b2", storage="sqlite3")
+    model = {"wear_coefficient": params["wear_coefficient"], "straightness_initial_m": 30e-6,
+             "model_from_stamp_s": (t0 + HOUR_NS) * 1e-9}
+    good, bad = tmp_path / "model.yaml", tmp_path / "bad.yaml"
+    good.write_text(yaml.safe_dump({"/**/wear_monitor": {"ros__parameters": model}}))
+    bad.write_text(yaml.safe_dump({"/**/wear_monitor": {"ros__parameters": {"wear_coefficient": -1.0}}}))
+    half = analyse_bag(tmp_path / "b1", params)[1]
+    whole = analyse_bag(resolve_bags([str(tmp_path / "b1"), str(tmp_path / "b2")]), params,
+                        load=(at, wear_axis_params({**params, **model})))[1]
+    assert half["model_fit"] == "broken" and whole["model_fit"] == "ok"
+    name = "bench_000/wear_monitor: x precision"
+    env = ros_test_env()
+    collector = node = client = None
+    try:
+        collector = DiagnosticsCollector("reload_collector")
+        node = start_node("guide_health.nodes.wear_monitor", bench_file,
+                          {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25,
+                           "model_file": str(good)}, env, log_path=tmp_path / "node.log")
+        assert collector.wait_for(name, timeout=120.0) is not None, (tmp_path / "node.log").read_text()
+        assert play_bag(tmp_path / "b1", env, ["--wait-subscribers", "1", "--max-rate", "0"]).returncode == 0
+        warned = collector.wait_counts(name, bag_counts(half))
+        assert warned["values"]["model_fit"] == "broken" and warned["level"] >= Level.WARN
+        client = TriggerClient()
+        response = client.load()
+        assert response.success and response.message == f"loaded {good}"
+        cleared = collector.wait_for(name, lambda s: s["values"]["model_fit"] == "ok", timeout=60.0)
+        assert cleared is not None and "no longer fits" not in cleared["message"]
+        assert client.set_model_file(str(bad)).successful
+        refused = client.load()
+        assert not refused.success and refused.message.startswith("load_model refused: ")
+        assert "\n" not in refused.message and "wear_coefficient" in refused.message
+        assert client.set_model_file(str(good)).successful
+        assert play_bag(tmp_path / "b2", env, ["--wait-subscribers", "1", "--max-rate", "0"]).returncode == 0
+        live = collector.wait_counts(name, bag_counts(whole))
+    finally:
+        if client is not None:
+            client.close()
+        if node is not None:
+            stop_node(node)
+        if collector is not None:
+            collector.close()
+        clean_fastdds_shm()
+    values = live["values"]
+    for key in fit_watch.FIT_STATUS_KEYS + ("wear_coefficient", "straightness_um", "remaining_life_h", "measurements"):
+        if isinstance(whole[key], str):
+            assert values[key] == whole[key], key
+        else:
+            assert float(values[key]) == pytest.approx(whole[key], rel=1e-4, abs=1e-9), key

@@ -5,8 +5,8 @@ Why a Trigger on a parameter rather than the parameter's change event alone: the
 the response (success, and the one-line reason of a refusal), and the same file can be loaded again after it
 was rewritten (setting a parameter to its present value is no change event). The file merges over the node's
 running parameters as a later ``--params-file`` would (its ``wear_monitor`` section, the node's own name),
-validated by the one schema; each axis's guides are then handed over by models/wear/model_load.py (the function an
-offline replay uses to load the file at the same point). A file that does not load, does not validate, changes what
+validated by the one schema; each axis's guides are then handed over by models/wear/model_load.py (the function
+``replay --model-file --model-at`` uses). A file that does not load, does not validate, changes what
 the saved state is keyed by (state_schema.FINGERPRINT_PARAMS: a restart's matter) or cannot be anchored is
 refused whole with one line; the model is then unchanged. A loaded file is not written back to the
 parameters files: a restart with the old files restores the state under the old model.

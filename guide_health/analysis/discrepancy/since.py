@@ -18,9 +18,9 @@ fitted on the measurements before c (the state before the change): K, A0 and the
 
 The model file describes the machine after the change, from the anchor measurement a on
 (``model_from_stamp_s``, its stamp): ``straightness_initial_m`` the straightness at a on the new line (A0 + K
-g_a + delta), ``wear_coefficient`` the K after the change (K' or K); loaded live (the ``~/load_model`` service) or
-offline (models/wear/model_load.load_model) the guide is re-anchored there (models/wear/model_load.py): its straightness is
-A_a + K (g - g_a), and the measurements up to a are folded into the K prior (the baseline's K sd for an
+g_a + delta), ``wear_coefficient`` the K after the change (K' or K); loaded live (wear_monitor's ``~/load_model``) or
+offline (``replay --model-file --model-at``) the guide is re-anchored there (models/wear/model_load.py): its
+straightness is A_a + K (g - g_a), and the measurements up to a are folded into the K prior (the baseline's K sd for an
 offset; the configured prior for a new K, whose only measurements are the ones after a, kept).
 """
 from __future__ import annotations
@@ -192,17 +192,17 @@ def _model_after(best: dict, g: np.ndarray, t: np.ndarray, t0_ns: int, a0_given:
     return model
 
 
-def parse_since_ns(text: str) -> int:
-    """DATE of --since [ns since the epoch]: ISO 8601 in UTC ('2023-11-15T14:43:20Z', as model_fit_since_utc
-    writes it, or with +00:00 / without a zone: read as UTC); ValueError (one line) otherwise."""
+def parse_since_ns(text: str, option: str = "--since") -> int:
+    """DATE of --since (or ``option``) [ns since the epoch]: ISO 8601 in UTC ('2023-11-15T14:43:20Z', as
+    model_fit_since_utc writes it, or with +00:00 / without a zone: read as UTC); ValueError (one line) otherwise."""
     try:
         when = datetime.fromisoformat(text.strip().replace("Z", "+00:00"))
     except ValueError:
-        raise ValueError(f"--since {text!r}: not an ISO 8601 date (e.g. 2026-11-27T14:05:00Z)") from None
+        raise ValueError(f"{option} {text!r}: not an ISO 8601 date (e.g. 2026-11-27T14:05:00Z)") from None
     if when.tzinfo is None:
         when = when.replace(tzinfo=UTC)
     if when.utcoffset() != timedelta(0):
-        raise ValueError(f"--since {text!r}: give the date in UTC (Z), as model_fit_since_utc does")
+        raise ValueError(f"{option} {text!r}: give the date in UTC (Z), as model_fit_since_utc does")
     return int(round(when.timestamp() * 1e9))
 
 
@@ -235,8 +235,8 @@ def write_since_model_file(path, base_params: dict[str, Any], result: dict[str, 
     header = [f"# guide-health diagnose --since {result['since_utc']} {source}: the machine after the change "
               f"({result['change']['kind']}), from model_from_stamp_s on.",
               f"# {result['change']['message']}",
-              "# Load it over the running model: wear_monitor's ~/load_model service (parameter model_file);",
-              "# offline: models/wear/model_load.load_model at the same point of the record."]
+              "# Load it over the running model: wear_monitor's ~/load_model service (parameter model_file), or",
+              "# offline: guide-health replay BAG --params BASE --model-file model.yaml --model-at DATE."]
     body = yaml.safe_dump({"/**/wear_monitor": {"ros__parameters": model}}, sort_keys=False, width=200)
     write_text(path, "\n".join(header) + "\n" + body)
 

@@ -1,5 +1,5 @@
 """A model file loaded over a running axis monitor (pure: no ROS, no I/O): the live ``~/load_model`` service and
-an offline replay that loads it at the same point of the record hand over the same way (one function).
+the offline ``replay --model-file --model-at`` hand over the same way (one function: the same numbers).
 
 The guides' states (wear, measurements, duty, fit test) are handed to guides built with the new parameters,
 exactly as a restart with the file would restore them (GuideWear.restore: the K prior, A0 and the measurement
