@@ -16,9 +16,10 @@ from test_fit_watch import CHANGE_H, HOUR_NS, bench, measurements_to_fire
 
 from guide_health.analysis.discrepancy.duty import duty_cells_from_runs
 from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD
-from guide_health.analysis.discrepancy.since import diagnose_since, parse_since_ns
+from guide_health.analysis.discrepancy.since import diagnose_since
 from guide_health.models.levels import Level
 from guide_health.models.wear.axis import AxisMonitor, split_run
+from guide_health.models.wear.fit_watch import parse_utc_ns
 from guide_health.models.wear.model_load import ModelLoadError, load_model
 from guide_health.params import validate_wear_params
 from guide_health.params.typed import wear_axis_params
@@ -57,7 +58,7 @@ def alarm_to_answer(seed: int, change: str) -> dict:
     fired = measurements_to_fire(axis, run)
     warned = axis.report()
     cells = duty_cells_from_runs(before, params["slider_length_m"])
-    result = diagnose_since(cells, params, parse_since_ns(warned["model_fit_since_utc"]), BIC_THRESHOLD)
+    result = diagnose_since(cells, params, parse_utc_ns(warned["model_fit_since_utc"]), BIC_THRESHOLD)
     model = {**params, **result["model_file"]}
     validate_wear_params(model)
     load_model(axis, wear_axis_params(model))
@@ -164,11 +165,11 @@ def test_anchor_by_hand():
 
 
 def test_since_date_rules():
-    assert parse_since_ns("2023-11-15T14:43:20Z") == parse_since_ns("2023-11-15T14:43:20+00:00") \
+    assert parse_utc_ns("2023-11-15T14:43:20Z") == parse_utc_ns("2023-11-15T14:43:20+00:00") \
         == 1700059400 * 10 ** 9
     for bad, words in (("yesterday", "not an ISO 8601"), ("2023-11-15T14:43:20+01:00", "in UTC")):
         with pytest.raises(ValueError, match=words):
-            parse_since_ns(bad)
+            parse_utc_ns(bad)
 
 
 def run_cli(*args) -> str:

@@ -14,7 +14,10 @@ from guide_health.cli.command import Command, check_out_path
 from guide_health.cli.text import bag_set_lines
 from guide_health.errors import InputError
 from guide_health.io.bag.bag_set import BagSet, resolve_bags, source_events
+from guide_health.io.outputs.files import write_text
+from guide_health.io.outputs.json_text import json_text
 from guide_health.io.outputs.progress import ProgressBar
+from guide_health.models.wear.fit_watch import parse_utc_ns
 from guide_health.models.wear.maintenance import relubrication_times_s, wear_resets
 from guide_health.params import validate_wear_params, wear_monitor_params
 from guide_health.params.machine import axes_params
@@ -119,13 +122,11 @@ def run_since(args, params: dict, bag, axis: str, threshold) -> dict:
     model of the machine after the change, DIR/model.yaml."""
     from guide_health.analysis.discrepancy.duty import read_duty_cells
     from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD
-    from guide_health.analysis.discrepancy.since import diagnose_since, parse_since_ns, write_since_model_file
-    from guide_health.io.outputs.files import write_text
-    from guide_health.io.outputs.json_text import json_text
+    from guide_health.analysis.discrepancy.since import diagnose_since, write_since_model_file
 
     t0 = time.perf_counter()
     try:
-        since_ns = parse_since_ns(args.since)
+        since_ns = parse_utc_ns(args.since)
         cells, messages = read_duty_cells(bag, params, args.namespace,
                                           resets=wear_resets(source_events(bag, args.namespace), axis))
         result = diagnose_since(cells, params, since_ns, BIC_THRESHOLD if threshold is None else threshold)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from guide_health.analysis.discrepancy.since import parse_since_ns
 from guide_health.analysis.machine_replay import analyse_machine_bag, write_machine_outputs
 from guide_health.analysis.rejections import rejection_lines, with_rejection_lines
 from guide_health.analysis.replay import analyse_bag, analyse_slewing_bag, write_outputs, write_slewing_outputs
@@ -16,7 +15,7 @@ from guide_health.io.bag.bag_set import BagSet, resolve_bags
 from guide_health.io.bag.info import bag_topic_types
 from guide_health.io.outputs.progress import ProgressBar
 from guide_health.models.levels import LEVEL_NAMES
-from guide_health.models.wear.fit_watch import utc_text
+from guide_health.models.wear.fit_watch import parse_utc_ns, utc_text
 from guide_health.models.wear.model_load import ModelLoadError
 from guide_health.params import (
     SLEWING_MONITOR_DEFAULTS,
@@ -89,7 +88,7 @@ def model_load(args, params: dict):
         raise InputError("--model-file: a single-axis parameters file (a machine of several axes: not yet)")
     merged = wear_monitor_params([*args.params, args.model_file])
     try:
-        at = LATE if args.model_at is None else parse_since_ns(args.model_at, "--model-at")
+        at = LATE if args.model_at is None else parse_utc_ns(args.model_at, "--model-at")
     except ValueError as exc:
         raise InputError(str(exc)) from None
     return at, wear_axis_params(merged)

@@ -26,13 +26,15 @@ offset; the configured prior for a new K, whose only measurements are the ones a
 from __future__ import annotations
 
 import math
-from datetime import UTC, datetime, timedelta
 from typing import Any
 
 import numpy as np
 import yaml
 
+from guide_health.analysis.discrepancy.model import WearProblem
+from guide_health.io.outputs.files import write_text
 from guide_health.models.wear.fit_watch import WINDOW_MEASUREMENTS, utc_text
+from guide_health.params import validate_wear_params
 
 #: measurements after the change point at least (two to fit K' or delta and one to judge it)
 MIN_AFTER = 3
@@ -74,6 +76,11 @@ def _fit(y: np.ndarray, x: np.ndarray, names: list[str]) -> dict[str, Any]:
     dof = max(y.size - x.shape[1], 1)
     cov = rss / dof * np.linalg.pinv(x.T @ x)
     return {"values": dict(zip(names, beta.tolist())), "cov": cov, "names": names, "rss": rss}
+
+
+def _a0(fit: dict, a0_given: float | None) -> float:
+    """A0 of a fit: the given one, or the fitted one when none was given."""
+    return fit["values"]["straightness_initial_m"] if a0_given is None else a0_given
 
 
 def _bic(rss: float, n: int, p: int) -> float:
@@ -124,7 +131,7 @@ def since_result(problem, since_s: float, t0_ns: int, bic_threshold: float) -> d
     before = slice(0, max(c, 2))
     x, names = _design(g[before], g[before].size, "none", a0_given is None)
     base = _fit(y[before] if a0_given is None else y[before] - a0_given, x, names)
-    a0 = base["values"].get("straightness_initial_m", a0_given)
+    a0 = _a0(base, a0_given)
     k, k_sd = base["values"]["wear_coefficient"], _sd(base, "wear_coefficient")
     g_since = float(np.interp(since_s, t, g))
     result: dict[str, Any] = {
@@ -173,7 +180,7 @@ def _model_after(best: dict, g: np.ndarray, t: np.ndarray, t0_ns: int, a0_given:
                  base: dict) -> dict[str, Any]:
     """The wear_monitor parameters of the machine after the change, from the anchor on (module text)."""
     v = best["values"]
-    a0 = v.get("straightness_initial_m", a0_given)
+    a0 = _a0(best, a0_given)
     c = best["c"] if best["c"] is not None else g.size
     a = c - 1
     k = v["wear_coefficient"]
@@ -192,25 +199,9 @@ def _model_after(best: dict, g: np.ndarray, t: np.ndarray, t0_ns: int, a0_given:
     return model
 
 
-def parse_since_ns(text: str, option: str = "--since") -> int:
-    """DATE of --since (or ``option``) [ns since the epoch]: ISO 8601 in UTC ('2023-11-15T14:43:20Z', as
-    model_fit_since_utc writes it, or with +00:00 / without a zone: read as UTC); ValueError (one line) otherwise."""
-    try:
-        when = datetime.fromisoformat(text.strip().replace("Z", "+00:00"))
-    except ValueError:
-        raise ValueError(f"{option} {text!r}: not an ISO 8601 date (e.g. 2026-11-27T14:05:00Z)") from None
-    if when.tzinfo is None:
-        when = when.replace(tzinfo=UTC)
-    if when.utcoffset() != timedelta(0):
-        raise ValueError(f"{option} {text!r}: give the date in UTC (Z), as model_fit_since_utc does")
-    return int(round(when.timestamp() * 1e9))
-
-
 def diagnose_since(cells, params: dict[str, Any], since_ns: int, bic_threshold: float) -> dict[str, Any]:
     """The --since analysis of a record's duty cells (``params``: the base wear_monitor parameters, no
     effects). ValueError (one line) for a record or date it cannot analyse."""
-    from guide_health.analysis.discrepancy.model import WearProblem
-
     if params["effects"]:
         raise ValueError(f"--since compares with the plain model; the parameters name effects ({params['effects']})")
     problem = WearProblem(cells, params, heldout_fraction=0.0)
@@ -227,9 +218,6 @@ def diagnose_since(cells, params: dict[str, Any], since_ns: int, bic_threshold: 
 def write_since_model_file(path, base_params: dict[str, Any], result: dict[str, Any], source: str = "") -> None:
     """DIR/model.yaml of --since: the machine after the change, from model_from_stamp_s on (validated merged
     with the base first)."""
-    from guide_health.io.outputs.files import write_text
-    from guide_health.params import validate_wear_params
-
     model = result["model_file"]
     validate_wear_params({**base_params, **model})
     header = [f"# guide-health diagnose --since {result['since_utc']} {source}: the machine after the change "
