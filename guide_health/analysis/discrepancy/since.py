@@ -84,11 +84,14 @@ def _a0(fit: dict, a0_given: float | None) -> float:
 
 
 def _bic(rss: float, n: int, p: int) -> float:
+    """BIC of a least-squares fit with the noise sd estimated: n ln(RSS / n) + p ln n."""
     return n * math.log(max(rss, 1e-300) / n) + p * math.log(n)
 
 
 def _sd(fit: dict, name: str) -> float:
-    return math.sqrt(max(fit["cov"][fit["names"].index(name)] [fit["names"].index(name)], 0.0))
+    """The standard error of a fitted value."""
+    i = fit["names"].index(name)
+    return math.sqrt(max(fit["cov"][i, i], 0.0))
 
 
 def best_change(t_s: np.ndarray, y_m: np.ndarray, g: np.ndarray, a0_m: float | None, since_s: float,
@@ -138,14 +141,14 @@ def since_result(problem, since_s: float, t0_ns: int, bic_threshold: float) -> d
         "since_utc": utc_text(int(t0_ns + since_s * 1e9)),
         "baseline": {"measurements": int(g[before].size), "wear_coefficient": k, "wear_coefficient_sd": k_sd,
                      "straightness_initial_um": a0 * 1e6, "straightness_at_since_um": (a0 + k * g_since) * 1e6},
-        "change": _named_change(best, t, t0_ns, a0_given),
+        "change": _named_change(best, t, t0_ns),
         "bic_by_change": best["bic_by_change"], "bic_threshold": bic_threshold,
     }
     result["model_file"] = _model_after(best, g, t, t0_ns, a0_given, base)
     return result
 
 
-def _named_change(best: dict, t: np.ndarray, t0_ns: int, a0_given: float | None) -> dict[str, Any]:
+def _named_change(best: dict, t: np.ndarray, t0_ns: int) -> dict[str, Any]:
     """The change the record names: kind, registry effect ids, when, and its size with its sd."""
     change, c = best["change"], best["c"]
     if change == "none":
