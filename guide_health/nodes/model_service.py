@@ -21,14 +21,14 @@ from guide_health.params.machine import axes_params
 from guide_health.params.typed import wear_axis_params
 
 
-def loaded_models(node, path: str) -> dict:
-    """{channel: (axis params dict, typed params, guides)} of the file over the node's running parameters;
+def loaded_models(node, path: str) -> list:
+    """[(channel, axis params dict, typed params, guides)] of the file over the node's running parameters;
     ValueError / InputError (one line) when it cannot be loaded."""
     if not path:
         raise InputError("the parameter model_file is empty: set it to the model file to load")
     merged = load_node_params(path, node.get_name(), dict(node.params))
     axes = axes_params(merged, validate_wear_params)
-    out = {}
+    out = []
     for channel in node.channels:
         axis = axes[channel.name]
         typed = wear_axis_params(axis)
@@ -36,7 +36,7 @@ def loaded_models(node, path: str) -> dict:
                    getattr(channel.model.params, n)]
         if changed:
             raise InputError(f"{path} changes {', '.join(changed)} of axis {channel.name}: that needs a restart")
-        out[channel] = (axis, typed, loaded_guides(channel.model, typed))
+        out.append((channel, axis, typed, loaded_guides(channel.model, typed)))
     return out
 
 
@@ -51,7 +51,7 @@ def on_load_model(node, response):
         response.message = f"load_model refused: {str(exc).splitlines()[0]}"
         node.get_logger().warning(response.message)
         return response
-    for channel, (axis, typed, guides) in models.items():
+    for channel, axis, typed, guides in models:
         channel.params = axis
         channel.model.params = typed
         channel.model.guides = guides
