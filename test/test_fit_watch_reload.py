@@ -165,6 +165,27 @@ def test_anchor_by_hand():
     assert axis.report()["straightness_um"] == pytest.approx((50e-6 + k * (g_now - g_a)) * 1e6, rel=1e-9)
 
 
+def test_since_baseline_from_the_parameters_fixes_k():
+    """--since-baseline params: K before the change is the parameters' (sd 0), only the change is fitted;
+    on a K step from the true K the factor is K' / K_params (the simulator's truth K is the configured one)."""
+    params, run = changed_run(1, "k_step", hours=20.0)
+    cells = duty_cells_from_runs(run, params["slider_length_m"])
+    since = int(run.straightness_t_ns[0] + 16 * HOUR_NS)
+    fitted = diagnose_since(cells, params, since, BIC_THRESHOLD)
+    given = diagnose_since(cells, params, since, BIC_THRESHOLD, baseline="params")
+    assert run.metadata["truth"]["wear_coefficient"] == params["wear_coefficient"]
+    assert given["baseline"]["wear_coefficient"] == params["wear_coefficient"]
+    assert given["baseline"]["wear_coefficient_sd"] == 0.0 and given["baseline"]["source"] == "params"
+    assert fitted["baseline"]["wear_coefficient"] != params["wear_coefficient"]
+    ch = given["change"]
+    assert ch["named_effects"] == ["wear_rate_change"] and ch["after_h"] == pytest.approx(CHANGE_H)
+    assert ch["wear_rate_change_factor"] == pytest.approx(ch["wear_coefficient_after"] / params["wear_coefficient"])
+    assert ch["wear_rate_change_factor"] == pytest.approx(2.0, abs=0.05)
+    # with K fixed, f's sd is K''s alone: sd(K') / K
+    k = params["wear_coefficient"]
+    assert ch["wear_rate_change_factor_sd"] == pytest.approx(ch["wear_coefficient_after_sd"] / k)
+
+
 def test_since_date_rules():
     assert parse_utc_ns("2023-11-15T14:43:20Z") == parse_utc_ns("2023-11-15T14:43:20+00:00") \
         == 1700059400 * 10 ** 9

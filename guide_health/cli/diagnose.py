@@ -44,6 +44,9 @@ def add_arguments(parser) -> None:
                         help="analyse the period from DATE (ISO 8601 UTC, e.g. the status's model_fit_since_utc) "
                              "with the record before it as the baseline: names the change (a new wear rate, an "
                              "offset) and writes the model of the machine after it (docs/discrepancy.md)")
+    parser.add_argument("--since-baseline", choices=("fit", "params"), default="fit",
+                        help="--since's baseline K: fitted on the measurements before the change (default), or "
+                             "the K of --params (the model the monitor ran with; A0 from --params when given)")
 
 
 def run(args) -> dict:
@@ -129,7 +132,8 @@ def run_since(args, params: dict, bag, axis: str, threshold) -> dict:
         since_ns = parse_utc_ns(args.since)
         cells, messages = read_duty_cells(bag, params, args.namespace,
                                           resets=wear_resets(source_events(bag, args.namespace), axis))
-        result = diagnose_since(cells, params, since_ns, BIC_THRESHOLD if threshold is None else threshold)
+        result = diagnose_since(cells, params, since_ns, BIC_THRESHOLD if threshold is None else threshold,
+                                args.since_baseline)
     except ValueError as exc:
         raise InputError(f"{bag}: {exc}") from None
     out = report_dir(args)

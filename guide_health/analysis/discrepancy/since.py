@@ -13,8 +13,10 @@ straightness per unit K at measurement j, A0 fixed when the parameters give it) 
 * both.
 
 All four are linear given c (ordinary least squares, the noise sd from the residuals); the one with the lowest
-BIC = n ln(RSS / n) + p ln n wins, c counting as a parameter of the three changes. The baseline is the model
-fitted on the measurements before c (the state before the change): K, A0 and the straightness at DATE.
+BIC = n ln(RSS / n) + p ln n wins, c counting as a parameter of the three changes (a change must lower the BIC
+of none by the workflow's threshold, both the better single one's). The baseline is the model fitted on the
+measurements before c (the state before the change): K, A0 and the straightness at DATE; or, with the
+baseline 'params', the parameters' K (the model the monitor ran with), only the change fitted.
 
 The model file describes the machine after the change, from the anchor measurement a on
 (``model_from_stamp_s``, its stamp): ``straightness_initial_m`` the straightness at a on the new line (A0 + K
@@ -69,13 +71,21 @@ def _design(g: np.ndarray, c: int, change: str, a0_free: bool) -> tuple[np.ndarr
     return np.column_stack(cols), names
 
 
-def _fit(y: np.ndarray, x: np.ndarray, names: list[str]) -> dict[str, Any]:
-    """OLS: values, covariance s^2 (X'X)^-1 (s^2 = RSS / (n - p)), RSS."""
-    beta, *_ = np.linalg.lstsq(x, y, rcond=None)
-    rss = float(np.sum((y - x @ beta) ** 2))
-    dof = max(y.size - x.shape[1], 1)
-    cov = rss / dof * np.linalg.pinv(x.T @ x)
-    return {"values": dict(zip(names, beta.tolist())), "cov": cov, "names": names, "rss": rss}
+def _fit(y: np.ndarray, x: np.ndarray, names: list[str], fixed: dict[str, float] | None = None) -> dict[str, Any]:
+    """OLS: values, covariance s^2 (X'X)^-1 (s^2 = RSS / (n - p)), RSS, p; ``fixed`` {name: value}: those
+    columns' terms taken off y (their value kept, their covariance rows 0)."""
+    fixed = {k: v for k, v in (fixed or {}).items() if k in names}
+    free = [i for i, name in enumerate(names) if name not in fixed]
+    y = y - sum((x[:, names.index(k)] * v for k, v in fixed.items()), np.zeros_like(y))
+    xf = x[:, free]
+    beta = np.linalg.lstsq(xf, y, rcond=None)[0] if free else np.zeros(0)
+    rss = float(np.sum((y - xf @ beta) ** 2))
+    dof = max(y.size - len(free), 1)
+    cov = np.zeros((len(names), len(names)))
+    if free:
+        cov[np.ix_(free, free)] = rss / dof * np.linalg.pinv(xf.T @ xf)
+    values = {**dict(zip([names[i] for i in free], beta.tolist())), **fixed}
+    return {"values": values, "cov": cov, "names": names, "rss": rss, "free": len(free)}
 
 
 def _a0(fit: dict, a0_given: float | None) -> float:
@@ -95,10 +105,11 @@ def _sd(fit: dict, name: str) -> float:
 
 
 def best_change(t_s: np.ndarray, y_m: np.ndarray, g: np.ndarray, a0_m: float | None, since_s: float,
-                bic_threshold: float) -> dict:
+                bic_threshold: float, k_m: float | None = None) -> dict:
     """The change point and kind (module text): the best change point of each kind by BIC; a change is named
     when it lowers the BIC of no change by ``bic_threshold`` (the workflow's rule for an effect), both when
-    they lower the better single one's by as much again. ``a0_m`` None: A0 fitted."""
+    they lower the better single one's by as much again. ``a0_m`` None: A0 fitted; ``k_m``: K before the
+    change fixed (the parameters' model), None: fitted."""
     n = y_m.size
     d = int(np.searchsorted(t_s, since_s, side="left"))
     first, last = max(2, d - WINDOW_MEASUREMENTS), n - MIN_AFTER
@@ -107,14 +118,15 @@ def best_change(t_s: np.ndarray, y_m: np.ndarray, g: np.ndarray, a0_m: float | N
                          f"after it and 2 before it")
     a0_free = a0_m is None
     y = y_m if a0_free else y_m - a0_m
+    fixed = None if k_m is None else {"wear_coefficient": k_m}
     x, names = _design(g, n, "none", a0_free)
-    best = {"none": {"change": "none", "c": None, **_fit(y, x, names)}}
-    best["none"]["bic"] = _bic(best["none"]["rss"], n, x.shape[1])
+    best = {"none": {"change": "none", "c": None, **_fit(y, x, names, fixed)}}
+    best["none"]["bic"] = _bic(best["none"]["rss"], n, best["none"]["free"])
     for change in CHANGES[1:]:
         for c in range(first, last + 1):
             x, names = _design(g, c, change, a0_free)
-            fit = _fit(y, x, names)
-            bic = _bic(fit["rss"], n, x.shape[1] + 1)           # + the change point
+            fit = _fit(y, x, names, fixed)
+            bic = _bic(fit["rss"], n, fit["free"] + 1)           # + the change point
             if change not in best or bic < best[change]["bic"]:
                 best[change] = {"change": change, "c": c, **fit, "bic": bic}
     single = min(CHANGES[1:3], key=lambda k: best[k]["bic"])
@@ -124,16 +136,19 @@ def best_change(t_s: np.ndarray, y_m: np.ndarray, g: np.ndarray, a0_m: float | N
     return {**best[chosen], "bic_by_change": {k: v["bic"] for k, v in best.items()}}
 
 
-def since_result(problem, since_s: float, t0_ns: int, bic_threshold: float) -> dict[str, Any]:
+def since_result(problem, since_s: float, t0_ns: int, bic_threshold: float,
+                 k_m: float | None = None) -> dict[str, Any]:
     """The --since analysis of a WearProblem (its measurements and g_j): the baseline, the change named, and
-    the model file's parameters after it (module text). ``since_s``: DATE [s from the cells' t0]."""
+    the model file's parameters after it (module text). ``since_s``: DATE [s from the cells' t0]; ``k_m``:
+    the baseline's K fixed (the parameters' model), None: fitted on the measurements before the change."""
     t, y, g = problem.t_s, problem.y_m, loss_per_k_m(problem)
     a0_given = None if problem.a0_free else problem.a0_m
-    best = best_change(t, y, g, a0_given, since_s, bic_threshold)
+    best = best_change(t, y, g, a0_given, since_s, bic_threshold, k_m)
     c = best["c"] if best["c"] is not None else int(np.searchsorted(t, since_s, side="left"))
     before = slice(0, max(c, 2))
     x, names = _design(g[before], g[before].size, "none", a0_given is None)
-    base = _fit(y[before] if a0_given is None else y[before] - a0_given, x, names)
+    base = _fit(y[before] if a0_given is None else y[before] - a0_given, x, names,
+                None if k_m is None else {"wear_coefficient": k_m})
     a0 = _a0(base, a0_given)
     k, k_sd = base["values"]["wear_coefficient"], _sd(base, "wear_coefficient")
     g_since = float(np.interp(since_s, t, g))
@@ -202,9 +217,12 @@ def _model_after(best: dict, g: np.ndarray, t: np.ndarray, t0_ns: int, a0_given:
     return model
 
 
-def diagnose_since(cells, params: dict[str, Any], since_ns: int, bic_threshold: float) -> dict[str, Any]:
+def diagnose_since(cells, params: dict[str, Any], since_ns: int, bic_threshold: float,
+                   baseline: str = "fit") -> dict[str, Any]:
     """The --since analysis of a record's duty cells (``params``: the base wear_monitor parameters, no
-    effects). ValueError (one line) for a record or date it cannot analyse."""
+    effects; ``baseline`` 'fit': K before the change fitted on the measurements before it, 'params': the
+    parameters' K and A0, e.g. of the model file the monitor ran with). ValueError (one line) for a record or
+    date it cannot analyse."""
     if params["effects"]:
         raise ValueError(f"--since compares with the plain model; the parameters name effects ({params['effects']})")
     problem = WearProblem(cells, params, heldout_fraction=0.0)
@@ -213,7 +231,9 @@ def diagnose_since(cells, params: dict[str, Any], since_ns: int, bic_threshold: 
         raise ValueError(f"--since {utc_text(since_ns)} is outside the record's measurements "
                          f"({utc_text(int(cells.t0_ns + problem.t_s[0] * 1e9))} .. "
                          f"{utc_text(int(cells.t0_ns + problem.t_s[-1] * 1e9))})")
-    result = since_result(problem, since_s, cells.t0_ns, bic_threshold)
+    k_m = float(params["wear_coefficient"]) if baseline == "params" else None
+    result = since_result(problem, since_s, cells.t0_ns, bic_threshold, k_m)
+    result["baseline"]["source"] = baseline
     result["measurements"] = int(problem.y_m.size)
     return result
 
