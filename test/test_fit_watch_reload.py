@@ -124,7 +124,8 @@ def test_loading_is_all_or_nothing_and_keeps_the_record():
     guide = axis.guides["guide"]
     state = axis.guide_state("guide")
     # a start stamp before the first measurement: refused, nothing changed
-    early = wear_axis_params({**params, "model_from_stamp_s": run.straightness_t_ns[0] * 1e-9 - 10.0})
+    early = wear_axis_params({**params, "wear_coefficient": 5e-6,
+                              "model_from_stamp_s": run.straightness_t_ns[0] * 1e-9 - 10.0})
     with pytest.raises(ModelLoadError, match="before the guide's first straightness measurement"):
         load_model(axis, early)
     assert axis.guides["guide"] is guide and axis.guide_state("guide") == state
@@ -163,6 +164,10 @@ def test_anchor_by_hand():
     assert new.loss_per_k_m() == pytest.approx(g_now - g_a, rel=1e-9)
     k = new.estimator.posterior(new.measurement_losses_per_k_m())[0]
     assert axis.report()["straightness_um"] == pytest.approx((50e-6 + k * (g_now - g_a)) * 1e6, rel=1e-9)
+    # the same file again: the model in force, not anchored a second time
+    report = axis.report()
+    load_model(axis, wear_axis_params(model))
+    assert axis.report() == report and axis.guides["guide"].estimator.count == est.count - a - 1
 
 
 def test_since_baseline_from_the_parameters_fixes_k():

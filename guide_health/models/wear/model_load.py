@@ -12,7 +12,9 @@ A_a the file's ``straightness_initial_m`` and g Eq. 7's straightness per unit K,
 (seed 000 Eq. 7: g = 2 W / (H b (l_min + l_max))), so g - g_a is g of W - W_a: the work counts from W_a
 (``archard_work_nm`` and each later measurement's work less W_a: the wear volume reported is then the volume
 since the anchor), and the measurements up to a are folded into the file's K prior (they are what the file's
-K was fitted on). Only the plain Eq. 7 model (no effects) can be re-anchored so; another is refused.
+K was fitted on). Only the plain Eq. 7 model (no effects) can be re-anchored so; another is refused. The model
+already in force (the same digest, fit_watch.model_key: K, its prior, A0, the noise and the effects) is not
+anchored again: loading the same file twice changes nothing.
 """
 from __future__ import annotations
 
@@ -70,7 +72,8 @@ def loaded_guides(axis, params: Any) -> dict[str, GuideWear]:
         guide.restore(axis.guide_state(name))
         if name in axis.baselines:
             apply_baseline(guide, axis.baselines[name])
-        if params.model_from_stamp_s > 0:
+        # the same model again (its digest already the guide's): anchored when it was first loaded
+        if params.model_from_stamp_s > 0 and guide.fit_watch.model_key != axis.guides[name].fit_watch.model_key:
             anchor(guide, int(round(params.model_from_stamp_s * 1e9)))
             guide.fit_watch.clear(guide.last_measurement_t_ns)
         guides[name] = guide
