@@ -400,7 +400,8 @@ def test_load_model_service_refuses_in_one_line_and_keeps_the_model(tmp_path):
     axis = AxisMonitor(wear_axis_params(params))
     axis.process_run(run)
     logged, saved = [], []
-    node = SimpleNamespace(params=params, channels=[SimpleNamespace(name="x", model=axis, params=params)],
+    node = SimpleNamespace(params=params, channels=[SimpleNamespace(name="x", model=axis, params=params,
+                                                    model_params=wear_axis_params(params))],
                            model_file="", process_inputs=lambda: None, checkpoint=lambda: saved.append(1),
                            get_name=lambda: "wear_monitor",
                            get_logger=lambda: SimpleNamespace(warning=logged.append, info=logged.append))

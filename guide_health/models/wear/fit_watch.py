@@ -144,9 +144,10 @@ MODEL_PARAMS = ("wear_coefficient", "wear_coefficient_prior_rel_sd", "straightne
 
 
 def model_key(params, effects) -> str:
-    """A short digest of the model the test judges (MODEL_PARAMS and the effect parameters, covariance
-    included): another model file gives another key."""
-    text = repr([getattr(params, n) for n in MODEL_PARAMS] + [effects])
+    """A short digest of the model the test judges (MODEL_PARAMS, the effect parameters, covariance included,
+    and the anchor stamp model_from_stamp_s when set): another model file gives another key."""
+    stamp = [params.model_from_stamp_s] if params.model_from_stamp_s else []    # unanchored: the key as before
+    text = repr([getattr(params, n) for n in MODEL_PARAMS] + [effects] + stamp)
     return hashlib.sha1(text.encode()).hexdigest()[:12]
 
 
