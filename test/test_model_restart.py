@@ -141,7 +141,7 @@ def test_a_corrupted_record_in_the_state_file_is_counted_and_the_configured_mode
             WearMonitorNode._resume_loaded_model(node, node.channels[0], None)
         finally:
             store.close()
-        assert node.model_records_refused == 1 and node.channels[0].loaded_model is None
+        assert node.model_records_refused == 1 and node.channels[0].loaded_model == {}
         assert axis.params == wear_axis_params(params)
         assert logged[-1].startswith("loaded-model record refused (") and "runs on the configured model" in logged[-1]
         assert "\n" not in logged[-1]

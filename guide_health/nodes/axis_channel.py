@@ -326,7 +326,8 @@ class AxisChannel:
         keys = self.model.state_keys(machine_id)
         states = {keys[name]: self.model.guide_state(name) for name in self.model.guides}
         states[self.maintenance_key(machine_id)] = self.model.maintenance_state()
-        states[self.loaded_model_key(machine_id)] = self.loaded_model or {}     # {}: the configured model
+        if self.loaded_model is not None:       # {}: a dropped or refused record, overwritten (configured model)
+            states[self.loaded_model_key(machine_id)] = self.loaded_model
         return states
 
     def maintenance_key(self, machine_id: str) -> str:

@@ -120,6 +120,7 @@ def resume_loaded_model(channel, record: dict) -> str:
     if not record:
         return ""
     axis, line = resumed_model(record, channel.params)
+    channel.loaded_model = {}           # dropped: the next checkpoint overwrites the record
     if axis is not None:
         typed = wear_axis_params(axis)
         channel.params = axis

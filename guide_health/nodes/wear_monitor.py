@@ -161,6 +161,7 @@ class WearMonitorNode(Node):
                         lambda record: lines.append(resume_loaded_model(channel, record)))
         except InputError as exc:
             self.model_records_refused += 1
+            channel.loaded_model = {}       # the next checkpoint overwrites the refused record
             self.get_logger().warning(f"loaded-model record refused ({str(exc).splitlines()[0]}): axis "
                                       f"{channel.name} runs on the configured model")
             return
