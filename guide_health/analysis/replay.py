@@ -18,7 +18,8 @@ from guide_health.io.bag.bag_set import iter_source_chunks, source_events
 from guide_health.io.bag.reader import read_slewing_bag
 from guide_health.io.outputs.files import open_output, write_text
 from guide_health.io.outputs.json_text import json_text
-from guide_health.models.wear.axis import AxisMonitor
+from guide_health.models.wear.axis import AxisMonitor, split_run
+from guide_health.models.wear.model_load import load_model
 from guide_health.models.wear.precision import PrecisionMonitor
 from guide_health.params.typed import wear_axis_params
 
@@ -51,12 +52,29 @@ def add_rejections(report: dict, rejected: dict, tally: InputTally, params: dict
         report["rejections"] = summary
 
 
+def process_with_load(model: AxisMonitor, chunk, load):
+    """``model.process_run(chunk)``; ``load`` (at [ns], typed parameters) not None: the samples stamped at or
+    before ``at`` first, then the model loaded (models/wear/model_load.py, as wear_monitor's ~/load_model
+    called then), then the rest. Returns the load still to come (None once done)."""
+    if load is None:
+        model.process_run(chunk)
+        return None
+    head, tail = split_run(chunk, load[0])
+    model.process_run(head)
+    if not any(t.size for t in (tail.joint_t_ns, tail.load_t_ns, tail.straightness_t_ns, tail.temperature_t_ns)):
+        return load
+    load_model(model, load[1])
+    model.process_run(tail)
+    return None
+
+
 def analyse_bag(bag, params: dict, namespace: str | None = None, progress=None,
-                chunk_messages: int = 200_000) -> tuple[PrecisionMonitor, dict, dict]:
+                chunk_messages: int = 200_000, load=None) -> tuple[PrecisionMonitor, dict, dict]:
     """Stream a bag through the precision model chunk by chunk (memory bounded by one chunk, whatever
     the bag's size); identical to analyse(read_machine_bag(bag)) to rounding. ``bag``: a path or a BagSet
-    (io/bag/bag_set.py: several bags in time order, one model streaming across them). Returns the monitor,
-    its report and timings {read_s, model_s}."""
+    (io/bag/bag_set.py: several bags in time order, one model streaming across them). ``load``: (at [ns],
+    typed parameters) a model file loaded over the model at that stamp (after the record: at its end;
+    :func:`process_with_load`). Returns the monitor, its report and timings {read_s, model_s}."""
     model = AxisMonitor(wear_axis_params(params))   # one guide: the PrecisionMonitor, plus the bag's events
     events = source_events(bag, namespace)
     for event in events:
@@ -72,7 +90,7 @@ def analyse_bag(bag, params: dict, namespace: str | None = None, progress=None,
     for chunk in iter_source_chunks(bag, joint=params["joint"], namespace=namespace, progress=progress,
                                     chunk_messages=chunk_messages, stats=stats):
         t1 = time.perf_counter()
-        model.process_run(chunk)
+        load = process_with_load(model, chunk, load)
         t_model += time.perf_counter() - t1
         tally.add(chunk)
         messages += chunk.messages
@@ -82,6 +100,8 @@ def analyse_bag(bag, params: dict, namespace: str | None = None, progress=None,
             t_first = lo if t_first is None else min(t_first, lo)
             t_last = hi if t_last is None else max(t_last, hi)
     t1 = time.perf_counter()
+    if load is not None:          # stamped after the record: loaded at its end
+        load_model(model, load[1])
     report = monitor_report(monitor)
     if events:
         report["maintenance_events"] = maintenance_list(model)

@@ -14,7 +14,10 @@ from guide_health.cli.command import Command, check_out_path
 from guide_health.cli.text import bag_set_lines
 from guide_health.errors import InputError
 from guide_health.io.bag.bag_set import BagSet, resolve_bags, source_events
+from guide_health.io.outputs.files import write_text
+from guide_health.io.outputs.json_text import json_text
 from guide_health.io.outputs.progress import ProgressBar
+from guide_health.models.wear.fit_watch import parse_utc_ns
 from guide_health.models.wear.maintenance import relubrication_times_s, wear_resets
 from guide_health.params import validate_wear_params, wear_monitor_params
 from guide_health.params.machine import axes_params
@@ -37,6 +40,13 @@ def add_arguments(parser) -> None:
                         help="the axis to diagnose on a machine of several axes (default: every axis)")
     parser.add_argument("--no-plot", action="store_true", help="skip the PNG")
     parser.add_argument("--progress", action="store_true", help="force the progress bar even without a TTY")
+    parser.add_argument("--since", default=None, metavar="DATE",
+                        help="analyse the period from DATE (ISO 8601 UTC, e.g. the status's model_fit_since_utc) "
+                             "with the record before it as the baseline: names the change (a new wear rate, an "
+                             "offset) and writes the model of the machine after it (docs/discrepancy.md)")
+    parser.add_argument("--since-baseline", choices=("fit", "params"), default="fit",
+                        help="--since's baseline K: fitted on the measurements before the change (default), or "
+                             "the K of --params (the model the monitor ran with; A0 from --params when given)")
 
 
 def run(args) -> dict:
@@ -49,10 +59,14 @@ def run(args) -> dict:
               f"{params['straightness_model']!r} is read as eq7", file=sys.stderr)
     bag = resolve_bags(args.bag)
     if params["axes"]:
+        if args.since is not None:
+            raise InputError("--since: one axis at a time (a parameters file of that axis)")
         return run_axes(args, params, bag, threshold)
     axis = params.get("axis", params["joint"])
     if args.axis is not None and args.axis != axis:
         raise InputError(f"--axis {args.axis}: the parameters describe one axis, {axis} (set 'axes' for a machine)")
+    if args.since is not None:
+        return run_since(args, params, bag, axis, threshold)
     t0 = time.perf_counter()
     bar = ProgressBar("reading", force=args.progress)
     events = source_events(bag, args.namespace)
@@ -106,6 +120,31 @@ def _diagnose(args, params: dict, bag, events: list, pending, bar, threshold, t0
     return result, report_dir(args), time.perf_counter()
 
 
+def run_since(args, params: dict, bag, axis: str, threshold) -> dict:
+    """``--since DATE``: analysis/discrepancy/since.py on the record's duty cells; DIR/since.json and the
+    model of the machine after the change, DIR/model.yaml."""
+    from guide_health.analysis.discrepancy.duty import read_duty_cells
+    from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD
+    from guide_health.analysis.discrepancy.since import diagnose_since, write_since_model_file
+
+    t0 = time.perf_counter()
+    try:
+        since_ns = parse_utc_ns(args.since)
+        cells, messages = read_duty_cells(bag, params, args.namespace,
+                                          resets=wear_resets(source_events(bag, args.namespace), axis))
+        result = diagnose_since(cells, params, since_ns, BIC_THRESHOLD if threshold is None else threshold,
+                                args.since_baseline)
+    except ValueError as exc:
+        raise InputError(f"{bag}: {exc}") from None
+    out = report_dir(args)
+    out.mkdir(parents=True, exist_ok=True)
+    result.update(messages=messages, files={"json": str(out / "since.json"), "model": str(out / "model.yaml")})
+    write_since_model_file(out / "model.yaml", params, result, source=str(bag))
+    result["total_s"] = time.perf_counter() - t0
+    write_text(out / "since.json", json_text(result, indent=1))
+    return result
+
+
 def report_dir(args) -> Path:
     """--out, else <bag>.diagnose beside the (first) bag named."""
     first = Path(args.bag[0])
@@ -128,6 +167,10 @@ def _bic_threshold(value: float | None) -> float | None:
 
 
 def format_text(result: dict) -> str:
+    if "change" in result:
+        from guide_health.analysis.discrepancy.since import since_text_lines
+
+        return "\n".join(since_text_lines(result) + [f"  files: {', '.join(result['files'].values())}"])
     if "axes" in result:
         return format_axes_text(result)
     model = any(str(f).endswith("model.yaml") for f in result["files"].values())

@@ -15,6 +15,8 @@ from guide_health.io.bag.bag_set import BagSet, resolve_bags
 from guide_health.io.bag.info import bag_topic_types
 from guide_health.io.outputs.progress import ProgressBar
 from guide_health.models.levels import LEVEL_NAMES
+from guide_health.models.wear.fit_watch import parse_utc_ns, utc_text
+from guide_health.models.wear.model_load import ModelLoadError
 from guide_health.params import (
     SLEWING_MONITOR_DEFAULTS,
     load_node_params,
@@ -23,6 +25,7 @@ from guide_health.params import (
     wear_monitor_params,
 )
 from guide_health.params.machine import axes_params
+from guide_health.params.typed import wear_axis_params
 
 
 def add_arguments(parser) -> None:
@@ -35,6 +38,13 @@ def add_arguments(parser) -> None:
     parser.add_argument("--namespace", default=None, help="topic namespace in the bag (default: detect)")
     parser.add_argument("--no-plot", action="store_true", help="skip the PNG plot")
     parser.add_argument("--progress", action="store_true", help="force the progress bar even without a TTY")
+    parser.add_argument("--model-file", default=None,
+                        help="a model file (e.g. diagnose --since's model.yaml) loaded over the running model at "
+                             "--model-at, as wear_monitor's ~/load_model service loads it live")
+    parser.add_argument("--model-at", default=None, metavar="DATE",
+                        help="when --model-file is loaded (ISO 8601 UTC): the samples stamped at or before it "
+                             "go through the model of --params, the rest through the loaded one (default: the "
+                             "record's end)")
 
 
 def is_slewing_bag(bag: Path) -> bool:
@@ -64,6 +74,26 @@ def run_slewing(args, bag: Path) -> dict:
     return report
 
 
+#: --model-at not given: a stamp after any record (the model is loaded at its end)
+LATE = 2 ** 62
+
+
+def model_load(args, params: dict):
+    """(at [ns], typed parameters of --params with --model-file merged) or None; one line when wrong."""
+    if args.model_file is None:
+        if args.model_at is not None:
+            raise InputError("--model-at needs --model-file")
+        return None
+    if params["axes"]:
+        raise InputError("--model-file: a single-axis parameters file (a machine of several axes: not yet)")
+    merged = wear_monitor_params([*args.params, args.model_file])
+    try:
+        at = LATE if args.model_at is None else parse_utc_ns(args.model_at, "--model-at")
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
+    return at, wear_axis_params(merged)
+
+
 def run(args) -> dict:
     bag = resolve_bags(args.bag)
     if isinstance(bag, BagSet):
@@ -74,9 +104,15 @@ def run(args) -> dict:
     params = wear_monitor_params(args.params)
     if params["axes"]:
         return run_machine_axes(args, bag, params)
+    load = model_load(args, params)
     bar = ProgressBar("replay", force=args.progress)
-    monitor, report, timing = analyse_bag(bag, params, namespace=args.namespace, progress=bar)
+    try:
+        monitor, report, timing = analyse_bag(bag, params, namespace=args.namespace, progress=bar, load=load)
+    except ModelLoadError as exc:
+        raise InputError(f"--model-file {args.model_file}: {exc}") from None
     bar.close()
+    if load is not None:
+        report["model_loaded"] = {"file": args.model_file, "at_utc": utc_text(load[0]) if load[0] < LATE else "end"}
     t_read, t_model = timing["read_s"], timing["model_s"]
     out = report_dir(args, bag)
     if isinstance(bag, BagSet):

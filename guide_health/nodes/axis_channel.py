@@ -84,6 +84,7 @@ class AxisChannel:
         self.joint = params["joint"]
         self.model_params = wear_axis_params(params)     # as started (the saved state's fingerprint)
         self.model = AxisMonitor(self.model_params)
+        self.loaded_model: dict | None = None           # the record of a model file loaded live (model_service)
         self.feed = StampAlignedFeed(self.model, params["input_align_window_s"])
         prefix = "rejected input: " if single else f"rejected input on axis {self.name}: "
         self.rejections = RejectionLog(node.get_logger(), prefix=prefix)
@@ -321,14 +322,19 @@ class AxisChannel:
             self.life_pub.publish(Float64(data=values["remaining_life_h"] * 3600.0))
 
     def states(self, machine_id: str) -> dict[str, dict]:
-        """{state key: state} of every guide of the axis, and the axis's maintenance log."""
+        """{state key: state} of every guide of the axis, the axis's maintenance log and its loaded model."""
         keys = self.model.state_keys(machine_id)
         states = {keys[name]: self.model.guide_state(name) for name in self.model.guides}
         states[self.maintenance_key(machine_id)] = self.model.maintenance_state()
+        if self.loaded_model is not None:       # {}: a dropped or refused record, overwritten (configured model)
+            states[self.loaded_model_key(machine_id)] = self.loaded_model
         return states
 
     def maintenance_key(self, machine_id: str) -> str:
         return f"{machine_id}/{self.name}/maintenance"
+
+    def loaded_model_key(self, machine_id: str) -> str:
+        return f"{machine_id}/{self.name}/loaded_model"
 
     def resume(self, store, machine_id: str) -> list[tuple]:
         """Restore every guide saved in ``store``; the (key, guide model) pairs resumed."""

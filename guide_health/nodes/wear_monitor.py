@@ -55,6 +55,7 @@ from guide_health.nodes.axis_channel import (  # noqa: F401 - the status keys ar
 )
 from guide_health.nodes.common import run_node
 from guide_health.nodes.live_params import PeriodicTimers, apply_wear_changes
+from guide_health.nodes.model_service import on_load_model, resume_loaded_model
 from guide_health.nodes.qos import SensorSubscriptions, resolve_executor
 from guide_health.nodes.status import StatusUpdater
 from guide_health.params import WEAR_MONITOR_SCHEMA, declare_parameters
@@ -109,6 +110,7 @@ class WearMonitorNode(Node):
         self.state_key = next(iter(first.model.state_keys(params["machine_id"]).values()))
         self.state_path = resolve_state_path(params["state_file"], params["machine_id"], self.get_name())
         self.store = StateStore(self.state_path) if self.state_path is not None else None
+        self.model_records_refused = 0       # saved loaded-model records that did not read back
         if self.store is not None:
             try:
                 self._resume()
@@ -124,6 +126,8 @@ class WearMonitorNode(Node):
         self.event_pub = self.create_publisher(DiagnosticArray, MAINTENANCE_TOPIC, EVENT_QOS)
         self.create_subscription(DiagnosticArray, MAINTENANCE_TOPIC, self._on_events, EVENT_READ_QOS)
         self.create_service(Trigger, "plan", self._on_plan)     # parameter plan_scenario: docs/planning.md
+        # a model file loaded over the running model (nodes/model_service.py)
+        self.create_service(Trigger, "~/load_model", lambda request, response: on_load_model(self, response))
         self.periodic.create("diagnostics_period_s", params["diagnostics_period_s"], self.publish_diagnostics)
         if self.store is not None:
             self.periodic.create("checkpoint_period_s", params["checkpoint_period_s"], self.checkpoint)
@@ -141,6 +145,7 @@ class WearMonitorNode(Node):
     def _resume(self) -> None:
         for channel in self.channels:
             fingerprint = state_fingerprint(self.params["machine_id"], channel.model_params)
+            self._resume_loaded_model(channel, fingerprint)
             for name, key in channel.model.state_keys(self.params["machine_id"]).items():
                 guide = channel.model.guide(name)
                 if not resume_monitor(self.store, key, fingerprint, guide):     # validated whole, one line
@@ -150,6 +155,22 @@ class WearMonitorNode(Node):
                     f"{guide.estimator.count} measurements")
             resume_with(self.store, channel.maintenance_key(self.params["machine_id"]), fingerprint,
                         channel.model.restore_maintenance)
+
+    def _resume_loaded_model(self, channel, fingerprint: dict) -> None:
+        """The model a file loaded live put on the axis, before its guides (nodes/model_service.py: the
+        precedence); a record that does not read back: one line, counted, the configured model."""
+        lines = []
+        try:
+            resume_with(self.store, channel.loaded_model_key(self.params["machine_id"]), fingerprint,
+                        lambda record: lines.append(resume_loaded_model(channel, record)))
+        except InputError as exc:
+            self.model_records_refused += 1
+            channel.loaded_model = {}       # the next checkpoint overwrites the refused record
+            self.get_logger().warning(f"loaded-model record refused ({str(exc).splitlines()[0]}): axis "
+                                      f"{channel.name} runs on the configured model")
+            return
+        for line in filter(None, lines):
+            self.get_logger().info(f"axis {channel.name}: {line}")
 
     # --- inputs ----------------------------------------------------------------------------------
     def _on_joint_raw(self, raw: bytes) -> None:

@@ -150,6 +150,13 @@ SLIDING_GUIDE_PARAMS = (
     Param("state_file", "auto", "", "",
           "SQLite state file; auto = $ROS_HOME/guide_health/<machine_id>/<node>.db (ROS_HOME: ~/.ros); "
           "'' or none = no persistence"),
+    Param("model_from_stamp_s", 0.0, "s", "[0, 1e10]",
+          "the model (K, A0) describes the machine from this stamp on [s since the epoch, machine time base]: "
+          "a load over the running model (~/load_model, replay --model-at) re-anchors the guide at its measurement "
+          "there (diagnose --since writes it); 0 = a model of the whole record"),
+    Param("model_file", "", "", "",
+          "parameters file the ~/load_model service loads over the running model (a diagnose model.yaml); "
+          "'' = none", dynamic=True),
 )
 
 ROLLING_GUIDE_PARAMS = (

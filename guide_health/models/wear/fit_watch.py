@@ -29,7 +29,7 @@ from __future__ import annotations
 import hashlib
 import math
 from dataclasses import asdict, dataclass, field
-from datetime import UTC, datetime
+from datetime import UTC, datetime, timedelta
 
 import numpy as np
 
@@ -124,14 +124,30 @@ def utc_text(t_ns: int | None) -> str:
     return datetime.fromtimestamp(t_ns * 1e-9, tz=UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
+def parse_utc_ns(text: str, option: str = "--since") -> int:
+    """The stamp [ns since the epoch] of a date given to ``option`` (diagnose --since, replay --model-at): ISO
+    8601 in UTC ('2023-11-15T14:43:20Z', as :func:`utc_text` writes it, or with +00:00 / without a zone: read
+    as UTC); ValueError (one line) otherwise."""
+    try:
+        when = datetime.fromisoformat(text.strip().replace("Z", "+00:00"))
+    except ValueError:
+        raise ValueError(f"{option} {text!r}: not an ISO 8601 date (e.g. 2026-11-27T14:05:00Z)") from None
+    if when.tzinfo is None:
+        when = when.replace(tzinfo=UTC)
+    if when.utcoffset() != timedelta(0):
+        raise ValueError(f"{option} {text!r}: give the date in UTC (Z), as model_fit_since_utc does")
+    return int(round(when.timestamp() * 1e9))
+
+
 #: K's prior, A0 and the measurement noise: with the effects (the model file) the model the test judges
 MODEL_PARAMS = ("wear_coefficient", "wear_coefficient_prior_rel_sd", "straightness_initial_m", "straightness_noise_m")
 
 
 def model_key(params, effects) -> str:
-    """A short digest of the model the test judges (MODEL_PARAMS and the effect parameters, covariance
-    included): another model file gives another key."""
-    text = repr([getattr(params, n) for n in MODEL_PARAMS] + [effects])
+    """A short digest of the model the test judges (MODEL_PARAMS, the effect parameters, covariance included,
+    and the anchor stamp model_from_stamp_s when set): another model file gives another key."""
+    stamp = [params.model_from_stamp_s] if params.model_from_stamp_s else []    # unanchored: the key as before
+    text = repr([getattr(params, n) for n in MODEL_PARAMS] + [effects] + stamp)
     return hashlib.sha1(text.encode()).hexdigest()[:12]
 
 
