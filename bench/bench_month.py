@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import sqlite3
 import subprocess
 import sys
@@ -59,15 +60,11 @@ def _columns(con: sqlite3.Connection, table: str) -> int:
     return len(con.execute(f"PRAGMA table_info({table})").fetchall())
 
 
-def cut_split(src_bag: Path, lo_ns: int, hi_ns: int, out: Path) -> int:
-    """The messages of src_bag with log time in [lo_ns, hi_ns) as the one-file bag ``out``; its count."""
-    info = yaml.safe_load((src_bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
-    (src_db,) = sorted(src_bag.glob("*.db3"))
-    tmp = out.with_name(out.name + ".part")
-    tmp.mkdir(parents=True)
-    name = f"{out.name}_0.db3"
+def _cut_db(src_db: Path, lo_ns: int, hi_ns: int, dst_db: Path) -> tuple[dict[str, int], int, int]:
+    """The rows of src_db with log time in [lo_ns, hi_ns) as the sqlite3 file dst_db (same schema, same
+    rows, indexes built after the copy): (message count per topic name, first and last log time)."""
     src = sqlite3.connect(f"file:{src_db}?mode=ro", uri=True)
-    dst = sqlite3.connect(tmp / name)
+    dst = sqlite3.connect(dst_db)
     indexes = _copy_schema(src, dst)
     dst.commit()
     dst.execute("ATTACH DATABASE ? AS src", (f"file:{src_db}?mode=ro",))
@@ -76,21 +73,54 @@ def cut_split(src_bag: Path, lo_ns: int, hi_ns: int, out: Path) -> int:
     dst.commit()
     for sql in indexes:
         dst.execute(sql)
-    counts = dict(dst.execute("SELECT topic_id, COUNT(*) FROM messages GROUP BY topic_id"))
+    counts = dict(dst.execute("SELECT t.name, COUNT(*) FROM messages m JOIN topics t ON t.id = m.topic_id "
+                              "GROUP BY t.name"))
     first, last = dst.execute("SELECT MIN(timestamp), MAX(timestamp) FROM messages").fetchone()
-    topic_ids = dict(dst.execute("SELECT name, id FROM topics"))
     dst.commit()
     dst.close()
     src.close()
-    total = sum(counts.values())
-    topics = [dict(t, message_count=counts.get(topic_ids[t["topic_metadata"]["name"]], 0))
-              for t in info["topics_with_message_count"]]
-    span = {"starting_time": {"nanoseconds_since_epoch": first}, "duration": {"nanoseconds": last - first}}
-    info = dict(info, relative_file_paths=[name], topics_with_message_count=topics, message_count=total,
-                files=[dict(path=name, message_count=total, **span)], **span)
-    (tmp / "metadata.yaml").write_text(yaml.safe_dump({"rosbag2_bagfile_information": info}, sort_keys=False))
+    return counts, first, last
+
+
+def _write_metadata(bag: Path, info: dict, parts: list[tuple[str, dict[str, int], int, int]]) -> None:
+    """metadata.yaml of ``bag`` (``info``: the source bag's) over its files ``parts``: (name, counts, first,
+    last log time)."""
+    def span(first, last):
+        return {"starting_time": {"nanoseconds_since_epoch": first}, "duration": {"nanoseconds": last - first}}
+
+    counts = {name: sum(c.get(name, 0) for _, c, _, _ in parts)
+              for name in (t["topic_metadata"]["name"] for t in info["topics_with_message_count"])}
+    topics = [dict(t, message_count=counts[t["topic_metadata"]["name"]]) for t in info["topics_with_message_count"]]
+    files = [dict(path=name, message_count=sum(c.values()), **span(first, last)) for name, c, first, last in parts]
+    info = dict(info, relative_file_paths=[p[0] for p in parts], topics_with_message_count=topics,
+                message_count=sum(counts.values()), files=files,
+                **span(min(p[2] for p in parts), max(p[3] for p in parts)))
+    (bag / "metadata.yaml").write_text(yaml.safe_dump({"rosbag2_bagfile_information": info}, sort_keys=False))
+
+
+def cut_bag(src_bag: Path, edges_ns: list[int], out: Path) -> None:
+    """The one-file sqlite3 bag src_bag as the bag ``out`` split into len(edges_ns) - 1 storage files by log
+    time (what `ros2 bag record --max-bag-duration` leaves): file k holds [edges[k], edges[k + 1])."""
+    info = yaml.safe_load((src_bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    (src_db,) = sorted(src_bag.glob("*.db3"))
+    tmp = out.with_name(out.name + ".part")
+    if tmp.exists():
+        shutil.rmtree(tmp)
+    tmp.mkdir(parents=True)
+    parts = []
+    for k in range(len(edges_ns) - 1):
+        name = f"{out.name}_{k}.db3"
+        parts.append((name, *_cut_db(src_db, edges_ns[k], edges_ns[k + 1], tmp / name)))
+    _write_metadata(tmp, info, parts)
     tmp.rename(out)
-    return total
+
+
+def time_edges(bag: Path, pieces: int) -> list[int]:
+    """pieces + 1 log times [ns] cutting the bag's messages into equal time spans."""
+    (db,) = sorted(bag.glob("*.db3"))
+    with sqlite3.connect(f"file:{db}?mode=ro", uri=True) as con:
+        first, last = con.execute("SELECT MIN(timestamp), MAX(timestamp) FROM messages").fetchone()
+    return [first + (last + 1 - first) * k // pieces for k in range(pieces)] + [last + 1]
 
 
 def build_month(n_joint: int, splits: int, cache: Path) -> list[Path]:
@@ -104,15 +134,12 @@ def build_month(n_joint: int, splits: int, cache: Path) -> list[Path]:
                     f"from bench_replay import make_bag; from pathlib import Path; "
                     f"make_bag({n_joint}, 'sqlite3', Path({str(cache)!r}))"], check=True, cwd=ROOT)
     whole = cache / f"replay_{n_joint}_sqlite3"
-    (db,) = sorted(whole.glob("*.db3"))
-    with sqlite3.connect(f"file:{db}?mode=ro", uri=True) as con:
-        first, last = con.execute("SELECT MIN(timestamp), MAX(timestamp) FROM messages").fetchone()
-    edges = [first + (last + 1 - first) * k // splits for k in range(splits)] + [last + 1]
+    edges = time_edges(whole, splits)
     month.mkdir(parents=True, exist_ok=True)
     n = 0
     for k, path in enumerate(paths):
         if not path.exists():
-            cut_split(whole, edges[k], edges[k + 1], path)
+            cut_bag(whole, edges[k:k + 2], path)
         n += json_count(path)
     print(f"  built {n:,} messages in {splits} splits under {month} in {time.perf_counter() - t0:.0f} s",
           flush=True)
@@ -175,7 +202,7 @@ def main() -> int:
         print(f"{size} splits, {n:,} messages (load {os.getloadavg()[0]:.1f}):")
         print(f"  stdlib SELECT data loop   {t_loop:8.2f} s   <- baseline")
         print(f"  replay, end to end        {wall:8.2f} s   (read {report['read_s']:.2f} s + model "
-              f"{report['model_s']:.2f} s; bags {report.get('bags')}; peak RSS {rss:.0f} MiB)")
+              f"{report['model_s']:.2f} s; {len(report.get('bags') or [])} bags; peak RSS {rss:.0f} MiB)")
         print(f"  ratio replay rate / loop rate  {t_loop / wall:5.2f}   (target >= 0.5)")
         print(f"  progress bar: {len(bar)} redraws, last: {bar[-1].strip() if bar else 'NONE'}", flush=True)
     if not args.skip_diagnose:
