@@ -26,8 +26,6 @@ import tempfile
 import time
 from pathlib import Path
 
-import yaml
-
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
@@ -113,16 +111,20 @@ while rclpy.ok():
 
 
 def machine_params(axes: tuple[str, ...], tmp: Path) -> Path:
-    """config/machine_xyz.yaml, or for more axes a copy with a, b added (z's ways)."""
+    """config/machine_xyz.yaml, or for more axes a copy with a, b added (z's ways): edited as text, since a
+    YAML dump would write the axis y bare, which rcl reads as a bool."""
     if axes == AXES[:3]:
         return MACHINE
-    doc = yaml.safe_load(MACHINE.read_text())
-    node = doc["/**/wear_monitor"]["ros__parameters"]
-    node["axes"] = list(axes)
-    for a in axes[3:]:
-        node[a] = dict(node["z"])
+    text = MACHINE.read_text()
+    lines = text.splitlines(keepends=True)
+    start = lines.index("    z:\n")
+    end = next(i for i in range(start + 1, len(lines)) if not lines[i].startswith("      "))
+    extra = "".join(f"    {a}:\n" + "".join(lines[start + 1:end]) for a in axes[3:])
+    text = "".join(lines[:end]) + extra + "".join(lines[end:])
+    names = ", ".join(f'"{a}"' for a in axes)
+    text = text.replace('axes: ["x", "y", "z"]', f"axes: [{names}]", 1)
     path = tmp / f"machine_{len(axes)}.yaml"
-    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    path.write_text(text)
     return path
 
 
