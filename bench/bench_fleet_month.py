@@ -1,7 +1,8 @@
 """A month of a fleet on Dask: `guide-health fleet replay --scheduler` over 20 machines' months on a cluster of
 2 worker processes started as a user starts them, against the same command without Dask, in the same run.
 
-    .venv/bin/python bench/bench_fleet_month.py [--machines 20] [--messages 5e5] [--files 5] [--workdir DIR]
+    .venv/bin/python bench/bench_fleet_month.py [--machines 20] [--messages 5e5] [--files 5] [--take 1]
+                                                [--workdir DIR]
 
 Each machine's month (cached in --workdir) is one rosbag2 bag split into --files storage files by log time
 (one metadata.yaml over several .db3, as `ros2 bag record --max-bag-duration` leaves a long recording),
@@ -41,9 +42,10 @@ PARAMS = ROOT / "config" / "bench_000.yaml"
 VENV_BIN = Path(sys.executable).parent
 
 
-def build_fleet(machines: int, messages: float, files: int, workdir: Path) -> Path:
-    """The fleet directory: one split bag (``files`` storage files) per machine, cached."""
-    fleet = workdir / f"fleet_month_{int(messages)}_{machines}x{files}"
+def build_fleet(machines: int, messages: float, files: int, workdir: Path, take: float = 1.0) -> Path:
+    """The fleet directory: one split bag (``files`` storage files) per machine, cached; ``take`` < 1: only
+    the first fraction of each bench run's time span (a smaller month from the same cached runs)."""
+    fleet = workdir / f"fleet_month_{int(messages)}_{machines}x{files}" + (f"_take{take:g}" if take < 1 else "")
     bags = [fleet / f"m{i:02d}" for i in range(machines)]
     if all(b.exists() for b in bags):
         return fleet
@@ -55,7 +57,9 @@ def build_fleet(machines: int, messages: float, files: int, workdir: Path) -> Pa
     for i, bag in enumerate(bags):
         if not bag.exists():
             src = workdir / f"fleet_{int(messages)}_{i:02d}"
-            cut_bag(src, time_edges(src, files), bag)
+            edges = time_edges(src, 1)
+            end = edges[0] + int((edges[1] - edges[0]) * take)
+            cut_bag(src, [edges[0] + (end - edges[0]) * k // files for k in range(files)] + [end], bag)
     print(f"  built {machines} machine months of {files} files under {fleet} in {time.perf_counter() - t0:.0f} s",
           flush=True)
     return fleet
@@ -125,11 +129,13 @@ def main() -> int:
     ap.add_argument("--machines", type=int, default=20)
     ap.add_argument("--messages", type=float, default=5e5, help="messages of one machine's month")
     ap.add_argument("--files", type=int, default=5, help="storage files of one machine's month")
+    ap.add_argument("--take", type=float, default=1.0,
+                    help="use the first fraction of each machine's cached run (scales the month down)")
     ap.add_argument("--workdir", type=Path, default=Path(tempfile.gettempdir()) / "guide_health_bench")
     args = ap.parse_args()
     args.workdir.mkdir(parents=True, exist_ok=True)
     print(f"load average at start: {os.getloadavg()[0]:.1f} (2 cores shared with 7 other sessions)", flush=True)
-    fleet = build_fleet(args.machines, args.messages, args.files, args.workdir)
+    fleet = build_fleet(args.machines, args.messages, args.files, args.workdir, args.take)
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -157,8 +163,8 @@ def main() -> int:
     n = sum(e["result"]["messages"] for e in serial["results"] if e["ok"])
     same, total = compare(dask, serial)
     single_same = single.returncode == 0 and same_result(json.loads(single.stdout), one["result"])
-    print(f"{args.machines} machines x a month of {args.messages:,.0f} messages in {args.files} files = {n:,} "
-          f"messages (load {os.getloadavg()[0]:.1f}):")
+    print(f"{args.machines} machines x a month of {args.messages * args.take:,.0f} messages in {args.files} files = "
+          f"{n:,} messages (load {os.getloadavg()[0]:.1f}):")
     print(f"  serial  (--workers 0)   {wall_s:7.1f} s  {n / wall_s:10,.0f} msg/s  CPU {cpu_s:.1f} s   <- baseline")
     print(f"  cluster (--scheduler)   {wall_d:7.1f} s  {n / wall_d:10,.0f} msg/s  CPU: workers {workers_cpu:.1f} s, "
           f"command {cpu_d:.1f} s")
