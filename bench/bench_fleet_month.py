@@ -45,7 +45,7 @@ VENV_BIN = Path(sys.executable).parent
 def build_fleet(machines: int, messages: float, files: int, workdir: Path, take: float = 1.0) -> Path:
     """The fleet directory: one split bag (``files`` storage files) per machine, cached; ``take`` < 1: only
     the first fraction of each bench run's time span (a smaller month from the same cached runs)."""
-    fleet = workdir / f"fleet_month_{int(messages)}_{machines}x{files}" + (f"_take{take:g}" if take < 1 else "")
+    fleet = workdir / (f"fleet_month_{int(messages)}_{machines}x{files}" + (f"_take{take:g}" if take < 1 else ""))
     bags = [fleet / f"m{i:02d}" for i in range(machines)]
     if all(b.exists() for b in bags):
         return fleet
