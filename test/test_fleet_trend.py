@@ -103,6 +103,20 @@ def test_trend_of_a_history(history, tmp_path, capsys):
     assert json.loads(capsys.readouterr().out)["rows"] == 11 * 5          # hours 29..39 of 5 statuses
 
 
+def test_trend_draws_figures_for_the_first_machines_of_the_ranking_only(history, tmp_path, capsys):
+    """--plots 2: figures for the two least remaining lives (m2 183 h, m1 261 h); every machine keeps its
+    CSV, embedded in the page; --plots 0: the overview only."""
+    assert main(["fleet", "trend", str(history), "--out", str(tmp_path / "t"), "--plots", "2", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert sorted(p.name for p in (tmp_path / "t").glob("machine_*.png")) == ["machine_m1.png", "machine_m2.png"]
+    assert len(list((tmp_path / "t").glob("machine_*.csv"))) == 4
+    assert len(check_page(Path(result["files"]["html"]))) == 1 + 2
+    assert main(["fleet", "trend", str(history), "--out", str(tmp_path / "z"), "--plots", "0"]) == 0
+    assert not list((tmp_path / "z").glob("machine_*.png")) and len(check_page(tmp_path / "z" / "index.html")) == 1
+    assert main(["fleet", "trend", str(history), "--plots", "-1"]) == 2
+    assert "--plots must be >= 0" in capsys.readouterr().err
+
+
 def test_trend_bad_input_is_one_line(history, tmp_path, capsys):
     assert main(["fleet", "trend", str(history), "--machine", "m9", "--out", str(tmp_path / "x")]) == 2
     assert "no history of machine 'm9'; machines: c1, m1, m2, m3" in capsys.readouterr().err
