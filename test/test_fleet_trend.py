@@ -203,3 +203,33 @@ def test_trend_of_a_history_written_by_a_live_fleet_monitor(ros_context, tmp_pat
     assert [(c["from"], c["to"]) for c in result["level_changes"]["a1"]] == [("OK", "WARN")]
     assert result["level_changes"]["a2"] == []
     check_page(Path(result["files"]["html"]))
+
+
+def test_trend_reader_takes_only_the_trend_keys_in_sqlite(history, tmp_path, monkeypatch):
+    """The trend keys come out of values_json in SQLite (json_extract): Python parses no row's JSON, the other
+    keys of a status are never read, and a row whose text is no JSON object gives NaN, not an error."""
+    import math
+    import sqlite3
+
+    from guide_health.analysis import fleet_trend
+
+    con = sqlite3.connect(history)
+    t_end = T0_UNIX_S + 3600.0 * 40
+    rows = [(t_end, "m9", "wear_monitor: x precision", 0, "", text) for text in (
+        "not json", "[1, 2]", json.dumps({"remaining_life_h": 12.5, "extra": "x" * 100000}),
+        json.dumps({"remaining_life_h": "7.25", "straightness_um": None}))]
+    con.executemany("INSERT INTO fleet_history VALUES (?, ?, ?, ?, ?, ?)", rows)
+    con.commit()
+    con.close()
+
+    def no_parsing(*args, **kwargs):
+        raise AssertionError("values_json parsed in Python")
+
+    monkeypatch.setattr(json, "loads", no_parsing)
+    trends = fleet_trend.read_trends(history)
+    m9 = trends["m9"].values
+    assert [math.isnan(v) for v in m9["remaining_life_h"][:2]] == [True, True]
+    assert m9["remaining_life_h"][2:] == [12.5, 7.25]
+    assert math.isnan(m9["straightness_um"][3])
+    assert trends["m2"].latest("remaining_life_h") == life_h("m2", 39)
+    assert trends["m2"].values["life_used_fraction"][-1] == pytest.approx(0.39)

@@ -5,7 +5,6 @@ fleet_trend_plots.py, the whole report (`guide-health fleet trend`) fleet_trend_
 from __future__ import annotations
 
 import csv
-import json
 import math
 import re
 import sqlite3
@@ -59,6 +58,13 @@ class MachineTrend:
         return max(latest.values()) if latest else 3
 
 
+#: the trend keys taken out of each row's values_json by SQLite itself (JSON1, built into SQLite >= 3.38),
+#: so Python never parses the other keys a status carries; a row whose text is no JSON object gives NULLs
+_TREND_COLUMNS = ", ".join(
+    f"CASE WHEN json_valid(values_json) THEN CASE WHEN json_type(values_json) = 'object' "
+    f"THEN json_extract(values_json, '$.\"{key}\"') END END" for key, _ in TREND_KEYS)
+
+
 def _number(value) -> float:
     try:
         return float(value)
@@ -81,25 +87,21 @@ def read_trends(db: Path, machine: str | None = None, days: float | None = None)
             if days is not None:
                 where.append("t_unix_s >= (SELECT MAX(t_unix_s) FROM fleet_history) - ?")
                 args.append(days * 86400.0)
-            rows = con.execute("SELECT t_unix_s, hardware_id, name, level, message, values_json FROM fleet_history "
-                               f"WHERE {' AND '.join(where)} ORDER BY t_unix_s", args).fetchall()
+            rows = con.execute(f"SELECT t_unix_s, hardware_id, name, level, message, {_TREND_COLUMNS} "
+                               f"FROM fleet_history WHERE {' AND '.join(where)} ORDER BY t_unix_s", args).fetchall()
         finally:
             con.close()
     except sqlite3.DatabaseError as exc:
         raise InputError(f"{db}: not a fleet history (fleet_monitor history_file): {exc}") from None
     trends: dict[str, MachineTrend] = {}
-    for t, hw, name, level, message, values_json in rows:
-        try:
-            values = json.loads(values_json)
-        except ValueError:
-            values = {}
+    for t, hw, name, level, message, *values in rows:
         trend = trends.setdefault(hw, MachineTrend(hw))
         trend.t_unix_s.append(float(t))
         trend.status.append(name)
         trend.level.append(int(level))
         trend.message.append(message)
-        for key, _ in TREND_KEYS:
-            trend.values[key].append(_number(values.get(key)) if isinstance(values, dict) else math.nan)
+        for (key, _), value in zip(TREND_KEYS, values):
+            trend.values[key].append(_number(value))
     if machine is not None and not trends:
         known = _machines(db)
         raise InputError(f"{db}: no history of machine '{machine}'; machines: {', '.join(known) or 'none'}")
