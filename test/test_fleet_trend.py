@@ -233,3 +233,13 @@ def test_trend_reader_takes_only_the_trend_keys_in_sqlite(history, tmp_path, mon
     assert math.isnan(m9["straightness_um"][3])
     assert trends["m2"].latest("remaining_life_h") == life_h("m2", 39)
     assert trends["m2"].values["life_used_fraction"][-1] == pytest.approx(0.39)
+
+
+def test_csv_times_of_a_whole_machine_equal_the_per_row_text():
+    """iso_array (numpy, the CSV's column) == iso (datetime) to the character, at second and microsecond
+    roundings included."""
+    from guide_health.analysis.fleet_trend import iso, iso_array
+
+    t = [T0_UNIX_S, T0_UNIX_S + 0.9999996, T0_UNIX_S - 4e-7, T0_UNIX_S + 59.9999994, 0.0, 86399.5, 4.1e9]
+    t += list(np.random.default_rng(3).uniform(0.0, 4e9, 2000))
+    assert iso_array(t) == [iso(x) for x in t]
