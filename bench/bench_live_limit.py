@@ -19,6 +19,8 @@ and left out. Printed per trial: CPU per received message [us] (from /proc/<pid>
 feeding window); then the ratios node / bare (target <= 1.2) of each round and their median, and the
 samples the node lost at --loss-rate-hz joint + load (target 0; counted: sent vs integrated by the model).
 No timed assertion: the machine is shared.
+Machine mode (`--machine [--axes 3 5] [--seconds 20] [--rate-hz 1000]`): a whole machine, one JointState of
+every axis + a load topic per axis, against a bare subscriber of the same topics (bench_live_machine.py).
 """
 from __future__ import annotations
 
@@ -182,6 +184,12 @@ def round_ratio(args, env, checkout: Path, name: str) -> float | None:
 
 def main() -> int:
     from guide_health.nodes.session import clean_fastdds_shm, isolated_ros_env
+
+    if "--machine" in sys.argv[1:]:
+        import bench_live_machine
+
+        sys.argv.remove("--machine")
+        return bench_live_machine.main()
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seconds", type=float, default=10.0)

@@ -103,6 +103,20 @@ def test_trend_of_a_history(history, tmp_path, capsys):
     assert json.loads(capsys.readouterr().out)["rows"] == 11 * 5          # hours 29..39 of 5 statuses
 
 
+def test_trend_draws_figures_for_the_first_machines_of_the_ranking_only(history, tmp_path, capsys):
+    """--plots 2: figures for the two least remaining lives (m2 183 h, m1 261 h); every machine keeps its
+    CSV, embedded in the page; --plots 0: the overview only."""
+    assert main(["fleet", "trend", str(history), "--out", str(tmp_path / "t"), "--plots", "2", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert sorted(p.name for p in (tmp_path / "t").glob("machine_*.png")) == ["machine_m1.png", "machine_m2.png"]
+    assert len(list((tmp_path / "t").glob("machine_*.csv"))) == 4
+    assert len(check_page(Path(result["files"]["html"]))) == 1 + 2
+    assert main(["fleet", "trend", str(history), "--out", str(tmp_path / "z"), "--plots", "0"]) == 0
+    assert not list((tmp_path / "z").glob("machine_*.png")) and len(check_page(tmp_path / "z" / "index.html")) == 1
+    assert main(["fleet", "trend", str(history), "--plots", "-1"]) == 2
+    assert "--plots must be >= 0" in capsys.readouterr().err
+
+
 def test_trend_bad_input_is_one_line(history, tmp_path, capsys):
     assert main(["fleet", "trend", str(history), "--machine", "m9", "--out", str(tmp_path / "x")]) == 2
     assert "no history of machine 'm9'; machines: c1, m1, m2, m3" in capsys.readouterr().err
@@ -189,3 +203,43 @@ def test_trend_of_a_history_written_by_a_live_fleet_monitor(ros_context, tmp_pat
     assert [(c["from"], c["to"]) for c in result["level_changes"]["a1"]] == [("OK", "WARN")]
     assert result["level_changes"]["a2"] == []
     check_page(Path(result["files"]["html"]))
+
+
+def test_trend_reader_takes_only_the_trend_keys_in_sqlite(history, tmp_path, monkeypatch):
+    """The trend keys come out of values_json in SQLite (json_extract): Python parses no row's JSON, the other
+    keys of a status are never read, and a row whose text is no JSON object gives NaN, not an error."""
+    import math
+    import sqlite3
+
+    from guide_health.analysis import fleet_trend
+
+    con = sqlite3.connect(history)
+    t_end = T0_UNIX_S + 3600.0 * 40
+    rows = [(t_end, "m9", "wear_monitor: x precision", 0, "", text) for text in (
+        "not json", "[1, 2]", json.dumps({"remaining_life_h": 12.5, "extra": "x" * 100000}),
+        json.dumps({"remaining_life_h": "7.25", "straightness_um": None}))]
+    con.executemany("INSERT INTO fleet_history VALUES (?, ?, ?, ?, ?, ?)", rows)
+    con.commit()
+    con.close()
+
+    def no_parsing(*args, **kwargs):
+        raise AssertionError("values_json parsed in Python")
+
+    monkeypatch.setattr(json, "loads", no_parsing)
+    trends = fleet_trend.read_trends(history)
+    m9 = trends["m9"].values
+    assert [math.isnan(v) for v in m9["remaining_life_h"][:2]] == [True, True]
+    assert m9["remaining_life_h"][2:] == [12.5, 7.25]
+    assert math.isnan(m9["straightness_um"][3])
+    assert trends["m2"].latest("remaining_life_h") == life_h("m2", 39)
+    assert trends["m2"].values["life_used_fraction"][-1] == pytest.approx(0.39)
+
+
+def test_csv_times_of_a_whole_machine_equal_the_per_row_text():
+    """iso_array (numpy, the CSV's column) == iso (datetime) to the character, at second and microsecond
+    roundings included."""
+    from guide_health.analysis.fleet_trend import iso, iso_array
+
+    t = [T0_UNIX_S, T0_UNIX_S + 0.9999996, T0_UNIX_S - 4e-7, T0_UNIX_S + 59.9999994, 0.0, 86399.5, 4.1e9]
+    t += list(np.random.default_rng(3).uniform(0.0, 4e9, 2000))
+    assert iso_array(t) == [iso(x) for x in t]

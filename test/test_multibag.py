@@ -263,3 +263,20 @@ def test_a_wear_reset_splits_the_duty_cells_without_losing_work():
 
     assert mean_s(split, e1) == pytest.approx(mean_s(after, slice(None)), rel=1e-3)
     assert mean_s(split, e0) == pytest.approx(mean_s(before, slice(None)), rel=1e-12)
+
+
+def test_a_chain_of_bags_holds_one_bags_sqlite_cache_not_one_each(recording):
+    """Reading a directory of splits, each storage read to its end frees its page cache: the SQLite memory
+    held after the last split is the same for a chain of two bags and of three (it grew by a cache per bag)."""
+    import apsw
+
+    def held_after_reading(paths) -> int:
+        with resolve_bags(paths).open_storage() as chained:
+            before = apsw.memory_used()
+            groups = chained.iter_packed(chained.connections, 500)
+            assert sum(b.lengths.size for g in groups for b in g) == chained.message_count
+            return apsw.memory_used() - before
+
+    parts = recording["parts"]
+    two, three = held_after_reading(parts[:2]), held_after_reading(parts)
+    assert three <= two + 64 * 1024, (two, three)

@@ -10,10 +10,20 @@ from guide_health.analysis.fleet_trend import TREND_KEYS, MachineTrend, iso
 from guide_health.analysis.report_plots import _pyplot, _save_figure
 
 LEVEL_COLOURS = {0: "#27ae60", 1: "#e69f00", 2: "#c0392b", 3: "#7f8c8d"}
+OVERVIEW_LEGEND_MAX = 24        # machines named in the overview's legend (beyond: a legend no one reads)
 
 
 def _hours(t_unix_s, t0: float) -> np.ndarray:
     return (np.asarray(t_unix_s, dtype=float) - t0) / 3600.0
+
+
+def _fixed_margins(fig, left_in: float, bottom_in: float, top_in: float, hspace: float = 0.25,
+                   wspace: float = 0.2) -> None:
+    """Margins in inches instead of tight_layout, which measures every tick label and was half the time of a
+    machine's figure; the labels here are short and of known font size, so fixed margins hold them."""
+    width_in, height_in = fig.get_size_inches()
+    fig.subplots_adjust(left=left_in / width_in, right=1.0 - 0.15 / width_in, bottom=bottom_in / height_in,
+                        top=1.0 - top_in / height_in, hspace=hspace, wspace=wspace)
 
 
 def plot_machine_trend(path: Path, trend: MachineTrend) -> None:
@@ -33,7 +43,7 @@ def plot_machine_trend(path: Path, trend: MachineTrend) -> None:
                 ax.plot(_hours(np.asarray(trend.t_unix_s)[sel], t0), values[sel], ".-", ms=3, label=name)
         ax.set_ylabel(label, fontsize=8)
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc="best")
+        ax.legend(fontsize=7, loc="upper right")
     ax = axes[-1, 0]
     for row, name in enumerate(names):
         sel = status == name
@@ -46,7 +56,7 @@ def plot_machine_trend(path: Path, trend: MachineTrend) -> None:
     ax.set_xlabel(f"time [h] since {iso(t0)} UTC (level: green OK, orange WARN, red ERROR, "
                   "grey STALE)", fontsize=8)
     fig.suptitle(f"machine {trend.machine}", fontsize=10)
-    fig.tight_layout()
+    _fixed_margins(fig, left_in=1.6, bottom_in=0.5, top_in=0.4)
     _save_figure(plt, fig, path)
 
 
@@ -64,8 +74,8 @@ def plot_fleet_overview(path: Path, trends: dict[str, MachineTrend], rows: list[
     left.set_xlabel(f"time [h] since {iso(t0)} UTC")
     left.set_ylabel("remaining precision life [h]")
     left.grid(alpha=0.3)
-    if left.lines:
-        left.legend(fontsize=7, loc="best")
+    if 0 < len(left.lines) <= OVERVIEW_LEGEND_MAX:        # more: the ranking beside names every machine
+        left.legend(fontsize=7, loc="upper right")
     ranked = [r for r in rows if math.isfinite(r["remaining_life_h"])]
     y = np.arange(len(ranked))[::-1]
     colours = {"OK": "#27ae60", "WARN": "#e69f00", "ERROR": "#c0392b", "STALE": "#7f8c8d"}
@@ -76,5 +86,5 @@ def plot_fleet_overview(path: Path, trends: dict[str, MachineTrend], rows: list[
     right.set_xlabel("latest remaining life [h]")
     right.grid(axis="x", alpha=0.3)
     fig.suptitle(f"fleet: {len(trends)} machines", fontsize=10)
-    fig.tight_layout()
+    _fixed_margins(fig, left_in=0.9, bottom_in=0.6, top_in=0.5, hspace=0.0, wspace=0.35)
     _save_figure(plt, fig, path)

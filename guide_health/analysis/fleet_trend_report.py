@@ -20,21 +20,30 @@ from guide_health.io.outputs.files import open_output, write_text
 
 #: the page's maintenance plan: `fleet plan`'s defaults
 PLAN_HORIZON_S, PLAN_GROUP_DAYS = 12 * 7 * 86400.0, 7.0
+#: per-machine figures drawn by default: the page's time is one matplotlib figure per machine (72 s for 20
+#: machines x 30 days on the loaded 2-core host, bench/bench_fleet_monitor.py), so a fleet of hundreds gets
+#: figures for the machines a reader looks at first (the least remaining life); every machine keeps its CSV
+DEFAULT_MACHINE_PLOTS = 24
 
 
-def write_trend_report(db: Path, out: Path, machine: str | None = None, days: float | None = None) -> dict:
-    """CSV + PNG per machine, fleet_overview.png, ranking.csv and index.html in ``out``."""
+def write_trend_report(db: Path, out: Path, machine: str | None = None, days: float | None = None,
+                       max_plots: int = DEFAULT_MACHINE_PLOTS) -> dict:
+    """CSV per machine, a PNG for the first ``max_plots`` machines of the ranking (least remaining life
+    first), fleet_overview.png, ranking.csv and index.html in ``out``."""
     trends = read_trends(db, machine, days)
     if not trends:
         raise InputError(f"{db}: the fleet history is empty")
     out.mkdir(parents=True, exist_ok=True)
+    rows = ranking(trends)
+    plotted = {r["machine"] for r in rows[:max_plots]}
     files: dict[str, dict[str, str]] = {}
     for m, trend in trends.items():
         base = out / f"machine_{safe_name(m)}"
-        files[m] = {"csv": str(base.with_suffix(".csv")), "png": str(base.with_suffix(".png"))}
+        files[m] = {"csv": str(base.with_suffix(".csv"))}
         write_trend_csv(Path(files[m]["csv"]), trend)
-        plot_machine_trend(Path(files[m]["png"]), trend)
-    rows = ranking(trends)
+        if m in plotted:
+            files[m]["png"] = str(base.with_suffix(".png"))
+            plot_machine_trend(Path(files[m]["png"]), trend)
     overview = out / "fleet_overview.png"
     plot_fleet_overview(overview, trends, rows)
     with open_output(out / "ranking.csv") as handle:
@@ -94,8 +103,10 @@ def trend_html(db: Path, rows: list[dict], trends: dict[str, MachineTrend], over
         changes = trends[m].level_changes()
         items = "".join(f"<li>{e(iso(c['t_unix_s']))} {e(c['status'])}: {e(c['from'])} &rarr; {e(c['to'])} "
                         f"({e(c['message'])})</li>" for c in changes) or "<li>none</li>"
-        sections.append(f"<h2 id='m-{e(safe_name(m))}'>{e(m)}</h2><img alt='trend of {e(m)}' "
-                        f"src='{_data_uri(Path(files[m]['png']))}'><h3>Level changes</h3><ul>{items}</ul>"
+        figure = (f"<img alt='trend of {e(m)}' src='{_data_uri(Path(files[m]['png']))}'>" if "png" in files[m]
+                  else "<p>No figure (beyond the first machines of the ranking, <code>--plots</code>): its data "
+                       "below.</p>")
+        sections.append(f"<h2 id='m-{e(safe_name(m))}'>{e(m)}</h2>{figure}<h3>Level changes</h3><ul>{items}</ul>"
                         f"<p>Data (embedded): {_embedded_csv(Path(files[m]['csv']))}</p>")
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>Fleet trend: {e(db.name)}</title>

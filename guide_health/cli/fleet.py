@@ -165,6 +165,11 @@ def add_trend_arguments(parser) -> None:
     parser.add_argument("--machine", default=None, help="only this machine (hardware_id)")
     parser.add_argument("--days", type=float, default=None, help="only the last DAYS before the newest row")
     parser.add_argument("--out", default=None, help="output directory (default: <history>.trend beside it)")
+    from guide_health.analysis.fleet_trend_report import DEFAULT_MACHINE_PLOTS
+
+    parser.add_argument("--plots", type=int, default=DEFAULT_MACHINE_PLOTS, metavar="N",
+                        help="per-machine figures for the first N machines of the ranking, least remaining life "
+                             f"first (default {DEFAULT_MACHINE_PLOTS}; every machine keeps its CSV)")
 
 
 def run_trend(args) -> dict:
@@ -172,9 +177,11 @@ def run_trend(args) -> dict:
 
     if args.days is not None and not args.days > 0:
         raise InputError("--days must be > 0")
+    if args.plots < 0:
+        raise InputError("--plots must be >= 0")
     db = Path(args.history)
     out = Path(args.out) if args.out else db.with_name(db.name + ".trend")
-    return write_trend_report(db, out, args.machine, args.days)
+    return write_trend_report(db, out, args.machine, args.days, args.plots)
 
 
 def format_trend_text(result: dict) -> str:

@@ -387,7 +387,14 @@ class Sqlite3Storage:
         """Packed batches in log-time order read in rowid order (iter_sqlite_packed); NOT_SUPPORTED when the
         rows are not stored in log-time order (then iter_batches, ORDER BY timestamp)."""
         ids = tuple(c.id for c in connections)
-        return iter_sqlite_packed(self._db, self.path, ids, chunk_messages) if ids else NOT_SUPPORTED
+        packed = iter_sqlite_packed(self._db, self.path, ids, chunk_messages) if ids else NOT_SUPPORTED
+        return packed if packed is NOT_SUPPORTED else self._released_after(packed)
+
+    def _released_after(self, groups: Iterator[list[PackedBatch]]) -> Iterator[list[PackedBatch]]:
+        """The groups, then the connection's page cache freed: a storage read to its end holds no pages, so
+        a chain of many bags (bag_set.ChainedStorage, a month of splits) holds one bag's cache, not one each."""
+        yield from groups
+        self._db.execute("PRAGMA shrink_memory")
 
     def close(self) -> None:
         self._db.close()

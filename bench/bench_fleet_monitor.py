@@ -1,0 +1,314 @@
+"""A fleet of hundreds on one fleet_monitor: its CPU and memory, the history's growth per day and its
+retention, and the trend page of a 30-day history.
+
+    .venv/bin/python bench/bench_fleet_monitor.py [--machines 200] [--axes 3] [--publishers 4] [--seconds 120]
+                                                  [--trend-days 30] [--skip-live] [--skip-trend] [--workdir DIR]
+
+Live (an isolated ROS domain, nodes/session.isolated_ros_env): `fleet_monitor` (default parameters:
+history_period_s 60, retention 365 d) and --publishers processes that publish, at 1 Hz, one DiagnosticArray
+per machine with one "<axis> precision" status per axis (the keys and value texts of a wear_monitor status);
+the machines are spread over the publishers and over the second. Measured over --seconds after every machine
+is on the board, in the same run:
+  fleet_monitor CPU [% of one core] (/proc/<pid>/stat), its RSS (VmRSS) at start and end, the fleet status
+  (machines, statuses, STALE), the history's rows and bytes written -> growth per day, the time from the
+  publishers' start until the board held every machine (discovery + first second), and as the same-run
+  baseline the publishers' own CPU (they build and serialise the same messages fleet_monitor takes apart).
+In-process: the board's own memory (tracemalloc of a FleetBoard filled with the same statuses).
+Trend: a history of --trend-days days of the same fleet written directly into SQLite (one row per status
+every --trend-period s, default 3600: history_period_s 3600), `guide-health fleet trend DB --days 30` in a
+fresh process: wall time (target < 30 s); then the retention: FleetHistory.prune of that file to 7 days (time,
+rows deleted). The machine's load average is printed at each step. No timed assertion: the machine is shared.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sqlite3
+import subprocess
+import sys
+import tempfile
+import time
+import tracemalloc
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "bench"))
+
+from bench_live_node import cpu_seconds  # noqa: E402
+
+FLEET_STATUS = "fleet/fleet_monitor: fleet"
+AXES = "xyzab"
+
+PUBLISHER = r'''
+import sys, time
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+sys.path.insert(0, sys.argv[5])
+from bench_fleet_monitor import status_values
+index, count, machines, axes = (int(a) for a in sys.argv[1:5])
+seconds = float(sys.argv[6])
+rclpy.init()
+node = rclpy.create_node(f"fleet_publisher_{index}")
+pub = node.create_publisher(DiagnosticArray, "/diagnostics", 100)
+mine = [m for m in range(machines) if m % count == index]
+arrays = []
+for m in mine:
+    msg = DiagnosticArray()
+    for a in "xyzab"[:axes]:
+        values = status_values(m, a)
+        msg.status.append(DiagnosticStatus(level=b"\x00", name=f"m{m:03d}/wear_monitor: {a} precision",
+                                           message="precision life 812 h", hardware_id=f"m{m:03d}",
+                                           values=[KeyValue(key=k, value=v) for k, v in values.items()]))
+    arrays.append(msg)
+while pub.get_subscription_count() < 1:
+    time.sleep(0.05)
+print("start", flush=True)
+start = time.monotonic()
+k = 0
+try:
+    while time.monotonic() - start < seconds:
+        for i, msg in enumerate(arrays):
+            due = start + k + (i + index / count) / max(len(arrays), 1)
+            delay = due - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+            msg.header.stamp = node.get_clock().now().to_msg()
+            pub.publish(msg)
+        k += 1
+except Exception:          # stopped by the bench (SIGTERM invalidates the context)
+    pass
+'''
+
+
+def status_values(machine: int, axis: str) -> dict[str, str]:
+    """The key/value texts of one wear_monitor precision status (the keys the node publishes)."""
+    from guide_health.nodes.axis_channel import EXTRA_PRECISION_KEYS, PRECISION_KEYS
+
+    values = {k: f"{0.1 * (i + 1) + machine * 1e-3:.6g}" for i, k in enumerate(PRECISION_KEYS + EXTRA_PRECISION_KEYS)}
+    values.update(remaining_life_h=f"{800.0 - machine:.1f}", straightness_um=f"{6.0 + machine * 0.01:.2f}",
+                  guide="front", last_maintenance="")
+    return values
+
+
+def filled_board_bytes(machines: int, axes: int) -> tuple[int, int]:
+    """(bytes, statuses) tracemalloc counts for a FleetBoard holding every machine's statuses."""
+    from guide_health.models.fleet import FleetBoard
+
+    values = {(m, a): status_values(m, a) for m in range(machines) for a in AXES[:axes]}
+    tracemalloc.start()
+    base = tracemalloc.get_traced_memory()[0]
+    board = FleetBoard(stale_after_s=10.0, forget_after_s=86400.0)
+    for (m, a), v in values.items():
+        board.update(f"m{m:03d}/wear_monitor: {a} precision", f"m{m:03d}", 0, "precision life 812 h", v, 0.0)
+    used = tracemalloc.get_traced_memory()[0] - base
+    tracemalloc.stop()
+    return used, len(board.statuses)
+
+
+def rss_mib(pid: int) -> float:
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024.0
+    return float("nan")
+
+
+def history_rows(db: Path) -> int:
+    con = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
+    try:
+        return con.execute("SELECT COUNT(*) FROM fleet_history").fetchone()[0]
+    finally:
+        con.close()
+
+
+def bytes_per_row(db: Path) -> tuple[float, int]:
+    """(file bytes per row, rows) of a history once its WAL is checkpointed into the file."""
+    con = sqlite3.connect(db)
+    try:
+        con.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+        rows = con.execute("SELECT COUNT(*) FROM fleet_history").fetchone()[0]
+    finally:
+        con.close()
+    return db.stat().st_size / max(rows, 1), rows
+
+
+def start_publishers(args, env) -> list[subprocess.Popen]:
+    procs = [subprocess.Popen([sys.executable, "-c", PUBLISHER, str(i), str(args.publishers), str(args.machines),
+                               str(args.axes), str(ROOT / "bench"), str(args.seconds + 60.0)],
+                              env=env, stdout=subprocess.PIPE, text=True, cwd=ROOT)
+             for i in range(args.publishers)]
+    for p in procs:
+        while not p.stdout.readline().startswith("start"):
+            pass
+    return procs
+
+
+def stop_all(procs) -> None:
+    for p in procs:
+        if p.poll() is None:
+            p.terminate()
+    for p in procs:
+        try:
+            p.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            p.kill()
+
+
+def live(args, workdir: Path) -> None:
+    from guide_health.nodes.session import (
+        DiagnosticsCollector,
+        clean_fastdds_shm,
+        isolated_ros_env,
+        start_node,
+        stop_node,
+    )
+
+    env = isolated_ros_env()
+    os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")})
+    db = workdir / "live_history.db"
+    for p in workdir.glob("live_history.db*"):
+        p.unlink()
+    statuses = args.machines * args.axes
+    print(f"live: {args.machines} machines x {args.axes} axes = {statuses} statuses at 1 Hz from "
+          f"{args.publishers} publisher processes, domain {env['ROS_DOMAIN_ID']} (load {os.getloadavg()[0]:.1f})",
+          flush=True)
+    collector = DiagnosticsCollector("bench_fleet_collector")
+    node = start_node("guide_health.nodes.fleet_monitor", None,
+                      {"machine_id": "fleet", "history_file": str(db), "max_statuses": 10000}, env,
+                      workdir / "fleet_monitor.log")
+    pubs = []
+    try:
+        if collector.wait_for(FLEET_STATUS, timeout=60) is None:
+            raise SystemExit(f"no fleet status: {(workdir / 'fleet_monitor.log').read_text()[-800:]}")
+        rss0 = rss_mib(node.pid)
+        t_start = time.monotonic()
+        pubs = start_publishers(args, env)
+        full = collector.wait_for(FLEET_STATUS, lambda s: float(s["values"]["statuses"]) >= statuses, timeout=120)
+        t_full = time.monotonic() - t_start
+        if full is None:
+            raise SystemExit(f"the board never held {statuses} statuses: {collector.get(FLEET_STATUS)}")
+        rows0 = history_rows(db)
+        cpu0, t0 = cpu_seconds(node.pid), time.monotonic()
+        pub_cpu0 = sum(cpu_seconds(p.pid) for p in pubs)
+        time.sleep(args.seconds)
+        cpu1, t1 = cpu_seconds(node.pid), time.monotonic()
+        pub_cpu1 = sum(cpu_seconds(p.pid) for p in pubs)
+        rows1 = history_rows(db)
+        status = collector.get(FLEET_STATUS)
+        rss1 = rss_mib(node.pid)
+    finally:
+        stop_all(pubs)
+        stop_node(node)
+        collector.close()
+        clean_fastdds_shm()
+    per_row, rows = bytes_per_row(db)
+    v = status["values"]
+    window = t1 - t0
+    per_day = 86400.0 / window
+    print(f"  board full {t_full:.1f} s after the publishers started (discovery + the first second)")
+    print(f"  fleet status: {v['machines']} machines, {v['statuses']} statuses, {v['stale']} STALE, "
+          f"{v['ignored_statuses']} ignored")
+    print(f"  fleet_monitor CPU {100.0 * (cpu1 - cpu0) / window:.1f} % of one core over {window:.0f} s "
+          f"({1e6 * (cpu1 - cpu0) / (window * statuses):.0f} us per status; target < 10 %); publishers "
+          f"{100.0 * (pub_cpu1 - pub_cpu0) / window:.1f} % together")
+    print(f"  fleet_monitor RSS {rss0:.0f} MiB before the fleet, {rss1:.0f} MiB with it")
+    print(f"  history: {rows1 - rows0:,} rows in {window:.0f} s -> {(rows1 - rows0) * per_day / 1e6:.2f} M rows/day "
+          f"(history_period_s 60: {statuses * 1440 / 1e6:.2f} M expected); {per_row:.0f} bytes per row in the "
+          f"file ({rows:,} rows) -> {(rows1 - rows0) * per_day * per_row / 1e9:.2f} GB/day, "
+          f"{(rows1 - rows0) * per_day * per_row * 365 / 1e12:.2f} TB at the default retention of 365 d", flush=True)
+
+
+def write_history(db: Path, machines: int, axes: int, days: float, period_s: float) -> int:
+    """A fleet history of ``days`` (one row per status every period_s; remaining life falling 1 h per h)."""
+    from guide_health.io.outputs.fleet_history import HISTORY_SCHEMA
+
+    con = sqlite3.connect(db)
+    con.executescript(HISTORY_SCHEMA)
+    t_end = time.time()
+    steps = int(days * 86400.0 / period_s)
+    texts = {(m, a): status_values(m, a) for m in range(machines) for a in AXES[:axes]}
+    n = 0
+    for k in range(steps):
+        t = t_end - (steps - k) * period_s
+        rows = []
+        for (m, a), values in texts.items():
+            life = 800.0 - m - k * period_s / 3600.0 * (0.5 + m / machines)
+            level = 0 if life > 200 else 1 if life > 100 else 2
+            values = dict(values, remaining_life_h=f"{life:.1f}")
+            rows.append((t, f"m{m:03d}", f"wear_monitor: {a} precision", level, "", json.dumps(values)))
+        con.executemany("INSERT INTO fleet_history VALUES (?, ?, ?, ?, ?, ?)", rows)
+        n += len(rows)
+        if k % 1000 == 0:
+            con.commit()
+    con.commit()
+    con.close()
+    return n
+
+
+def trend(args, workdir: Path) -> None:
+    from guide_health.io.outputs.fleet_history import FleetHistory
+
+    db = workdir / f"history_{args.machines}x{args.axes}_{args.trend_days:g}d_{args.trend_period:g}s.db"
+    if not db.exists():
+        t0 = time.perf_counter()
+        part = db.with_suffix(".part")
+        part.unlink(missing_ok=True)
+        rows = write_history(part, args.machines, args.axes, args.trend_days, args.trend_period)
+        part.rename(db)
+        print(f"trend: wrote {rows:,} rows ({db.stat().st_size / 1e6:.0f} MB) in {time.perf_counter() - t0:.0f} s")
+    cmd = [sys.executable, "-m", "guide_health.cli", "fleet", "trend", str(db), "--days", str(args.trend_days),
+           "--out", str(workdir / "trend"), "--json"]
+    print(f"trend page of {args.trend_days:g} days x {args.machines} machines, a row per status every "
+          f"{args.trend_period:g} s (load {os.getloadavg()[0]:.1f}):",
+          flush=True)
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=ROOT)
+    out, err = proc.communicate()
+    wall = time.perf_counter() - t0
+    if proc.returncode != 0:
+        print(f"  fleet trend failed ({proc.returncode}): {err.decode()[-400:]}")
+        return
+    result = json.loads(out)
+    print(f"  {result['machines']} machines, {result['rows']:,} rows: {wall:.1f} s wall (target < 30 s), page "
+          f"{Path(result['files']['html']).stat().st_size / 1e6:.1f} MB", flush=True)
+    copy = workdir / "retention.db"
+    subprocess.run(["cp", str(db), str(copy)], check=True)
+    history = FleetHistory(str(copy), 60.0, retention_days=7.0)
+    t0 = time.perf_counter()
+    deleted = history.prune(time.time())
+    dt = time.perf_counter() - t0
+    history.close()
+    print(f"  retention 7 d: prune deleted {deleted:,} rows in {dt:.1f} s (the node prunes hourly; at 365 d "
+          f"the file holds 365 days of rows)")
+    copy.unlink()
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--machines", type=int, default=200)
+    ap.add_argument("--axes", type=int, default=3, choices=range(1, 6))
+    ap.add_argument("--publishers", type=int, default=4)
+    ap.add_argument("--seconds", type=float, default=120.0)
+    ap.add_argument("--trend-days", type=float, default=30.0)
+    ap.add_argument("--trend-period", type=float, default=3600.0,
+                    help="seconds between a status's rows in the generated history (fleet_monitor's "
+                         "history_period_s; at 60 s, 30 days of 600 statuses are 26 M rows, ~50 GB)")
+    ap.add_argument("--skip-live", action="store_true")
+    ap.add_argument("--skip-trend", action="store_true")
+    ap.add_argument("--workdir", type=Path, default=Path(tempfile.gettempdir()) / "guide_health_fleet_bench")
+    args = ap.parse_args()
+    args.workdir.mkdir(parents=True, exist_ok=True)
+    print(f"load average at start: {os.getloadavg()[0]:.1f} (2 cores shared with 7 other sessions)", flush=True)
+    used, n = filled_board_bytes(args.machines, args.axes)
+    print(f"board memory: {used / 1e6:.2f} MB for {n} statuses ({used / n / 1e3:.1f} kB per status; tracemalloc)")
+    if not args.skip_live:
+        live(args, args.workdir)
+    if not args.skip_trend:
+        trend(args, args.workdir)
+    print(f"load average at end: {os.getloadavg()[0]:.1f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
