@@ -17,7 +17,7 @@ Sources
   applies to yaw and pitch bearings).
 * Static capacity, ISO 76:2006 (4000 MPa at the heaviest roller contact), N with mm:
   C_0r = 44 (1 - D_we / D_pw) i Z L_we D_we (radial),  C_0a = 220 Z L_we D_we (thrust, alpha = 90 deg).
-* Rating life, ISO 281 Eq. (15)/(16) (roller bearings): L10 = (C / P)^(10/3) revolutions.
+* Rating life, ISO 281 Eq. (15)/(16) (roller bearings): L10 = (C / P)^(10/3) million revolutions.
 
 Equivalent loads per row (from one F_a, F_r, M_T sample):
 * axial rows: the roller loads Q_j at the Z roller azimuths (seed 003 Eq. 1,
@@ -44,8 +44,9 @@ from guide_health.models.slewing.row_loads import axial_row_roller_load_distribu
 
 ROWS: tuple[str, ...] = ("upper_axial", "lower_axial", "radial")
 
-#: ISO 281 life exponent of roller bearings (Eq. (15)/(16)): L10 = (C/P)^(10/3)
+#: ISO 281 life exponent of roller bearings (Eq. (15)/(16)): L10 = (C/P)^(10/3) x 10^6 revolutions
 ROLLER_LIFE_EXPONENT: float = 10.0 / 3.0
+REVOLUTIONS_PER_RATING_UNIT: float = 1.0e6
 #: ISO 281 Table 1: b_m of cylindrical roller bearings, radial and thrust
 B_M_RADIAL_CYLINDRICAL: float = 1.1
 B_M_THRUST_CYLINDRICAL: float = 1.0
@@ -142,10 +143,10 @@ def row_equivalent_loads(ratings: SlewingRatings, axial_load_n: float, radial_lo
 
 
 def rating_life_revolutions(capacity_n: float, equivalent_load_n: float) -> float:
-    """L10 = (C / P)^(10/3) [revolutions]; inf for P = 0.  # ISO 281 Eq. (15)"""
+    """L10 = 10^6 (C / P)^(10/3) [revolutions]; inf for P = 0.  # ISO 281 Eq. (15)"""
     if equivalent_load_n <= 0.0:
         return math.inf
-    return (capacity_n / equivalent_load_n) ** ROLLER_LIFE_EXPONENT
+    return REVOLUTIONS_PER_RATING_UNIT * (capacity_n / equivalent_load_n) ** ROLLER_LIFE_EXPONENT
 
 
 def damage_per_revolution(ratings: SlewingRatings, loads: RowLoads) -> dict[str, float]:
