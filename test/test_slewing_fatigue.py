@@ -191,3 +191,37 @@ def test_bad_input_is_a_one_line_value_error():
         fatigue.on_loads(math.inf, 0.0, 0.0)
     with pytest.raises(ValueError, match="f_c table"):
         slewing_ratings(Z, Z, 0.032, 0.0313, 0.2)        # D/D_pw = 0.16 outside the tabulated range
+
+
+def test_node_takes_the_axis_angle_and_publishes_damage_and_static_safety(ros_context):
+    """The node in-process: one load, the axis turned 2 revolutions on `axis_topic` -> damage 2 / L10 of the
+    upper row with the default 55 HRC reduction; a JointState without the joint is counted, not used."""
+    from geometry_msgs.msg import WrenchStamped
+    from sensor_msgs.msg import JointState
+
+    from guide_health.nodes.slewing_monitor import SlewingMonitorNode
+
+    node = SlewingMonitorNode(context=ros_context)
+    published = []
+    node.diag_pub.publish = published.append
+    try:
+        msg = WrenchStamped()
+        msg.wrench.force.z = 5.0e5
+        node._on_load(msg)
+        for k in range(2 * 36 + 1):
+            js = JointState(name=["slew"], position=[2 * math.pi * k / 36])
+            js.header.stamp.sec = k
+            node._on_axis(js)
+        node._on_axis(JointState(name=["other"], position=[0.0]))
+        node.publish_diagnostics()
+        values = {kv.key: kv.value for kv in published[-1].status[0].values}
+        l10 = 1e6 * (C_AXIAL * (55 / 58) ** 3.6 / 5.0e5) ** (10 / 3)
+        assert float(values["fatigue_damage_upper_axial"]) == pytest.approx(2 / l10, rel=1e-5)
+        assert float(values["fatigue_damage_lower_axial"]) == 0.0
+        assert values["fatigue_governing_row"] == "upper_axial"
+        assert float(values["static_safety_factor"]) == pytest.approx(C0_AXIAL * (55 / 58) ** 3.6 / 5.0e5, rel=1e-5)
+        assert float(values["rejected_axis_angles"]) == 1
+        assert float(values["fatigue_remaining_life_upper_axial_h"]) == pytest.approx(72 * (l10 / 2 - 1) / 3600,
+                                                                                      rel=1e-5)
+    finally:
+        node.destroy_node()
