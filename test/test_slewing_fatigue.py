@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from guide_health.models.levels import ERROR, OK
-from guide_health.models.slewing.fatigue import SlewingFatigue
+from guide_health.models.slewing.fatigue import SlewingFatigue, critical_amplitude_rad
 from guide_health.models.slewing.rating import (
     hardness_factor,
     row_equivalent_loads,
@@ -121,14 +121,17 @@ def test_oscillation_below_the_critical_angle_counts_the_rumbarger_jones_form():
     assert expected > 1.6 * cycles * 4 * amp / (2 * math.pi * l10)
 
 
-def test_oscillation_above_the_critical_angle_counts_the_angle_travelled():
-    """10 deg > theta_crit: L_osc = L10 (90/10) cycles, i.e. each cycle counts 4 x 10 deg of rotation."""
+@pytest.mark.parametrize("amplitude_deg", [3.0, 10.0])
+def test_oscillation_above_the_critical_angle_counts_the_angle_travelled(amplitude_deg):
+    """theta_crit = 360 deg / 170 = 2.118 deg; 3 and 10 deg are above it: L_osc = L10 (90/theta) cycles, i.e.
+    each cycle counts 4 theta of rotation."""
+    assert critical_amplitude_rad(Z) == pytest.approx(math.radians(360.0 / 170), rel=1e-12)
     fatigue = SlewingFatigue(ratings())
     fatigue.on_loads(5.0e5, 0.0, 0.0)
-    oscillate(fatigue, math.radians(10.0), 5)
+    oscillate(fatigue, math.radians(amplitude_deg), 5)
     l10 = (C_AXIAL / 5.0e5) ** (10 / 3) * 1e6
     assert fatigue.strokes == 9 and fatigue.small_strokes == 0   # the last stroke is still open
-    assert fatigue.row_damage()["upper_axial"] == pytest.approx(5 / (l10 * 9.0), rel=1e-9)
+    assert fatigue.row_damage()["upper_axial"] == pytest.approx(5 / (l10 * 90.0 / amplitude_deg), rel=1e-9)
 
 
 def test_encoder_noise_at_standstill_makes_no_strokes():
