@@ -90,7 +90,8 @@ class SlewingFatigue:
         self.strokes = 0
         self.small_strokes = 0
         self.min_static_safety = math.inf
-        self.worst_static: dict[str, Any] | None = None
+        self.worst_static: dict[str, Any] | None = None   # the worst sample since the start (the keys)
+        self.period_static: dict[str, Any] | None = None  # the worst since the last report (the level)
         self.load_samples = 0
 
     # ---- loads ---------------------------------------------------------------------------------------
@@ -102,16 +103,18 @@ class SlewingFatigue:
         self.load_samples += 1
         safety = static_safety_factors(self.ratings, loads)
         row = min(safety, key=safety.get)
-        worst = safety[row]
         curve = math.inf
         if self.limiting_curve is not None:
             curve = limiting_curve_safety(*self.limiting_curve, axial_load_n, tilting_moment_nm)
-        if min(worst, curve) < self.min_static_safety:
-            self.min_static_safety = min(worst, curve)
-            self.worst_static = {"row": row, "static_safety": worst, "static_load_n": loads.static_n[row],
-                                 "static_capacity_n": self.ratings.static_n[row], "limiting_curve_safety": curve,
-                                 "axial_load_n": float(axial_load_n), "radial_load_n": float(radial_load_n),
-                                 "tilting_moment_nm": float(tilting_moment_nm)}
+        sample = {"row": row, "static_safety": safety[row], "static_load_n": loads.static_n[row],
+                  "static_capacity_n": self.ratings.static_n[row], "limiting_curve_safety": curve,
+                  "axial_load_n": float(axial_load_n), "radial_load_n": float(radial_load_n),
+                  "tilting_moment_nm": float(tilting_moment_nm)}
+        if min(safety[row], curve) < self.min_static_safety:
+            self.min_static_safety, self.worst_static = min(safety[row], curve), sample
+        if self.period_static is None or min(safety[row], curve) < min(
+                self.period_static["static_safety"], self.period_static["limiting_curve_safety"]):
+            self.period_static = sample
 
     # ---- angle ---------------------------------------------------------------------------------------
     def on_angle(self, angle_rad: float, t_s: float | None = None) -> None:
@@ -169,7 +172,10 @@ class SlewingFatigue:
         return {row: self.damage[row] + self.stroke_weighted[row] for row in ROWS}
 
     def report(self) -> tuple[Level, str, dict[str, Any]]:
-        """Level, message and the status keys (damage and remaining life per row, governing row, S_0)."""
+        """Level, message and the status keys (damage and remaining life per row, governing row, S_0).
+
+        The keys hold the worst static sample since the start; the level judges the worst since the last
+        report (a past overload stays visible through the alarm latch, not as a level for ever)."""
         damage = self.row_damage()
         governing = max(ROWS, key=lambda r: damage[r])
         elapsed = (self.last_t_s - self.first_t_s) if self.first_t_s is not None else 0.0
@@ -188,7 +194,7 @@ class SlewingFatigue:
         return self._level(damage[governing], governing, values)
 
     def _level(self, governing_damage: float, governing: str, values: dict[str, Any]) -> tuple[Level, str, dict]:
-        worst = self.worst_static
+        worst, self.period_static = self.period_static, None
         if worst is not None and worst["static_safety"] < 1.0:
             return ERROR, (f"static overload of the {worst['row']} row: P0 = {worst['static_load_n']:.4g} N > "
                            f"C0 = {worst['static_capacity_n']:.4g} N (S0 = {worst['static_safety']:.3g})"), values

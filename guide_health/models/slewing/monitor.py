@@ -361,7 +361,7 @@ class SlewingMonitor:
         fatigue_level, fatigue_message, fatigue_values = self.fatigue.report()
         values.update(fatigue_values, rejected_axis_angles=self.rejected_angles)
         if report is not None and fatigue_level > OK:
-            level, message = max(level, fatigue_level), f"{fatigue_message}; {message}"
+            level, message = max(level, fatigue_level), f"{message}; {fatigue_message}"
         if gaps.missing:
             message = f"{message}; {gaps.missing} load samples missing (stamp gaps)"
         if report is not None and self.worst is not None:
