@@ -61,3 +61,6 @@ class SlewingLoadRun:
     radial_n: np.ndarray = field(default_factory=_f64)       # hypot(force.x, force.y)
     moment_nm: np.ndarray = field(default_factory=_f64)      # hypot(torque.x, torque.y)
     metadata: dict = field(default_factory=dict)
+    # slewing axis angle (sensor_msgs/JointState, the rating life's angle travelled); empty: none recorded
+    axis_t_ns: np.ndarray = field(default_factory=_i64)
+    axis_angle_rad: np.ndarray = field(default_factory=_f64)

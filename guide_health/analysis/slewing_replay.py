@@ -17,6 +17,9 @@ def analyse_slewing_run(run, params: dict, progress=None) -> tuple[SlewingMonito
     loaded (a dict), made the typed, validated SlewingMonitorParams here as the node does."""
     monitor = SlewingMonitor(slewing_monitor_params(params))
     n = int(np.asarray(run.t_ns).size)
+    axis_t = np.asarray(run.axis_t_ns, dtype=np.int64).tolist()
+    axis_angle = np.asarray(run.axis_angle_rad, dtype=float).tolist()
+    next_axis = 0
     p_max = np.full(n, np.nan)
     levels = {OK: 0, WARN: 0, ERROR: 0}
     worst_i = -1
@@ -25,6 +28,9 @@ def analyse_slewing_run(run, params: dict, progress=None) -> tuple[SlewingMonito
                                             np.asarray(run.radial_n, float).tolist(),
                                             np.asarray(run.moment_nm, float).tolist(),
                                             np.asarray(run.t_ns, dtype=np.int64).tolist())):
+        while next_axis < len(axis_t) and axis_t[next_axis] < t:     # stamp order; a load first at equal stamps
+            monitor.on_axis_angle(axis_angle[next_axis], axis_t[next_axis])
+            next_axis += 1
         if monitor.on_loads(fa, fr, mt, t_ns=t) is None:
             rep = monitor.worst_sample
             p_max[i] = rep["p_max_MPa"]
@@ -33,7 +39,13 @@ def analyse_slewing_run(run, params: dict, progress=None) -> tuple[SlewingMonito
                 worst, worst_i = rep, i
         if progress is not None and (i % 20000 == 0 or i == n - 1):
             progress(i + 1, n)
+    for j in range(next_axis, len(axis_t)):
+        monitor.on_axis_angle(axis_angle[j], axis_t[j])
     report = dict(worst or {})
+    if axis_t:            # the rating life per row (docs/slewing.md), the keys of the live status
+        fatigue_level, fatigue_message, fatigue_values = monitor.fatigue.report()
+        report.update(fatigue_values, fatigue_level=int(fatigue_level), fatigue_message=fatigue_message,
+                      rejected_axis_angles=monitor.rejected_angles)
     report.update(
         loads=n, rejected_loads=monitor.rejected, samples_missing_estimate=monitor.stamp_gaps.missing,
         load_period_estimate_us=monitor.stamp_gaps.period_ns * 1e-3,

@@ -4,6 +4,8 @@ Subscribes `slewing/load` (geometry_msgs/WrenchStamped: force.z = F_a, hypot(for
 hypot(torque.x, torque.y) = M_T) and publishes `/diagnostics` (task `<bearing> roller contact`) every
 `diagnostics_period_s` with the worst case since the last publish; STALE when loads stop. The contact
 model (seed 003 Eq. 1, finite-roller end effect, McEwen field) is cached, so a message costs microseconds.
+The slewing axis angle (`axis_topic`, joint `axis_joint`, sensor_msgs/JointState) gives the angle travelled:
+the status adds the fatigue damage and remaining life per row and the static safety factor (docs/slewing.md).
 """
 from __future__ import annotations
 
@@ -12,9 +14,11 @@ import sys
 
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
+from sensor_msgs.msg import JointState
 
 from guide_health.models.slewing.monitor import SlewingMonitor, contact_level
-from guide_health.models.wear.input_rules import header_stamp_ns
+from guide_health.models.slewing.rating import ROWS
+from guide_health.models.wear.input_rules import header_stamp_ns, joint_state_reason
 from guide_health.nodes.common import run_node
 from guide_health.nodes.live_params import PeriodicTimers, apply_slewing_changes
 from guide_health.nodes.qos import SensorSubscriptions
@@ -31,7 +35,13 @@ EXTRA_KEYS = ("p_max_MPa", "p_max_position_mm", "shear_depth_mm", "von_mises_sub
               "axial_opposite_row_max_n", "radial_row_max_n", "worst_row", "loads_in_period", "rejected_loads",
               "messages_lost", "best_effort_topics",
               # models/wear/stream_gaps.py on the load stamps: samples missing by stamp gaps
-              "samples_missing_estimate", "load_period_estimate_us", "load_stamp_pauses")
+              "samples_missing_estimate", "load_period_estimate_us", "load_stamp_pauses",
+              # rating life per row over the axis angle and static safety (models/slewing/fatigue.py)
+              *(f"{kind}_{row}{unit}" for row in ROWS for kind, unit in (
+                  ("fatigue_damage", ""), ("fatigue_remaining_life", "_h"), ("dynamic_capacity", "_n"),
+                  ("static_capacity", "_n"))),
+              "fatigue_governing_row", "static_safety_factor", "static_safety_row", "limiting_curve_safety",
+              "oscillation_strokes", "oscillation_strokes_below_critical", "rejected_axis_angles")
 LOG_THROTTLE_S = 5.0        # at most one rejected-load warning per period; it carries the running count
 
 
@@ -55,6 +65,8 @@ class SlewingMonitorNode(Node):
         self.diag_pub = self.updater.publisher
         self.sensors = SensorSubscriptions(self, p.sensor_qos, p.sensor_queue_depth, with_info=True)
         self.sensors.subscribe(WrenchStamped, "slewing/load", self._on_load)
+        self.axis_joint = p.axis_joint
+        self.create_subscription(JointState, p.axis_topic, self._on_axis, 100)
         self.periodic.create("diagnostics_period_s", p.diagnostics_period_s, self.publish_diagnostics)
 
     def _apply_params(self, changed: dict) -> None:
@@ -67,6 +79,18 @@ class SlewingMonitorNode(Node):
         reason = self.core.on_loads(*wrench_to_loads(msg), t_ns=stamp)
         if reason:
             self.get_logger().warning(f"rejected load: {reason} ({self.core.rejected} so far)",
+                                      throttle_duration_sec=LOG_THROTTLE_S)
+
+    def _on_axis(self, msg: JointState) -> None:
+        """The slewing axis angle (joint ``axis_joint``): the angle travelled of the rating life."""
+        reason, i = joint_state_reason(msg.name, len(msg.position), self.axis_joint)
+        stamp = header_stamp_ns(msg.header.stamp.sec, msg.header.stamp.nanosec)
+        if reason is None:
+            reason = self.core.on_axis_angle(float(msg.position[i]), stamp)
+        else:
+            self.core.reject_axis_angle()
+        if reason:
+            self.get_logger().warning(f"rejected axis angle: {reason} ({self.core.rejected_angles} so far)",
                                       throttle_duration_sec=LOG_THROTTLE_S)
 
     def _report(self) -> tuple:

@@ -48,6 +48,12 @@ SLEWING_MONITOR_PARAMS = (
     Param("numerical_table_max_load_n", 4.0e5, "N", "(0, 1e9]",
           "numerical model live: highest roller load of the table (> min)"),
     Param("numerical_table_loads", 16, "-", "[4, 10000]", "numerical model live: loads in the table"),
+    Param("raceway_hardness_hrc", 55.0, "HRC", "[20, 70]",
+          "raceway surface hardness: C and C0 x (HRC/58)^3.6 below 58 (induction hardened: assumed 55)"),
+    Param("axis_topic", "slewing/joint_states", "", "", "sensor_msgs/JointState of the slewing axis (angle)"),
+    Param("axis_joint", "slew", "", "", "joint name of the slewing axis in axis_topic"),
+    Param("reversal_deadband_rad", 1.0e-3, "rad", "(0, 1]",
+          "a reversal of the axis counts once it came back this far (encoder noise is no oscillation)"),
     Param("diagnostics_period_s", 1.0, "s", "[0.01, 3600]", "period of the /diagnostics status", dynamic=True),
     Param("input_timeout_s", 2.0, "s", "(0, 86400]", "STALE when slewing/load is silent longer", dynamic=True),
     *alarm_and_sensor_qos_params("slewing/load"),
@@ -55,7 +61,7 @@ SLEWING_MONITOR_PARAMS = (
 
 
 def _check_types(params: dict[str, Any]) -> None:
-    for name in ("machine_id", "bearing", "stress_model", "roller_profile"):
+    for name in ("machine_id", "bearing", "stress_model", "roller_profile", "axis_topic", "axis_joint"):
         if not isinstance(params.get(name), str):
             raise InputError(f"parameter {name} must be a string, got {params.get(name)!r}")
     for name in ("roller_count", "radial_roller_count"):
@@ -68,7 +74,8 @@ def _check_types(params: dict[str, Any]) -> None:
         raise InputError(f"parameter radial_roller_count must be >= 0, got {params['radial_roller_count']!r}")
     numbers = ("raceway_diameter_m", "roller_diameter_m", "roller_length_m", "youngs_modulus_pa", "poisson",
                "friction", "allowable_contact_stress_pa", "warn_fraction", "roller_end_radius_m",
-               "crown_drop_m", "log_profile_coeff_m", "diagnostics_period_s", "input_timeout_s")
+               "crown_drop_m", "log_profile_coeff_m", "diagnostics_period_s", "input_timeout_s",
+               "raceway_hardness_hrc", "reversal_deadband_rad")
     for name in numbers:
         value = params.get(name)
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):

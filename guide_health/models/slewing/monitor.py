@@ -17,6 +17,7 @@ from typing import Any
 from guide_health.models.contact.elastic import effective_modulus_pa
 from guide_health.models.contact.hertz_line import checked_load_n, effective_radius_m, hertz_line_contact
 from guide_health.models.levels import ERROR, OK, WARN, Level, exceeds
+from guide_health.models.slewing.fatigue import SlewingFatigue
 from guide_health.models.slewing.finite_roller import (
     FiniteRollerScalars,
     finite_roller_contact,
@@ -24,6 +25,7 @@ from guide_health.models.slewing.finite_roller import (
     palmgren_line_stiffness,
 )
 from guide_health.models.slewing.mcewen import McEwenMaxima, cached_mcewen_maxima, mcewen_maxima
+from guide_health.models.slewing.rating import slewing_ratings
 from guide_health.models.slewing.row_loads import AxialRowLoads, axial_row_roller_loads, radial_row_roller_load_max_n
 from guide_health.models.wear.stream_gaps import StampGaps
 
@@ -294,6 +296,25 @@ class SlewingMonitor:
         # load samples missing by stamp gaps (models/wear/stream_gaps.py, as wear_monitor's streams): what a
         # reliable KEEP_LAST writer overwrote without any DDS loss event
         self.stamp_gaps = StampGaps()
+        # rating life per row over the axis angle, static safety of the worst sample (docs/slewing.md)
+        self.fatigue = SlewingFatigue(
+            slewing_ratings(params.roller_count, params.radial_roller_count or params.roller_count,
+                            params.roller_diameter_m, params.roller_length_m, params.raceway_diameter_m,
+                            params.raceway_hardness_hrc),
+            reversal_deadband_rad=params.reversal_deadband_rad)
+        self.rejected_angles = 0
+
+    def reject_axis_angle(self) -> None:
+        """Count an axis sample the node could not use (malformed message, joint missing, non-finite)."""
+        self.rejected_angles += 1
+
+    def on_axis_angle(self, angle_rad: float, t_ns: int | None = None) -> str | None:
+        """One slewing-axis angle [rad] (``t_ns``: its stamp); returns the rejection reason or None."""
+        if not math.isfinite(angle_rad):
+            self.reject_axis_angle()
+            return "non-finite axis angle (NaN/inf) ignored"
+        self.fatigue.on_angle(angle_rad, None if t_ns is None else t_ns * 1e-9)
+        return None
 
     def on_loads(self, axial_n: float, radial_n: float, moment_nm: float, t_ns: int | None = None) -> str | None:
         """One load sample (``t_ns``: its header stamp, None when unknown or invalid); returns the rejection
@@ -305,6 +326,7 @@ class SlewingMonitor:
             self.last_problem = "non-finite load"
             return "non-finite load (NaN/inf) ignored"
         report = self.model.report_for_loads(axial_n, radial_n, moment_nm)
+        self.fatigue.on_loads(axial_n, radial_n, moment_nm)
         self.worst_sample = report              # the report of this sample (offline analysis reads it)
         self.loads_in_period += 1
         if self.worst is None or report["p_max_MPa"] > self.worst["p_max_MPa"]:
@@ -336,6 +358,10 @@ class SlewingMonitor:
             if self.loads_in_period == 0 and self.rejected:
                 level = max(level, WARN)
                 message = f"only invalid loads this period ({self.last_problem}); last valid: {message}"
+        fatigue_level, fatigue_message, fatigue_values = self.fatigue.report()
+        values.update(fatigue_values, rejected_axis_angles=self.rejected_angles)
+        if report is not None and fatigue_level > OK:
+            level, message = max(level, fatigue_level), f"{message}; {fatigue_message}"
         if gaps.missing:
             message = f"{message}; {gaps.missing} load samples missing (stamp gaps)"
         if report is not None and self.worst is not None:

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from guide_health.models.contact.hertz_line import checked_load_n
 
 #: Radial row, line contact, zero clearance: Q_max = F_r / (n J_r(0.5)), J_r = 0.2453 -> 4.08
@@ -64,3 +66,19 @@ def radial_row_roller_load_max_n(radial_load_n: float, roller_count: int) -> flo
     """Q_r,max = 4.08 F_r / n_r [N] (line contact, zero clearance).  # Harris & Kotzalas Ch. 7 (Stribeck)"""
     return RADIAL_ROW_LINE_CONTACT_FACTOR * abs(checked_load_n("radial load", radial_load_n, True)) / roller_count
 
+
+
+def axial_row_roller_load_distributions(axial_load_n: float, tilting_moment_nm: float, roller_count: int,
+                                        raceway_diameter_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Roller loads of both axial rows at the n roller azimuths psi_j = 2 pi j / n [N].  # seed 003 Eq. 1
+
+    Main row: max(F_a/n + (4 M_T/(n D0)) cos psi_j, 0); opposite (retaining) row: max(-(F_a/n + (4 M_T/(n D0))
+    cos psi_j), 0): the roller pair at psi presses on one row or the other. Their maxima are those of
+    :func:`axial_row_roller_loads`.
+    """
+    axial = checked_load_n("axial load", axial_load_n, allow_negative=True)
+    moment = abs(checked_load_n("tilting moment", tilting_moment_nm, allow_negative=True))
+    moment_term = 4.0 * moment / (roller_count * raceway_diameter_m)
+    axial_term = axial / roller_count
+    signed = axial_term + moment_term * np.cos(2.0 * np.pi * np.arange(roller_count) / roller_count)
+    return np.maximum(signed, 0.0), np.maximum(-signed, 0.0)
