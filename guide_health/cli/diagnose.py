@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 from guide_health.analysis.discrepancy.duty_process import start_duty_cells
+from guide_health.analysis.discrepancy.naming_text import naming_lead_lines
 from guide_health.analysis.rejections import add_diagnose_rejections, diagnose_lead_lines, diagnose_tail_lines
 from guide_health.cli.command import Command, check_out_path
 from guide_health.cli.text import bag_set_lines
@@ -140,8 +141,6 @@ def axis_text_lines(result: dict, model_file: bool) -> list[str]:
     b, f = result["baseline"], result["final"]
     named = result["named_effects"]
     structure = result.get("unexplained_structure", {})
-    from guide_health.analysis.discrepancy.consistency import naming_lead_lines
-
     lines = diagnose_lead_lines(result) + ([structure["message"]] if structure.get("present") else [])
     lines += naming_lead_lines(result)
     lines.append(f"discrepancy workflow ({result['data']['duration_h']:.1f} h, {result['data']['measurements']} "

@@ -22,7 +22,6 @@ tie: ``ambiguous``; an alternative better by more is ``reading``; every alternat
 """
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -116,7 +115,7 @@ def separating_measurement(named: str, alternative: str, fit: FitResult, problem
     _, longest = idle_hours(problem)
     idle_h = max(SEPARATING_IDLE_H, 2.0 * longest)
     if alternative == "gauge_drift_in_time":
-        d_um_h = fit.values.get("gauge_drift_m_per_s", 0.0) * 3.6e9
+        d_um_h = fit.values["gauge_drift_m_per_s"] * 3.6e9
         return (f"a straightness check before and after a {idle_h:.0f} h idle period (no motion) separates gauge "
                 f"drift from wear: a drifting gauge moves {d_um_h * idle_h:+.2f} um over it ({d_um_h:+.3f} um/h), "
                 "wear adds nothing; or a reference artefact measured with the gauge")
@@ -138,7 +137,7 @@ def lubrication_period_check(problem: WearProblem, fit: FitResult) -> dict[str, 
     if problem.relubrication_t_s is not None:
         return {"passed": True, "reason": f"{problem.relubrication_t_s.size} relubrications recorded"}
     t_fit_h = float(problem.t_s[problem.fit_mask][-1] - problem.t_s[0]) / 3600.0
-    period_h = fit.values.get("lubrication_interval_s", math.inf) / 3600.0
+    period_h = fit.values["lubrication_interval_s"] / 3600.0
     cycles = t_fit_h / period_h if period_h > 0 else 0.0
     passed = cycles >= MIN_LUBRICATION_CYCLES
     return {"passed": bool(passed), "interval_h": period_h, "fit_span_h": t_fit_h, "cycles_in_fit_span": cycles,
@@ -179,7 +178,7 @@ def check_named_effects(problem: WearProblem, final: FitResult, named: list[str]
         close = [r for r in rows if r["delta_bic"] <= AMBIGUOUS_BIC]
         text = [f"{r['form']} dBIC {r['delta_bic']:+.1f}" for r in rows]
         out[effect] = {
-            "status": status,
+            "status": status, "tie_bic": AMBIGUOUS_BIC,
             "check": "; ".join(([own["reason"]] if "reason" in own else [])
                                + ([f"against {', '.join(text)} (tie within {AMBIGUOUS_BIC:g})"] if text else [])),
             "own_check": own,
@@ -188,50 +187,3 @@ def check_named_effects(problem: WearProblem, final: FitResult, named: list[str]
                                                 for r in sorted(close, key=lambda r: r["delta_bic"])),
         }
     return out
-
-
-def consistency_lines(result: dict[str, Any], markdown: bool = False) -> list[str]:
-    """The report's lines on the checks of the named effects (before the effects: a reading first)."""
-    lines = []
-    for effect, c in result.get("consistency", {}).items():
-        if c["status"] == "finding":
-            continue
-        alt = ", ".join(f"{a['form']} (dBIC {a['delta_bic']:+.1f})" for a in c["alternatives"]
-                        if a["delta_bic"] <= AMBIGUOUS_BIC)
-        what = ("a READING, not a finding: it fails its own check" if c["status"] == "reading"
-                else "AMBIGUOUS: an alternative fits as well")
-        text = f"{effect} is {what} ({c['check']})" + (f"; fits as well or better: {alt}" if alt else "")
-        if c["separating_measurement"]:
-            text += f". To separate them: {c['separating_measurement']}"
-        lines.append(f"> **{text}**" if markdown else text)
-        if markdown:
-            lines.append("")
-    return lines
-
-
-def naming_lead_lines(result: dict[str, Any], markdown: bool = False) -> list[str]:
-    """What comes before the effects in text and report.md: "too little data: ..." when the record cannot
-    separate the candidates, then each named effect that is a reading or ambiguous."""
-    lines = []
-    resolution = result.get("data_resolution", {})
-    if resolution.get("too_little_data"):
-        lines += [f"> **{resolution['message']}**", ""] if markdown else [resolution["message"]]
-    return lines + consistency_lines(result, markdown)
-
-
-def resolution_markdown(result: dict[str, Any]) -> list[str]:
-    """report.md's section on what the record resolves (K's interval, the detectable size per candidate)."""
-    r = result.get("data_resolution")
-    if not r:
-        return []
-    low, high = r["wear_coefficient_interval_95"]
-    lines = ["## What the record resolves", "",
-             f"{r['fit_measurements']} fitted measurements over {r['fit_span_h']:.1f} h, noise "
-             f"{r['noise_sd_um']:.3f} um; K = {r['wear_coefficient']:.4g} (95 %: {low:.4g} .. {high:.4g}). "
-             f"Detectable: {r['detectable_sd']:g} sd of the effect's size from the Fisher information at the "
-             "fitted baseline; separable: still detectable with "
-             "any one other detectable candidate freed.", "",
-             "| candidate | size | plausible | detectable (3 sd) | separable |", "|---|---|---|---|---|"]
-    lines += [f"| {c['effect']} | {c['size']} | {c['plausible_size']:.3g} | {c['detectable_size']:.3g} | "
-              f"{'yes' if c['separable'] else 'no'} |" for c in r["candidates"]]
-    return lines + [""]

@@ -8,8 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from guide_health.analysis.discrepancy.consistency import naming_lead_lines, resolution_markdown
 from guide_health.analysis.discrepancy.model_file import live_parameter_text, not_live_effects
+from guide_health.analysis.discrepancy.naming_text import naming_lead_lines, resolution_markdown
 from guide_health.analysis.rejections import diagnose_lead_lines, diagnose_tail_lines
 from guide_health.analysis.report_plots import plot_forecast
 from guide_health.io.outputs.files import open_output, save_figure, write_text

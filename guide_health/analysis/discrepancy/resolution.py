@@ -94,7 +94,7 @@ def data_resolution(problem: WearProblem, base: FitResult, candidates: list[str]
     n_fit = int(fit.sum())
     res = (problem.y_m - base.predicted_m)[fit]
     sigma = noise_sd_von_neumann(res)
-    k, k_se = base.values["wear_coefficient"], base.std_errors.get("wear_coefficient", math.nan)
+    k, k_se = base.values["wear_coefficient"], base.std_errors["wear_coefficient"]
     k_step = {**base.values, "wear_coefficient": k * 1.001}
     nuisance = [(problem.predict_m(k_step) - base.predicted_m)[fit] / (1e-3 * k)]
     if problem.a0_free:
