@@ -145,14 +145,15 @@ def axis_text_lines(result: dict, model_file: bool) -> list[str]:
     lines += naming_lead_lines(result)
     lines.append(f"discrepancy workflow ({result['data']['duration_h']:.1f} h, {result['data']['measurements']} "
                  f"measurements, {result['messages']} messages)")
-    if structure.get("present"):
+    withheld = ("too little data" if result.get("data_resolution", {}).get("too_little_data") else
+                "rejected input could explain the misfit" if result.get("rejected_wear", {}).get("explains_misfit")
+                else "")
+    if structure.get("present") and not (withheld and not named):
         lines.append(f"  fitted effects:  {', '.join(named) if named else 'none'} (NOT an explanation: structure "
                      "remains)")
     else:
-        none = ("too little data" if result.get("data_resolution", {}).get("too_little_data") else
-                "rejected input could explain the misfit" if result.get("rejected_wear", {}).get("explains_misfit")
-                else "the baseline explains the data")
-        lines.append(f"  named effects:   {', '.join(named) if named else f'none ({none})'}")
+        why = withheld or "the baseline explains the data"
+        lines.append(f"  named effects:   {', '.join(named) if named else f'none ({why})'}")
     for e in named:
         params = ", ".join(f"{k} = {p['value']:.4g} ± {p['std_error']:.2g}"
                            for k, p in result["effects"][e]["parameters"].items())

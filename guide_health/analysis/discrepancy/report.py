@@ -69,7 +69,9 @@ def markdown(result: dict[str, Any], bag: str = "") -> str:
     else:
         lines.append("## Effects named" if named else "## No missing effect found")
     lines.append("")
-    if not named and not structure.get("present"):
+    withheld = (result.get("data_resolution", {}).get("too_little_data")
+                or result.get("rejected_wear", {}).get("explains_misfit"))
+    if not named and (withheld or not structure.get("present")):
         lines.append(_nothing_named(result))
     for e in named:
         info = result["effects"][e]
