@@ -6,7 +6,8 @@ The records' truth comes from test/independent_drift.py (imports nothing from an
 models/wear) on config/machine_jobs.yaml's motion and load with three 3 h idle windows (8-11, 19-22 h; the
 machine stands, the clock runs), 30 h at 10 Hz, noise 0.3 um. Measured 2026-11-27 (seed 0): a K ramp
 (+100 % over the record) named wear_rate_change as a *reading* (k_trend_in_time better by 11 in BIC) and
-flagged; a gauge creeping 0.15 um per clock hour names nothing and is flagged; a K step x2 at 12 h named
+flagged; a gauge creeping 0.15 um per clock hour names nothing and is flagged (0.19 um/h, seed 2:
+load_exponent named, a reading, the drift in its place better by 41); a K step x2 at 12 h named
 wear_rate_change, a finding (every alternative worse by >= 190 in BIC), no flag; a running-in (r = 2,
 s0 = 500 m) named running_in, a finding (the step worse by 158).
 """
@@ -62,8 +63,8 @@ def independent_run(form: str, seed: int, hours: float = HOURS, value: dict | No
 
 
 def case(args):
-    form, seed = args
-    params, run = independent_run(form, seed)
+    form, seed, value = args if len(args) == 3 else (*args, None)
+    params, run = independent_run(form, seed, value=value)
     result = diagnose_cells(duty_cells_from_runs(run, params["slider_length_m"]), params)
     result.pop("series")
     return {"form": form, "seed": seed, "named": result["named_effects"], "result": result,
@@ -87,11 +88,12 @@ def honest(row) -> bool:
 
 @pytest.fixture(scope="module")
 def rows():
-    return {r["form"]: r for r in run_cases([(form, 0) for form in ("k_ramp", "gauge_creep", "k_step", "running_in")])}
+    cases = [(form, 0) for form in ("k_ramp", "gauge_creep", "k_step", "running_in")]
+    return {f"{r['form']}{r['seed']}": r for r in run_cases(cases + [("gauge_creep", 2, {"m_per_h": 0.19e-6})])}
 
 
 def test_smooth_ramp_of_k_is_not_a_step_finding(rows):
-    r = rows["k_ramp"]
+    r = rows["k_ramp0"]
     assert honest(r), r["status"]
     if "wear_rate_change" in r["named"]:
         c = r["result"]["effects"]["wear_rate_change"]
@@ -103,30 +105,40 @@ def test_smooth_ramp_of_k_is_not_a_step_finding(rows):
 
 
 def test_gauge_creep_is_told_apart_from_a_k_step(rows):
-    r = rows["gauge_creep"]
+    """0.15 um/h (seed 0): nothing named, flagged. 0.19 um/h (seed 2): load_exponent fits it, a reading: the
+    gauge drift in its place is better by 41 in BIC (measured; without the idle windows, seed 0 at 0.15 um/h
+    names speed_dependent_wear + load_exponent, both ambiguous against the drift in their place, dBIC +0.8)."""
+    r = rows["gauge_creep0"]
     assert honest(r), r["status"]
     assert r["status"].get("wear_rate_change", "not named") != "finding"
     assert r["flag"] or r["named"]           # the creep is not explained silently (measured: flagged, none named)
+    r = rows["gauge_creep2"]
+    assert r["named"] and all(s != "finding" for s in r["status"].values()) and not r["result"]["explained"]
+    for e in r["named"]:
+        drift = next(a for a in r["result"]["effects"][e]["alternatives"] if a["form"] == "gauge_drift_in_time")
+        assert drift["delta_bic"] < -consistency.AMBIGUOUS_BIC
+        assert drift["parameters"]["gauge_drift_m_per_s"] * 3.6e9 == pytest.approx(0.19, abs=0.05)   # um/h
+        assert "idle period" in r["result"]["effects"][e]["separating_measurement"]
 
 
 def test_a_real_k_step_is_still_named_a_finding(rows):
-    r = rows["k_step"]
+    r = rows["k_step0"]
     assert r["named"] == ["wear_rate_change"] and not r["flag"], r["status"]
     c = r["result"]["effects"]["wear_rate_change"]
     assert c["status"] == "finding"
     assert min(a["delta_bic"] for a in c["alternatives"]) > consistency.AMBIGUOUS_BIC      # measured +190
-    assert {a["form"] for a in c["alternatives"]} == {"k_trend_in_time", "k_growth_with_wear", "gauge_drift_in_time"}
+    assert [a["form"] for a in c["alternatives"]] == ["k_trend_in_time", "k_growth_with_wear", "gauge_drift_in_time"]
     p = c["parameters"]
     assert abs(p["wear_rate_change_time_s"]["value"] / 3600.0 - 12.0) < 0.5
     assert p["wear_rate_change_factor"]["value"] == pytest.approx(2.0, rel=0.15)
 
 
 def test_running_in_is_still_named_running_in(rows):
-    r = rows["running_in"]
+    r = rows["running_in0"]
     assert r["named"][0] == "running_in" and r["status"]["running_in"] == "finding", r["status"]
     c = r["result"]["effects"]["running_in"]
-    assert [a["form"] for a in c["alternatives"]] == ["wear_rate_change"]
-    assert c["alternatives"][0]["delta_bic"] > consistency.AMBIGUOUS_BIC                    # measured +158
+    assert [a["form"] for a in c["alternatives"]][:1] == ["wear_rate_change"]
+    assert min(a["delta_bic"] for a in c["alternatives"]) > consistency.AMBIGUOUS_BIC       # measured +158
     assert not r["result"]["data_resolution"]["too_little_data"]
 
 

@@ -12,7 +12,9 @@ The checks (after the forward selection; the alternatives are forms for the chec
   (b) K growing with the worn volume: m = 1 + a W(t) / W_total, W the Archard work done before the cell,
   (c) a gauge whose zero drifts with clock time: y += d (t - t_first), no wear change. Idle periods tell
       (c) from wear: the gauge drifts while the machine stands, wear needs motion.
-- ``running_in`` (a rate decaying with sliding distance) against a step in K (``wear_rate_change``).
+- ``running_in`` (a rate decaying with sliding distance) against a step in K (``wear_rate_change``);
+- every named effect also against (c) in place of all the named effects (a drift that re-weights the jobs'
+  work can look like a material or duty effect on a duty that varies job by job).
 
 Each alternative replaces the named effect in the final model (the other named effects kept), is refitted on
 the same fit span and compared by BIC (both have the same measurements): dBIC = BIC_alt - BIC_named.
@@ -153,37 +155,43 @@ def _status(rows: list[dict], own_check_passed: bool) -> str:
     return "ambiguous" if any(abs(r["delta_bic"]) <= AMBIGUOUS_BIC for r in rows) else "finding"
 
 
+def _alternative(alt_problem: CheckProblem, kept: tuple[str, ...], form: str, final: FitResult,
+                 replaces: list[str]) -> dict[str, Any]:
+    """The fit with ``form`` in place of the effects ``replaces`` (``kept`` stay), scored against ``final``."""
+    f = alt_problem.fit(kept + (form,), warm=final)
+    return {"form": form, "meaning": ALTERNATIVES[form], "replaces": replaces, "delta_bic": f.bic - final.bic,
+            "bic": f.bic, "heldout_rmse_um": f.heldout_rmse_um,
+            "parameters": {s.name: f.values[s.name] for s in alt_problem.specs[form]}, "_fit": f}
+
+
 def check_named_effects(problem: WearProblem, final: FitResult, named: list[str]) -> dict[str, dict[str, Any]]:
-    """Per named effect: {status, check, alternatives: [{form, meaning, delta_bic, bic, parameters}],
-    separating_measurement}; effects without a check of their own are findings of the selection."""
+    """Per named effect: {status, check, alternatives: [{form, meaning, replaces, delta_bic, bic, parameters}],
+    separating_measurement}. Every named effect is also checked against a gauge drifting with clock time in
+    place of all the named effects: on a duty that varies job by job, a drift can look like a material or duty
+    effect that re-weights the work of the jobs."""
+    if not named:
+        return {}
+    alt_problem = CheckProblem(problem)
+    whole = _alternative(alt_problem, (), "gauge_drift_in_time", final, list(named))
     out: dict[str, dict[str, Any]] = {}
-    alt_problem = None
     for effect in named:
         forms = [a for a in checked_against(effect) or () if a not in named]
-        if checked_against(effect) is None:
-            out[effect] = {"status": "finding", "check": "selection (BIC and held-out forecast); no alternative "
-                                                         "form of its own to test", "alternatives": [],
-                           "separating_measurement": ""}
-            continue
-        alt_problem = alt_problem or CheckProblem(problem)
         own = lubrication_period_check(problem, final) if effect == "lubrication_interval" else {"passed": True}
         rest = tuple(e for e in named if e != effect)
-        rows = []
-        for form in forms:
-            f = alt_problem.fit(rest + (form,), warm=final)
-            rows.append({"form": form, "meaning": ALTERNATIVES[form], "delta_bic": f.bic - final.bic, "bic": f.bic,
-                         "heldout_rmse_um": f.heldout_rmse_um,
-                         "parameters": {s.name: f.values[s.name] for s in alt_problem.specs[form]}, "_fit": f})
-        status = _status(rows, own["passed"])
+        rows = [_alternative(alt_problem, rest, form, final, [effect]) for form in forms]
+        if not (rest == () and "gauge_drift_in_time" in forms):
+            rows.append(whole)
         close = [r for r in rows if r["delta_bic"] <= AMBIGUOUS_BIC]
-        text = [f"{r['form']} dBIC {r['delta_bic']:+.1f}" for r in rows]
+        text = [f"{r['form']}{'' if r['replaces'] == [effect] else ' in place of ' + ' + '.join(r['replaces'])} "
+                f"dBIC {r['delta_bic']:+.1f}" for r in rows]
         out[effect] = {
-            "status": status, "tie_bic": AMBIGUOUS_BIC,
+            "status": _status(rows, own["passed"]), "tie_bic": AMBIGUOUS_BIC,
             "check": "; ".join(([own["reason"]] if "reason" in own else [])
-                               + ([f"against {', '.join(text)} (tie within {AMBIGUOUS_BIC:g})"] if text else [])),
+                               + [f"against {', '.join(text)} (tie within {AMBIGUOUS_BIC:g})"]),
             "own_check": own,
             "alternatives": [{k: v for k, v in r.items() if k != "_fit"} for r in rows],
-            "separating_measurement": "; ".join(separating_measurement(effect, r["form"], r["_fit"], problem)
-                                                for r in sorted(close, key=lambda r: r["delta_bic"])),
+            "separating_measurement": "; ".join(dict.fromkeys(
+                separating_measurement(effect, r["form"], r["_fit"], problem)
+                for r in sorted(close, key=lambda r: r["delta_bic"]))),
         }
     return out
