@@ -14,8 +14,10 @@ def consistency_lines(result: dict[str, Any], markdown: bool = False) -> list[st
             continue
         alt = ", ".join(f"{a['form']} (dBIC {a['delta_bic']:+.1f})" for a in c["alternatives"]
                         if a["delta_bic"] <= c["tie_bic"])
-        what = ("a READING, not a finding: it fails its own check" if c["status"] == "reading"
-                else "AMBIGUOUS: an alternative fits as well")
+        own_failed = not c.get("own_check", {"passed": True})["passed"]
+        what = ("AMBIGUOUS: an alternative fits as well" if c["status"] == "ambiguous"
+                else "a READING, not a finding: " + ("it fails its own check" if own_failed
+                                                    else "an alternative fits better"))
         text = f"{effect} is {what} ({c['check']})" + (f"; fits as well or better: {alt}" if alt else "")
         if c["separating_measurement"]:
             text += f". To separate them: {c['separating_measurement']}"
