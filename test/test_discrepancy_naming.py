@@ -239,7 +239,9 @@ def test_rejections_that_explain_the_misfit_name_nothing(tmp_path):
 @pytest.mark.slow
 def test_independent_forms_3_seeds():
     """3 seeds of each form and a clean control: no control named, no wear change in time a finding with no
-    flag unless it is one (the step), the step and the running-in named right."""
+    flag unless it is one (the step), the step and the running-in named right. Measured 2026-11-27 (9 min):
+    K ramp 3/3 readings, flagged; gauge creep 1 none + 2 readings; K step 3/3 findings; running-in 3/3
+    findings; clean 0/3 named."""
     rows = run_cases([(form, seed) for form in FORMS for seed in range(3)])
     for r in rows:
         assert honest(r) or r["form"] == "k_step", r["status"]
