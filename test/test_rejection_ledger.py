@@ -261,7 +261,8 @@ def test_diagnose_report_starts_with_rejections_and_says_when_they_may_explain_t
                and hint in line for line in md), md[:10]
     result = json.loads((out / "report.json").read_text())
     assert result["rejections"]["reasons"][0]["count"] == count
-    assert result["rejections_may_explain_misfit"] is (len(result["named_effects"]) > 0)
+    assert result["rejections_may_explain_misfit"] is (len(result["named_effects"]) > 0
+                                                       or result.get("rejected_wear", {}).get("explains_misfit", False))
     named = dict(result, rejections_note="NOTE", rejections_may_explain_misfit=True)
     text = markdown(named)
     assert text.index("NOTE") < min(text.index(h) for h in ("## Effects named", "## No missing effect found",

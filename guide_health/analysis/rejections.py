@@ -166,13 +166,14 @@ def with_rejection_lines(lines: list[str], summary: dict, axis: str = "") -> lis
 
 def add_diagnose_rejections(result: dict, rejected: dict, tally: InputTally, params: dict) -> None:
     """diagnose's result (one axis) gets ``rejections`` and ``rejections_may_explain_misfit`` (and the sentence
-    as ``rejections_note``) when any sample was rejected."""
+    as ``rejections_note``) when any sample was rejected; the flag is also set when the workflow found that the
+    rejected wear could explain the misfit and named nothing (``rejected_wear``, its note kept)."""
     summary = rejection_summary(dict(rejected), tally, params)
     if not summary:
         return
     flag, note = misfit_note(summary, result["named_effects"])
     result["rejections"] = summary
-    result["rejections_may_explain_misfit"] = flag
+    result["rejections_may_explain_misfit"] = flag or bool(result.get("rejected_wear", {}).get("explains_misfit"))
     if note:
         result["rejections_note"] = note
 

@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 from guide_health.analysis.discrepancy.duty_process import start_duty_cells
+from guide_health.analysis.discrepancy.naming_text import naming_lead_lines
 from guide_health.analysis.rejections import add_diagnose_rejections, diagnose_lead_lines, diagnose_tail_lines
 from guide_health.cli.command import Command, check_out_path
 from guide_health.cli.text import bag_set_lines
@@ -184,17 +185,23 @@ def axis_text_lines(result: dict, model_file: bool) -> list[str]:
     named = result["named_effects"]
     structure = result.get("unexplained_structure", {})
     lines = diagnose_lead_lines(result) + ([structure["message"]] if structure.get("present") else [])
+    lines += naming_lead_lines(result)
     lines.append(f"discrepancy workflow ({result['data']['duration_h']:.1f} h, {result['data']['measurements']} "
                  f"measurements, {result['messages']} messages)")
-    if structure.get("present"):
+    withheld = ("too little data" if result.get("data_resolution", {}).get("too_little_data") else
+                "rejected input could explain the misfit" if result.get("rejected_wear", {}).get("explains_misfit")
+                else "")
+    if structure.get("present") and not (withheld and not named):
         lines.append(f"  fitted effects:  {', '.join(named) if named else 'none'} (NOT an explanation: structure "
                      "remains)")
     else:
-        lines.append(f"  named effects:   {', '.join(named) if named else 'none (the baseline explains the data)'}")
+        why = withheld or "the baseline explains the data"
+        lines.append(f"  named effects:   {', '.join(named) if named else f'none ({why})'}")
     for e in named:
         params = ", ".join(f"{k} = {p['value']:.4g} ± {p['std_error']:.2g}"
                            for k, p in result["effects"][e]["parameters"].items())
-        lines.append(f"    {e}: {params}")
+        status = f" ({result['effects'][e]['status']})" if "status" in result["effects"][e] else ""
+        lines.append(f"    {e}{status}: {params}")
     for tie in result.get("near_ties", []):
         lines.append(f"  near-tie:        {tie['message']}")
     for d in result.get("dropped_by_backward_pass", []):

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from guide_health.analysis.discrepancy.model_file import live_parameter_text, not_live_effects
+from guide_health.analysis.discrepancy.naming_text import naming_lead_lines, resolution_markdown
 from guide_health.analysis.rejections import diagnose_lead_lines, diagnose_tail_lines
 from guide_health.analysis.report_plots import plot_forecast
 from guide_health.io.outputs.files import open_output, save_figure, write_text
@@ -40,6 +41,15 @@ def model_file_lines(result: dict[str, Any]) -> list[str]:
     return out
 
 
+def _nothing_named(result: dict[str, Any]) -> str:
+    """Why nothing is named: too little data, rejected input, or the baseline explains the data."""
+    if result.get("data_resolution", {}).get("too_little_data"):
+        return "No effect named: too little data (above, and the table below)."
+    if result.get("rejected_wear", {}).get("explains_misfit"):
+        return "No effect named: the rejected input could explain the misfit (above)."
+    return "No candidate earned its parameters: the baseline (K calibrated) explains the measurements to their noise."
+
+
 def markdown(result: dict[str, Any], bag: str = "") -> str:
     b, f, d = result["baseline"], result["final"], result["data"]
     where = result["where_baseline_disagrees"]
@@ -51,6 +61,7 @@ def markdown(result: dict[str, Any], bag: str = "") -> str:
                  f"({d['fit_measurements']} fitted, the last {d['heldout_measurements']} from "
                  f"{d['heldout_from_h']:.1f} h held out for forecasts); {d['sliding_distance_m']:.0f} m of sliding.")
     lines.append("")
+    lines += naming_lead_lines(result, markdown=True)
     named = result["named_effects"]
     if structure.get("present"):
         lines.append("## Effects named: NOT an explanation (structure remains)" if named
@@ -58,14 +69,16 @@ def markdown(result: dict[str, Any], bag: str = "") -> str:
     else:
         lines.append("## Effects named" if named else "## No missing effect found")
     lines.append("")
-    if not named and not structure.get("present"):
-        lines.append("No candidate earned its parameters: the baseline (K calibrated) explains the measurements "
-                     "to their noise.")
+    withheld = (result.get("data_resolution", {}).get("too_little_data")
+                or result.get("rejected_wear", {}).get("explains_misfit"))
+    if not named and (withheld or not structure.get("present")):
+        lines.append(_nothing_named(result))
     for e in named:
         info = result["effects"][e]
         params = ", ".join(f"{k} = {_fmt(p['value'], p['unit'])} ± {_fmt(p['std_error'], p['unit'])}"
                            for k, p in info["parameters"].items())
-        lines.append(f"- **{e}**: {info['meaning']} ({params})")
+        status = f" ({info['status']})" if "status" in info else ""
+        lines.append(f"- **{e}**{status}: {info['meaning']} ({params})")
     for tie in result.get("near_ties", []):
         lines.append(f"- near-tie: {tie['message']}")
     for d in result.get("dropped_by_backward_pass", []):
@@ -86,7 +99,7 @@ def markdown(result: dict[str, Any], bag: str = "") -> str:
         s = result["steady_stage"]
         lines += ["", f"Steady stage (from {s['from_h']:.1f} h, after 3 running-in distances): max relative "
                       f"error {s['baseline_max_rel_error']:.1%} (baseline) -> {s['final_max_rel_error']:.1%}."]
-    lines += ["", "## Where the baseline disagrees", ""]
+    lines += ["", *resolution_markdown(result), "## Where the baseline disagrees", ""]
     rt, ac = where["runs_test"], where["lag1_autocorrelation"]
     lines.append(f"- residual RMS {where['residual_rms_um']:.3f} um against a noise of "
                  f"{where['noise_sd_um']:.3f} um (successive differences)")

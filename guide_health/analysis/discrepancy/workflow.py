@@ -13,10 +13,12 @@ from typing import Any
 import numpy as np
 
 from guide_health.analysis.discrepancy.analysis import disagreement, forecast_check, unexplained_structure
+from guide_health.analysis.discrepancy.consistency import check_named_effects
 from guide_health.analysis.discrepancy.duty import DutyCells
 from guide_health.analysis.discrepancy.fit_pool import FitPool
 from guide_health.analysis.discrepancy.model import FitResult, WearProblem, rel_errors
 from guide_health.analysis.discrepancy.model_file import model_parameters, running_in_forms
+from guide_health.analysis.discrepancy.resolution import data_resolution, rejected_wear_check
 from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD, forward_selection
 from guide_health.models.wear.effects.registry import BY_ID, EFFECTS
 
@@ -121,6 +123,43 @@ def _candidates(selection) -> list[dict[str, Any]]:
     return candidates
 
 
+def _data_block(problem: WearProblem, cells: DutyCells) -> dict[str, Any]:
+    """The record: measurements, the fit / held-out split, duty and what was rejected."""
+    return {
+        "measurements": int(problem.y_m.size), "fit_measurements": int(problem.fit_mask.sum()),
+        "heldout_measurements": int(problem.heldout_mask.sum()),
+        "heldout_from_h": (float(problem.t_s[problem.heldout_mask][0] / 3600.0)
+                           if problem.heldout_mask.any() else math.nan),
+        "duration_h": cells.duration_s / 3600.0, "sliding_distance_m": cells.total_distance_m,
+        "segments": cells.segments, "rejected_segments": cells.rejected_segments, "cells": cells.cells,
+        "rejected_samples": dict(cells.rejected_samples),
+        "stroke_sum_m": problem.stroke_sum_m, "feed_speed_m_s": problem.feed_speed_m_s,
+        "retract_speed_m_s": problem.retract_speed_m_s,
+        "retract_direction": "+x" if problem.retract_sign > 0 else "-x",
+        "load_reference_n": problem.load_reference_n,
+        "temperature_recorded": problem.temperature_change_k is not None,
+        "relubrications_recorded": 0 if problem.relubrication_t_s is None else int(problem.relubrication_t_s.size),
+        "straightness_initial_fitted": problem.a0_free,
+    }
+
+
+def _select(problem: WearProblem, params: dict[str, Any], bic_threshold: float, workers: int):
+    """(forward selection, data_resolution block, rejected_wear block): before naming, what the record resolves
+    and whether rejected input could explain the misfit; either withholds every candidate."""
+    baseline = problem.fit(())
+    resolution = data_resolution(problem, baseline, problem.available_effects())
+    rejected = rejected_wear_check(problem, baseline, params)
+    withheld = resolution["too_little_data"] or rejected.get("explains_misfit", False)
+
+    def fit(effects, warm=None):
+        return baseline if not effects else problem.fit(effects, warm=warm)
+
+    with FitPool(problem, workers) as pool:
+        selection = forward_selection(fit, [] if withheld else problem.available_effects(),
+                                      bic_threshold=bic_threshold, fit_all=pool.fit_all if pool else None)
+    return selection, resolution, rejected
+
+
 def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: float = 0.25,
                    bic_threshold: float = BIC_THRESHOLD, relubrication_t_s=None, workers: int = 1) -> dict[str, Any]:
     """The discrepancy workflow over duty cells (see ``duty.py``); returns the JSON-ready result with the
@@ -129,25 +168,28 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
     of a round in that many processes (fit_pool.py; the same result)."""
     t0 = time.perf_counter()
     problem = WearProblem(cells, params, heldout_fraction=heldout_fraction, relubrication_t_s=relubrication_t_s)
-    with FitPool(problem, workers) as pool:
-        selection = forward_selection(problem.fit, problem.available_effects(), bic_threshold=bic_threshold,
-                                      fit_all=pool.fit_all if pool else None)
+    selection, resolution, rejected = _select(problem, params, bic_threshold, workers)
     base, final = selection.baseline, selection.final
     where = disagreement(problem, base.predicted_m)
     after = disagreement(problem, final.predicted_m, mask=problem.fit_mask)     # the fit's own residuals
     named = list(selection.named)
     after["heldout_forecast"] = forecast_check(problem, final)
     structure = unexplained_structure(after, named)
-    candidates = _candidates(selection)
     final_gap = _gap(final)
-    effects = {e: {"meaning": EFFECT_MEANING[e],
+    consistency = check_named_effects(problem, final, named)
+    effects = {e: {"meaning": EFFECT_MEANING[e], **consistency[e],
                    "parameters": {name: final_gap["parameters"][name] for name in _names(problem, e)
                                   if name in final_gap["parameters"]}}
                for e in named}
     result: dict[str, Any] = {
         "unexplained_structure": structure,
-        "explained": bool(named) and not structure["present"],
+        "explained": (bool(named) and not structure["present"]
+                      and all(c["status"] == "finding" for c in consistency.values())),
+        "data_resolution": resolution,
+        **({"rejected_wear": rejected} if rejected else {}),
+        **({"rejections_note": rejected["message"]} if rejected.get("explains_misfit") else {}),
         "named_effects": named,
+        "consistency": consistency,
         "near_ties": [_tie(t) for t in selection.ties],
         "dropped_by_backward_pass": selection.dropped,
         "effects": effects,
@@ -158,40 +200,32 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
             "heldout_rmse_ratio": (final.heldout_rmse_um / base.heldout_rmse_um
                                    if base.heldout_rmse_um > 0 else math.nan),
         },
-        "candidates": candidates,
+        "candidates": _candidates(selection),
         "where_baseline_disagrees": where,
         "residuals_after": {k: after[k] for k in RESIDUALS_AFTER_KEYS},
-        "data": {
-            "measurements": int(problem.y_m.size), "fit_measurements": int(problem.fit_mask.sum()),
-            "heldout_measurements": int(problem.heldout_mask.sum()),
-            "heldout_from_h": (float(problem.t_s[problem.heldout_mask][0] / 3600.0)
-                               if problem.heldout_mask.any() else math.nan),
-            "duration_h": cells.duration_s / 3600.0, "sliding_distance_m": cells.total_distance_m,
-            "segments": cells.segments, "rejected_segments": cells.rejected_segments, "cells": cells.cells,
-            "rejected_samples": dict(cells.rejected_samples),
-            "stroke_sum_m": problem.stroke_sum_m, "feed_speed_m_s": problem.feed_speed_m_s,
-            "retract_speed_m_s": problem.retract_speed_m_s,
-            "retract_direction": "+x" if problem.retract_sign > 0 else "-x",
-            "load_reference_n": problem.load_reference_n,
-            "temperature_recorded": problem.temperature_change_k is not None,
-            "relubrications_recorded": 0 if problem.relubrication_t_s is None else int(problem.relubrication_t_s.size),
-            "straightness_initial_fitted": problem.a0_free,
-        },
+        "data": _data_block(problem, cells),
         "selection": {"criterion": "BIC on the fit span and held-out RMSE", "bic_threshold": bic_threshold,
                       "heldout_fraction": heldout_fraction},
     }
     if "running_in" in named:
         result.update(_steady_stage(problem, base, final))
-    # the model file: the named effects refitted on every measurement (the held-out span scored the choice)
-    whole = WearProblem(cells, params, heldout_fraction=0.0, relubrication_t_s=relubrication_t_s)
+    _model_file_and_series(result, problem, params, (base, final), named, relubrication_t_s)
+    result["fit_s"] = time.perf_counter() - t0
+    return result
+
+
+def _model_file_and_series(result: dict, problem: WearProblem, params: dict, fits: tuple[FitResult, FitResult],
+                           named: list[str], relubrication_t_s) -> None:
+    """The model file (the named effects refitted on every measurement: the held-out span scored the choice),
+    its forecast, and the series for the plot and residuals.csv."""
+    base, final = fits
+    whole = WearProblem(problem.cells, params, heldout_fraction=0.0, relubrication_t_s=relubrication_t_s)
     whole_fit = whole.fit(tuple(named), warm=final)
     result["model_file"] = {**model_parameters(whole, whole_fit, named),
                             **running_in_forms(whole, whole_fit, named, float(params["straightness_limit_m"]))}
     result["forecast"] = fit_forecast(whole, whole_fit, float(params["straightness_limit_m"]))
-    result["fit_s"] = time.perf_counter() - t0
     result["series"] = {
         "t_h": problem.t_s / 3600.0, "measured_um": problem.y_m * 1e6,
         "baseline_um": base.predicted_m * 1e6, "final_um": final.predicted_m * 1e6,
         "heldout": problem.heldout_mask,
     }
-    return result

@@ -1,0 +1,197 @@
+"""Does each named effect pass a check of its own physics against the record? A *finding* when it does, a
+*reading* when it fails (the data are fitted by it, but its physics is not what the record shows), *ambiguous*
+when an alternative form fits as well: then both are reported, with the measurement that separates them.
+
+The checks (after the forward selection; the alternatives are forms for the check, not library effects):
+
+- ``lubrication_interval``: its period must be observed, i.e. relubrications recorded in the bag, or a fitted
+  interval T with at least ``MIN_LUBRICATION_CYCLES`` cycles inside the fit span (a sawtooth that does not
+  repeat is no evidence of a period); the smooth trend below is its alternative too.
+- ``wear_rate_change`` (a step in K) against
+  (a) a smooth trend in K with clock time: m = 1 + a (t - t_first) / (t_last - t_first),
+  (b) K growing with the worn volume: m = 1 + a W(t) / W_total, W the Archard work done before the cell,
+  (c) a gauge whose zero drifts with clock time: y += d (t - t_first), no wear change. Idle periods tell
+      (c) from wear: the gauge drifts while the machine stands, wear needs motion.
+- ``running_in`` (a rate decaying with sliding distance) against a step in K (``wear_rate_change``);
+- every named effect also against (c) in place of all the named effects (a drift that re-weights the jobs'
+  work can look like a material or duty effect on a duty that varies job by job).
+
+Each alternative replaces the named effect in the final model (the other named effects kept), is refitted on
+the same fit span and compared by BIC (both have the same measurements): dBIC = BIC_alt - BIC_named.
+|dBIC| <= ``AMBIGUOUS_BIC`` (6: the lower edge of "strong" evidence on Kass & Raftery's scale, 1995) is a
+tie: ``ambiguous``; an alternative better by more is ``reading``; every alternative worse by more is a
+``finding``.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from guide_health.analysis.discrepancy.model import FitResult, WearProblem
+from guide_health.models.wear.effects.base import FitParameter
+
+#: |BIC_alternative - BIC_named| at or below this is a tie (Kass & Raftery 1995: 6..10 "strong")
+AMBIGUOUS_BIC = 6.0
+#: a fitted relubrication interval needs this many cycles in the fit span to be a period the record shows
+MIN_LUBRICATION_CYCLES = 2.0
+#: the idle period a separating straightness check should span [h] (at least this, or twice the longest idle
+#: stretch of the record)
+SEPARATING_IDLE_H = 10.0
+
+# the alternative forms: id -> (what it is, its fitted parameter)
+ALTERNATIVES = {
+    "k_trend_in_time": "the wear coefficient changing smoothly with clock time (a linear ramp, no step)",
+    "k_growth_with_wear": "the wear coefficient growing with the worn volume (debris: wear accelerating smoothly)",
+    "gauge_drift_in_time": "the gauge zero drifting with clock time (no change in wear)",
+    "wear_rate_change": "a step in the wear coefficient at one time",
+}
+_ALT_SPECS = {
+    "k_trend_in_time": [FitParameter("k_trend_per_record", "-", -0.9, 20.0, False, (0.5, 2.0))],
+    "k_growth_with_wear": [FitParameter("k_growth_per_work", "-", -0.9, 20.0, False, (0.5, 2.0))],
+    "gauge_drift_in_time": [FitParameter("gauge_drift_m_per_s", "m/s", -2e-9, 2e-9, False, (0.0,))],
+}
+
+
+def checked_against(effect: str) -> tuple[str, ...] | None:
+    """The alternative forms an effect is checked against (None: it has no check of its own beyond the
+    selection): the forms whose signature in a record can look like the effect's."""
+    if effect == "wear_rate_change":
+        return "k_trend_in_time", "k_growth_with_wear", "gauge_drift_in_time"
+    if effect == "running_in":
+        return ("wear_rate_change",)
+    if effect == "lubrication_interval":
+        return "k_trend_in_time", "k_growth_with_wear"
+    return None
+
+
+class CheckProblem(WearProblem):
+    """The workflow's problem with the alternative forms of the checks as extra 'effects'."""
+
+    def __init__(self, problem: WearProblem):
+        super().__init__(problem.cells, problem.params, heldout_fraction=float(problem.heldout_mask.mean()),
+                         relubrication_t_s=problem.relubrication_t_s)
+        # the same fit span as the workflow's (its rounding of the held-out share is kept exactly)
+        self.fit_mask, self.heldout_mask = problem.fit_mask.copy(), problem.heldout_mask.copy()
+        self.specs = {**problem.specs, **_ALT_SPECS}
+        c, n = self.cells, self.t_s.size
+        self.t_first_s, self.t_span_s = float(self.t_s[0]), max(float(self.t_s[-1] - self.t_s[0]), 1.0)
+        # the Archard work done before each cell's middle (cells of one interval: its work before + half its own)
+        k = np.clip(c.interval, 0, n)
+        per_interval = np.bincount(k, weights=c.work_nm, minlength=n + 1)
+        before = np.concatenate(([0.0], np.cumsum(per_interval)))[k] + 0.5 * per_interval[k]
+        self.work_share_before = before / max(float(per_interval.sum()), 1e-300)
+
+    def _internal_factor(self, spec: FitParameter) -> float:
+        if spec.name == "gauge_drift_m_per_s":
+            return 1e-6 / 3600.0                # um per hour inside the fit
+        return super()._internal_factor(spec)
+
+    def _duty_factors(self, values: dict[str, float]):
+        m = super()._duty_factors(values)
+        if "k_trend_per_record" in values:
+            m = m * np.maximum(1.0 + values["k_trend_per_record"] * (self.cells.time_s - self.t_first_s)
+                               / self.t_span_s, 0.0)
+        if "k_growth_per_work" in values:
+            m = m * np.maximum(1.0 + values["k_growth_per_work"] * self.work_share_before, 0.0)
+        return m
+
+    def predict_m(self, values: dict[str, float]) -> np.ndarray:
+        y = super().predict_m(values)
+        if "gauge_drift_m_per_s" in values:
+            y = y + values["gauge_drift_m_per_s"] * (self.t_s - self.t_first_s)
+        return y
+
+
+def idle_hours(problem: WearProblem) -> tuple[float, float]:
+    """(total, longest) idle time [h] of the record: measurement intervals without sliding."""
+    n = problem.t_s.size
+    dist = np.bincount(np.clip(problem.cells.interval, 0, n), weights=problem.cells.distance_m, minlength=n + 1)[:n]
+    gaps = np.diff(np.concatenate(([0.0], problem.t_s))) / 3600.0
+    idle = gaps[dist <= 0.0]
+    return float(idle.sum()), float(idle.max()) if idle.size else 0.0
+
+
+def separating_measurement(named: str, alternative: str, fit: FitResult, problem: WearProblem) -> str:
+    """What measurement would tell ``named`` from ``alternative`` (with this record's numbers)."""
+    _, longest = idle_hours(problem)
+    idle_h = max(SEPARATING_IDLE_H, 2.0 * longest)
+    if alternative == "gauge_drift_in_time":
+        d_um_h = fit.values["gauge_drift_m_per_s"] * 3.6e9
+        return (f"a straightness check before and after a {idle_h:.0f} h idle period (no motion) separates gauge "
+                f"drift from wear: a drifting gauge moves {d_um_h * idle_h:+.2f} um over it ({d_um_h:+.3f} um/h), "
+                "wear adds nothing; or a reference artefact measured with the gauge")
+    if alternative == "k_growth_with_wear":
+        return ("a change of duty (a light-load or idle week) separates wear growth with worn volume from a "
+                "step or a clock-time trend: the former follows the work done, not the time")
+    if alternative == "k_trend_in_time":
+        return ("a longer record at a steady duty separates a step from a smooth trend: after a step the wear "
+                "rate stays constant, under a trend it keeps changing; a logged event (wiper, lubricant) dates a "
+                "step")
+    if named == "running_in":
+        return ("a record from a new or reground surface separates running-in (the rate decays over the first "
+                "sliding distance, at every reset) from a step in K at one clock time")
+    return "a longer record at a steady duty"
+
+
+def lubrication_period_check(problem: WearProblem, fit: FitResult) -> dict[str, Any]:
+    """lubrication_interval's own physics: recorded relubrications, or a fitted period seen to repeat."""
+    if problem.relubrication_t_s is not None:
+        return {"passed": True, "reason": f"{problem.relubrication_t_s.size} relubrications recorded"}
+    t_fit_h = float(problem.t_s[problem.fit_mask][-1] - problem.t_s[0]) / 3600.0
+    period_h = fit.values["lubrication_interval_s"] / 3600.0
+    cycles = t_fit_h / period_h if period_h > 0 else 0.0
+    passed = cycles >= MIN_LUBRICATION_CYCLES
+    return {"passed": bool(passed), "interval_h": period_h, "fit_span_h": t_fit_h, "cycles_in_fit_span": cycles,
+            "reason": (f"no relubrication recorded; the fitted interval {period_h:.1f} h repeats {cycles:.1f} times "
+                       f"in the {t_fit_h:.1f} h fit span" + ("" if passed else
+                                                             f" (fewer than {MIN_LUBRICATION_CYCLES:g}: no period "
+                                                             "the record shows)"))}
+
+
+def _status(rows: list[dict], own_check_passed: bool) -> str:
+    if not own_check_passed or any(r["delta_bic"] < -AMBIGUOUS_BIC for r in rows):
+        return "reading"
+    return "ambiguous" if any(abs(r["delta_bic"]) <= AMBIGUOUS_BIC for r in rows) else "finding"
+
+
+def _alternative(alt_problem: CheckProblem, kept: tuple[str, ...], form: str, final: FitResult,
+                 replaces: list[str]) -> dict[str, Any]:
+    """The fit with ``form`` in place of the effects ``replaces`` (``kept`` stay), scored against ``final``."""
+    f = alt_problem.fit(kept + (form,), warm=final)
+    return {"form": form, "meaning": ALTERNATIVES[form], "replaces": replaces, "delta_bic": f.bic - final.bic,
+            "bic": f.bic, "heldout_rmse_um": f.heldout_rmse_um,
+            "parameters": {s.name: f.values[s.name] for s in alt_problem.specs[form]}, "_fit": f}
+
+
+def check_named_effects(problem: WearProblem, final: FitResult, named: list[str]) -> dict[str, dict[str, Any]]:
+    """Per named effect: {status, check, alternatives: [{form, meaning, replaces, delta_bic, bic, parameters}],
+    separating_measurement}. Every named effect is also checked against a gauge drifting with clock time in
+    place of all the named effects: on a duty that varies job by job, a drift can look like a material or duty
+    effect that re-weights the work of the jobs."""
+    if not named:
+        return {}
+    alt_problem = CheckProblem(problem)
+    whole = _alternative(alt_problem, (), "gauge_drift_in_time", final, list(named))
+    out: dict[str, dict[str, Any]] = {}
+    for effect in named:
+        forms = [a for a in checked_against(effect) or () if a not in named]
+        own = lubrication_period_check(problem, final) if effect == "lubrication_interval" else {"passed": True}
+        rest = tuple(e for e in named if e != effect)
+        rows = [_alternative(alt_problem, rest, form, final, [effect]) for form in forms]
+        if not (rest == () and "gauge_drift_in_time" in forms):
+            rows.append(whole)
+        close = [r for r in rows if r["delta_bic"] <= AMBIGUOUS_BIC]
+        text = [f"{r['form']}{'' if r['replaces'] == [effect] else ' in place of ' + ' + '.join(r['replaces'])} "
+                f"dBIC {r['delta_bic']:+.1f}" for r in rows]
+        out[effect] = {
+            "status": _status(rows, own["passed"]), "tie_bic": AMBIGUOUS_BIC,
+            "check": "; ".join(([own["reason"]] if "reason" in own else [])
+                               + [f"against {', '.join(text)} (tie within {AMBIGUOUS_BIC:g})"]),
+            "own_check": own,
+            "alternatives": [{k: v for k, v in r.items() if k != "_fit"} for r in rows],
+            "separating_measurement": "; ".join(dict.fromkeys(
+                separating_measurement(effect, r["form"], r["_fit"], problem)
+                for r in sorted(close, key=lambda r: r["delta_bic"]))),
+        }
+    return out
