@@ -198,12 +198,12 @@ def test_status_rule_and_lubrication_period_check():
     t_s = np.arange(0.0, 30.5 * 3600.0, 1800.0)
     problem = SimpleNamespace(t_s=t_s, fit_mask=t_s <= 22.5 * 3600.0, relubrication_t_s=None)
     fit = SimpleNamespace(values={"lubrication_interval_s": 11.0 * 3600.0})
-    check = consistency.lubrication_period_check(problem, fit)
+    check = consistency.own_check("lubrication_interval", problem, fit)
     assert check["cycles_in_fit_span"] == pytest.approx(22.5 / 11.0) and check["passed"]
     fit.values["lubrication_interval_s"] = 11.5 * 3600.0
-    assert not consistency.lubrication_period_check(problem, fit)["passed"]
+    assert not consistency.own_check("lubrication_interval", problem, fit)["passed"]
     problem.relubrication_t_s = np.array([3600.0])
-    assert consistency.lubrication_period_check(problem, fit)["passed"]
+    assert consistency.own_check("lubrication_interval", problem, fit)["passed"]
 
 
 def test_rejections_that_explain_the_misfit_name_nothing(tmp_path):

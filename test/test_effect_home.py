@@ -38,16 +38,6 @@ ALLOWED = {
         "the model file's duty-effect form and thermal reference, and the running-in forms' refit (its steady "
         "rate and decay parameters); changed in parallel"),
     "analysis/discrepancy/selection.py": ({"load_exponent"}, "the work-weighted reference load; changed in parallel"),
-    "analysis/discrepancy/consistency.py": (
-        {"running_in", "wear_rate_change", "lubrication_interval"},
-        "each checked effect's alternative forms and its own check (not yet registry fields)"),
-    "analysis/discrepancy/resolution.py": (
-        {"running_in", "retract_asymmetry", "speed_dependent_wear", "load_exponent", "stroke_distribution",
-         "thermal_drift", "initial_offset", "wear_rate_change", "lubrication_interval", "load_along_rail"},
-        "each candidate's plausible strong size for the detectable-size test (not yet registry fields)"),
-    "analysis/discrepancy/since.py": (
-        {"initial_offset", "wear_rate_change"},
-        "the two changes diagnose --since tells apart after a fit alarm (an offset, a new wear rate)"),
     "analysis/discrepancy/workflow.py": (
         {"running_in", "retract_asymmetry", "load_exponent", "lubrication_interval"},
         "the workflow's per-effect report values; changed in parallel"),

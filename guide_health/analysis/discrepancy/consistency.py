@@ -2,19 +2,19 @@
 *reading* when it fails (the data are fitted by it, but its physics is not what the record shows), *ambiguous*
 when an alternative form fits as well: then both are reported, with the measurement that separates them.
 
-The checks (after the forward selection; the alternatives are forms for the check, not library effects):
+The checks (after the forward selection) are the effects': each effect's module says which forms it is checked
+against (``Effect.consistency_alternatives``, registry.CONSISTENCY_ALTERNATIVES), its own physics check
+(``Effect.own_consistency_check``, e.g. a relubrication period seen to repeat) and the measurement that tells it
+from a step in K (``Effect.consistency_separation``). The alternative forms here are forms for the check, not
+library effects (but the registry's step in K, RATE_STEP):
 
-- ``lubrication_interval``: its period must be observed, i.e. relubrications recorded in the bag, or a fitted
-  interval T with at least ``MIN_LUBRICATION_CYCLES`` cycles inside the fit span (a sawtooth that does not
-  repeat is no evidence of a period); the smooth trend below is its alternative too.
-- ``wear_rate_change`` (a step in K) against
   (a) a smooth trend in K with clock time: m = 1 + a (t - t_first) / (t_last - t_first),
   (b) K growing with the worn volume: m = 1 + a W(t) / W_total, W the Archard work done before the cell,
   (c) a gauge whose zero drifts with clock time: y += d (t - t_first), no wear change. Idle periods tell
       (c) from wear: the gauge drifts while the machine stands, wear needs motion.
-- ``running_in`` (a rate decaying with sliding distance) against a step in K (``wear_rate_change``);
-- every named effect also against (c) in place of all the named effects (a drift that re-weights the jobs'
-  work can look like a material or duty effect on a duty that varies job by job).
+
+Every named effect is also checked against (c) in place of all the named effects (a drift that re-weights the
+jobs' work can look like a material or duty effect on a duty that varies job by job).
 
 Each alternative replaces the named effect in the final model (the other named effects kept), is refitted on
 the same fit span and compared by BIC (both have the same measurements): dBIC = BIC_alt - BIC_named.
@@ -30,11 +30,10 @@ import numpy as np
 
 from guide_health.analysis.discrepancy.model import FitResult, WearProblem
 from guide_health.models.wear.effects.base import FitParameter
+from guide_health.models.wear.effects.registry import BY_ID, CONSISTENCY_ALTERNATIVES, RATE_STEP
 
 #: |BIC_alternative - BIC_named| at or below this is a tie (Kass & Raftery 1995: 6..10 "strong")
 AMBIGUOUS_BIC = 6.0
-#: a fitted relubrication interval needs this many cycles in the fit span to be a period the record shows
-MIN_LUBRICATION_CYCLES = 2.0
 #: the idle period a separating straightness check should span [h] (at least this, or twice the longest idle
 #: stretch of the record)
 SEPARATING_IDLE_H = 10.0
@@ -44,7 +43,7 @@ ALTERNATIVES = {
     "k_trend_in_time": "the wear coefficient changing smoothly with clock time (a linear ramp, no step)",
     "k_growth_with_wear": "the wear coefficient growing with the worn volume (debris: wear accelerating smoothly)",
     "gauge_drift_in_time": "the gauge zero drifting with clock time (no change in wear)",
-    "wear_rate_change": "a step in the wear coefficient at one time",
+    RATE_STEP.id: "a step in the wear coefficient at one time",
 }
 _ALT_SPECS = {
     "k_trend_in_time": [FitParameter("k_trend_per_record", "-", -0.9, 20.0, False, (0.5, 2.0))],
@@ -55,14 +54,8 @@ _ALT_SPECS = {
 
 def checked_against(effect: str) -> tuple[str, ...] | None:
     """The alternative forms an effect is checked against (None: it has no check of its own beyond the
-    selection): the forms whose signature in a record can look like the effect's."""
-    if effect == "wear_rate_change":
-        return "k_trend_in_time", "k_growth_with_wear", "gauge_drift_in_time"
-    if effect == "running_in":
-        return ("wear_rate_change",)
-    if effect == "lubrication_interval":
-        return "k_trend_in_time", "k_growth_with_wear"
-    return None
+    selection): the forms whose signature in a record can look like the effect's (its module says)."""
+    return CONSISTENCY_ALTERNATIVES.get(effect)
 
 
 class CheckProblem(WearProblem):
@@ -128,25 +121,14 @@ def separating_measurement(named: str, alternative: str, fit: FitResult, problem
         return ("a longer record at a steady duty separates a step from a smooth trend: after a step the wear "
                 "rate stays constant, under a trend it keeps changing; a logged event (wiper, lubricant) dates a "
                 "step")
-    if named == "running_in":
-        return ("a record from a new or reground surface separates running-in (the rate decays over the first "
-                "sliding distance, at every reset) from a step in K at one clock time")
-    return "a longer record at a steady duty"
+    return BY_ID[named].consistency_separation or "a longer record at a steady duty"
 
 
-def lubrication_period_check(problem: WearProblem, fit: FitResult) -> dict[str, Any]:
-    """lubrication_interval's own physics: recorded relubrications, or a fitted period seen to repeat."""
-    if problem.relubrication_t_s is not None:
-        return {"passed": True, "reason": f"{problem.relubrication_t_s.size} relubrications recorded"}
-    t_fit_h = float(problem.t_s[problem.fit_mask][-1] - problem.t_s[0]) / 3600.0
-    period_h = fit.values["lubrication_interval_s"] / 3600.0
-    cycles = t_fit_h / period_h if period_h > 0 else 0.0
-    passed = cycles >= MIN_LUBRICATION_CYCLES
-    return {"passed": bool(passed), "interval_h": period_h, "fit_span_h": t_fit_h, "cycles_in_fit_span": cycles,
-            "reason": (f"no relubrication recorded; the fitted interval {period_h:.1f} h repeats {cycles:.1f} times "
-                       f"in the {t_fit_h:.1f} h fit span" + ("" if passed else
-                                                             f" (fewer than {MIN_LUBRICATION_CYCLES:g}: no period "
-                                                             "the record shows)"))}
+def own_check(effect: str, problem: WearProblem, fit: FitResult) -> dict[str, Any]:
+    """The effect's check of its own physics against the record (its module's), {"passed": True} without one."""
+    relubrications = problem.relubrication_t_s.size if problem.relubrication_t_s is not None else None
+    fit_span_s = float(problem.t_s[problem.fit_mask][-1] - problem.t_s[0])
+    return BY_ID[effect].own_consistency_check(relubrications, fit_span_s, fit.values)
 
 
 def _status(rows: list[dict], own_check_passed: bool) -> str:
@@ -176,7 +158,7 @@ def check_named_effects(problem: WearProblem, final: FitResult, named: list[str]
     out: dict[str, dict[str, Any]] = {}
     for effect in named:
         forms = [a for a in checked_against(effect) or () if a not in named]
-        own = lubrication_period_check(problem, final) if effect == "lubrication_interval" else {"passed": True}
+        own = own_check(effect, problem, final)
         rest = tuple(e for e in named if e != effect)
         rows = [_alternative(alt_problem, rest, form, final, [effect]) for form in forms]
         if not (rest == () and "gauge_drift_in_time" in forms):

@@ -45,15 +45,20 @@ UM = 1e6
 MICRO_UNITS = ("m", "m/K")       # fitted in um and um/K
 
 
-def _effect_specs(problem: WearProblem) -> dict[str, list[ParamSpec]]:
-    """Each candidate's fitted parameters (bounds and starts from the effect's module, for this record)."""
-    context = FitContext(
+def fit_context(problem: WearProblem) -> FitContext:
+    """What the effects' fit bounds, starts and plausible sizes depend on, for this record."""
+    return FitContext(
         total_distance_m=problem.cells.total_distance_m, feed_speed_m_s=problem.feed_speed_m_s,
         fit_end_s=float(problem.t_s[problem.fit_mask][-1]),
         position_spread_m=(float(np.max(np.abs(problem.cells.position_m - problem.position_ref_m)))
                            if problem.cells.cells else 0.0),
         relubrication_gap_s=problem.relubrication_gap_s if problem.relubrication_t_s is not None else None,
         a0_free=problem.a0_free)
+
+
+def _effect_specs(problem: WearProblem) -> dict[str, list[ParamSpec]]:
+    """Each candidate's fitted parameters (bounds and starts from the effect's module, for this record)."""
+    context = fit_context(problem)
     return {effect: fit(context) for effect, fit in FIT_PARAMETERS.items()}
 
 

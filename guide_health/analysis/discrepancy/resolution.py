@@ -31,9 +31,9 @@ from typing import Any
 import numpy as np
 
 from guide_health.analysis.discrepancy.analysis import noise_sd_von_neumann
-from guide_health.analysis.discrepancy.model import FitResult, WearProblem
+from guide_health.analysis.discrepancy.model import FitResult, WearProblem, fit_context
 from guide_health.analysis.rejections import REJECTED_SHARE_LEAD, rejection_summary, wear_input_share
-from guide_health.models.wear.effects import LUBRICATION_SPEED_EXPONENT
+from guide_health.models.wear.effects.registry import BY_ID
 
 #: detectable = this many sd of the effect's size estimate (3: a 0.3 % two-sided false-detection rate)
 DETECTABLE_SD = 3.0
@@ -49,36 +49,9 @@ Z95 = 1.959964
 
 def plausible_effect(effect: str, problem: WearProblem) -> tuple[dict[str, float], str, float] | None:
     """(the effect's parameters at its plausible size, what the size is, the size) for ``effect`` on this
-    record: the strong end of the documented ranges (docs/discrepancy.md). None: an effect without one."""
-    fit_end = float(problem.t_s[problem.fit_mask][-1])
-    if effect == "running_in":
-        return {"running_in_ratio": 3.0, "running_in_distance_m": 500.0}, "r (s0 = 500 m)", 3.0
-    if effect == "retract_asymmetry":
-        return {"retract_wear_factor": 0.0}, "1 - rho", 1.0
-    if effect == "speed_dependent_wear":
-        lam2 = (problem.feed_speed_m_s / 0.02) ** (2.0 * LUBRICATION_SPEED_EXPONENT)
-        return {"lift_speed_m_s": 0.02}, "lambda^2 at the feed speed", lam2
-    if effect == "load_exponent":
-        return {"load_exponent": 2.0}, "n - 1", 1.0
-    if effect == "stroke_distribution":
-        return {"stroke_distribution_weight": 1.0}, "w", 1.0
-    if effect == "thermal_drift":
-        return {"thermal_drift_m_per_k": 1.5e-6}, "c_T [um/K]", 1.5
-    if effect == "initial_offset":
-        return {"initial_offset_m": 6e-6}, "delta [um]", 6.0
-    if effect == "wear_rate_change":
-        return ({"wear_rate_change_time_s": 0.5 * fit_end, "wear_rate_change_factor": 2.5},
-                "f - 1 (t_c mid-span)", 1.5)
-    if effect == "lubrication_interval":
-        if problem.relubrication_t_s is not None:
-            return {"lubrication_wear_growth_per_s": 0.3 / 3600.0}, "b [1/h]", 0.3
-        return ({"lubrication_interval_s": min(8.0 * 3600.0, 0.5 * fit_end), "lubrication_wear_growth": 2.0},
-                "a (T = 8 h or half the fit span)", 2.0)
-    if effect == "load_along_rail":
-        spread = float(np.max(np.abs(problem.cells.position_m - problem.position_ref_m)))
-        g = min(3.0, 0.9 / max(spread, 1e-3))
-        return {"load_gradient_per_m": g}, "g [1/m]", g
-    return None
+    record: the strong end of the documented ranges (docs/discrepancy.md), its module's. None: an effect
+    without one."""
+    return BY_ID[effect].plausible_strong_size(fit_context(problem))
 
 
 def _project_out(columns: np.ndarray, d: np.ndarray) -> np.ndarray:

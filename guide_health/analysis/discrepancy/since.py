@@ -7,9 +7,11 @@ from ``WINDOW_MEASUREMENTS`` measurements before DATE to the end (at least ``MIN
 it), and for each c the record is explained by the plain model (seed 000 Eq. 11, y_j = A0 + K g_j, g_j the
 straightness per unit K at measurement j, A0 fixed when the parameters give it) with, from c on,
 
-* ``none``:             nothing changed;
-* ``initial_offset``:   y_j + delta (a gauge or set-up offset: the registry's A0-type term), K unchanged;
-* ``wear_rate_change``: K' after the anchor a = c - 1, y_j = A0 + K g_a + K' (g_j - g_a) (f = K' / K);
+* ``none``: nothing changed;
+* an offset (the registry's INITIAL_TERM, its id the change's name): y_j + delta (a gauge or set-up offset),
+  K unchanged;
+* a new wear rate (the registry's RATE_STEP): K' after the anchor a = c - 1, y_j = A0 + K g_a + K' (g_j - g_a)
+  (f = K' / K, reported under RATE_STEP's rate parameter);
 * both.
 
 All four are linear given c (ordinary least squares, the noise sd from the residuals); the one with the lowest
@@ -35,12 +37,18 @@ import yaml
 
 from guide_health.analysis.discrepancy.model import WearProblem
 from guide_health.io.outputs.files import write_text
+from guide_health.models.wear.effects.registry import INITIAL_TERM, RATE_STEP
 from guide_health.models.wear.fit_watch import WINDOW_MEASUREMENTS, utc_text
 from guide_health.params import validate_wear_params
 
 #: measurements after the change point at least (two to fit K' or delta and one to judge it)
 MIN_AFTER = 3
-CHANGES = ("none", "initial_offset", "wear_rate_change", "initial_offset+wear_rate_change")
+#: the changes told apart: none, an offset, a new wear rate, both (named by the registry's effect ids)
+OFFSET, NEW_RATE = INITIAL_TERM.id, RATE_STEP.id
+CHANGES = ("none", OFFSET, NEW_RATE, f"{OFFSET}+{NEW_RATE}")
+#: the fitted offset delta [m] and the reported wear-rate factor f = K'/K (the effects' own parameter names)
+OFFSET_M = INITIAL_TERM.simulate.name
+RATE_FACTOR = RATE_STEP.rate_row
 
 
 def loss_per_k_m(problem) -> np.ndarray:
@@ -58,16 +66,16 @@ def _design(g: np.ndarray, c: int, change: str, a0_free: bool) -> tuple[np.ndarr
     if a0_free:
         cols.append(np.ones(n))
         names.append("straightness_initial_m")
-    if "wear_rate_change" in change:
+    if NEW_RATE in change:
         g_a = g[c - 1]
         cols += [np.where(after, g_a, g), np.where(after, g - g_a, 0.0)]
         names += ["wear_coefficient", "wear_coefficient_after"]
     else:
         cols.append(g)
         names.append("wear_coefficient")
-    if "initial_offset" in change:
+    if OFFSET in change:
         cols.append(after.astype(float))
-        names.append("initial_offset_m")
+        names.append(OFFSET_M)
     return np.column_stack(cols), names
 
 
@@ -174,21 +182,21 @@ def _named_change(best: dict, t: np.ndarray, t0_ns: int) -> dict[str, Any]:
                            "after_h": float(t[c - 1] / 3600.0), "before_h": float(t[c] / 3600.0),
                            "anchor_utc": utc_text(int(t0_ns + t[c - 1] * 1e9))}
     words = []
-    if "wear_rate_change" in change:
+    if NEW_RATE in change:
         k, k2 = v["wear_coefficient"], v["wear_coefficient_after"]
         i, j = best["names"].index("wear_coefficient"), best["names"].index("wear_coefficient_after")
         cov = best["cov"]
         # f = K'/K, var by the delta method: (1/K)^2 var K' + (K'/K^2)^2 var K - 2 K'/K^3 cov
         var_f = cov[j, j] / k ** 2 + (k2 / k ** 2) ** 2 * cov[i, i] - 2 * k2 / k ** 3 * cov[i, j]
         out.update(wear_coefficient_before=k, wear_coefficient_after=k2,
-                   wear_coefficient_after_sd=math.sqrt(max(cov[j, j], 0.0)), wear_rate_change_factor=k2 / k,
-                   wear_rate_change_factor_sd=math.sqrt(max(var_f, 0.0)))
+                   wear_coefficient_after_sd=math.sqrt(max(cov[j, j], 0.0)), **{
+                       RATE_FACTOR: k2 / k, f"{RATE_FACTOR}_sd": math.sqrt(max(var_f, 0.0))})
         words.append(f"the wear rate changed: K x{k2 / k:.2f} ± {math.sqrt(max(var_f, 0.0)):.2f} "
                      f"(K' = {k2:.3g} ± {math.sqrt(max(cov[j, j], 0.0)):.2g})")
-    if "initial_offset" in change:
-        out.update(offset_um=v["initial_offset_m"] * 1e6, offset_sd_um=_sd(best, "initial_offset_m") * 1e6)
-        words.append(f"the measurements read {v['initial_offset_m'] * 1e6:+.2f} ± "
-                     f"{_sd(best, 'initial_offset_m') * 1e6:.2f} um more (an offset: gauge or set-up)")
+    if OFFSET in change:
+        out.update(offset_um=v[OFFSET_M] * 1e6, offset_sd_um=_sd(best, OFFSET_M) * 1e6)
+        words.append(f"the measurements read {v[OFFSET_M] * 1e6:+.2f} ± "
+                     f"{_sd(best, OFFSET_M) * 1e6:.2f} um more (an offset: gauge or set-up)")
     out["message"] = (" and ".join(words) + f" between {out['after_h']:.2f} h and {out['before_h']:.2f} h "
                       f"(after the measurement of {out['anchor_utc']})")
     return out
@@ -204,11 +212,11 @@ def _model_after(best: dict, g: np.ndarray, t: np.ndarray, t0_ns: int, a0_given:
     k = v["wear_coefficient"]
     model: dict[str, Any] = {
         "wear_coefficient": float(v.get("wear_coefficient_after", k)),
-        "straightness_initial_m": float(max(a0 + k * g[a] + v.get("initial_offset_m", 0.0), 0.0)),
+        "straightness_initial_m": float(max(a0 + k * g[a] + v.get(OFFSET_M, 0.0), 0.0)),
         "effects": "",
         "model_from_stamp_s": float(t0_ns * 1e-9 + t[a]),
     }
-    if "wear_rate_change" not in best["change"]:
+    if NEW_RATE not in best["change"]:
         # K is the baseline's: the measurements before the anchor are folded into its prior
         k_base, sd = base["values"]["wear_coefficient"], _sd(base, "wear_coefficient")
         if k_base > 0 and sd > 0:

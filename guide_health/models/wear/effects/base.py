@@ -62,6 +62,10 @@ class LiveRequirement:
         return value > 0 if self.condition == "> 0" else value != 0.0
 
 
+#: the token of ``Effect.consistency_alternatives`` for the registry's step in the wear coefficient (RATE_STEP)
+RATE_STEP_FORM = "rate_step"
+
+
 @dataclass(frozen=True)
 class Effect:
     """One entry of the registry (models/wear/effects/registry.py).
@@ -99,6 +103,25 @@ class Effect:
     fields: tuple[tuple[str, Any, str], ...] = ()
     #: its ``guide_health_simulation`` parameters (params/simulation.py; the simulator's truth beyond the value)
     simulation: tuple[EffectParameter, ...] = ()
+    #: the alternative forms the consistency check fits in its place (analysis/discrepancy/consistency.py: forms
+    #: whose signature in a record can look like it; ``RATE_STEP_FORM``: the registry's step in K); None: no check
+    #: of its own beyond the selection
+    consistency_alternatives: tuple[str, ...] | None = None
+    #: the measurement that tells it from the registry's step in K (the consistency report's words)
+    consistency_separation: str = ""
+
+    def plausible_strong_size(self, c: FitContext) -> tuple[dict[str, float], str, float] | None:
+        """(its parameters at the strong end of its documented range on a record ``c``, what the size is, the
+        size) for the detectable-size test (analysis/discrepancy/resolution.py; docs/discrepancy.md). None:
+        none documented."""
+        return None
+
+    def own_consistency_check(self, relubrications: int | None, fit_span_s: float,
+                              values: dict[str, float]) -> dict[str, Any]:
+        """The check of its own physics against a record (``relubrications``: the number recorded, None: none;
+        ``fit_span_s``: the fit span from the first measurement; ``values``: the final fit's): {"passed": bool,
+        "reason": words, ...}; {"passed": True} without one."""
+        return {"passed": True}
 
     def live_values(self, p: dict[str, Any], named: bool) -> dict[str, Any]:
         """Its EffectParameters fields from the values of its own wear_monitor parameters ``p`` (``named``: the

@@ -14,6 +14,9 @@ from guide_health.models.wear.effects.base import (
 class InitialOffset(Effect):
     """A measurement term: the initial straightness is A0 + delta."""
 
+    def plausible_strong_size(self, c):
+        return {"initial_offset_m": 6e-6}, "delta [um]", 6.0
+
     def reading_offset_m(self, e) -> float:
         return e.initial_offset_m
 

@@ -18,6 +18,10 @@ from guide_health.models.wear.effects.base import (
 class LoadAlongRail(Effect):
     """A duty factor of where the work is done."""
 
+    def plausible_strong_size(self, c):
+        g = min(3.0, 0.9 / max(c.position_spread_m, 1e-3))
+        return {"load_gradient_per_m": g}, "g [1/m]", g
+
     def live_values(self, p, named):
         return {"load_gradient_per_m": float(p["load_gradient_per_m"]) if named else 0.0,
                 "load_reference_position_m": float(p["load_reference_position_m"])}

@@ -20,6 +20,9 @@ from guide_health.models.wear.effects.base import (
 class LoadExponent(Effect):
     """A material factor: (W / W_ref)^(n - 1)."""
 
+    def plausible_strong_size(self, c):
+        return {"load_exponent": 2.0}, "n - 1", 1.0
+
     def live_values(self, p, named):
         return {"load_exponent": float(p["load_exponent"]) if named else 1.0,
                 "load_reference_n": float(p["load_reference_n"])}

@@ -19,9 +19,33 @@ from guide_health.models.wear.effects.base import (
     SimulateValue,
 )
 
+#: a fitted relubrication interval needs this many cycles in the fit span to be a period the record shows
+MIN_LUBRICATION_CYCLES = 2.0
+
 
 class LubricationInterval(Effect):
     """A duty factor of the time since relubrication, and the relubrication schedule of the life forecast."""
+
+    def plausible_strong_size(self, c):
+        if c.relubrication_gap_s is not None:
+            return {"lubrication_wear_growth_per_s": 0.3 / 3600.0}, "b [1/h]", 0.3
+        return ({"lubrication_interval_s": min(8.0 * 3600.0, 0.5 * c.fit_end_s), "lubrication_wear_growth": 2.0},
+                "a (T = 8 h or half the fit span)", 2.0)
+
+    def own_consistency_check(self, relubrications, fit_span_s, values):
+        """Its period must be observed: relubrications recorded, or the fitted interval repeating at least
+        ``MIN_LUBRICATION_CYCLES`` times in the fit span (a sawtooth that does not repeat is no evidence)."""
+        if relubrications is not None:
+            return {"passed": True, "reason": f"{relubrications} relubrications recorded"}
+        t_fit_h = fit_span_s / 3600.0
+        period_h = values["lubrication_interval_s"] / 3600.0
+        cycles = t_fit_h / period_h if period_h > 0 else 0.0
+        passed = cycles >= MIN_LUBRICATION_CYCLES
+        return {"passed": bool(passed), "interval_h": period_h, "fit_span_h": t_fit_h, "cycles_in_fit_span": cycles,
+                "reason": (f"no relubrication recorded; the fitted interval {period_h:.1f} h repeats {cycles:.1f} "
+                           f"times in the {t_fit_h:.1f} h fit span" + ("" if passed else
+                                                                    f" (fewer than {MIN_LUBRICATION_CYCLES:g}: no "
+                                                                    "period the record shows)"))}
 
     def live_values(self, p, named):
         return {"lubrication_wear_growth": float(p["lubrication_wear_growth"]) if named else 0.0,
@@ -109,6 +133,8 @@ EFFECT = LubricationInterval(
             ("lubrication_reference_stamp_s", 0.0, "live t_ref"),
             ("lubrication_forecast_interval_s", 0.0, "live, recorded form: the future relubrications' interval"),
             ("relubrication_t_s", (), "offline: recorded relubrications [s from the start]")),
+    # a growth after each relubrication against a smooth trend in time or K growing with the worn volume
+    consistency_alternatives=("k_trend_in_time", "k_growth_with_wear"),
 )
 
 

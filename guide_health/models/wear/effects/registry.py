@@ -25,7 +25,7 @@ from guide_health.models.wear.effects import (
     thermal_drift,
     wear_rate_change,
 )
-from guide_health.models.wear.effects.base import CovarianceRow, Effect, EffectParameter
+from guide_health.models.wear.effects.base import RATE_STEP_FORM, CovarianceRow, Effect, EffectParameter
 
 #: the catalogue, in the order simulate and diagnose list (and diagnose tries) the effects: the wear-rate and
 #: measurement terms first, then the duty effects
@@ -39,6 +39,7 @@ PASS_WEIGHTING = stroke_distribution.EFFECT    # the weight of the pass work in 
 GAUGE_TEMPERATURE = thermal_drift.EFFECT       # the straightness gauge's temperature term
 INITIAL_TERM = initial_offset.EFFECT           # the initial straightness's offset from the parameters' A0
 RELUBRICATION = lubrication_interval.EFFECT    # the duty factor that follows the relubrications
+RATE_STEP = wear_rate_change.EFFECT            # K steps by a factor at one time (diagnose --since's new wear rate)
 #: the material factors of the wear rate, in the order their product is taken (the last bit depends on it)
 MATERIAL_FACTORS = (speed_dependent_wear.EFFECT, load_exponent.EFFECT, retract_asymmetry.EFFECT)
 #: the duty factors, in the order their product is taken
@@ -70,6 +71,10 @@ COVARIANCE_ALIASES = {fitted: row for e in EFFECTS for fitted, row in e.fitted_a
 #: the wear_monitor parameters the effects own, in catalogue order
 LIVE_PARAMETERS: tuple[EffectParameter, ...] = tuple(p for e in EFFECTS for p in e.parameters)
 PARAMETER_OWNER = {p.name: e.id for e in EFFECTS for p in e.parameters}
+#: the alternative forms each effect with a consistency check of its own is checked against (the step in K's id
+#: for RATE_STEP_FORM), analysis/discrepancy/consistency.py
+CONSISTENCY_ALTERNATIVES = {e.id: tuple(RATE_STEP.id if a == RATE_STEP_FORM else a for a in e.consistency_alternatives)
+                            for e in EFFECTS if e.consistency_alternatives is not None}
 
 #: the rows of the baseline model: K first, A0 (when the fit freed it, or initial_offset's delta) last
 BASELINE_ROWS = (CovarianceRow("wear_coefficient", 0, 1), CovarianceRow("straightness_initial_m", 12, 5))

@@ -18,6 +18,9 @@ from guide_health.models.wear.effects.base import (
 class RetractAsymmetry(Effect):
     """A material factor: rho on retract segments (none at rho = 1)."""
 
+    def plausible_strong_size(self, c):
+        return {"retract_wear_factor": 0.0}, "1 - rho", 1.0
+
     def live_values(self, p, named):
         return {"retract_wear_factor": float(p["retract_wear_factor"]) if named else 1.0,
                 "retract_sign": 1 if p["retract_direction"] == "+x" else -1}

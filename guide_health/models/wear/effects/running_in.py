@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from guide_health.models.wear.effects.base import (
+    RATE_STEP_FORM,
     CovarianceRow,
     Effect,
     EffectParameter,
@@ -17,6 +18,9 @@ from guide_health.models.wear.effects.base import (
 
 class RunningInEffect(Effect):
     """K decaying over the sliding distance on the present surface."""
+
+    def plausible_strong_size(self, c):
+        return {"running_in_ratio": 3.0, "running_in_distance_m": 500.0}, "r (s0 = 500 m)", 3.0
 
     def live_values(self, p, named):
         return {"running_in_ratio": float(p["running_in_ratio"]) if named else 0.0,
@@ -56,6 +60,9 @@ EFFECT = RunningInEffect(
     simulation=(EffectParameter("running_in_distance_m", 100.0, "m", "(0, inf)",
                                 "s0 of the running_in effect (models/wear/effects/)"),),
     fields=(("running_in_ratio", 0.0, "r: K(s=0) = (1 + r) K"), ("running_in_distance_m", None, "s0")),
+    consistency_alternatives=(RATE_STEP_FORM,),      # a decay over the first metres looks like a step in K
+    consistency_separation="a record from a new or reground surface separates running-in (the rate decays over "
+                           "the first sliding distance, at every reset) from a step in K at one clock time",
 )
 
 

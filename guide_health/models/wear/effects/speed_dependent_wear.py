@@ -24,6 +24,10 @@ LUBRICATION_SPEED_EXPONENT = 0.7     # lambda ~ v^0.7 (Hamrock-Dowson film thick
 class SpeedDependentWear(Effect):
     """A material factor: the asperity share of the load."""
 
+    def plausible_strong_size(self, c):
+        lam2 = (c.feed_speed_m_s / 0.02) ** (2.0 * LUBRICATION_SPEED_EXPONENT)
+        return {"lift_speed_m_s": 0.02}, "lambda^2 at the feed speed", lam2
+
     def live_values(self, p, named):
         return {"lift_speed_m_s": (float(p["lift_speed_m_s"]) if named else math.inf) if p["lift_speed_m_s"] > 0
                 else math.inf}

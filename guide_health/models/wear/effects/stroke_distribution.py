@@ -21,6 +21,9 @@ from guide_health.models.wear.effects.base import (
 class StrokeDistribution(Effect):
     """The straightness term: the weight w of the pass work P against Eq. 7's work G."""
 
+    def plausible_strong_size(self, c):
+        return {"stroke_distribution_weight": 1.0}, "w", 1.0
+
     def live_values(self, p, named):
         return {"stroke_distribution_weight": float(p["stroke_distribution_weight"]) if named else 0.0}
 

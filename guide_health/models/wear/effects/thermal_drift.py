@@ -22,6 +22,9 @@ from guide_health.models.wear.effects.base import (
 class ThermalDrift(Effect):
     """The gauge's temperature term: each straightness reading is corrected by c_T (T - T_ref)."""
 
+    def plausible_strong_size(self, c):
+        return {"thermal_drift_m_per_k": 1.5e-6}, "c_T [um/K]", 1.5
+
     def live_values(self, p, named):
         return {"thermal_drift_m_per_k": float(p["thermal_drift_m_per_k"]) if named else 0.0,
                 "thermal_reference_c": float(p["thermal_reference_c"])}

@@ -22,6 +22,10 @@ from guide_health.models.wear.effects.base import (
 class WearRateChange(Effect):
     """A duty factor of when the work is done."""
 
+    def plausible_strong_size(self, c):
+        return ({"wear_rate_change_time_s": 0.5 * c.fit_end_s, "wear_rate_change_factor": 2.5},
+                "f - 1 (t_c mid-span)", 1.5)
+
     def live_values(self, p, named):
         return {"wear_rate_change_factor": float(p["wear_rate_change_factor"]) if named else 1.0,
                 "wear_rate_change_time_s": float(p["wear_rate_change_stamp_s"]) if named else math.inf}
@@ -51,6 +55,8 @@ EFFECT = WearRateChange(
     simulation=(EffectParameter("wear_rate_change_h", 10.0, "h", "[0, inf)",
                                 "t_c of the wear_rate_change effect, from the start"),),
     fields=(("wear_rate_change_factor", 1.0, "f"), ("wear_rate_change_time_s", math.inf, "t_c")),
+    # a step in K against a smooth trend in time, K growing with the worn volume, a gauge drifting in time
+    consistency_alternatives=("k_trend_in_time", "k_growth_with_wear", "gauge_drift_in_time"),
 )
 
 
