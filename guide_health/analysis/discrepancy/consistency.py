@@ -75,6 +75,12 @@ class CheckProblem(WearProblem):
         before = np.concatenate(([0.0], np.cumsum(per_interval)))[k] + 0.5 * per_interval[k]
         self.work_share_before = before / max(float(per_interval.sum()), 1e-300)
 
+    def fit_span(self) -> WearProblem:
+        """The fit span's problem (WearProblem.fit_span) with the work shares of its cells only."""
+        span = super().fit_span()
+        span.work_share_before = self.work_share_before[:span.retract.size]
+        return span
+
     def _internal_factor(self, spec: FitParameter) -> float:
         if spec.name == "gauge_drift_m_per_s":
             return 1e-6 / 3600.0                # um per hour inside the fit
