@@ -180,3 +180,32 @@ def test_simulate_values_set_the_parameter_type_s_fields():
         assert getattr(e, field) == 0.5, effect.id
         base = getattr(EffectParameters(), field)
         assert base == value.no_effect or (math.isinf(value.no_effect) and math.isinf(base)), effect.id
+
+
+@pytest.mark.parametrize("relubrication_gap_s", [None, 7200.0])
+def test_each_candidate_s_plausible_size_sets_its_own_fitted_parameters(relubrication_gap_s):
+    """The detectable-size test (analysis/discrepancy/resolution.py) adds each candidate at the plausible size its
+    module gives: values of parameters its fit frees on that record (a term's offset may stay free), and a
+    positive size."""
+    from guide_health.models.wear.effects.base import FitContext
+
+    c = FitContext(total_distance_m=2000.0, feed_speed_m_s=0.05, fit_end_s=20 * 3600.0, position_spread_m=0.3,
+                   relubrication_gap_s=relubrication_gap_s, a0_free=False)
+    for e in registry.EFFECTS:
+        values, size_name, size = e.plausible_strong_size(c)
+        assert values and set(values) <= {p.name for p in registry.FIT_PARAMETERS[e.id](c)}, e.id
+        assert size_name and size > 0, e.id
+
+
+def test_consistency_forms_and_the_since_changes_are_the_registry_s():
+    """Every alternative form an effect names is a form the consistency check fits; --since's two changes are
+    the roles' ids and the reported factor is the rate step's rate row."""
+    from guide_health.analysis.discrepancy import consistency, since
+
+    assert registry.CONSISTENCY_ALTERNATIVES
+    for effect, forms in registry.CONSISTENCY_ALTERNATIVES.items():
+        assert forms and set(forms) <= set(consistency.ALTERNATIVES), effect
+        assert effect not in forms
+    assert since.CHANGES[1:3] == (registry.INITIAL_TERM.id, registry.RATE_STEP.id)
+    assert since.RATE_FACTOR in registry.COVARIANCE_NAMES
+    assert registry.RATE_STEP.duty and registry.RATE_STEP.rate_row == since.RATE_FACTOR
