@@ -153,9 +153,11 @@ def analyse_slewing_bag(bag: Path, params: dict, namespace: str | None = None, p
     """Every load of a slewing bag through the slewing monitor core. Returns the run, the report (the
     worst roller of the run), the highest roller pressure of each sample [MPa] and timings {read_s, model_s}."""
     from guide_health.analysis.slewing_replay import analyse_slewing_run
+    from guide_health.params.typed import slewing_monitor_params
 
+    axis = slewing_monitor_params(params)      # the slewing axis's topic and joint, as the node subscribes
     t0 = time.perf_counter()
-    run = read_slewing_bag(bag, namespace=namespace)
+    run = read_slewing_bag(bag, namespace=namespace, axis_topic=axis.axis_topic, axis_joint=axis.axis_joint)
     t_read = time.perf_counter() - t0
     _, report = analyse_slewing_run(run, params, progress=progress)
     series = report.pop("series")
