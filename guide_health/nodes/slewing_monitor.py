@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import sys
+import time
 
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
@@ -23,6 +24,7 @@ from guide_health.errors import InputError
 from guide_health.io.state_store import StateStore, resolve_state_path, resume_with
 from guide_health.models.slewing.monitor import SlewingMonitor, contact_level
 from guide_health.models.slewing.rating import ROWS
+from guide_health.models.slewing.stamp_merge import ANGLE, LOAD, StampMerge
 from guide_health.models.wear.input_rules import header_stamp_ns, joint_state_reason
 from guide_health.nodes.common import run_node
 from guide_health.nodes.live_params import PeriodicTimers, apply_slewing_changes
@@ -74,6 +76,8 @@ class SlewingMonitorNode(Node):
         self.sensors = SensorSubscriptions(self, p.sensor_qos, p.sensor_queue_depth, with_info=True)
         self.sensors.subscribe(WrenchStamped, "slewing/load", self._on_load)
         self.axis_joint = p.axis_joint
+        # loads and angles in stamp order, as the offline analysis takes them (models/slewing/stamp_merge.py)
+        self.merge = StampMerge(self._consume, p.input_align_window_s)
         self.create_subscription(JointState, p.axis_topic, self._on_axis, 100)
         self.periodic.create("diagnostics_period_s", p.diagnostics_period_s, self.publish_diagnostics)
         self.state_key = f"{p.machine_id}/{p.bearing}/slewing_fatigue"
@@ -106,13 +110,15 @@ class SlewingMonitorNode(Node):
         """The fatigue state in one transaction (a failed write is logged and retried at the next one)."""
         if self.store is None:
             return
+        self.merge.release(time.monotonic())
         try:
             self.store.save({self.state_key: self.core.fatigue.state()}, self.fingerprint)
         except InputError as exc:
             self.get_logger().error(str(exc), throttle_duration_sec=60.0)
 
     def close(self) -> None:
-        """The last checkpoint at shutdown; the state file's lock goes with it."""
+        """Every held sample, the last checkpoint at shutdown; the state file's lock goes with it."""
+        self.merge.flush()
         if self.store is not None:
             self.checkpoint()
             self.store.close()
@@ -125,9 +131,20 @@ class SlewingMonitorNode(Node):
     def _on_load(self, msg: WrenchStamped) -> None:
         self.updater.touch("slewing/load")
         stamp = header_stamp_ns(msg.header.stamp.sec, msg.header.stamp.nanosec)    # None: no gap estimate
-        reason = self.core.on_loads(*wrench_to_loads(msg), t_ns=stamp)
+        self.merge.add(LOAD, stamp, (wrench_to_loads(msg), stamp), time.monotonic())
+
+    def _consume(self, kind: int, item) -> None:
+        """A load or an angle released by the stamp merge, into the core."""
+        if kind == LOAD:
+            loads, stamp = item
+            reason = self.core.on_loads(*loads, t_ns=stamp)
+            if reason:
+                self.get_logger().warning(f"rejected load: {reason} ({self.core.rejected} so far)",
+                                          throttle_duration_sec=LOG_THROTTLE_S)
+            return
+        reason = self.core.on_axis_angle(*item)
         if reason:
-            self.get_logger().warning(f"rejected load: {reason} ({self.core.rejected} so far)",
+            self.get_logger().warning(f"rejected axis angle: {reason} ({self.core.rejected_angles} so far)",
                                       throttle_duration_sec=LOG_THROTTLE_S)
 
     def _on_axis(self, msg: JointState) -> None:
@@ -135,9 +152,9 @@ class SlewingMonitorNode(Node):
         reason, i = joint_state_reason(msg.name, len(msg.position), self.axis_joint)
         stamp = header_stamp_ns(msg.header.stamp.sec, msg.header.stamp.nanosec)
         if reason is None:
-            reason = self.core.on_axis_angle(float(msg.position[i]), stamp)
-        else:
-            self.core.reject_axis_angle()
+            self.merge.add(ANGLE, stamp, (float(msg.position[i]), stamp), time.monotonic())
+            return
+        self.core.reject_axis_angle()
         if reason:
             self.get_logger().warning(f"rejected axis angle: {reason} ({self.core.rejected_angles} so far)",
                                       throttle_duration_sec=LOG_THROTTLE_S)
@@ -157,6 +174,7 @@ class SlewingMonitorNode(Node):
                                         self.core.params.alarm_clear_margin))
 
     def publish_diagnostics(self) -> None:
+        self.merge.release(time.monotonic())         # what waited out the window for the other topic
         self.updater.update()
 
 
