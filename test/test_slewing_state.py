@@ -274,3 +274,34 @@ def test_live_through_a_bag_equals_replay_and_sigkill_restart_resumes(tmp_path, 
     assert f"state {tmp_path / 'state.db'} (resumed)" in log and "fatigue damage upper_axial" in log, log
     for key in DAMAGE_KEYS:
         assert float(resumed["values"][key]) == float(live[key]), key
+
+
+def test_stamp_merge_releases_both_topics_in_stamp_order_whatever_the_arrival_order():
+    """Random interleavings of two stamp-ordered streams (loads every 20, angles every 100 + 13 and one at a
+    load's stamp) come out in the replay's order: by stamp, a load before an angle of equal stamp; the tail
+    waits for the other topic's silence (window 0.5 s), then goes."""
+    from guide_health.models.slewing.stamp_merge import ANGLE, LOAD, StampMerge
+
+    loads = [(LOAD, 20 * k) for k in range(1, 60)]
+    angles = [(ANGLE, 100 * k + 13) for k in range(10)] + [(ANGLE, 1000)]
+    expected = sorted(loads + angles, key=lambda s: (s[1], s[0] == ANGLE))
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        out = []
+        merge = StampMerge(lambda kind, t, out=out: out.append((kind, t)), 0.5)
+        merge.add(ANGLE, 0, 0, 1.0)         # the first before the other topic is seen goes at once
+        merge.add(LOAD, 0, 0, 1.0)          # an angle at its stamp was seen: it goes
+        assert out == [(ANGLE, 0), (LOAD, 0)]
+        out.clear()
+        i = j = 0
+        while i < len(loads) or j < len(angles):
+            if j >= len(angles) or (i < len(loads) and rng.random() < 0.7):
+                merge.add(*loads[i], loads[i][1], 1.0)
+                i += 1
+            else:
+                merge.add(*angles[j], angles[j][1], 1.0)
+                j += 1
+        merge.release(1.4)
+        assert len(out) < len(expected)     # the tail waits for the other topic
+        merge.release(1.5)
+        assert out == expected
