@@ -200,11 +200,14 @@ def test_node_takes_the_axis_angle_and_publishes_damage_and_static_safety(ros_co
     """The node in-process: one load, the axis turned 2 revolutions on `axis_topic` -> damage 2 / L10 of the
     upper row with the default 55 HRC reduction; a JointState without the joint is counted, not used."""
     from geometry_msgs.msg import WrenchStamped
+    from rclpy.parameter import Parameter
     from sensor_msgs.msg import JointState
 
     from guide_health.nodes.slewing_monitor import SlewingMonitorNode
 
-    node = SlewingMonitorNode(context=ros_context)
+    # fed in stamp order here: on arrival (no wait for a load stamped after the last angle)
+    node = SlewingMonitorNode(context=ros_context,
+                              parameter_overrides=[Parameter("input_align_window_s", value=0.0)])
     published = []
     node.diag_pub.publish = published.append
     try:

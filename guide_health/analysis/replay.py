@@ -21,7 +21,7 @@ from guide_health.io.outputs.json_text import json_text
 from guide_health.models.wear.axis import AxisMonitor, split_run
 from guide_health.models.wear.model_load import load_model
 from guide_health.models.wear.precision import PrecisionMonitor
-from guide_health.params.typed import wear_axis_params
+from guide_health.params.typed import slewing_monitor_params, wear_axis_params
 
 
 def monitor_report(monitor: PrecisionMonitor) -> dict:
@@ -154,8 +154,9 @@ def analyse_slewing_bag(bag: Path, params: dict, namespace: str | None = None, p
     worst roller of the run), the highest roller pressure of each sample [MPa] and timings {read_s, model_s}."""
     from guide_health.analysis.slewing_replay import analyse_slewing_run
 
+    axis = slewing_monitor_params(params)      # the slewing axis's topic and joint, as the node subscribes
     t0 = time.perf_counter()
-    run = read_slewing_bag(bag, namespace=namespace)
+    run = read_slewing_bag(bag, namespace=namespace, axis_topic=axis.axis_topic, axis_joint=axis.axis_joint)
     t_read = time.perf_counter() - t0
     _, report = analyse_slewing_run(run, params, progress=progress)
     series = report.pop("series")

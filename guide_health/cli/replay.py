@@ -49,8 +49,8 @@ def add_arguments(parser) -> None:
 
 def is_slewing_bag(bag: Path) -> bool:
     topics = bag_topic_types(bag)
-    return (any(t.endswith("slewing/load") for t in topics)
-            and not any(t.endswith("joint_states") for t in topics))
+    return (any(t.endswith("slewing/load") for t in topics)      # the slewing axis is no machine joint
+            and not any(t.endswith("joint_states") and not t.endswith("slewing/joint_states") for t in topics))
 
 
 def report_dir(args, bag) -> Path:

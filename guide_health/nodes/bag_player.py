@@ -71,7 +71,8 @@ from guide_health.io.bag.storage import iter_raw_messages, open_storage
 DEFAULT_MAX_RATE = 3000.0       # msg/s a cross-process SingleThreadedExecutor subscriber keeps up with
 DEFAULT_BURST = 20              # messages a token-bucket burst may hold
 DEFAULT_DEPTH = 0               # data topics: 0 = keep_all (back-pressure from keep_all subscribers)
-_MACHINE_SUFFIXES = ("joint_states", "slewing/load")
+# slewing first: a slewing bag's axis topic (`<ns>/slewing/joint_states`) also ends in joint_states
+_MACHINE_SUFFIXES = ("slewing/load", "joint_states")
 DEFAULT_BARRIER_TYPES = ("std_msgs/msg/Float64",)
 DEFAULT_BARRIER_SPARSE = 0.01
 DEFAULT_CLOCK_HZ = 100.0        # /clock messages per second of bag time (--clock)

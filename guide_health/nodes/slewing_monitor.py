@@ -6,18 +6,25 @@ hypot(torque.x, torque.y) = M_T) and publishes `/diagnostics` (task `<bearing> r
 model (seed 003 Eq. 1, finite-roller end effect, McEwen field) is cached, so a message costs microseconds.
 The slewing axis angle (`axis_topic`, joint `axis_joint`, sensor_msgs/JointState) gives the angle travelled:
 the status adds the fatigue damage and remaining life per row and the static safety factor (docs/slewing.md).
+The damage per row and the angle-counting state are committed every `checkpoint_period_s` (and at shutdown)
+to the SQLite `state_file` (guide_health/io/state_store.py) and restored at start; a saved state that does not
+read back is refused in one line and the damage starts at zero.
 """
 from __future__ import annotations
 
 import math
 import sys
+import time
 
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
+from guide_health.errors import InputError
+from guide_health.io.state_store import StateStore, resolve_state_path, resume_with
 from guide_health.models.slewing.monitor import SlewingMonitor, contact_level
 from guide_health.models.slewing.rating import ROWS
+from guide_health.models.slewing.stamp_merge import ANGLE, LOAD, StampMerge
 from guide_health.models.wear.input_rules import header_stamp_ns, joint_state_reason
 from guide_health.nodes.common import run_node
 from guide_health.nodes.live_params import PeriodicTimers, apply_slewing_changes
@@ -42,6 +49,9 @@ EXTRA_KEYS = ("p_max_MPa", "p_max_position_mm", "shear_depth_mm", "von_mises_sub
                   ("static_capacity", "_n"))),
               "fatigue_governing_row", "static_safety_factor", "static_safety_row", "limiting_curve_safety",
               "oscillation_strokes", "oscillation_strokes_below_critical", "rejected_axis_angles")
+#: the parameters a saved damage belongs to: another bearing geometry (capacities) refuses the saved state
+FINGERPRINT_PARAMS = ("machine_id", "bearing", "roller_count", "radial_roller_count", "roller_diameter_m",
+                      "roller_length_m", "raceway_diameter_m", "raceway_hardness_hrc")
 LOG_THROTTLE_S = 5.0        # at most one rejected-load warning per period; it carries the running count
 
 
@@ -66,8 +76,53 @@ class SlewingMonitorNode(Node):
         self.sensors = SensorSubscriptions(self, p.sensor_qos, p.sensor_queue_depth, with_info=True)
         self.sensors.subscribe(WrenchStamped, "slewing/load", self._on_load)
         self.axis_joint = p.axis_joint
+        # loads and angles in stamp order, as the offline analysis takes them (models/slewing/stamp_merge.py)
+        self.merge = StampMerge(self._consume, p.input_align_window_s)
         self.create_subscription(JointState, p.axis_topic, self._on_axis, 100)
         self.periodic.create("diagnostics_period_s", p.diagnostics_period_s, self.publish_diagnostics)
+        self.state_key = f"{p.machine_id}/{p.bearing}/slewing_fatigue"
+        self.fingerprint = {name: getattr(p, name) for name in FINGERPRINT_PARAMS}
+        self.state_refused = 0          # saved states that did not read back (the damage started at zero)
+        self.state_path = resolve_state_path(p.state_file, p.machine_id, self.get_name())
+        self.store = StateStore(self.state_path) if self.state_path is not None else None
+        if self.store is not None:
+            self._resume()
+            self.periodic.create("checkpoint_period_s", p.checkpoint_period_s, self.checkpoint)
+
+    def _resume(self) -> None:
+        """The damage and angle-counting state saved under ``state_key``; one that does not read back (not
+        JSON, malformed, another bearing): one line, counted, the damage starts at zero."""
+        fatigue = self.core.fatigue
+        try:
+            resumed = resume_with(self.store, self.state_key, self.fingerprint, fatigue.restore)
+        except InputError as exc:
+            self.state_refused += 1
+            what = str(exc).splitlines()[0].rsplit("; ", 1)[0]      # the store's advice does not apply here
+            self.get_logger().warning(f"{what}: refused, the fatigue damage starts at zero (the next checkpoint "
+                                      "overwrites the saved state)")
+            return
+        if resumed:
+            damage = ", ".join(f"{row} {value:.6g}" for row, value in fatigue.row_damage().items())
+            self.get_logger().info(f"resumed from {self.state_path} ({self.state_key}): fatigue damage {damage}, "
+                                   f"{fatigue.strokes} strokes")
+
+    def checkpoint(self) -> None:
+        """The fatigue state in one transaction (a failed write is logged and retried at the next one)."""
+        if self.store is None:
+            return
+        self.merge.release(time.monotonic())
+        try:
+            self.store.save({self.state_key: self.core.fatigue.state()}, self.fingerprint)
+        except InputError as exc:
+            self.get_logger().error(str(exc), throttle_duration_sec=60.0)
+
+    def close(self) -> None:
+        """Every held sample, the last checkpoint at shutdown; the state file's lock goes with it."""
+        self.merge.flush()
+        if self.store is not None:
+            self.checkpoint()
+            self.store.close()
+            self.store = None
 
     def _apply_params(self, changed: dict) -> None:
         """An accepted ``ros2 param set`` (guide_health.nodes.live_params)."""
@@ -76,9 +131,20 @@ class SlewingMonitorNode(Node):
     def _on_load(self, msg: WrenchStamped) -> None:
         self.updater.touch("slewing/load")
         stamp = header_stamp_ns(msg.header.stamp.sec, msg.header.stamp.nanosec)    # None: no gap estimate
-        reason = self.core.on_loads(*wrench_to_loads(msg), t_ns=stamp)
+        self.merge.add(LOAD, stamp, (wrench_to_loads(msg), stamp), time.monotonic())
+
+    def _consume(self, kind: int, item) -> None:
+        """A load or an angle released by the stamp merge, into the core."""
+        if kind == LOAD:
+            loads, stamp = item
+            reason = self.core.on_loads(*loads, t_ns=stamp)
+            if reason:
+                self.get_logger().warning(f"rejected load: {reason} ({self.core.rejected} so far)",
+                                          throttle_duration_sec=LOG_THROTTLE_S)
+            return
+        reason = self.core.on_axis_angle(*item)
         if reason:
-            self.get_logger().warning(f"rejected load: {reason} ({self.core.rejected} so far)",
+            self.get_logger().warning(f"rejected axis angle: {reason} ({self.core.rejected_angles} so far)",
                                       throttle_duration_sec=LOG_THROTTLE_S)
 
     def _on_axis(self, msg: JointState) -> None:
@@ -86,9 +152,9 @@ class SlewingMonitorNode(Node):
         reason, i = joint_state_reason(msg.name, len(msg.position), self.axis_joint)
         stamp = header_stamp_ns(msg.header.stamp.sec, msg.header.stamp.nanosec)
         if reason is None:
-            reason = self.core.on_axis_angle(float(msg.position[i]), stamp)
-        else:
-            self.core.reject_axis_angle()
+            self.merge.add(ANGLE, stamp, (float(msg.position[i]), stamp), time.monotonic())
+            return
+        self.core.reject_axis_angle()
         if reason:
             self.get_logger().warning(f"rejected axis angle: {reason} ({self.core.rejected_angles} so far)",
                                       throttle_duration_sec=LOG_THROTTLE_S)
@@ -108,6 +174,7 @@ class SlewingMonitorNode(Node):
                                         self.core.params.alarm_clear_margin))
 
     def publish_diagnostics(self) -> None:
+        self.merge.release(time.monotonic())         # what waited out the window for the other topic
         self.updater.update()
 
 

@@ -56,12 +56,20 @@ SLEWING_MONITOR_PARAMS = (
           "a reversal of the axis counts once it came back this far (encoder noise is no oscillation)"),
     Param("diagnostics_period_s", 1.0, "s", "[0.01, 3600]", "period of the /diagnostics status", dynamic=True),
     Param("input_timeout_s", 2.0, "s", "(0, 86400]", "STALE when slewing/load is silent longer", dynamic=True),
+    Param("state_file", "auto", "", "",
+          "SQLite state file of the fatigue damage; auto = $ROS_HOME/guide_health/<machine_id>/<node>.db "
+          "(ROS_HOME: ~/.ros); '' or none = no persistence"),
+    Param("input_align_window_s", 0.5, "s", "[0, 60]",
+          "loads and axis angles are taken in stamp order; a sample waits up to this (wall time) for the other "
+          "topic; 0 = on arrival"),
+    Param("checkpoint_period_s", 10.0, "s", "[0.1, 86400]", "period of the SQLite state commit", dynamic=True),
     *alarm_and_sensor_qos_params("slewing/load"),
 )
 
 
 def _check_types(params: dict[str, Any]) -> None:
-    for name in ("machine_id", "bearing", "stress_model", "roller_profile", "axis_topic", "axis_joint"):
+    for name in ("machine_id", "bearing", "stress_model", "roller_profile", "axis_topic", "axis_joint",
+                 "state_file"):
         if not isinstance(params.get(name), str):
             raise InputError(f"parameter {name} must be a string, got {params.get(name)!r}")
     for name in ("roller_count", "radial_roller_count"):
@@ -75,7 +83,8 @@ def _check_types(params: dict[str, Any]) -> None:
     numbers = ("raceway_diameter_m", "roller_diameter_m", "roller_length_m", "youngs_modulus_pa", "poisson",
                "friction", "allowable_contact_stress_pa", "warn_fraction", "roller_end_radius_m",
                "crown_drop_m", "log_profile_coeff_m", "diagnostics_period_s", "input_timeout_s",
-               "raceway_hardness_hrc", "reversal_deadband_rad")
+               "raceway_hardness_hrc", "reversal_deadband_rad", "checkpoint_period_s",
+               "input_align_window_s")
     for name in numbers:
         value = params.get(name)
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):

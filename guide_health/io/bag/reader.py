@@ -21,7 +21,7 @@ import numpy as np
 from ...errors import InputError
 from ...runs import MachineRun, SlewingLoadRun
 from .cdr import WRENCH_NAMES, DecodedChunk, codec_for, decode_chunk, decode_packed
-from .interfaces import FLOAT64, MACHINE_TOPICS, NS_PER_S, SLEWING_TOPICS, topic_name
+from .interfaces import FLOAT64, JOINT_STATE, MACHINE_TOPICS, NS_PER_S, SLEWING_TOPICS, topic_name
 from .message_judge import MessageJudge
 from .metadata import check_no_missing_messages, count_mismatch_text, count_mismatches, read_run_metadata
 from .protocol import NOT_SUPPORTED, BagConnection, BagStorage, PackedBatch, RawBatch
@@ -435,13 +435,19 @@ def _report_counts(path, joint: str, namespace, counts: dict, stats: dict | None
 
 
 def read_slewing_bag(path, namespace: str | None = None, progress: ProgressFn | None = None,
-                     chunk_messages: int = 200_000, *, fast: bool = True,
-                     stats: dict | None = None) -> SlewingLoadRun:
+                     chunk_messages: int = 200_000, *, fast: bool = True, stats: dict | None = None,
+                     axis_topic: str = "slewing/joint_states", axis_joint: str = "slew") -> SlewingLoadRun:
     """Read `<ns>/slewing/load` into a SlewingLoadRun (axial = force.z, radial = hypot(force.x, force.y),
-    moment = hypot(torque.x, torque.y)); namespace None = auto-detected. Raises InputError on a bad bag."""
+    moment = hypot(torque.x, torque.y)) and the angle of joint `axis_joint` on `<ns>/<axis_topic>` (when
+    recorded; messages without the joint are skipped and counted); namespace None = auto-detected. Raises
+    InputError on a bad bag."""
     path = Path(path)
-    read = _read_topics(path, SLEWING_TOPICS, namespace, "slewing/load", "x", progress, chunk_messages, fast,
+    wanted = {**SLEWING_TOPICS, axis_topic: JOINT_STATE}
+    read = _read_topics(path, wanted, namespace, "slewing/load", axis_joint, progress, chunk_messages, fast,
                         stats)
+    axis = read.topics.get(topic_name(read.namespace, axis_topic), _empty_topic(("sec", "nsec", "position")))
+    if stats is not None:
+        stats[axis_topic] = axis.counts
     load = read.topics.get(topic_name(read.namespace, "slewing/load"),
                            _empty_topic(("sec", "nsec") + WRENCH_NAMES))
     values, counts = load.values, load.counts
@@ -453,5 +459,5 @@ def read_slewing_bag(path, namespace: str | None = None, progress: ProgressFn | 
     return SlewingLoadRun(
         t_ns=_stamps(values), axial_n=values["fz"],
         radial_n=np.hypot(values["fx"], values["fy"]), moment_nm=np.hypot(values["tx"], values["ty"]),
-        metadata=read_run_metadata(path),
+        metadata=read_run_metadata(path), axis_t_ns=_stamps(axis.values), axis_angle_rad=axis.values["position"],
     )

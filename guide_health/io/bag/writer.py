@@ -160,8 +160,14 @@ def _extra_series(extra: list | None, namespace: str) -> list[_TopicSeries]:
 
 
 def write_slewing_bag(run: SlewingLoadRun, path, storage: str = "sqlite3", namespace: str = "",
-                      progress: ProgressFn | None = None) -> Path:
-    """Write `<ns>/slewing/load` WrenchStamped: force.z = axial, force.x = radial, torque.x = moment."""
+                      progress: ProgressFn | None = None, axis_topic: str = "slewing/joint_states",
+                      axis_joint: str = "slew") -> Path:
+    """Write `<ns>/slewing/load` WrenchStamped: force.z = axial, force.x = radial, torque.x = moment; and,
+    when the run has axis angles, `<ns>/<axis_topic>` JointState with the one joint `axis_joint` (rad)."""
+    at = np.asarray(run.axis_t_ns, dtype=np.int64)
+    angle = np.asarray(run.axis_angle_rad, dtype=np.float64)
+    _check_len(axis_topic, at, angle)
+    stamp_parts(at)
     t = np.asarray(run.t_ns, dtype=np.int64)
     axial = np.asarray(run.axial_n, dtype=np.float64)
     radial = np.asarray(run.radial_n, dtype=np.float64)
@@ -178,6 +184,9 @@ def write_slewing_bag(run: SlewingLoadRun, path, storage: str = "sqlite3", names
         return encode_wrench_stamped(t[i], force, torque)
 
     series = [_TopicSeries(topic_name(namespace, "slewing/load"), WRENCH_STAMPED, t, msgs)]
+    if at.size:
+        series.append(_TopicSeries(topic_name(namespace, axis_topic), JOINT_STATE, at,
+                                   lambda i: encode_joint_states(at[i], angle[i], None, axis_joint)))
     return _write_bag(series, path, storage, run.metadata, progress)
 
 

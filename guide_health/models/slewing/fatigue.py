@@ -166,6 +166,21 @@ class SlewingFatigue:
         self.stroke_weighted = dict.fromkeys(ROWS, 0.0)
         self.stroke_travel_rad = 0.0
 
+    # ---- persistence ---------------------------------------------------------------------------------
+    def state(self) -> dict[str, Any]:
+        """The damage per row and the angle-counting state (the stroke in progress, the load in force): a
+        restored instance continues exactly as the uninterrupted one. The per-period worst is not kept."""
+        return {name: (dict(getattr(self, name)) if name in ROW_FIELDS else getattr(self, name))
+                for name in STATE_FIELDS}
+
+    def restore(self, state: dict[str, Any]) -> None:
+        """Continue from ``state`` (of :meth:`state`); ValueError (one line) when it is malformed, and then
+        nothing is changed."""
+        check_fatigue_state(state)
+        for name in STATE_FIELDS:
+            value = state[name]
+            setattr(self, name, {row: float(value[row]) for row in ROWS} if name in ROW_FIELDS else value)
+
     # ---- report --------------------------------------------------------------------------------------
     def row_damage(self) -> dict[str, float]:
         """Miner sum per row: closed strokes + the open one by angle equivalence."""
@@ -205,3 +220,51 @@ class SlewingFatigue:
         if governing_damage >= 1.0:
             return ERROR, f"fatigue damage of the {governing} row {governing_damage:.3g} >= 1 (L10 reached)", values
         return OK, f"fatigue damage {governing_damage:.3g} ({governing} row governs)", values
+
+
+#: per-row sums (non-negative) and the scalars of the counting state; persisted by SlewingFatigue.state()
+ROW_FIELDS = ("damage", "stroke_weighted", "rate_per_rad")
+_COUNTS = ("strokes", "small_strokes", "load_samples")
+_OPTIONAL_ANGLES = ("start_rad", "last_rad", "first_t_s", "last_t_s")
+STATE_FIELDS = (*ROW_FIELDS, "stroke_travel_rad", "extreme_rad", "direction", *_OPTIONAL_ANGLES, *_COUNTS,
+                "min_static_safety", "worst_static")
+
+
+def _finite_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def check_fatigue_state(state: Any) -> None:
+    """ValueError (one line naming the field) unless ``state`` is a complete SlewingFatigue state: every row's
+    damage, open-stroke sum and rate finite and >= 0, counts non-negative integers, direction -1/0/+1, angles
+    and stamps finite (or None before the first sample), the worst static safety > 0 (inf before any load)."""
+    if not isinstance(state, dict):
+        raise ValueError(f"slewing fatigue state must be a mapping, got {type(state).__name__}")
+    missing = [name for name in STATE_FIELDS if name not in state]
+    if missing:
+        raise ValueError(f"slewing fatigue state lacks {', '.join(missing)}")
+    for name in ROW_FIELDS:
+        rows = state[name]
+        if not isinstance(rows, dict) or set(rows) != set(ROWS):
+            raise ValueError(f"{name} must hold the rows {', '.join(ROWS)}, got {rows!r}"[:200])
+        bad = [row for row in ROWS if not (_finite_number(rows[row]) and rows[row] >= 0.0)]
+        if bad:
+            raise ValueError(f"{name} of the {bad[0]} row must be finite and >= 0, got {rows[bad[0]]!r}")
+    if not (_finite_number(state["stroke_travel_rad"]) and state["stroke_travel_rad"] >= 0.0):
+        raise ValueError(f"stroke_travel_rad must be finite and >= 0, got {state['stroke_travel_rad']!r}")
+    if not _finite_number(state["extreme_rad"]):
+        raise ValueError(f"extreme_rad must be finite, got {state['extreme_rad']!r}")
+    if state["direction"] not in (-1, 0, 1) or isinstance(state["direction"], bool):
+        raise ValueError(f"direction must be -1, 0 or 1, got {state['direction']!r}")
+    for name in _OPTIONAL_ANGLES:
+        if state[name] is not None and not _finite_number(state[name]):
+            raise ValueError(f"{name} must be finite or null, got {state[name]!r}")
+    for name in _COUNTS:
+        value = state[name]
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise ValueError(f"{name} must be an integer >= 0, got {value!r}")
+    safety = state["min_static_safety"]
+    if isinstance(safety, bool) or not isinstance(safety, (int, float)) or not safety > 0.0:
+        raise ValueError(f"min_static_safety must be > 0, got {safety!r}")
+    if state["worst_static"] is not None and not isinstance(state["worst_static"], dict):
+        raise ValueError(f"worst_static must be a mapping or null, got {type(state['worst_static']).__name__}")
