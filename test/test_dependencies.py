@@ -60,7 +60,8 @@ NAMESPACES = {"backports"}
 def imported_modules(folder: Path) -> dict[str, set[str]]:
     """Third-party module -> files importing it (absolute imports; relative ones and the project's own
     modules excluded)."""
-    local = {"guide_health"} | {p.stem for p in (ROOT / "test").glob("*.py")}
+    # the project's own modules: the package, test helpers and the bench scripts some tests import
+    local = {"guide_health"} | {p.stem for d in ("test", "bench") for p in (ROOT / d).glob("*.py")}
     found: dict[str, set[str]] = {}
     for path in sorted(folder.rglob("*.py")):
         for node in ast.walk(ast.parse(path.read_text(), str(path))):
