@@ -232,9 +232,10 @@ def test_reported_loss_equals_measured_loss_under_a_burst(tmp_path, ros_env):
         assert period_us == pytest.approx(10_000.0 * k, abs=0.5 * k)
         missing = int(values["joint_samples_missing_estimate"])
         assert 0 <= missing <= lost and (missing > 0 or k > 1)
-        # pauses (gaps over 100 periods) come with bursty loss (k = 1); loss spread evenly (k > 1, a quiet
-        # machine; measured 80 ms, k = 8, 18305 lost) leaves no gap that long
-        assert int(values["joint_stamp_pauses"]) > 0 or k > 1
+        # whether a burst leaves gaps over 100 periods (pauses) depends on how the machine schedules the
+        # callbacks (seen: 68 pauses at k = 1; none at k = 8; none at k = 1 under CI's load), so here only
+        # that it is a count; the pause rule itself is tested on given stamps in test_stream_gaps*.py
+        assert int(values["joint_stamp_pauses"]) >= 0
         assert int(values["best_effort_topics"]) == 4                  # every data topic
     finally:
         sensors.close()
