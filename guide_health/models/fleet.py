@@ -21,7 +21,7 @@ SUMMARY_KEYS = ("machines", "statuses", "ok", "warn", "error", "stale", "worst_m
 #: summary values a status may carry, and the smallest valid value of each (NaN = not known yet: skipped)
 CHECKED_VALUES = {"remaining_life_h": 0.0, "life_used_fraction": 0.0, "end_stress_ratio": 0.0}
 #: why a status was ignored (FleetBoard.ignored counts them)
-UNKNOWN_LEVEL, BOARD_FULL = "unknown level", "board full"
+UNKNOWN_LEVEL, BOARD_FULL, MALFORMED = "unknown level", "board full", "malformed message"
 
 
 def _number(text) -> float:
@@ -94,6 +94,11 @@ class FleetBoard:
         self.invalid_values += len(bad)
         self.statuses[key] = MachineStatus(name, hardware_id, Level(level), message, values, float(received_s))
         return True
+
+    def reject_message(self, why: str) -> None:
+        """A message whose statuses could not be read at all: counted among the ignored (as one)."""
+        self.ignored[MALFORMED] += 1
+        self.last_problem = f"ignored a {MALFORMED}: {why}"[:200]
 
     def forget_silent(self, now_s: float) -> int:
         """Drop the statuses silent for more than forget_after_s; returns how many."""

@@ -6,7 +6,9 @@ Subscribes `/diagnostics` (every machine's wear_monitor / slewing_monitor status
 (keys: guide_health.models.fleet.SUMMARY_KEYS): counts per level, the worst machine, the least remaining
 precision life, the highest fatigue life used and end-stress ratio. Statuses silent for `stale_after_s`
 count as STALE; silent for `forget_after_s` they leave the board (at most `max_statuses`). Statuses of an
-unknown level and invalid values (a negative remaining life, 'banana') are ignored, counted in the fleet
+unknown level, messages that are no DiagnosticArray in CDR (the statuses are read from the raw bytes,
+io/diagnostics_cdr.py; such a message counts as one ignored status) and invalid values (a negative
+remaining life, 'banana') are ignored, counted in the fleet
 status (`ignored_statuses`, `invalid_values`, `forgotten_statuses`) and logged (throttled). With
 `history_file`, each status is recorded at most every `history_period_s`, and at every level change
 whenever it comes, into the table
@@ -21,6 +23,7 @@ import time
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 
+from guide_health.io.diagnostics_cdr import MalformedMessage, decode_diagnostic_array
 from guide_health.io.outputs.fleet_history import FleetHistory
 from guide_health.models.fleet import SUMMARY_KEYS, FleetBoard
 from guide_health.nodes.common import run_node
@@ -42,7 +45,9 @@ class FleetMonitorNode(Node):
                                 max_statuses=p.max_statuses)
         self.history = (FleetHistory(p.history_file, p.history_period_s, p.history_retention_days)
                         if p.history_file else None)
-        self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 100)
+        # raw CDR: the statuses are read from the bytes (io/diagnostics_cdr.py); building rclpy message
+        # objects for every KeyValue was most of the node's CPU at hundreds of machines
+        self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics_raw, 100, raw=True)
         # the board ages silent machines to STALE itself: the task has no stale inputs
         self.updater = StatusUpdater(self, p.machine_id)
         self.updater.add(StatusTask("fleet", self._fleet_report, SUMMARY_KEYS))
@@ -52,18 +57,27 @@ class FleetMonitorNode(Node):
         """An accepted ``ros2 param set`` (guide_health.nodes.live_params)."""
         apply_fleet_changes(changed, self.board, self.history, self.periodic)
 
-    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
+    def _on_diagnostics_raw(self, raw: bytes) -> None:
+        try:
+            statuses = decode_diagnostic_array(raw)
+        except MalformedMessage as exc:      # counted among the ignored statuses, logged (throttled)
+            self.board.reject_message(str(exc))
+            self._log_problem()
+            return
         now = time.monotonic()
         wall = time.time()
-        for status in msg.status:
-            level = status.level[0] if isinstance(status.level, (bytes, bytearray)) else int(status.level)
-            values = {kv.key: kv.value for kv in status.values}
-            kept = self.board.update(status.name, status.hardware_id, level, status.message, values, now)
-            if self.board.last_problem:     # unknown level, full board, invalid value: counted in the status
-                self.get_logger().warning(f"{self.board.last_problem} (counted in the fleet status)",
-                                          throttle_duration_sec=10.0)
+        for status in statuses:
+            kept = self.board.update(status.name, status.hardware_id, status.level, status.message,
+                                     status.values, now)
+            self._log_problem()
             if kept and self.history is not None:
-                self.history.record(wall, status.hardware_id, status.name, level, status.message, values)
+                self.history.record(wall, status.hardware_id, status.name, status.level, status.message,
+                                    status.values)
+
+    def _log_problem(self) -> None:
+        if self.board.last_problem:     # unknown level, full board, invalid value: counted in the status
+            self.get_logger().warning(f"{self.board.last_problem} (counted in the fleet status)",
+                                      throttle_duration_sec=10.0)
 
     def _fleet_report(self) -> tuple[int, str, dict]:
         summary = self.board.summary(time.monotonic())
