@@ -221,7 +221,7 @@ def live(args, workdir: Path) -> None:
 
 def write_history(db: Path, machines: int, axes: int, days: float, period_s: float) -> int:
     """A fleet history of ``days`` (one row per status every period_s; remaining life falling 1 h per h)."""
-    from guide_health.io.outputs.fleet_history import HISTORY_SCHEMA
+    from guide_health.io.outputs.fleet_history import HISTORY_SCHEMA, INSERT_ROW, history_row
 
     con = sqlite3.connect(db)
     con.executescript(HISTORY_SCHEMA)
@@ -236,8 +236,8 @@ def write_history(db: Path, machines: int, axes: int, days: float, period_s: flo
             life = 800.0 - m - k * period_s / 3600.0 * (0.5 + m / machines)
             level = 0 if life > 200 else 1 if life > 100 else 2
             values = dict(values, remaining_life_h=f"{life:.1f}")
-            rows.append((t, f"m{m:03d}", f"wear_monitor: {a} precision", level, "", json.dumps(values)))
-        con.executemany("INSERT INTO fleet_history VALUES (?, ?, ?, ?, ?, ?)", rows)
+            rows.append(history_row(t, f"m{m:03d}", f"wear_monitor: {a} precision", level, "", values))
+        con.executemany(INSERT_ROW, rows)
         n += len(rows)
         if k % 1000 == 0:
             con.commit()

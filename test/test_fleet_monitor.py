@@ -1,6 +1,5 @@
 """Fleet board (pure) and the fleet_monitor node: per-machine statuses in, one fleet status out, history
 in SQLite."""
-import json
 import math
 import sqlite3
 import time
@@ -147,9 +146,10 @@ def test_fleet_node_aggregates_statuses_from_the_topic_and_records_history(ros_c
         fleet.destroy_node()
         source.destroy_node()
     with sqlite3.connect(db) as con:
-        rows = con.execute("SELECT hardware_id, level, values_json FROM fleet_history ORDER BY t_unix_s").fetchall()
+        rows = con.execute("SELECT hardware_id, level, remaining_life_h FROM fleet_history "
+                           "ORDER BY t_unix_s").fetchall()
     machines = {r[0] for r in rows}
     assert machines == {"m1", "m2"}                  # the fleet's own status is not recorded
     per_machine = [r for r in rows if r[0] == "m2"]
     assert 2 <= len(per_machine) <= 5                # throttled: not one row per message (~20 sent)
-    assert json.loads(per_machine[0][2])["remaining_life_h"] == "15.5"
+    assert per_machine[0][2] == 15.5

@@ -205,32 +205,57 @@ def test_trend_of_a_history_written_by_a_live_fleet_monitor(ros_context, tmp_pat
     check_page(Path(result["files"]["html"]))
 
 
-def test_trend_reader_takes_only_the_trend_keys_in_sqlite(history, tmp_path, monkeypatch):
-    """The trend keys come out of values_json in SQLite (json_extract): Python parses no row's JSON, the other
-    keys of a status are never read, and a row whose text is no JSON object gives NaN, not an error."""
+LAYOUT1 = """CREATE TABLE fleet_history (t_unix_s REAL NOT NULL, hardware_id TEXT NOT NULL, name TEXT NOT NULL,
+    level INTEGER NOT NULL, message TEXT NOT NULL, values_json TEXT NOT NULL);
+CREATE INDEX fleet_history_machine ON fleet_history (hardware_id, name, t_unix_s);"""
+
+
+def test_a_layout_1_history_is_migrated_by_fleet_monitor_with_the_same_trends(tmp_path):
+    """A history of layout 1 (values as one JSON text per row): the trend reader refuses it in one line; the
+    history fleet_monitor opens migrates it (json_extract of the same keys), after which the trends are the
+    numbers the layout-1 reader gave: a text number, a JSON number, 'nan', no JSON / no object / a missing
+    key -> NaN; the limit date texts kept for the plan; the other keys dropped."""
     import math
     import sqlite3
 
-    from guide_health.analysis import fleet_trend
+    from guide_health.analysis.fleet_trend import read_trends
+    from guide_health.errors import InputError
 
-    con = sqlite3.connect(history)
-    t_end = T0_UNIX_S + 3600.0 * 40
-    rows = [(t_end, "m9", "wear_monitor: x precision", 0, "", text) for text in (
-        "not json", "[1, 2]", json.dumps({"remaining_life_h": 12.5, "extra": "x" * 100000}),
-        json.dumps({"remaining_life_h": "7.25", "straightness_um": None}))]
-    con.executemany("INSERT INTO fleet_history VALUES (?, ?, ?, ?, ?, ?)", rows)
+    db = tmp_path / "old.db"
+    con = sqlite3.connect(db)
+    con.executescript(LAYOUT1)
+    texts = ("not json", "[1, 2]", json.dumps({"remaining_life_h": 12.5, "extra": "x" * 1000}),
+             json.dumps({"remaining_life_h": "7.25", "straightness_um": None, "limit_date_utc_low": "2027-01-05"}),
+             json.dumps({"remaining_life_h": "nan", "life_used_fraction": "0.5", "end_stress_ratio": "banana"}))
+    con.executemany("INSERT INTO fleet_history VALUES (?, ?, ?, ?, ?, ?)",
+                    [(T0_UNIX_S + i, "m9", "wear_monitor: x precision", i % 2, f"row {i}", text)
+                     for i, text in enumerate(texts)])
     con.commit()
     con.close()
+    with pytest.raises(InputError, match="layout 1 .*open it once with fleet_monitor") as info:
+        read_trends(db)
+    assert "\n" not in str(info.value)
+    FleetHistory(str(db), 60.0).close()                     # what fleet_monitor does at start
+    m9 = read_trends(db)["m9"]
+    life = m9.values["remaining_life_h"]
+    assert [math.isnan(v) for v in life] == [True, True, False, False, True]
+    assert life[2:4] == [12.5, 7.25]
+    assert math.isnan(m9.values["straightness_um"][3]) and m9.values["life_used_fraction"][4] == 0.5
+    assert math.isnan(m9.values["end_stress_ratio"][4])
+    assert (m9.level, m9.message) == ([0, 1, 0, 1, 0], [f"row {i}" for i in range(5)])
+    con = sqlite3.connect(db)
+    assert con.execute("SELECT limit_date_utc_low FROM fleet_history WHERE limit_date_utc_low IS NOT NULL"
+                       ).fetchall() == [("2027-01-05",)]
+    assert con.execute("PRAGMA user_version").fetchone()[0] == 2
+    assert "values_json" not in [r[1] for r in con.execute("PRAGMA table_info(fleet_history)")]
+    con.close()
 
-    def no_parsing(*args, **kwargs):
-        raise AssertionError("values_json parsed in Python")
 
-    monkeypatch.setattr(json, "loads", no_parsing)
+def test_history_rows_hold_the_trend_values_as_numbers(history):
+    """The node's rows: the trend values as REAL columns (the trend reads them, no text parsed)."""
+    from guide_health.analysis import fleet_trend
+
     trends = fleet_trend.read_trends(history)
-    m9 = trends["m9"].values
-    assert [math.isnan(v) for v in m9["remaining_life_h"][:2]] == [True, True]
-    assert m9["remaining_life_h"][2:] == [12.5, 7.25]
-    assert math.isnan(m9["straightness_um"][3])
     assert trends["m2"].latest("remaining_life_h") == life_h("m2", 39)
     assert trends["m2"].values["life_used_fraction"][-1] == pytest.approx(0.39)
 

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import csv
 import html
-import json
 import math
 import sqlite3
 from dataclasses import dataclass
@@ -21,12 +20,13 @@ from pathlib import Path
 from typing import Any
 
 from guide_health.analysis.fleet_prior import load_fleet_results
+from guide_health.analysis.fleet_trend import check_history_layout
 from guide_health.errors import InputError
 from guide_health.io.outputs.files import open_output, write_text
 from guide_health.io.outputs.ical import AllDayEvent, calendar_text
+from guide_health.models.wear.planning import LIMIT_KEYS
 
 DAY_S = 86400.0
-LIMIT_KEYS = ("limit_date_utc", "limit_date_utc_low", "limit_date_utc_high")
 
 
 @dataclass(frozen=True)
@@ -80,20 +80,17 @@ def dues_from_history(db: Path) -> tuple[list[Due], float]:
     try:
         con = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
         try:
-            rows = con.execute("SELECT t_unix_s, hardware_id, name, values_json FROM fleet_history "
-                               "WHERE values_json LIKE '%limit_date_utc_low%' ORDER BY t_unix_s").fetchall()
+            check_history_layout(db, con)
+            rows = con.execute(f"SELECT t_unix_s, hardware_id, name, {', '.join(LIMIT_KEYS)} FROM fleet_history "
+                               f"WHERE {LIMIT_KEYS[1]} IS NOT NULL ORDER BY t_unix_s").fetchall()
             newest = con.execute("SELECT MAX(t_unix_s) FROM fleet_history").fetchone()[0]
         finally:
             con.close()
     except sqlite3.DatabaseError as exc:
         raise InputError(f"{db}: not a fleet history (fleet_monitor history_file): {exc}") from None
     found: dict[tuple[str, str], Due] = {}
-    for _, machine, name, values_json in rows:
-        try:
-            values = json.loads(values_json)
-        except ValueError:
-            continue
-        due = _due(machine, name, values) if isinstance(values, dict) else None
+    for _, machine, name, *dates in rows:
+        due = _due(machine, name, {k: v for k, v in zip(LIMIT_KEYS, dates) if v is not None})
         if due is not None:
             found[(machine, name)] = due
     return list(found.values()), float(newest) if newest is not None else math.nan

@@ -16,11 +16,12 @@ import numpy as np
 
 from guide_health.errors import InputError
 from guide_health.io.outputs.files import open_output
+from guide_health.io.outputs.fleet_history import LAYOUT, history_layout
+from guide_health.models.fleet import FLEET_VALUES
 from guide_health.models.levels import LEVEL_NAMES
 
-#: the trend quantities: status key, label with unit
-TREND_KEYS = (("remaining_life_h", "remaining precision life [h]"), ("straightness_um", "straightness [um]"),
-              ("life_used_fraction", "fatigue life used [-]"), ("end_stress_ratio", "end-stress ratio [-]"))
+#: the trend quantities: status key, label with unit (the history's value columns)
+TREND_KEYS = FLEET_VALUES
 
 
 @dataclass
@@ -60,10 +61,8 @@ class MachineTrend:
         return max(latest.values()) if latest else 3
 
 
-#: the trend keys taken out of each row's values_json by SQLite itself (JSON1, built into SQLite >= 3.38),
-#: so Python never parses the other keys a status carries; a row whose text is no JSON gives NULLs (checked
-#: once a row, in the inner SELECT), a JSON value that is no object NULLs too (json_extract of a missing key)
-_TREND_COLUMNS = ", ".join(f"CASE WHEN ok THEN json_extract(values_json, '$.\"{key}\"') END" for key, _ in TREND_KEYS)
+#: the trend keys are the history's REAL columns (io/outputs/fleet_history.py, layout 2)
+_TREND_COLUMNS = ", ".join(key for key, _ in TREND_KEYS)
 
 
 def _number(value) -> float:
@@ -88,9 +87,9 @@ def read_trends(db: Path, machine: str | None = None, days: float | None = None)
             if days is not None:
                 where.append("t_unix_s >= (SELECT MAX(t_unix_s) FROM fleet_history) - ?")
                 args.append(days * 86400.0)
+            check_history_layout(db, con)
             rows = con.execute(f"SELECT t_unix_s, hardware_id, name, level, message, {_TREND_COLUMNS} FROM "
-                               "(SELECT *, json_valid(values_json) AS ok FROM fleet_history "
-                               f"WHERE {' AND '.join(where)}) ORDER BY t_unix_s", args).fetchall()
+                               f"fleet_history WHERE {' AND '.join(where)} ORDER BY t_unix_s", args).fetchall()
         finally:
             con.close()
     except sqlite3.DatabaseError as exc:
@@ -108,6 +107,17 @@ def read_trends(db: Path, machine: str | None = None, days: float | None = None)
         known = _machines(db)
         raise InputError(f"{db}: no history of machine '{machine}'; machines: {', '.join(known) or 'none'}")
     return trends
+
+
+def check_history_layout(db: Path, con: sqlite3.Connection) -> None:
+    """InputError unless the file holds a fleet history of the layout this reader reads."""
+    layout = history_layout(con)
+    if layout == 1:
+        raise InputError(f"{db}: a fleet history of layout 1 (values_json); open it once with fleet_monitor "
+                         "(history_file:=<this file>), which migrates it, then read it")
+    if layout != LAYOUT:
+        raise InputError(f"{db}: not a fleet history of layout {LAYOUT} (fleet_monitor history_file; "
+                         f"found {'no fleet_history table' if layout == 0 else f'layout {layout}'})")
 
 
 def _machines(db: Path) -> list[str]:

@@ -68,13 +68,41 @@ def _count(raw: bytes, offset: int, least_bytes: int, what: str) -> tuple[int, i
     return n, offset + 4
 
 
-def decode_diagnostic_array(raw: bytes) -> list[RawStatus]:
-    """The statuses of one serialised DiagnosticArray (see the module's layout); MalformedMessage if the
-    bytes are none."""
+def _wanted_values(raw: bytes, offset: int, pairs: int, wanted: frozenset) -> tuple[dict, int]:
+    """The KeyValues whose key (its bytes up to the first NUL) is in `wanted` (ASCII keys as bytes): every
+    pair is walked, only those texts are decoded."""
+    values = {}
+    size = len(raw)
+    for _ in range(pairs):
+        offset += -(offset - 4) & 3
+        if offset + 4 > size:
+            raise MalformedMessage(f"key length at byte {offset} past the end ({size} bytes)")
+        (length,) = _U32(raw, offset)
+        start, offset = offset + 4, offset + 4 + length
+        if offset > size:
+            raise MalformedMessage(f"key of {length} bytes at byte {start - 4} past the end ({size} bytes)")
+        cut = raw.find(b"\x00", start, offset)
+        key = raw[start:offset if cut < 0 else cut]
+        offset += -(offset - 4) & 3
+        if key in wanted:
+            values[key.decode("ascii")], offset = _string(raw, offset)
+            continue
+        if offset + 4 > size:
+            raise MalformedMessage(f"value length at byte {offset} past the end ({size} bytes)")
+        offset += 4 + _U32(raw, offset)[0]
+        if offset > size:
+            raise MalformedMessage(f"value at byte {offset} past the end ({size} bytes)")
+    return values, offset
+
+
+def decode_diagnostic_array(raw: bytes, keys: frozenset | None = None) -> list[RawStatus]:
+    """The statuses of one serialised DiagnosticArray (see the module's layout); with `keys` (ASCII key
+    names) only those values (the others are skipped, not decoded). MalformedMessage if the bytes are none."""
     raw = bytes(raw)
     if len(raw) < 16 or raw[0:2] not in _CDR_LE:
         raise MalformedMessage(f"no little endian CDR DiagnosticArray ({len(raw)} bytes, "
                                f"encapsulation {raw[0:2].hex() or 'none'})")
+    wanted = None if keys is None else frozenset(k.encode("ascii") for k in keys)
     _, offset = _string(raw, 12)                      # after stamp.sec, stamp.nanosec: frame_id
     n, offset = _count(raw, _aligned4(offset), _MIN_STATUS_BYTES, "status")
     statuses = []
@@ -86,9 +114,12 @@ def decode_diagnostic_array(raw: bytes) -> list[RawStatus]:
         message, offset = _string(raw, _aligned4(offset))
         hardware_id, offset = _string(raw, _aligned4(offset))
         pairs, offset = _count(raw, _aligned4(offset), _MIN_PAIR_BYTES, "values")
-        values = {}
-        for _ in range(pairs):
-            key, offset = _string(raw, _aligned4(offset))
-            values[key], offset = _string(raw, _aligned4(offset))
+        if wanted is not None:
+            values, offset = _wanted_values(raw, offset, pairs, wanted)
+        else:
+            values = {}
+            for _ in range(pairs):
+                key, offset = _string(raw, _aligned4(offset))
+                values[key], offset = _string(raw, _aligned4(offset))
         statuses.append(RawStatus(level, name, message, hardware_id, values))
     return statuses

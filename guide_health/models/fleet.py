@@ -11,6 +11,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 
 from guide_health.models.levels import LEVEL_NAMES, Level
+from guide_health.models.wear.planning import LIMIT_KEYS
 
 # severity order for "worst": STALE (no data) ranks between WARN and ERROR
 _SEVERITY = {Level.OK: 0, Level.WARN: 1, Level.STALE: 2, Level.ERROR: 3}
@@ -18,6 +19,13 @@ SUMMARY_KEYS = ("machines", "statuses", "ok", "warn", "error", "stale", "worst_m
                 "min_remaining_life_h", "min_remaining_life_machine", "max_life_used_fraction",
                 "max_life_used_machine", "max_end_stress_ratio", "max_end_stress_machine", "ignored_statuses",
                 "invalid_values", "forgotten_statuses")
+#: the status values the fleet keeps, with their labels: the board's CHECKED_VALUES and the history's trend
+#: columns (io/outputs/fleet_history.py); every other key of a status but FLEET_DATE_KEYS is skipped unread
+FLEET_VALUES = (("remaining_life_h", "remaining precision life [h]"), ("straightness_um", "straightness [um]"),
+                ("life_used_fraction", "fatigue life used [-]"), ("end_stress_ratio", "end-stress ratio [-]"))
+FLEET_VALUE_KEYS = tuple(key for key, _ in FLEET_VALUES)
+#: the limit date texts the fleet history keeps for `fleet plan` (ISO-8601 UTC, '' = never)
+FLEET_DATE_KEYS = LIMIT_KEYS
 #: summary values a status may carry, and the smallest valid value of each (NaN = not known yet: skipped)
 CHECKED_VALUES = {"remaining_life_h": 0.0, "life_used_fraction": 0.0, "end_stress_ratio": 0.0}
 #: why a status was ignored (FleetBoard.ignored counts them)

@@ -25,12 +25,15 @@ from rclpy.node import Node
 
 from guide_health.io.diagnostics_cdr import MalformedMessage, decode_diagnostic_array
 from guide_health.io.outputs.fleet_history import FleetHistory
-from guide_health.models.fleet import SUMMARY_KEYS, FleetBoard
+from guide_health.models.fleet import FLEET_DATE_KEYS, FLEET_VALUE_KEYS, SUMMARY_KEYS, FleetBoard
 from guide_health.nodes.common import run_node
 from guide_health.nodes.live_params import PeriodicTimers, apply_fleet_changes
 from guide_health.nodes.status import StatusTask, StatusUpdater, status_name
 from guide_health.params import FLEET_MONITOR_SCHEMA, declare_parameters
 from guide_health.params.typed import fleet_monitor_params
+
+#: the only status values the board and the history read; the others are skipped without being decoded
+_KEPT_KEYS = frozenset(FLEET_VALUE_KEYS + FLEET_DATE_KEYS)
 
 
 class FleetMonitorNode(Node):
@@ -59,7 +62,7 @@ class FleetMonitorNode(Node):
 
     def _on_diagnostics_raw(self, raw: bytes) -> None:
         try:
-            statuses = decode_diagnostic_array(raw)
+            statuses = decode_diagnostic_array(raw, _KEPT_KEYS)
         except MalformedMessage as exc:      # counted among the ignored statuses, logged (throttled)
             self.board.reject_message(str(exc))
             self._log_problem()
