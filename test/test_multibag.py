@@ -96,6 +96,44 @@ def test_split_bag_directory_replays_as_the_unsplit_bag(recording):
     assert "gaps" not in out                       # one bag
 
 
+def packed_messages(storage, chunk_messages: int) -> list[tuple[str, int, bytes]]:
+    """Every message of a storage's packed reading: (topic, log time, bytes)."""
+    topic = {c.id: c.topic for c in storage.connections}
+    out = []
+    for group in storage.iter_packed(storage.connections, chunk_messages):
+        for b in group:
+            buf = b.buf.tobytes()
+            out += [(topic[int(c)], int(t), buf[o:o + n]) for c, t, o, n in
+                    zip(b.connection_ids, b.log_time_ns, b.offsets, b.lengths)]
+    return out
+
+
+def test_a_split_sqlite3_bag_is_read_on_the_fast_path_with_every_message_in_order(recording):
+    """The split bag opens on the sqlite3 back end (packed reading, not the rosbags fallback) and gives the
+    unsplit bag's messages (topic, log time, bytes) in the same order, at a window that cuts across the files
+    and at one larger than a file; its counts are metadata.yaml's. Files listed out of time order go to the
+    rosbags fallback, which merges them by time."""
+    from guide_health.io.bag.rosbags_storage import RosbagsStorage
+    from guide_health.io.bag.storage import open_storage
+
+    tmp = recording["tmp"]
+    split = join_as_split_bag(recording["parts"], tmp / "split_fast")
+    with open_storage(recording["one"]) as one:
+        truth = packed_messages(one, 1000)
+        counts = {c.topic: c.msgcount for c in one.connections}
+    with open_storage(split) as storage:
+        assert not isinstance(storage, RosbagsStorage)
+        assert {c.topic: c.msgcount for c in storage.connections} == counts
+        assert (storage.start_ns, storage.end_ns - 1) == (truth[0][1], truth[-1][1])
+        for chunk in (997, 10**6):
+            got = packed_messages(storage, chunk)
+            assert len(got) == len(truth) and got == truth
+    c_b, c_a, c_c = recording["parts"]
+    shuffled = join_as_split_bag([c_a, c_b, c_c], tmp / "split_shuffled")
+    with open_storage(shuffled) as storage:
+        assert isinstance(storage, RosbagsStorage)
+
+
 def test_a_gap_between_shifts_is_reported_and_overlapping_bags_refused(recording):
     """Bags with 0.3 h missing between them: the gap's duration is 0.3 h (to one sample period); bags that
     overlap in time: exit 2 with one line naming both."""

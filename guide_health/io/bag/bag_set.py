@@ -121,9 +121,9 @@ class ChainedStorage:
     connections of every bag become one connection, and batches run on across the bags' boundaries, so a
     reader sees the batches it would see in one bag of the same messages."""
 
-    def __init__(self, storages: list, bag_set: BagSet):
+    def __init__(self, storages: list, bag_set: BagSet | Path):
         self.storages = storages
-        self.path = bag_set
+        self.path = bag_set             # a BagSet, or the directory of one bag split into several files
         self.connections: list[BagConnection] = []
         self._id_maps: list[dict[int, int]] = []      # per storage: its connection id -> the chained id
         by_key: dict[tuple[str, str], int] = {}

@@ -1,6 +1,7 @@
-"""The sqlite3 back end: a single-file, uncompressed sqlite3 bag whose metadata.yaml gives every topic's
-message count, read straight through apsw (rosbags' own sqlite binding); any other sqlite3 bag is
-NOT_SUPPORTED here (`Sqlite3Storage.open`) and goes to the rosbags fallback.
+"""The sqlite3 back end: an uncompressed sqlite3 bag whose metadata.yaml gives every topic's message count,
+read straight through apsw (rosbags' own sqlite binding); a bag split into several files is read file after
+file (sqlite3_split.py); any other sqlite3 bag is NOT_SUPPORTED here (`Sqlite3Storage.open`) and goes to the
+rosbags fallback.
 
 Why: rosbags' Reader.open() counts the messages of every topic with a full scan (0.64 s of a 1.5 s read of
 1.1 M messages), and its reader yields each row as one Python generator step; here the counts come from
@@ -325,7 +326,7 @@ class Sqlite3Storage:
             return NOT_SUPPORTED
         info = bag_yaml(path) if path.is_dir() else {}
         files = info.get("relative_file_paths") or []
-        if info.get("storage_identifier") != "sqlite3" or len(files) != 1 or info.get("compression_format"):
+        if info.get("storage_identifier") != "sqlite3" or not files or info.get("compression_format"):
             return NOT_SUPPORTED
         counts = {}
         for entry in info.get("topics_with_message_count") or []:
@@ -333,6 +334,10 @@ class Sqlite3Storage:
                 counts[entry["topic_metadata"]["name"]] = int(entry["message_count"])
             except (KeyError, TypeError, ValueError):
                 return NOT_SUPPORTED
+        if len(files) > 1:                  # split by rosbag2: the files chained (sqlite3_split.py)
+            from .sqlite3_split import open_split
+
+            return open_split(cls, path, info, files, counts)
         db_path = path / files[0]
         if not db_path.is_file():
             return NOT_SUPPORTED

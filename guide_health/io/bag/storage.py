@@ -2,12 +2,14 @@
 rosbags fallback for any bag none of them reads; `open_storage(path)` picks one, and nothing else in
 guide_health looks at how a bag is stored.
 
-- ``sqlite3``: `Sqlite3Storage` (sqlite3_storage.py), a single-file, uncompressed sqlite3 bag whose
-  metadata.yaml counts every topic, read straight through apsw, with bulk packed reading;
+- ``sqlite3``: `Sqlite3Storage` (sqlite3_storage.py), an uncompressed sqlite3 bag whose metadata.yaml
+  counts every topic, read straight through apsw, with bulk packed reading; a split bag's files chained in
+  log-time order (sqlite3_split.py);
 - ``mcap``: `McapStorage` (mcap_storage.py), every record of the bag's .mcap files walked without relying on
   their indexes (mcap_records.py), read whole or refused;
-- the fallback `RosbagsStorage` (rosbags_storage.py): everything else (split or compressed sqlite3 bags, a
-  bare .db3 file, a bag opened checked, mcap bags of compressed files), through rosbags.rosbag2.Reader.
+- the fallback `RosbagsStorage` (rosbags_storage.py): everything else (compressed sqlite3 bags, split ones
+  whose files overlap in time, a bare .db3 file, a bag opened checked, mcap bags of compressed files),
+  through rosbags.rosbag2.Reader.
 
 Every back end implements the whole protocol (protocol.BagStorage); what one cannot do for a bag it answers
 with protocol.NOT_SUPPORTED. The bag reader asks `iter_packed` first (one byte buffer per batch) and reads
