@@ -4,7 +4,8 @@ topics, in the same run: CPU per message, loss, and the status period.
     .venv/bin/python bench/bench_live_machine.py [--axes 3 5] [--seconds 20] [--rate-hz 1000] [--repeat 1]
 
 bench_live_limit.py's machine mode. A feeder process publishes, at --rate-hz each (reliable keep_all,
-pre-encoded CDR, paced on the wall clock): one `joint_states` JointState carrying every axis (a controller's
+pre-encoded CDR, paced on the wall clock; a publish refused because a reader fell behind and the writer's
+history is full is sent again, counted): one `joint_states` JointState carrying every axis (a controller's
 message) and one WrenchStamped per axis on `<axis>/guide/load`. The node is `wear_monitor` with
 config/machine_xyz.yaml (3 axes x, y, z; for 5 axes two more axes a, b with z's ways, written to a temporary
 parameter file), events executor. A bare subscriber (a process with the node's QoS and executor, raw
@@ -64,16 +65,29 @@ while any(p.get_subscription_count() < readers for p in [pj, *pls]):
     time.sleep(0.01)
 time.sleep(0.5)
 print("start", flush=True)
+from rclpy._rclpy_pybind11 import RCLError
+retries = 0
+def publish(pub, data):
+    """A reliable keep_all writer whose history is full blocks max_blocking_time (Fast DDS: 100 ms), then
+    refuses ("cannot publish data"); a controller waits and sends it again: nothing is dropped."""
+    global retries
+    while True:
+        try:
+            pub.publish(data)
+            return
+        except RCLError:
+            retries += 1
+            time.sleep(0.001)
 start = time.monotonic()
 for i in range(n):
     due = start + i / rate
     delay = due - time.monotonic()
     if delay > 0:
         time.sleep(delay)
-    pj.publish(joints[i])
+    publish(pj, joints[i])
     for p in pls:
-        p.publish(loads[i])
-print(f"sent {n} {time.monotonic() - start:.3f}", flush=True)
+        publish(p, loads[i])
+print(f"sent {n} {time.monotonic() - start:.3f} {retries}", flush=True)
 from rclpy.duration import Duration
 for p in [pj, *pls]:
     p.wait_for_all_acked(Duration(seconds=10))
@@ -158,7 +172,8 @@ def trial(axes: tuple[str, ...], seconds: float, rate: float, env: dict) -> dict
                                       env=env, stdout=subprocess.PIPE, text=True, cwd=ROOT)
             _line(feeder, "start")
             cpu0, bare0, t0 = cpu_seconds(node.pid), cpu_seconds(bare.pid), time.monotonic()
-            sent = int(_line(feeder, "sent").split()[1])
+            _, sent, _, retries = _line(feeder, "sent").split()
+            sent, retries = int(sent), int(retries)
             cpu1, bare1, t1 = cpu_seconds(node.pid), cpu_seconds(bare.pid), time.monotonic()
             feeder.wait(timeout=120)
             status = {a: collector.wait_settled(name, "samples", settle_s=2.0, timeout=120)
@@ -174,7 +189,8 @@ def trial(axes: tuple[str, ...], seconds: float, rate: float, env: dict) -> dict
     joint = {a: int(float(s["values"]["samples"])) for a, s in status.items()}
     load = {a: int(float(s["values"]["load_samples"])) for a, s in status.items()}
     return {"sent": sent, "feed_s": t1 - t0, "node_cpu_s": cpu1 - cpu0, "bare_cpu_s": bare1 - bare0,
-            "joint": joint, "load": load, "bare_counts": got, "period": period, "topics": 1 + len(axes)}
+            "joint": joint, "load": load, "bare_counts": got, "period": period, "topics": 1 + len(axes),
+            "retries": retries}
 
 
 def show(axes: tuple[str, ...], r: dict, rate: float) -> float:
@@ -185,7 +201,8 @@ def show(axes: tuple[str, ...], r: dict, rate: float) -> float:
     lost_load = {a: r["sent"] - n for a, n in r["load"].items()}
     median, shortest, longest, count = r["period"]
     print(f"{len(axes)} axes at {rate:g} Hz: sent {r['sent']:,} JointState + {len(axes)} x {r['sent']:,} "
-          f"WrenchStamped in {r['feed_s']:.1f} s (load {os.getloadavg()[0]:.1f})")
+          f"WrenchStamped in {r['feed_s']:.1f} s (load {os.getloadavg()[0]:.1f}); {r['retries']} publishes "
+          "sent again after a full writer history")
     print(f"  bare subscriber   CPU {bare_us:6.2f} us/msg  ({100 * r['bare_cpu_s'] / r['feed_s']:.0f} % of a core; "
           f"received {r['bare_counts']})")
     print(f"  wear_monitor      CPU {node_us:6.2f} us/msg  ({100 * r['node_cpu_s'] / r['feed_s']:.0f} % of a core)")

@@ -5,6 +5,7 @@
   the storage back ends in one table keyed by the storage identifier (`storage`, one module per back end
   behind `protocol.BagStorage`), reading (`reader`), writing (`writer`), summaries (`info`), run metadata
   (`metadata`) and maintenance events (`maintenance`);
+* ``diagnostics_cdr``: fleet_monitor's reader of DiagnosticArray statuses from their raw CDR bytes;
 * ``state_store``: the monitors' crash-safe state (SQLite, locking, validation);
 * ``outputs/``: what the commands and nodes write for people and other programs: report files (`files`:
   no symbolic links, 0640), strict JSON (`json_text`), the progress bar (`progress`) and the fleet history
