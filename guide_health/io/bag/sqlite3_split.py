@@ -1,6 +1,6 @@
 """A sqlite3 bag split into several storage files (``ros2 bag record --max-bag-size``: one metadata.yaml,
 N .db3 files) read on the sqlite3 fast path: each file is a `Sqlite3Storage`, and the files are chained in
-the order metadata.yaml lists them (bag_set.ChainedStorage: a topic's ids of every file become one
+the order metadata.yaml lists them (chained_storage.ChainedStorage: a topic's ids of every file become one
 connection, and the batches run on across the files in the windows one file of the same rows is read in, so
 the result is the unsplit bag's to the last bit).
 
@@ -16,6 +16,7 @@ import dataclasses
 from pathlib import Path
 
 from ...errors import InputError
+from .chained_storage import ChainedStorage
 from .protocol import NOT_SUPPORTED, BagConnection
 
 
@@ -35,8 +36,6 @@ def open_split(storage_class, path: Path, info: dict, files: list, topic_counts:
     """The split bag at ``path`` as one chained storage of ``storage_class`` (Sqlite3Storage) files, or
     NOT_SUPPORTED (see the module text)."""
     import apsw
-
-    from .bag_set import ChainedStorage
 
     file_counts = _file_counts(info, files)
     if file_counts is None:

@@ -42,6 +42,7 @@ from .protocol import (
     RawBatch,
     raw_batches,
 )
+from .sqlite3_split import open_split
 
 #: first and last rowid / log time of the messages table: one index search each. (MIN and MAX in one SELECT
 #: scan the whole timestamp index: 22-25 ms for 0.5 M rows, against 0.02 ms.)
@@ -335,8 +336,6 @@ class Sqlite3Storage:
             except (KeyError, TypeError, ValueError):
                 return NOT_SUPPORTED
         if len(files) > 1:                  # split by rosbag2: the files chained (sqlite3_split.py)
-            from .sqlite3_split import open_split
-
             return open_split(cls, path, info, files, counts)
         db_path = path / files[0]
         if not db_path.is_file():
@@ -397,7 +396,7 @@ class Sqlite3Storage:
 
     def _released_after(self, groups: Iterator[list[PackedBatch]]) -> Iterator[list[PackedBatch]]:
         """The groups, then the connection's page cache freed: a storage read to its end holds no pages, so
-        a chain of many bags (bag_set.ChainedStorage, a month of splits) holds one bag's cache, not one each."""
+        a chain of many bags (chained_storage.ChainedStorage, a month of splits) holds one bag's cache, not one each."""
         yield from groups
         self._db.execute("PRAGMA shrink_memory")
 
