@@ -94,19 +94,24 @@ def read_trends(db: Path, machine: str | None = None, days: float | None = None)
             con.close()
     except sqlite3.DatabaseError as exc:
         raise InputError(f"{db}: not a fleet history (fleet_monitor history_file): {exc}") from None
-    trends: dict[str, MachineTrend] = {}
-    for t, hw, name, level, message, *values in rows:
-        trend = trends.setdefault(hw, MachineTrend(hw))
-        trend.t_unix_s.append(float(t))
-        trend.status.append(name)
-        trend.level.append(int(level))
-        trend.message.append(message)
-        for (key, _), value in zip(TREND_KEYS, values):
-            trend.values[key].append(_number(value))
+    groups: dict[str, list] = {}            # a machine's rows, machines in the order of their first row
+    for row in rows:
+        groups.setdefault(row[1], []).append(row)
+    del rows
+    trends = {hw: _machine_trend(hw, machine_rows) for hw, machine_rows in groups.items()}
     if machine is not None and not trends:
         known = _machines(db)
         raise InputError(f"{db}: no history of machine '{machine}'; machines: {', '.join(known) or 'none'}")
     return trends
+
+
+def _machine_trend(machine: str, rows: list) -> MachineTrend:
+    """A machine's trend from its rows (t, hardware_id, name, level, message, *TREND_KEYS), transposed in C
+    (zip); a REAL column's value is a float or NULL, a migrated one may be a text (_number)."""
+    t, _, names, levels, messages, *columns = zip(*rows)
+    return MachineTrend(machine, list(map(float, t)), list(names), list(map(int, levels)), list(messages),
+                        {key: [v if type(v) is float else _number(v) for v in column]
+                         for (key, _), column in zip(TREND_KEYS, columns)})
 
 
 def check_history_layout(db: Path, con: sqlite3.Connection) -> None:

@@ -98,7 +98,11 @@ class FleetMonitorNode(Node):
 
 
 def main(argv: list[str] | None = None) -> int:
-    return run_node("fleet_monitor", FleetMonitorNode, argv)
+    # the events executor: rclpy's SingleThreadedExecutor rebuilds its wait set for every message, which
+    # at hundreds of machines cost more than reading the statuses; on /clock it stays single-threaded
+    # (rclpy 7.1.6's EventsExecutor stopped taking messages there, nodes/qos.resolve_executor)
+    return run_node("fleet_monitor", FleetMonitorNode, argv,
+                    events_executor=lambda node: not node.get_parameter("use_sim_time").value)
 
 
 if __name__ == "__main__":
