@@ -100,3 +100,13 @@ def test_malformed_bytes_give_one_line_and_count_as_one_ignored_status(raw, why)
     board = FleetBoard()
     board.reject_message(str(info.value))
     assert board.summary(0.0)["ignored_statuses"] == 1 and why in board.last_problem
+
+
+def test_a_message_cut_inside_its_last_value_is_malformed_not_a_shorter_value():
+    """Cut 3 bytes into the last value's 6 bytes ('812.5' + NUL): the string's length runs past the end."""
+    raw = serialization.serialize_message(build([(0, "m1/wear_monitor: x precision", "", "m1",
+                                                   [("remaining_life_h", "812.5")])]))
+    end = raw.rindex(b"812.5") + 3
+    with pytest.raises(MalformedMessage, match=f"string of 6 bytes at byte {end - 7} past the end"):
+        decode_diagnostic_array(raw[:end])
+    assert decode_diagnostic_array(raw)[0].values == {"remaining_life_h": "812.5"}
