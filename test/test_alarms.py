@@ -95,6 +95,8 @@ def test_a_one_period_slewing_overstress_stays_visible_until_acknowledged(ros_co
 
 
 def test_fleet_history_records_every_level_change_whatever_the_period(ros_context, tmp_path):
+    from rclpy.serialization import serialize_message
+
     from guide_health.nodes.fleet_monitor import FleetMonitorNode
 
     db = tmp_path / "fleet.db"
@@ -105,7 +107,7 @@ def test_fleet_history_records_every_level_change_whatever_the_period(ros_contex
             array = DiagnosticArray(status=[DiagnosticStatus(
                 level=bytes([level]), name="m1/wear_monitor: x precision", hardware_id="m1", message="m",
                 values=[KeyValue(key="remaining_life_h", value="1.0")])])
-            fleet._on_diagnostics(array)
+            fleet._on_diagnostics_raw(serialize_message(array))     # as the raw subscription hands it
         fleet.publish_diagnostics()                           # commits
         rows = sqlite3.connect(db).execute("SELECT level FROM fleet_history ORDER BY rowid").fetchall()
         # the first, and each change: OK, ERROR, OK, WARN (the repeats inside the period are not)

@@ -1,6 +1,6 @@
 """A fleet of hundreds, small scale: fleet_monitor's board (models/fleet.FleetBoard) and history
 (io/outputs/fleet_history.FleetHistory) fed 200 synthetic machines x 3 axes, one status per axis every
-second, for 60 s of simulated time, the way FleetMonitorNode._on_diagnostics and publish_diagnostics call
+second, for 60 s of simulated time, the way FleetMonitorNode._on_diagnostics_raw and publish_diagnostics call
 them. Asserted: the bounds, not the time. The board holds one entry per live status; the history writes one
 row per status per history period (plus every level change) and keeps in memory only the statuses of one
 period; rows past the retention go at the prune; the machines that fell silent leave the board.
