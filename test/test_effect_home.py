@@ -20,14 +20,6 @@ ALLOWED = {
         {"running_in", "speed_dependent_wear", "load_exponent", "stroke_distribution", "wear_rate_change",
          "lubrication_interval", "load_along_rail"},
         "re-exports the effects' functions that sim/machine.py and analysis/discrepancy/ import by name"),
-    "models/wear/fit_watch.py": (
-        {"thermal_drift"}, "two docstrings; the live fit watch is being changed in parallel (reword at merge)"),
-    "sim/machine.py": (
-        {"running_in", "retract_asymmetry", "speed_dependent_wear", "load_exponent", "stroke_distribution",
-         "thermal_drift", "wear_rate_change", "lubrication_interval", "load_along_rail"},
-        "the simulator's truth calls the offline forms by name and records them in the bag metadata (a stored "
-        "format); sim/ is changed in parallel"),
-    "sim/thermal.py": ({"thermal_drift"}, "a docstring; sim/ is changed in parallel"),
     "analysis/discrepancy/model.py": (
         {"running_in", "load_exponent", "stroke_distribution", "thermal_drift", "wear_rate_change",
          "lubrication_interval", "load_along_rail"},

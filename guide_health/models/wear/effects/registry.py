@@ -46,6 +46,16 @@ MATERIAL_FACTORS = (speed_dependent_wear.EFFECT, load_exponent.EFFECT, retract_a
 DUTY_FACTORS = (load_along_rail.EFFECT, wear_rate_change.EFFECT, lubrication_interval.EFFECT)
 #: the factors a planning scenario's duty scales move (models/wear/planning.py), in the order they are applied
 SCENARIO_FACTORS = (load_exponent.EFFECT, speed_dependent_wear.EFFECT)
+#: the material factor that follows the instantaneous sliding speed (the simulator averages it along a double-S move)
+SPEED_SHARE = speed_dependent_wear.EFFECT
+#: the duty factors of the discrepancy fit's cells, in the order their product is taken (the last bit depends on it)
+FIT_DUTY_FACTORS = (wear_rate_change.EFFECT, lubrication_interval.EFFECT, load_along_rail.EFFECT)
+#: the effects whose model-file values come from the record (Effect.file_values, file_jacobian), in the order model
+#: files have written them (a stored format)
+FILE_VALUE_EFFECTS = (load_along_rail.EFFECT, wear_rate_change.EFFECT, thermal_drift.EFFECT,
+                      lubrication_interval.EFFECT)
+#: the effects whose references the fit takes from the record (Effect.record_references), in the model file's order
+RECORD_REFERENCE_EFFECTS = (load_exponent.EFFECT, retract_asymmetry.EFFECT)
 #: each effect's fitted parameters for a record (base.FitContext -> base.FitParameter list), catalogue order
 FIT_PARAMETERS = {m.EFFECT.id: m.fit_parameters for m in MODULES}
 
@@ -87,6 +97,11 @@ if [r.row for r in COVARIANCE_ROWS] != list(range(len(COVARIANCE_ROWS))):      #
 #: ``straightness_initial_m`` A0 when the fit freed it
 COVARIANCE_NAMES = tuple(r.name for r in COVARIANCE_ROWS)
 COVARIANCE_INDEX = {name: i for i, name in enumerate(COVARIANCE_NAMES)}
+#: the bag metadata's ``effect_parameters``: the simulator's hidden truth under the names and in the order bags have
+#: recorded it (a stored format)
+RECORDED_EFFECT_PARAMETERS = tuple(name for e in EFFECTS for name in e.recorded)
+#: the fit's parameters that do not enter the work multiplier (with K and A0: Eq. 7/10's factor and the terms added)
+OUTSIDE_THE_SUMS = frozenset(name for e in EFFECTS for name in e.outside_the_sums)
 #: the effect parameters phi (every row but K) and their places in phi
 PHI_NAMES = COVARIANCE_NAMES[1:]
 PHI_INDEX = {name: i for i, name in enumerate(PHI_NAMES)}

@@ -30,6 +30,16 @@ class StrokeDistribution(Effect):
     def weight(self, e) -> float:
         return e.stroke_distribution_weight
 
+    def straightness_wear_m(self, wear_coefficient, hardness_pa, contact_width_m, effective_work_nm,
+                            effective_pass_work_n, stroke_sum_m, e):
+        """:func:`straightness_wear_m` with the weight of ``e`` (the EffectParameters)."""
+        return straightness_wear_m(wear_coefficient, hardness_pa, contact_width_m, effective_work_nm,
+                                   effective_pass_work_n, stroke_sum_m, e.stroke_distribution_weight)
+
+    def pass_weight_per_m(self, pass_length_m, slider_length_m):
+        """:func:`pass_weight_per_m`."""
+        return pass_weight_per_m(pass_length_m, slider_length_m)
+
 
 EFFECT = StrokeDistribution(
     id="stroke_distribution",
@@ -47,6 +57,8 @@ EFFECT = StrokeDistribution(
     fitted_to_file=("stroke_distribution_weight",),
     covariance_rows=(CovarianceRow("stroke_distribution_weight", 9, 3),),
     fields=(("stroke_distribution_weight", 0.0, "w"),),
+    recorded=("stroke_distribution_weight",),
+    outside_the_sums=("stroke_distribution_weight",),
 )
 
 
