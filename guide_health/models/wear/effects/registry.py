@@ -46,6 +46,8 @@ MATERIAL_FACTORS = (speed_dependent_wear.EFFECT, load_exponent.EFFECT, retract_a
 DUTY_FACTORS = (load_along_rail.EFFECT, wear_rate_change.EFFECT, lubrication_interval.EFFECT)
 #: the factors a planning scenario's duty scales move (models/wear/planning.py), in the order they are applied
 SCENARIO_FACTORS = (load_exponent.EFFECT, speed_dependent_wear.EFFECT)
+#: the wear rate's power n of the load, W^n (seed 000 Table 2 tests it on pin-on-disc rows)
+LOAD_POWER = load_exponent.EFFECT
 #: the material factor that follows the instantaneous sliding speed (the simulator averages it along a double-S move)
 SPEED_SHARE = speed_dependent_wear.EFFECT
 #: the duty factors of the discrepancy fit's cells, in the order their product is taken (the last bit depends on it)
