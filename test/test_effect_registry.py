@@ -87,7 +87,7 @@ def test_covariance_rows_sizes_and_state_lengths_are_derived():
     # the saved live state: phi and bucket rows of each generation (the padding history, derived)
     assert STATE_LIST_LENGTHS["work_gradient"] == STATE_LIST_LENGTHS["measurement_gradients"] == (12, 11, 9, 8, 5)
     assert STATE_LIST_LENGTHS["buckets"] == (11, 10, 7)
-    assert registry.PHI_NAMES[registry.RATE_PHI] == registry.RATE_NAMES
+    assert tuple(registry.PHI_NAMES[i] for i in registry.RATE_PHI) == registry.RATE_NAMES
     assert registry.BUCKET_SUMS[registry.RATE_SUMS] == tuple(f"d_{n}" for n in registry.RATE_NAMES)
 
 
