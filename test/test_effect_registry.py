@@ -223,3 +223,41 @@ def test_the_bag_metadata_names_are_the_stored_format():
         "load_reference_position_m")
     recorded = recorded_effect_parameters(EffectParameters.from_values({"lubrication_interval": 2e-5}))
     assert recorded["lubrication_wear_growth_per_s"] == 2e-5 and "lift_speed_m_s" not in recorded   # inf: left out
+
+
+def test_the_model_file_values_from_the_record_keep_their_order_and_closed_forms():
+    """model.yaml's keys are a stored format: the values an effect takes from the record (Effect.file_values,
+    record_references) come in the order files have written them, each its closed form: x_ref, t0 + t_c,
+    T_ref = T_0 - b / c_T, and the recorded relubrications' growth b, interval 0, t0 + the last one and their
+    mean gap; the gauge offset's covariance row is dc_T (T_ref - T_0) + db."""
+    from types import SimpleNamespace
+
+    from guide_health.analysis.discrepancy.model_file import model_parameters
+
+    t0_s, c_t, b = 1.7e9, 2.0e-6, 1.0e-6
+    problem = SimpleNamespace(a0_free=False, a0_m=10e-6, load_reference_n=5000.0, retract_sign=1,
+                              cells=SimpleNamespace(t0_ns=int(t0_s * 1e9)), temperature_first_c=21.0,
+                              position_ref_m=0.25, relubrication_t_s=np.array([3600.0, 10800.0, 14400.0]))
+    values = {"wear_coefficient": 4e-6, "thermal_drift_m_per_k": c_t, "thermal_offset_m": b,
+              "wear_rate_change_factor": 2.0, "wear_rate_change_time_s": 7200.0,
+              "lubrication_wear_growth_per_s": 3e-5, "load_gradient_per_m": 0.5}
+    names = ["wear_coefficient", "thermal_drift_m_per_k", "thermal_offset_m"]
+    fit = SimpleNamespace(values=values,
+                          extra={"covariance": {"names": names, "matrix": np.diag([1e-14, 1e-14, 4e-14])}})
+    named = ["thermal_drift", "wear_rate_change", "lubrication_interval", "load_along_rail"]
+    model = model_parameters(problem, fit, named)
+    assert list(model) == [
+        "wear_coefficient", "straightness_initial_m", "effects", "load_reference_n", "retract_direction",
+        "thermal_drift_m_per_k", "wear_rate_change_factor", "load_gradient_per_m", "load_reference_position_m",
+        "wear_rate_change_stamp_s", "thermal_reference_c", "lubrication_wear_growth", "lubrication_interval_s",
+        "lubrication_reference_stamp_s", "lubrication_forecast_interval_s", "effect_covariance"]
+    assert (model["load_reference_n"], model["retract_direction"]) == (5000.0, "+x")
+    assert model["load_reference_position_m"] == 0.25 and model["wear_rate_change_stamp_s"] == t0_s + 7200.0
+    assert model["thermal_reference_c"] == pytest.approx(21.0 - b / c_t, rel=1e-15)
+    assert (model["lubrication_wear_growth"], model["lubrication_interval_s"]) == (3e-5, 0.0)
+    assert model["lubrication_reference_stamp_s"] == t0_s + 14400.0
+    assert model["lubrication_forecast_interval_s"] == pytest.approx(5400.0, rel=1e-15)
+    n = len(registry.COVARIANCE_NAMES)
+    cov = np.asarray(model["effect_covariance"]).reshape(n, n)
+    e = registry.COVARIANCE_INDEX["thermal_gauge_offset_m"]
+    assert cov[e, e] == pytest.approx((b / c_t) ** 2 * 1e-14 + 4e-14, rel=1e-12)      # (-b/c)^2 var c + var b

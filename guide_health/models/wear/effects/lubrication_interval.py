@@ -159,7 +159,7 @@ EFFECT = LubricationInterval(
                         "remaining life assumes (diagnose: the record's mean gap); 0 = none expected (the time since "
                         "the last keeps growing)"),
     ),
-    # the model file's growth, interval and reference come from the fit's form (model_file.duty_effect_parameters)
+    # the model file's growth, interval and reference come from the fit's form (file_values)
     fitted_aliases=(("lubrication_wear_growth_per_s", "lubrication_wear_growth"),),
     covariance_rows=(CovarianceRow("lubrication_wear_growth", 8, 2, rate=True),),
     simulation=(EffectParameter("relubrication_interval_h", 0.0, "h", "[0, inf)",
