@@ -261,3 +261,19 @@ def test_the_model_file_values_from_the_record_keep_their_order_and_closed_forms
     cov = np.asarray(model["effect_covariance"]).reshape(n, n)
     e = registry.COVARIANCE_INDEX["thermal_gauge_offset_m"]
     assert cov[e, e] == pytest.approx((b / c_t) ** 2 * 1e-14 + 4e-14, rel=1e-12)      # (-b/c)^2 var c + var b
+
+
+def test_straightness_without_a_stroke_range_is_nan_without_a_warning():
+    """Eq. 7's mean stroke (l_min + l_max) / 2 is undefined before a stroke: the straightness is NaN (as the live
+    monitor's), not a division by zero; with a range it is K / (H b) 2 G / (l_min + l_max) at w = 0."""
+    import warnings
+
+    from guide_health.models.wear.effects.stroke_distribution import straightness_wear_m
+
+    g, p = np.array([0.0, 2.0e3]), np.array([0.0, 1.0e4])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for stroke_sum_m in (0.0, math.nan):
+            assert np.isnan(straightness_wear_m(4e-6, 2e9, 0.01, g, p, stroke_sum_m, 0.5)).all()
+    assert straightness_wear_m(4e-6, 2e9, 0.01, g, p, 0.4)[1] == pytest.approx(4e-6 / (2e9 * 0.01) * 2 * 2e3 / 0.4,
+                                                                             rel=1e-15)
