@@ -16,31 +16,10 @@ REGISTRY = "models/wear/effects/registry.py"
 
 #: files outside an effect's home that may still name it: {file: (the effects it may name, why)}
 ALLOWED = {
-    "models/wear/effects/__init__.py": (
-        {"running_in", "speed_dependent_wear", "load_exponent", "stroke_distribution", "wear_rate_change",
-         "lubrication_interval", "load_along_rail"},
-        "re-exports the effects' functions that sim/machine.py and analysis/discrepancy/ import by name"),
-    "models/wear/fit_watch.py": (
-        {"thermal_drift"}, "two docstrings; the live fit watch is being changed in parallel (reword at merge)"),
-    "sim/machine.py": (
-        {"running_in", "retract_asymmetry", "speed_dependent_wear", "load_exponent", "stroke_distribution",
-         "thermal_drift", "wear_rate_change", "lubrication_interval", "load_along_rail"},
-        "the simulator's truth calls the offline forms by name and records them in the bag metadata (a stored "
-        "format); sim/ is changed in parallel"),
-    "sim/thermal.py": ({"thermal_drift"}, "a docstring; sim/ is changed in parallel"),
     "analysis/discrepancy/model.py": (
-        {"running_in", "load_exponent", "stroke_distribution", "thermal_drift", "wear_rate_change",
-         "lubrication_interval", "load_along_rail"},
-        "the fit's offline forms (running-in spread, duty cells, relubrications); changed in parallel"),
-    "analysis/discrepancy/model_file.py": (
-        {"running_in", "retract_asymmetry", "load_exponent", "stroke_distribution", "thermal_drift", "initial_offset",
-         "wear_rate_change", "lubrication_interval", "load_along_rail"},
-        "the model file's duty-effect form and thermal reference, and the running-in forms' refit (its steady "
-        "rate and decay parameters); changed in parallel"),
-    "analysis/discrepancy/selection.py": ({"load_exponent"}, "the work-weighted reference load; changed in parallel"),
-    "analysis/discrepancy/workflow.py": (
-        {"running_in", "retract_asymmetry", "load_exponent", "lubrication_interval"},
-        "the workflow's per-effect report values; changed in parallel"),
+        {"load_exponent"},
+        "WearProblem.load_reference_n: the record's work-weighted W_ref, an attribute under the EffectParameters "
+        "field's name that the fit passes on and tests set (renaming it touches every discrepancy module and test)"),
 }
 
 

@@ -17,7 +17,7 @@ PACKAGE = ROOT / "guide_health"
 IDS = [e.id for e in registry.EFFECTS]
 #: literals that name several covariance rows outside the effects package, and why they may: the bag metadata's
 #: record of the simulator's truth is a stored format (its names and order are what bags hold)
-ALLOWED_ROW_LISTS = {("sim/machine.py", "RECORDED_EFFECT_PARAMETERS")}
+ALLOWED_ROW_LISTS: set = set()
 
 
 def test_ids_are_unique_and_each_has_its_module():
@@ -87,7 +87,7 @@ def test_covariance_rows_sizes_and_state_lengths_are_derived():
     # the saved live state: phi and bucket rows of each generation (the padding history, derived)
     assert STATE_LIST_LENGTHS["work_gradient"] == STATE_LIST_LENGTHS["measurement_gradients"] == (12, 11, 9, 8, 5)
     assert STATE_LIST_LENGTHS["buckets"] == (11, 10, 7)
-    assert registry.PHI_NAMES[registry.RATE_PHI] == registry.RATE_NAMES
+    assert tuple(registry.PHI_NAMES[i] for i in registry.RATE_PHI) == registry.RATE_NAMES
     assert registry.BUCKET_SUMS[registry.RATE_SUMS] == tuple(f"d_{n}" for n in registry.RATE_NAMES)
 
 
@@ -209,3 +209,71 @@ def test_consistency_forms_and_the_since_changes_are_the_registry_s():
     assert since.CHANGES[1:3] == (registry.INITIAL_TERM.id, registry.RATE_STEP.id)
     assert since.RATE_FACTOR in registry.COVARIANCE_NAMES
     assert registry.RATE_STEP.duty and registry.RATE_STEP.rate_row == since.RATE_FACTOR
+
+
+def test_the_bag_metadata_names_are_the_stored_format():
+    """The bag metadata's ``effect_parameters`` (the simulator's truth) is derived from the effects' ``recorded``
+    names; bags have recorded these names in this order, so the derived tuple must stay exactly this."""
+    from guide_health.sim.machine import recorded_effect_parameters
+
+    assert registry.RECORDED_EFFECT_PARAMETERS == (
+        "running_in_ratio", "running_in_distance_m", "retract_wear_factor", "lift_speed_m_s", "load_exponent",
+        "load_reference_n", "stroke_distribution_weight", "thermal_drift_m_per_k", "initial_offset_m",
+        "wear_rate_change_factor", "wear_rate_change_time_s", "lubrication_wear_growth_per_s", "load_gradient_per_m",
+        "load_reference_position_m")
+    recorded = recorded_effect_parameters(EffectParameters.from_values({"lubrication_interval": 2e-5}))
+    assert recorded["lubrication_wear_growth_per_s"] == 2e-5 and "lift_speed_m_s" not in recorded   # inf: left out
+
+
+def test_the_model_file_values_from_the_record_keep_their_order_and_closed_forms():
+    """model.yaml's keys are a stored format: the values an effect takes from the record (Effect.file_values,
+    record_references) come in the order files have written them, each its closed form: x_ref, t0 + t_c,
+    T_ref = T_0 - b / c_T, and the recorded relubrications' growth b, interval 0, t0 + the last one and their
+    mean gap; the gauge offset's covariance row is dc_T (T_ref - T_0) + db."""
+    from types import SimpleNamespace
+
+    from guide_health.analysis.discrepancy.model_file import model_parameters
+
+    t0_s, c_t, b = 1.7e9, 2.0e-6, 1.0e-6
+    problem = SimpleNamespace(a0_free=False, a0_m=10e-6, load_reference_n=5000.0, retract_sign=1,
+                              cells=SimpleNamespace(t0_ns=int(t0_s * 1e9)), temperature_first_c=21.0,
+                              position_ref_m=0.25, relubrication_t_s=np.array([3600.0, 10800.0, 14400.0]))
+    values = {"wear_coefficient": 4e-6, "thermal_drift_m_per_k": c_t, "thermal_offset_m": b,
+              "wear_rate_change_factor": 2.0, "wear_rate_change_time_s": 7200.0,
+              "lubrication_wear_growth_per_s": 3e-5, "load_gradient_per_m": 0.5}
+    names = ["wear_coefficient", "thermal_drift_m_per_k", "thermal_offset_m"]
+    fit = SimpleNamespace(values=values,
+                          extra={"covariance": {"names": names, "matrix": np.diag([1e-14, 1e-14, 4e-14])}})
+    named = ["thermal_drift", "wear_rate_change", "lubrication_interval", "load_along_rail"]
+    model = model_parameters(problem, fit, named)
+    assert list(model) == [
+        "wear_coefficient", "straightness_initial_m", "effects", "load_reference_n", "retract_direction",
+        "thermal_drift_m_per_k", "wear_rate_change_factor", "load_gradient_per_m", "load_reference_position_m",
+        "wear_rate_change_stamp_s", "thermal_reference_c", "lubrication_wear_growth", "lubrication_interval_s",
+        "lubrication_reference_stamp_s", "lubrication_forecast_interval_s", "effect_covariance"]
+    assert (model["load_reference_n"], model["retract_direction"]) == (5000.0, "+x")
+    assert model["load_reference_position_m"] == 0.25 and model["wear_rate_change_stamp_s"] == t0_s + 7200.0
+    assert model["thermal_reference_c"] == pytest.approx(21.0 - b / c_t, rel=1e-15)
+    assert (model["lubrication_wear_growth"], model["lubrication_interval_s"]) == (3e-5, 0.0)
+    assert model["lubrication_reference_stamp_s"] == t0_s + 14400.0
+    assert model["lubrication_forecast_interval_s"] == pytest.approx(5400.0, rel=1e-15)
+    n = len(registry.COVARIANCE_NAMES)
+    cov = np.asarray(model["effect_covariance"]).reshape(n, n)
+    e = registry.COVARIANCE_INDEX["thermal_gauge_offset_m"]
+    assert cov[e, e] == pytest.approx((b / c_t) ** 2 * 1e-14 + 4e-14, rel=1e-12)      # (-b/c)^2 var c + var b
+
+
+def test_straightness_without_a_stroke_range_is_nan_without_a_warning():
+    """Eq. 7's mean stroke (l_min + l_max) / 2 is undefined before a stroke: the straightness is NaN (as the live
+    monitor's), not a division by zero; with a range it is K / (H b) 2 G / (l_min + l_max) at w = 0."""
+    import warnings
+
+    from guide_health.models.wear.effects.stroke_distribution import straightness_wear_m
+
+    g, p = np.array([0.0, 2.0e3]), np.array([0.0, 1.0e4])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for stroke_sum_m in (0.0, math.nan):
+            assert np.isnan(straightness_wear_m(4e-6, 2e9, 0.01, g, p, stroke_sum_m, 0.5)).all()
+    assert straightness_wear_m(4e-6, 2e9, 0.01, g, p, 0.4)[1] == pytest.approx(4e-6 / (2e9 * 0.01) * 2 * 2e3 / 0.4,
+                                                                             rel=1e-15)

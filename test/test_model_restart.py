@@ -122,6 +122,7 @@ def test_a_corrupted_record_in_the_state_file_is_counted_and_the_configured_mode
     pytest.importorskip("rclpy")
     import sqlite3
 
+    from guide_health.nodes.axis_channel import EXTRA_PRECISION_KEYS
     from guide_health.nodes.wear_monitor import WearMonitorNode
 
     params, record, saved, _, _ = anchored_load(tmp_path)
@@ -142,6 +143,11 @@ def test_a_corrupted_record_in_the_state_file_is_counted_and_the_configured_mode
         finally:
             store.close()
         assert node.model_records_refused == 1 and node.channels[0].loaded_model == {}
+        report = {"message": ""}          # the count is a key of the published status of each axis
+        WearMonitorNode._timing_values(SimpleNamespace(
+            _callbacks=0, _callback_s=0.0, _model_s=0.0, model_records_refused=node.model_records_refused,
+            sensors=SimpleNamespace(values=dict, message_suffix=str)), report)
+        assert report["model_records_refused"] == 1 and "model_records_refused" in EXTRA_PRECISION_KEYS
         assert axis.params == wear_axis_params(params)
         assert logged[-1].startswith("loaded-model record refused (") and "runs on the configured model" in logged[-1]
         assert "\n" not in logged[-1]

@@ -204,7 +204,7 @@ def test_life_interval_with_only_k_uncertain_is_the_delta_method_on_k():
     n_phi = e.phi().size
     k, k_sd, margin0, work, loss_work, rate_per_k = 4.0e-6, 0.4e-6, 85e-6, 2.0e6, 6.25e-7, 1.875e-4
     now = EffectLifeNow(margin0=margin0, work=work, loss_work=loss_work, loss_pass=0.0,
-                        work_gradient=np.zeros(n_phi), dln_rate=np.zeros(len(range(n_phi)[RATE_PHI])),
+                        work_gradient=np.zeros(n_phi), dln_rate=np.zeros(len(RATE_PHI)),
                         rate_work_per_k=rate_per_k, s_now=100.0, v_s=0.05)
     centre = (margin0 - k * work * loss_work) / (k * rate_per_k)
     dln = -work * loss_work / (margin0 - k * work * loss_work) - 1.0 / k
@@ -223,7 +223,7 @@ def test_life_interval_wider_than_a_float_is_zero_to_infinity_not_an_overflow():
     n_phi = e.phi().size
     k, margin0, work, loss_work, rate_per_k = 4.0e-6, 85e-6, 2.0e6, 6.25e-7, 1.875e-4
     now = EffectLifeNow(margin0=margin0, work=work, loss_work=loss_work, loss_pass=0.0,
-                        work_gradient=np.zeros(n_phi), dln_rate=np.zeros(len(range(n_phi)[RATE_PHI])),
+                        work_gradient=np.zeros(n_phi), dln_rate=np.zeros(len(RATE_PHI)),
                         rate_work_per_k=rate_per_k, s_now=100.0, v_s=0.05)
     centre = (margin0 - k * work * loss_work) / (k * rate_per_k)
     for k_sd in (1.0e3, 1.0e160):       # exp overflow; then the square of the term overflows too

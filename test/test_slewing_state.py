@@ -151,7 +151,7 @@ def test_node_resumes_the_damage_and_refuses_a_corrupted_row(ros_context, tmp_pa
         node.destroy_node()
     node = _node(ros_context, state_file)
     try:
-        assert node.state_refused == 0
+        assert node.state_refused == 0 and node._report()[2]["state_refused"] == 0
         _turn(node, 1, 2)           # no new load sample: the load in force was restored
         damage = node.core.fatigue.row_damage()
         assert damage["upper_axial"] == pytest.approx(2 / l10, rel=1e-6)
@@ -169,6 +169,8 @@ def test_node_resumes_the_damage_and_refuses_a_corrupted_row(ros_context, tmp_pa
     node = _node(ros_context, state_file)
     try:
         assert node.state_refused == 1
+        assert node._report()[2]["state_refused"] == 1            # a key of the published status
+        assert "state_refused" in node.updater.tasks[0].optional_keys
         assert node.core.fatigue.row_damage() == dict.fromkeys(ROWS, 0.0)
         node.close()
     finally:

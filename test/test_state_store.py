@@ -459,3 +459,58 @@ def test_an_effects_state_from_stop_11_is_accepted_and_restores():
     again = PrecisionMonitor(wear_axis_params(dict(with_w)))
     again.restore(saved)
     assert again.report()["remaining_life_h"] == pytest.approx(restored.report()["remaining_life_h"], rel=1e-12)
+
+
+def test_a_rate_effect_added_later_restores_every_older_state_by_name(tmp_path, monkeypatch):
+    """A rate-type effect registered here (covariance row 13 of a new generation 6, ``rate``: its d(work)/d(its
+    parameter) becomes a bucket sum) needs no state-file generation of its own: registry.state_layouts derives
+    its rows and names every older list, and restore maps saved lists to today's names. A state saved today
+    (bucket rows of 1 + 10, gradients of 12) and one of the duty-effect generation (1 + 9, 8: no pass work), each
+    through the SQLite store, restore under the extended registry to their own sums and gradients by name, 0 in
+    the new effect's places (its no-effect value, as before it existed) and in those their generation lacked; the
+    extended state then saves and restores exactly. Positional padding would put today's pass work sum into the
+    new effect's derivative (it sits before the pass work in a bucket row)."""
+    from guide_health.models.wear import effect_wear
+    from guide_health.models.wear.effects import registry
+    from guide_health.models.wear.effects.base import CovarianceRow
+
+    params = {**WEAR_MONITOR_DEFAULTS, "effects": "running_in,retract_asymmetry,stroke_distribution",
+              "running_in_ratio": 2.0, "running_in_distance_m": 300.0, "retract_wear_factor": 0.5,
+              "stroke_distribution_weight": 0.5, "slider_length_m": 0.05}
+    today = json.loads(json.dumps(strokes_and_measurements(params).state()))["effects"]
+    older = json.loads(json.dumps(today))
+    older["buckets"] = [row[:10] for row in older["buckets"]]
+    older["work_gradient"] = older["work_gradient"][:8]
+    older["measurement_gradients"] = [g[:8] for g in older["measurement_gradients"]]
+    assert any(row[-1] > 0 for row in today["buckets"])          # a pass work sum that positional padding moves
+    store = StateStore(tmp_path / "s.db")
+    store.save({"today": today, "older": older})
+    store.close()
+
+    rows = registry.COVARIANCE_ROWS + (CovarianceRow("extra_rate_per_unit", 13, 6, rate=True),)
+    phi_layouts, bucket_layouts = registry.state_layouts(rows)
+    phi, sums = phi_layouts[max(phi_layouts)], bucket_layouts[max(bucket_layouts)]
+    assert phi == registry.PHI_NAMES + ("extra_rate_per_unit",)
+    assert sums == registry.BUCKET_SUMS[:-1] + ("d_extra_rate_per_unit", "pass_work_n")
+    assert {n: bucket_layouts[n] for n in (6, 9, 10)} == registry.BUCKET_LAYOUTS      # the older ones unchanged
+    for name, value in (("PHI_LAYOUTS", phi_layouts), ("BUCKET_LAYOUTS", bucket_layouts), ("PHI_NAMES", phi),
+                        ("BUCKET_SUMS", sums)):
+        monkeypatch.setattr(effect_wear, name, value)
+    store = StateStore(tmp_path / "s.db")
+    saved = {key: store.load(key) for key in ("today", "older")}
+    store.close()
+    for key, names_then in (("today", registry.BUCKET_SUMS), ("older", registry.BUCKET_LAYOUTS[9])):
+        wear = PrecisionMonitor(wear_axis_params(dict(params))).effect_wear
+        wear.restore(saved[key])
+        for row in saved[key]["buckets"]:
+            restored = dict(zip(sums, wear.buckets[row[0]]))
+            assert [restored[n] for n in names_then] == row[1:]
+            assert restored["d_extra_rate_per_unit"] == 0.0 and (key == "today" or restored["pass_work_n"] == 0.0)
+        kept = len(saved[key]["work_gradient"])
+        assert wear.work_gradient == saved[key]["work_gradient"] + [0.0] * (len(phi) - kept)
+        assert [g[:kept] for g in wear.measurement_gradients] == saved[key]["measurement_gradients"]
+        again = json.loads(json.dumps(wear.state()))
+        assert {len(r) for r in again["buckets"]} == {1 + len(sums)} and len(again["work_gradient"]) == len(phi)
+        round_trip = PrecisionMonitor(wear_axis_params(dict(params))).effect_wear
+        round_trip.restore(again)
+        assert round_trip.state() == wear.state()

@@ -42,6 +42,8 @@ EXTRA_PRECISION_KEYS = ("wear_coefficient_low", "wear_coefficient_high", "measur
                         "stroke_min_m", "stroke_max_m", "strokes", "rejected_samples", "samples",
                         "rejected_recent_share", "guide", "maintenance_event_count",
                         "last_maintenance", "messages_lost", "best_effort_topics",
+                        # saved loaded-model records that did not read back at start-up (nodes/wear_monitor.py)
+                        "model_records_refused",
                         # models/wear/stream_gaps.py: samples missing by stamp gaps (what messages_lost misses)
                         "samples_missing_estimate", "joint_samples_missing_estimate",
                         "load_samples_missing_estimate", "joint_period_estimate_us", "joint_stamp_pauses",

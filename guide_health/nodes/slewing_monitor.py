@@ -41,6 +41,8 @@ EXTRA_KEYS = ("p_max_MPa", "p_max_position_mm", "shear_depth_mm", "von_mises_sub
               "von_mises_surface_MPa", "axial_main_row_max_n",
               "axial_opposite_row_max_n", "radial_row_max_n", "worst_row", "loads_in_period", "rejected_loads",
               "messages_lost", "best_effort_topics",
+              # saved fatigue states that did not read back at start-up (the damage started at zero)
+              "state_refused",
               # models/wear/stream_gaps.py on the load stamps: samples missing by stamp gaps
               "samples_missing_estimate", "load_period_estimate_us", "load_stamp_pauses",
               # rating life per row over the axis angle and static safety (models/slewing/fatigue.py)
@@ -161,7 +163,8 @@ class SlewingMonitorNode(Node):
 
     def _report(self) -> tuple:
         level, message, values = self.core.period_report()
-        values = {**values, **self.sensors.values(), "level_clear": self._level_clear(level, values)}
+        values = {**values, **self.sensors.values(), "state_refused": self.state_refused,
+                  "level_clear": self._level_clear(level, values)}
         return level, message + self.sensors.message_suffix(), values
 
     def _level_clear(self, level, values: dict):

@@ -283,6 +283,7 @@ class WearMonitorNode(Node):
         report["callback_time_us"] = self._callback_s / n * 1e6 if n else math.nan
         report["model_time_us"] = self._model_s / n * 1e6 if n else math.nan
         report.update(self.sensors.values())          # messages_lost, best_effort_topics (nodes/qos.py)
+        report["model_records_refused"] = self.model_records_refused
         report["message"] += self.sensors.message_suffix()
 
     def publish_diagnostics(self) -> None:

@@ -8,28 +8,22 @@ Gaussian noise, every ``measurement_interval_h``.
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from guide_health.errors import InputError
 from guide_health.models.wear.archard import WearGeometry, WearIntegrator, straightness_from_wear_volume_m
-from guide_health.models.wear.effects import (
-    EffectParameters,
-    asperity_load_share,
-    effect_multiplier,
-    load_along_rail_factor,
-    measured_straightness_m,
-    pass_weight_per_m,
-    relubrication_growth_factor,
-    running_in_factor_mean,
-    straightness_wear_m,
-    wear_rate_change_factor,
-)
+from guide_health.models.wear.effects.multiplier import effect_multiplier, measured_straightness_m
+from guide_health.models.wear.effects.parameters import EffectParameters
 from guide_health.models.wear.effects.registry import (
     BY_ID,
     CANDIDATE_IDS,
+    DUTY_FACTORS,
+    PASS_WEIGHTING,
+    RECORDED_EFFECT_PARAMETERS,
+    SLIDING_DECAY,
+    SPEED_SHARE,
     simulate_field,
 )
 from guide_health.models.wear.maintenance import KINDS, MaintenanceEvent, check_event, straightness_from_text
@@ -48,13 +42,6 @@ from guide_health.sim.motion import (
 from guide_health.sim.thermal import temperature_records
 
 EFFECTS = CANDIDATE_IDS
-#: the bag metadata's ``effect_parameters``: the hidden truth under the names and in the order bags have recorded
-#: it (a stored format: the ``--effect`` values of the registry, their references and change time)
-RECORDED_EFFECT_PARAMETERS = (
-    "running_in_ratio", "running_in_distance_m", "retract_wear_factor", "lift_speed_m_s", "load_exponent",
-    "load_reference_n", "stroke_distribution_weight", "thermal_drift_m_per_k", "initial_offset_m",
-    "wear_rate_change_factor", "wear_rate_change_time_s", "lubrication_wear_growth_per_s", "load_gradient_per_m",
-    "load_reference_position_m")
 START_TIME_NS = 1_700_000_000 * 10**9
 
 
@@ -81,9 +68,9 @@ def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
                      relubrication_t_s=()) -> MachineRun:
     """A :class:`MachineRun` of the scenario ``sim`` for a guide with wear parameters ``params``.
     ``new_surface_t_s``: times [s from the start] of wear resets (regrind, new rail; see
-    :func:`apply_maintenance_truth`), from which the new surface runs in again (the running_in effect).
+    :func:`apply_maintenance_truth`), from which the new surface runs in again (registry SLIDING_DECAY).
     ``relubrication_t_s``: recorded relubrications [s from the start] besides the automatic ones every
-    ``relubrication_interval_h`` (:func:`relubrication_times_s`; the lubrication_interval effect's time base)."""
+    ``relubrication_interval_h`` (:func:`relubrication_times_s`; registry RELUBRICATION's time base)."""
     effects = checked_effects(effects)
     rng = np.random.default_rng(seed)
     knots = cycle_knots(rng, sim)
@@ -94,11 +81,10 @@ def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
     geometry = WearGeometry.from_params(guide_params(params))
     if effects and geometry.straightness_model != "eq7":
         raise InputError("--effect needs straightness_model: eq7 (the baseline the effects are defined against)")
+    run_facts = {"relubrication_t_s": relubrication_times_s(sim, relubrication_t_s, float(knots.t_s[-1])),
+                 "work_weighted_position_m": work_weighted_position_m(knots)}
     wear_effects = EffectParameters.from_values(
-        effects, running_in_distance_m=sim["running_in_distance_m"], load_reference_n=sim["load_reference_n"],
-        wear_rate_change_time_s=sim["wear_rate_change_h"] * 3600.0,
-        relubrication_t_s=tuple(float(t) for t in relubrication_times_s(sim, relubrication_t_s, float(knots.t_s[-1]))),
-        load_reference_position_m=work_weighted_position_m(knots))
+        effects, **{k: v for e in BY_ID.values() for k, v in e.simulation_fields(sim, run_facts).items()})
     # the random draws come in this order: strokes (above), load noise, temperature, straightness noise
     joint_t_s, position_m, velocity_m_s = joint_samples(knots, sim["joint_state_rate_hz"])
     if sim["encoder_noise_m"] > 0:
@@ -145,7 +131,7 @@ def simulate_machine(params: dict[str, Any], sim: dict[str, Any], seed: int = 0,
 
 
 def recorded_effect_parameters(effects: EffectParameters) -> dict[str, float]:
-    """{name: value} of :data:`RECORDED_EFFECT_PARAMETERS` that are finite (the bag metadata's record)."""
+    """{name: value} of the registry's RECORDED_EFFECT_PARAMETERS that are finite (the bag metadata's record)."""
     values = {name: getattr(effects, simulate_field(name)) for name in RECORDED_EFFECT_PARAMETERS}
     return {k: v for k, v in values.items() if isinstance(v, float) and math.isfinite(v)}
 
@@ -214,9 +200,9 @@ def true_straightness_wear_m(params: dict[str, Any], geometry: WearGeometry, kno
     straightness models, no effects) the true K times the monitor's loss per unit K of the exact motion."""
     if geometry.straightness_model == "eq7":
         work, pass_work = effective_work_at(knots, at_s, effects, geometry.slider_length_m, new_surface_t_s)
-        return straightness_wear_m(truth_k, geometry.hardness_pa, geometry.contact_width_m, work, pass_work,
-                                   float(knots.strokes_m.min() + knots.strokes_m.max()),
-                                   effects.stroke_distribution_weight)
+        return PASS_WEIGHTING.straightness_wear_m(truth_k, geometry.hardness_pa, geometry.contact_width_m, work,
+                                                  pass_work, float(knots.strokes_m.min() + knots.strokes_m.max()),
+                                                  effects)
     return truth_k * true_straightness_loss_per_k_m(params, knots.t_s, knots.x_m, knots.load_n, at_s,
                                                     knots.strokes_m)
 
@@ -283,17 +269,17 @@ def effective_work_at(knots: MachineKnots, at_s: np.ndarray, effects: EffectPara
     last = np.searchsorted(resets, knots.t_s[:-1], side="right") - 1
     reset_s = np.interp(resets, knots.t_s, s) if resets.size else np.zeros(1)     # sliding distance at each
     start = np.where(last >= 0, reset_s[np.clip(last, 0, None)], 0.0)
-    running_in = running_in_factor_mean(s[:-1] - start, s[1:] - start, effects.running_in_ratio,
-                                        effects.running_in_distance_m)
-    if knots.curve is not None and math.isfinite(effects.lift_speed_m_s):
-        # the asperity share varies along a double-S move: its distance-weighted mean (Gauss-Legendre, 1e-9)
-        share = s_curve_mean(knots.curve, lambda v: asperity_load_share(v, effects.lift_speed_m_s))[1:]
-        m = share * effect_multiplier(replace(effects, lift_speed_m_s=math.inf), speed, load,
-                                      knots.retract[1:], running_in, duty_factor(effects, knots))
+    decay = SLIDING_DECAY.live_factor_mean(effects, s[:-1] - start, s[1:] - start)
+    speed_factor = SPEED_SHARE.speed_factor(effects)
+    if knots.curve is not None and speed_factor is not None:
+        # the speed's factor varies along a double-S move: its distance-weighted mean (Gauss-Legendre, 1e-9)
+        share = s_curve_mean(knots.curve, speed_factor)[1:]
+        m = share * effect_multiplier(SPEED_SHARE.without(effects), speed, load,
+                                      knots.retract[1:], decay, duty_factor(effects, knots))
     else:
-        m = effect_multiplier(effects, speed, load, knots.retract[1:], running_in, duty_factor(effects, knots))
+        m = effect_multiplier(effects, speed, load, knots.retract[1:], decay, duty_factor(effects, knots))
     work = load * ds * m
-    pass_work = work * pass_weight_per_m(knots.pass_length_m[1:], slider_length_m)
+    pass_work = work * PASS_WEIGHTING.pass_weight_per_m(knots.pass_length_m[1:], slider_length_m)
     g = np.concatenate(([0.0], np.cumsum(work)))
     p = np.concatenate(([0.0], np.cumsum(pass_work)))
     seg, share_of_move = share_of_move_at(knots, at_s)        # within a move: its share of the distance
@@ -302,26 +288,19 @@ def effective_work_at(knots: MachineKnots, at_s: np.ndarray, effects: EffectPara
 
 
 def duty_factor(effects: EffectParameters, knots: MachineKnots) -> np.ndarray | float:
-    """The duty effects' multiplier of each move (models/wear/effects/): load_along_rail at its mid-position
-    (exact: linear in x, the work uniform in x), wear_rate_change by the share of its time after t_c,
-    lubrication_interval at its mid-time (time since the last relubrication before it)."""
-    t_a, t_b = knots.t_s[:-1], knots.t_s[1:]
+    """The duty effects' multiplier of each move: the product of their exact forms (Effect.truth_duty_factor,
+    registry DUTY_FACTORS order)."""
     m = 1.0
-    if effects.load_gradient_per_m != 0.0:
-        m = m * load_along_rail_factor(0.5 * (knots.x_m[:-1] + knots.x_m[1:]), effects.load_gradient_per_m,
-                                       effects.load_reference_position_m)
-    if effects.wear_rate_change_factor != 1.0:
-        m = m * wear_rate_change_factor(0.5 * (t_a + t_b), t_b - t_a, effects.wear_rate_change_time_s,
-                                        effects.wear_rate_change_factor)
-    if effects.lubrication_wear_growth != 0.0:
-        m = m * relubrication_growth_factor(0.5 * (t_a + t_b), np.asarray(effects.relubrication_t_s, dtype=float),
-                                            effects.lubrication_wear_growth)
+    for effect in DUTY_FACTORS:
+        f = effect.truth_duty_factor(effects, knots.t_s[:-1], knots.t_s[1:], knots.x_m[:-1], knots.x_m[1:])
+        if f is not None:
+            m = m * f
     return m
 
 
 def work_weighted_position_m(knots: MachineKnots) -> float:
-    """x_ref of load_along_rail: the Archard-work-weighted mean mid-position of the moves [m] (the workflow's
-    definition, analysis/discrepancy/model.py position_ref_m)."""
+    """x_ref of the load's gradient along the rail: the Archard-work-weighted mean mid-position of the moves [m]
+    (the workflow's definition, analysis/discrepancy/model.py position_ref_m)."""
     work = knots.load_n[1:] * np.abs(np.diff(knots.x_m))
     mid = 0.5 * (knots.x_m[:-1] + knots.x_m[1:])
     return float(np.sum(work * mid) / max(float(work.sum()), 1e-300))

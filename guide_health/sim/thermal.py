@@ -32,14 +32,15 @@ def guide_temperature_c(knots: MachineKnots, sim: dict[str, Any], grid_s: np.nda
     return ambient + rise
 
 
-def temperature_records(knots: MachineKnots, sim: dict[str, Any], thermal_drift: bool, measurement_t_s: np.ndarray,
+def temperature_records(knots: MachineKnots, sim: dict[str, Any], needs_record: bool, measurement_t_s: np.ndarray,
                         rng: np.random.Generator) -> tuple[np.ndarray | None, np.ndarray, np.ndarray | None]:
-    """Recorded guide temperature (when ``temperature_rate_hz`` > 0 or a thermal drift is simulated):
-    record times [s] (None: no record), recorded temperature [degC] with sensor noise, and the noise-free
-    temperature at the straightness measurement times ``measurement_t_s`` (None without a record)."""
+    """Recorded guide temperature (when ``temperature_rate_hz`` > 0 or ``needs_record``: a hidden effect needs a
+    temperature record, as the gauge's thermal drift does): record times [s] (None: no record), recorded
+    temperature [degC] with sensor noise, and the noise-free temperature at the straightness measurement times
+    ``measurement_t_s`` (None without a record)."""
     duration = knots.t_s[-1]
     rate = sim["temperature_rate_hz"]
-    if thermal_drift and not rate > 0:
+    if needs_record and not rate > 0:
         rate = THERMAL_DRIFT_RECORD_RATE_HZ
     if not rate > 0:
         return None, np.zeros(0), None

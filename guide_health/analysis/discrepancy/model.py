@@ -27,18 +27,19 @@ from guide_health.models.wear.effects import (
     CANDIDATE_IDS,
     EffectParameters,
     effect_multiplier,
-    load_along_rail_factor,
-    lubrication_interval_factor,
     measured_straightness_m,
-    relubrication_growth_factor,
-    running_in_factor_spread,
-    straightness_wear_m,
-    wear_rate_change_factor,
 )
 from guide_health.models.wear.effects.base import FitContext
 from guide_health.models.wear.effects.base import FitParameter as ParamSpec
-from guide_health.models.wear.effects.registry import BY_ID, FIT_PARAMETERS
-from guide_health.models.wear.form_average import running_in_form_factor_spread
+from guide_health.models.wear.effects.registry import (
+    BY_ID,
+    FIT_DUTY_FACTORS,
+    FIT_PARAMETERS,
+    GAUGE_TEMPERATURE,
+    OUTSIDE_THE_SUMS,
+    PASS_WEIGHTING,
+    SLIDING_DECAY,
+)
 from guide_health.models.wear.input_rules import reading_in_force_index
 
 UM = 1e6
@@ -60,21 +61,6 @@ def _effect_specs(problem: WearProblem) -> dict[str, list[ParamSpec]]:
     """Each candidate's fitted parameters (bounds and starts from the effect's module, for this record)."""
     context = fit_context(problem)
     return {effect: fit(context) for effect, fit in FIT_PARAMETERS.items()}
-
-
-def _thermal_reference(values: dict, se: dict, cov: np.ndarray, specs: list) -> None:
-    """dT_ref = T_ref - T_0 = -b / c_T [K] from the fitted offset b and drift c_T, its standard error by the
-    delta method (both are um-scaled inside the fit)."""
-    names = [s.name for s in specs]
-    i, j = names.index("thermal_drift_m_per_k"), names.index("thermal_offset_m")
-    c, b = values["thermal_drift_m_per_k"], values["thermal_offset_m"]
-    if c == 0.0:
-        values["thermal_reference_offset_k"], se["thermal_reference_offset_k"] = math.nan, math.nan
-        return
-    grad = np.array([b / c ** 2, -1.0 / c]) * 1e-6          # per internal (um) unit of c_T and b
-    sub = cov[np.ix_([i, j], [i, j])]
-    values["thermal_reference_offset_k"] = -b / c
-    se["thermal_reference_offset_k"] = math.sqrt(max(float(grad @ sub @ grad), 0.0))
 
 
 @dataclass
@@ -128,8 +114,7 @@ def rel_errors(pred: np.ndarray, meas: np.ndarray) -> np.ndarray:
 #: the fewest straightness measurements the workflow fits (K, an effect's parameters, a held-out forecast)
 MIN_MEASUREMENTS = 6
 #: parameters of the prediction that do not enter the multiplier m (Eq. 7/10's factor and the terms added to it)
-_OUTSIDE_THE_SUMS = frozenset({"wear_coefficient", "straightness_initial_m", "stroke_distribution_weight",
-                               "initial_offset_m", "thermal_drift_m_per_k", "thermal_offset_m"})
+_OUTSIDE_THE_SUMS = frozenset({"wear_coefficient", "straightness_initial_m"}) | OUTSIDE_THE_SUMS
 #: the EffectParameters fields a fit may hold (the load reference is the problem's own)
 _EFFECT_FIELDS = tuple(f.name for f in dataclasses.fields(EffectParameters) if f.name != "load_reference_n")
 
@@ -189,12 +174,12 @@ class WearProblem:
             # stamp); a measurement before the first reading takes the first (live rejects it)
             temp = cells.temperature_c[o][np.maximum(reading_in_force_index(tt[o], self.t_s), 0)]
             self.temperature_change_k = temp - temp[0]
-            self.temperature_first_c = float(temp[0])     # T_0: thermal_drift's reference is T_0 + dT_ref
+            self.temperature_first_c = float(temp[0])     # T_0: the gauge term's reference is T_0 + dT_ref
         # each cell spans its measurement interval (for a change point inside it: uniform work assumed)
         edges = np.concatenate(([0.0], self.t_s, [max(cells.duration_s, float(self.t_s[-1]))]))
         k = np.clip(cells.interval, 0, n)
         self.cell_start_s, self.cell_end_s = edges[k], edges[k + 1]
-        # recorded relubrications [s from t0] (maintenance events): lubrication_interval's time since the last
+        # recorded relubrications [s from t0] (maintenance events): the relubrication factor's time since the last
         relube = np.sort(np.asarray(relubrication_t_s if relubrication_t_s is not None else [], dtype=float))
         self.relubrication_t_s = relube if relube.size else None
         gaps = np.diff(np.concatenate(([0.0], relube, [max(cells.duration_s, 1.0)]))) if relube.size else [1.0]
@@ -205,7 +190,7 @@ class WearProblem:
                                   if cells.epoch is not None else None)
         self.specs = _effect_specs(self)
         self._work_cache: tuple | None = None     # (multiplier parameters, G_j, P_j) of the last prediction
-        self.running_in_form = "exponential"     # running_in's decay law (models/wear/form_average.py)
+        self.running_in_form = "exponential"     # the sliding decay's law (models/wear/form_average.py)
 
     # --- candidates ---------------------------------------------------------------------------
     def available_effects(self) -> list[str]:
@@ -254,24 +239,17 @@ class WearProblem:
         # the fitted effect parameters; one not fitted keeps EffectParameters' no-effect value
         eff = EffectParameters(load_reference_n=self.load_reference_n,
                                **{name: values[name] for name in _EFFECT_FIELDS if name in values})
-        # the effective work depends on the multiplier's parameters (and running_in's decay law) only: a
+        # the effective work depends on the multiplier's parameters (and the sliding decay's law) only: a
         # finite-difference step of K, A0 or a term outside the sums (most of a fit's evaluations) reuses the last sums
         key = (self.load_reference_n, self.running_in_form,
                *sorted((k, v) for k, v in values.items() if k not in _OUTSIDE_THE_SUMS))
         if self._work_cache is None or self._work_cache[0] != key:
-            ri = None
-            if eff.running_in_ratio != 0.0 and self.running_in_form != "exponential":    # form_average.py's forms
-                ri = running_in_form_factor_spread(self.running_in_form, c.sliding_distance_m,
-                                                   c.sliding_distance_var_m2, eff.running_in_ratio,
-                                                   eff.running_in_distance_m)
-            elif eff.running_in_ratio != 0.0:
-                ri = running_in_factor_spread(c.sliding_distance_m, c.sliding_distance_var_m2, eff.running_in_ratio,
-                                              eff.running_in_distance_m)
+            ri = SLIDING_DECAY.cell_factor(eff, self.running_in_form, c.sliding_distance_m, c.sliding_distance_var_m2)
             m = effect_multiplier(eff, c.speed_m_s, c.load_n, self.retract, ri, self._duty_factors(values))
             self._work_cache = (key, self._work_since_reset(c.work_nm * m), self._work_since_reset(c.pass_work_n * m))
         g, p = self._work_cache[1:]
-        wear = straightness_wear_m(values["wear_coefficient"], self.hardness_pa, self.width_m, g, p,
-                                   self.stroke_sum_m, eff.stroke_distribution_weight)
+        wear = PASS_WEIGHTING.straightness_wear_m(values["wear_coefficient"], self.hardness_pa, self.width_m, g, p,
+                                                  self.stroke_sum_m, eff)
         a0 = self.initial_straightness_m(values["straightness_initial_m"] if self.a0_free else self.a0_m)
         temp = self.temperature_change_k
         y = measured_straightness_m(wear, a0, temp, eff)
@@ -299,21 +277,12 @@ class WearProblem:
         return np.concatenate(([a0_m], np.where(np.isfinite(after), after, a0_m)))[self.measurement_epoch]
 
     def _duty_factors(self, values: dict[str, float]) -> np.ndarray | float:
-        """The multipliers of wear_rate_change, lubrication_interval and load_along_rail (models/wear/effects/)."""
-        c = self.cells
+        """The product of the duty effects' cell forms (Effect.fit_duty_factor, registry FIT_DUTY_FACTORS order)."""
         m = 1.0
-        if "wear_rate_change_factor" in values:
-            m = m * wear_rate_change_factor(0.5 * (self.cell_start_s + self.cell_end_s),
-                                            self.cell_end_s - self.cell_start_s, values["wear_rate_change_time_s"],
-                                            values["wear_rate_change_factor"])
-        if "lubrication_wear_growth_per_s" in values:
-            m = m * relubrication_growth_factor(c.time_s, self.relubrication_t_s,
-                                                values["lubrication_wear_growth_per_s"])
-        if "lubrication_interval_s" in values:
-            m = m * lubrication_interval_factor(c.time_s, values["lubrication_interval_s"],
-                                                values["lubrication_wear_growth"])
-        if "load_gradient_per_m" in values:
-            m = m * load_along_rail_factor(c.position_m, values["load_gradient_per_m"], self.position_ref_m)
+        for effect in FIT_DUTY_FACTORS:
+            f = effect.fit_duty_factor(values, self)
+            if f is not None:
+                m = m * f
         return m
 
     # --- fitting -------------------------------------------------------------------------------
@@ -388,7 +357,7 @@ class WearProblem:
             se[spec.name] = abs(values[spec.name]) * sd_int if spec.log else sd_int * self._internal_factor(spec)
         pred = self.predict_m(values)
         if "thermal_offset_m" in values:
-            _thermal_reference(values, se, cov, specs)
+            GAUGE_TEMPERATURE.fit_reference_offset(values, se, cov, specs)
         units = {s.name: s.unit for s in specs} | {"thermal_reference_offset_k": "K"}
         result = self._score(effects, values, se, units, pred, k, rss, bool(best.success))
         # covariance in physical units: d(physical)/d(internal) = value (log) or the linear factor

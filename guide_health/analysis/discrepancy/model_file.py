@@ -4,19 +4,17 @@ A ROS 2 parameters file (``/**/wear_monitor: ros__parameters:``) with the calibr
 the named effects the live model integrates (``effects`` and their parameters, params/wear_monitor.py) and
 the covariance of the fitted K, effect parameters and A0 (models/wear/effects/registry.COVARIANCE_NAMES;
 the gauge offset at T_ref is a linear function of the fitted c_T and offset at T_0, its rows by that Jacobian;
-A0's row is the fitted A0's, or initial_offset's delta's, when the fit freed them, else zero).
-The duty effects' times become absolute (seconds since the stamps' epoch): the change time of
-wear_rate_change, lubrication_interval's reference (the record's start for a fitted interval, the last
-recorded relubrication otherwise, with the record's mean gap between relubrications as the interval the
-remaining life assumes for the next ones); load_along_rail carries the fit's x_ref.
+A0's row is the fitted A0's, or the initial offset's delta's, when the fit freed them, else zero).
+The values an effect takes from the record come from its module (Effect.file_values: absolute times in seconds
+since the stamps' epoch, references; Effect.record_references: the fit's reference load and retract direction).
 Load it after the base file, the later overriding, as ROS merges several ``--params-file``:
 
     guide-health replay BAG --params config/bench_000.yaml --params DIR/model.yaml
     ros2 run guide_health wear_monitor --ros-args --params-file base.yaml --params-file DIR/model.yaml
 
-thermal_drift goes in as the gauge correction (c_T and the absolute T_ref: the live model corrects each
-measurement by c_T (T - T_ref) before the K update). stroke_distribution's weight w maps the effective
-work of each pass to straightness (effect_wear.EffectWear's pass work); initial_offset is folded into A0.
+The gauge's temperature term goes in as the correction (c_T and the absolute T_ref: the live model corrects each
+measurement by c_T (T - T_ref) before the K update). The pass weighting's w maps the effective work of each pass
+to straightness (effect_wear.EffectWear's pass work); a fitted initial offset is folded into A0.
 """
 from __future__ import annotations
 
@@ -35,8 +33,10 @@ from guide_health.models.wear.effects.registry import (
     COVARIANCE_INDEX,
     COVARIANCE_NAMES,
     EFFECT_PARAMETERS,
+    FILE_VALUE_EFFECTS,
     LIVE_EFFECT_IDS,
     MATERIAL_EFFECTS,
+    RECORD_REFERENCE_EFFECTS,
     SLIDING_DECAY,
 )
 
@@ -52,29 +52,13 @@ __all__ = ["COVARIANCE_ALIASES", "EFFECT_PARAMETERS", "MATERIAL_EFFECTS", "model
 
 
 def duty_effect_parameters(problem, v: dict[str, float], live: list[str]) -> dict[str, Any]:
-    """The absolute times and references of the named duty effects (module text)."""
+    """The absolute times and references of the named effects that come from the record (Effect.file_values, in
+    the order model files have written them)."""
     t0_s = problem.cells.t0_ns * 1e-9
     out: dict[str, Any] = {}
-    if "load_along_rail" in live:
-        out["load_reference_position_m"] = float(problem.position_ref_m)
-    if "wear_rate_change" in live:
-        out["wear_rate_change_stamp_s"] = float(t0_s + v["wear_rate_change_time_s"])
-    if "thermal_drift" in live:     # T_ref = T_0 + dT_ref, dT_ref = -b / c_T (b fitted when A0 is given)
-        c, b = v["thermal_drift_m_per_k"], v.get("thermal_offset_m", 0.0)
-        out["thermal_reference_c"] = float(problem.temperature_first_c - (b / c if c != 0.0 else 0.0))
-    if "lubrication_interval" in live:
-        if "lubrication_wear_growth_per_s" in v:            # the recorded relubrications were the time base
-            relube = problem.relubrication_t_s
-            # the future relubrications the remaining life assumes: the record's mean gap between recorded
-            # ones (fewer than two: none expected, the pessimistic side)
-            gaps = np.diff(relube) if relube is not None else np.zeros(0)
-            out.update(lubrication_wear_growth=float(v["lubrication_wear_growth_per_s"]), lubrication_interval_s=0.0,
-                       lubrication_reference_stamp_s=float(t0_s + (relube[-1] if relube is not None else 0.0)),
-                       lubrication_forecast_interval_s=float(np.mean(gaps)) if gaps.size else 0.0)
-        else:
-            out.update(lubrication_wear_growth=float(v["lubrication_wear_growth"]),
-                       lubrication_interval_s=float(v["lubrication_interval_s"]),
-                       lubrication_reference_stamp_s=float(t0_s))
+    for effect in FILE_VALUE_EFFECTS:
+        if effect.id in live:
+            out.update(effect.file_values(problem, v, t0_s))
     return out
 
 
@@ -82,15 +66,15 @@ def model_parameters(problem, final, named: list[str]) -> dict[str, Any]:
     """The wear_monitor parameters of a fitted model (``problem``: WearProblem, ``final``: its FitResult)."""
     v = final.values
     a0 = v["straightness_initial_m"] if problem.a0_free else problem.a0_m     # a free A0 is always fitted
-    a0 += v.get("initial_offset_m", 0.0)
+    a0 += sum(v.get(fitted, 0.0) for fitted, row in COVARIANCE_ALIASES.items() if row == "straightness_initial_m")
     live = [e for e in named if e in LIVE_EFFECT_IDS]
     out: dict[str, Any] = {
         "wear_coefficient": float(v["wear_coefficient"]),
         "straightness_initial_m": float(max(a0, 0.0)),
         "effects": ",".join(live),
-        "load_reference_n": float(problem.load_reference_n),
-        "retract_direction": "+x" if problem.retract_sign > 0 else "-x",
     }
+    for effect in RECORD_REFERENCE_EFFECTS:
+        out.update(effect.record_references(problem))
     for e in live:
         for name in EFFECT_PARAMETERS.get(e, ()):
             out[name] = float(v[name])
@@ -100,18 +84,17 @@ def model_parameters(problem, final, named: list[str]) -> dict[str, Any]:
     matrix = np.zeros((n, n))
     if cov is not None:
         # the file's parameters as linear functions of the fitted ones (jac), then jac Sigma jac' (a fitted
-        # name the registry aliases takes its row: initial_offset's delta is A0's, A0 = the given A0 + delta)
+        # name the registry aliases takes its row: the initial offset's delta is A0's, A0 = the given A0 + delta)
         index = {COVARIANCE_ALIASES.get(name, name): i for i, name in enumerate(cov["names"])}
         jac = np.zeros((n, len(cov["names"])))
         for name in COVARIANCE_NAMES:
             if name in index and (name == "wear_coefficient" or name in out):
                 jac[COVARIANCE_INDEX[name], index[name]] = 1.0
-        if "thermal_drift" in live:
-            # the gauge's offset at T_ref: e = dc_T (T_ref - T_0) + db (b the fitted offset at T_0, when fitted)
-            row = COVARIANCE_INDEX["thermal_gauge_offset_m"]
-            jac[row, index["thermal_drift_m_per_k"]] = out["thermal_reference_c"] - problem.temperature_first_c
-            if "thermal_offset_m" in index:
-                jac[row, index["thermal_offset_m"]] = 1.0
+        for effect in FILE_VALUE_EFFECTS:     # rows that are linear functions of other fitted parameters
+            if effect.id in live:
+                for row, fitted, d in effect.file_jacobian(problem, out):
+                    if fitted in index:
+                        jac[COVARIANCE_INDEX[row], index[fitted]] = d
         fitted = np.asarray(cov["matrix"], dtype=float)
         matrix = symmetrised(jac @ np.where(np.isfinite(fitted), fitted, 0.0) @ jac.T)   # exactly, for the loader
     out["effect_covariance"] = [float(x) for x in matrix.ravel()]
@@ -125,13 +108,12 @@ def form_life_s(problem, values: dict[str, float], form: str, limit_m: float) ->
     at the last quarter's sliding speed."""
     t, n, c = problem.t_s, problem.t_s.size, problem.cells
     j = max(0, int(0.75 * n) - 1)
-    steady = problem.predict_m({**values, "running_in_ratio": 0.0})
+    steady = problem.predict_m(SLIDING_DECAY.steady(values))
     rate = (steady[-1] - steady[j]) / max(t[-1] - t[j], 1e-9)
     distance = np.cumsum(np.bincount(np.clip(c.interval, 0, n), weights=c.distance_m, minlength=n + 1)[:n])
     speed = (distance[-1] - distance[j]) / max(t[-1] - t[j], 1e-9)
     return running_in_form_life_s(form, limit_m - float(problem.predict_m(values)[-1]), float(rate),
-                                  values["running_in_ratio"], values["running_in_distance_m"],
-                                  float(distance[-1]), float(speed))
+                                  *SLIDING_DECAY.fitted_decay(values), float(distance[-1]), float(speed))
 
 
 def running_in_forms(problem, final, named: list[str], limit_m: float) -> dict[str, list[float]]:
@@ -157,15 +139,14 @@ def running_in_forms(problem, final, named: list[str], limit_m: float) -> dict[s
 
 
 def live_parameter_text(model: dict[str, Any]) -> str:
-    """"K = 4.457e-06 ± 6.1e-08, stroke_distribution_weight = 0.59 ± 0.061": the model file's K and effect
+    """"K = 4.457e-06 ± 6.1e-08, w = 0.59 ± 0.061" (by the parameters' names): the model file's K and effect
     parameters with their standard errors (the covariance's diagonal). These are refitted on every
     measurement, so they differ from the selection's values (fitted without the held-out span)."""
     n = len(COVARIANCE_NAMES)
     cov = np.asarray(model["effect_covariance"], dtype=float).reshape(n, n)
     effects = [e for e in str(model["effects"]).split(",") if e]
     names = ["wear_coefficient"] + [p for e in effects for p in EFFECT_PARAMETERS.get(e, ())]
-    if "thermal_drift" in effects:       # T_ref, and the gauge's offset there (0 at the fitted values)
-        names += ["thermal_reference_c", "thermal_gauge_offset_m"]
+    names += [name for e in effects if e in BY_ID for name in BY_ID[e].file_derived]
     a0 = COVARIANCE_INDEX["straightness_initial_m"]
     if cov[a0, a0] > 0:                  # A0 was fitted
         names.append("straightness_initial_m")
@@ -179,7 +160,7 @@ def live_parameter_text(model: dict[str, Any]) -> str:
 
 def not_live_effects(named: list[str]) -> list[str]:
     """The named effects the live model does not apply (one whose fitted value the file folds into a row of
-    its own, as initial_offset into A0, is applied)."""
+    its own, as the initial offset into A0, is applied)."""
     return [e for e in named if e not in LIVE_EFFECT_IDS and not BY_ID[e].fitted_aliases]
 
 

@@ -22,8 +22,12 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
+from guide_health.models.wear.effects.registry import LOAD_POWER
+
 BIC_THRESHOLD = 10.0
 TIE_MARGIN = 2.0        # BIC differences below 2 are "not worth more than a bare mention" (Kass & Raftery)
+#: the pin-on-disc law's load exponent n of W^n: the registry's effect of that physics names it (the report's key)
+LOAD_EXPONENT = LOAD_POWER.id
 
 
 @dataclass
@@ -145,11 +149,11 @@ def _fit_law(v, w, gamma, effects, rows=None) -> tuple[np.ndarray, Any]:
     (the rows span an order of magnitude; the seed's repeats average three tests each)."""
     rows = np.arange(gamma.size) if rows is None else rows
     w_ref, v_ref = float(np.exp(np.log(w).mean())), float(np.exp(np.log(v).mean()))
-    names = ["wear_rate_per_load_speed"] + [e for e in ("load_exponent", "speed_exponent") if e in effects]
+    names = ["wear_rate_per_load_speed"] + [e for e in (LOAD_EXPONENT, "speed_exponent") if e in effects]
 
     def model(x, vv, ww):
         c = x[0] * 1e-14
-        n = x[names.index("load_exponent")] if "load_exponent" in names else 1.0
+        n = x[names.index(LOAD_EXPONENT)] if LOAD_EXPONENT in names else 1.0
         m = x[names.index("speed_exponent")] if "speed_exponent" in names else 1.0
         return c * w_ref * v_ref * (ww / w_ref) ** n * (vv / v_ref) ** m
 
@@ -185,8 +189,8 @@ def select_pin_on_disc_law(speed_m_s, load_n, wear_rate_m3_s, bic_threshold: flo
         return LawFit(tuple(effects), vals, ses, rss, n * math.log(rss / n) + k * math.log(n),
                       float(np.sqrt(rss / n)), float(np.sqrt(np.mean(np.square(loo)))), n, k)
 
-    sel = forward_selection(fit, ["load_exponent", "speed_exponent"], bic_threshold)
-    both = sel.fits.get(("load_exponent", "speed_exponent")) or fit(("load_exponent", "speed_exponent"))
+    sel = forward_selection(fit, [LOAD_EXPONENT, "speed_exponent"], bic_threshold)
+    both = sel.fits.get((LOAD_EXPONENT, "speed_exponent")) or fit((LOAD_EXPONENT, "speed_exponent"))
     return {
         "named_effects": sel.named,
         "baseline": sel.baseline.summary(),

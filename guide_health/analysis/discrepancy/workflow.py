@@ -20,7 +20,7 @@ from guide_health.analysis.discrepancy.model import FitResult, WearProblem, rel_
 from guide_health.analysis.discrepancy.model_file import model_parameters, running_in_forms
 from guide_health.analysis.discrepancy.resolution import data_resolution, rejected_wear_check
 from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD, forward_selection
-from guide_health.models.wear.effects.registry import BY_ID, EFFECTS
+from guide_health.models.wear.effects.registry import BY_ID, EFFECTS, RECORD_REFERENCE_EFFECTS, SLIDING_DECAY
 
 # what each effect means, and the duty variation that makes its signature distinct from the others' (for
 # near-ties), for the report: the effect registry's words
@@ -93,7 +93,7 @@ def _tie(tie: dict) -> dict[str, Any]:
 
 def _steady_stage(problem: WearProblem, base: FitResult, final: FitResult) -> dict[str, Any]:
     """The seed's steady stage: after the running-in transient ({} when the record does not reach it)."""
-    s0 = final.values["running_in_distance_m"]
+    s0 = SLIDING_DECAY.fitted_decay(final.values)[1]
     steady = sliding_distance_at_measurements(problem) >= STEADY_STAGE_DISTANCES * s0
     if not steady.any():
         return {}
@@ -135,8 +135,7 @@ def _data_block(problem: WearProblem, cells: DutyCells) -> dict[str, Any]:
         "rejected_samples": dict(cells.rejected_samples),
         "stroke_sum_m": problem.stroke_sum_m, "feed_speed_m_s": problem.feed_speed_m_s,
         "retract_speed_m_s": problem.retract_speed_m_s,
-        "retract_direction": "+x" if problem.retract_sign > 0 else "-x",
-        "load_reference_n": problem.load_reference_n,
+        **{k: v for e in RECORD_REFERENCE_EFFECTS for k, v in e.record_references(problem).items()},
         "temperature_recorded": problem.temperature_change_k is not None,
         "relubrications_recorded": 0 if problem.relubrication_t_s is None else int(problem.relubrication_t_s.size),
         "straightness_initial_fitted": problem.a0_free,
@@ -164,7 +163,7 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
                    bic_threshold: float = BIC_THRESHOLD, relubrication_t_s=None, workers: int = 1) -> dict[str, Any]:
     """The discrepancy workflow over duty cells (see ``duty.py``); returns the JSON-ready result with the
     series for plots under ``series``. ``relubrication_t_s``: the recorded relubrications [s from the cells'
-    t0] (maintenance events; None: lubrication_interval fits an interval). ``workers`` > 1: the candidate fits
+    t0] (maintenance events; None: the relubrication factor fits an interval). ``workers`` > 1: the candidate fits
     of a round in that many processes (fit_pool.py; the same result)."""
     t0 = time.perf_counter()
     problem = WearProblem(cells, params, heldout_fraction=heldout_fraction, relubrication_t_s=relubrication_t_s)
@@ -207,7 +206,7 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
         "selection": {"criterion": "BIC on the fit span and held-out RMSE", "bic_threshold": bic_threshold,
                       "heldout_fraction": heldout_fraction},
     }
-    if "running_in" in named:
+    if SLIDING_DECAY.id in named:
         result.update(_steady_stage(problem, base, final))
     _model_file_and_series(result, problem, params, (base, final), named, relubrication_t_s)
     result["fit_s"] = time.perf_counter() - t0

@@ -27,11 +27,13 @@ from guide_health.models.wear.effects.base import LiveSegments
 from guide_health.models.wear.effects.multiplier import combined_multiplier, wear_rate_multiplier
 from guide_health.models.wear.effects.parameters import EffectParameters
 from guide_health.models.wear.effects.registry import (
+    BUCKET_LAYOUTS,
     BUCKET_ROW_LENGTHS,
     BUCKET_SUMS,
     DUTY_FACTORS,
     MATERIAL_FACTORS,
     PHI_INDEX,
+    PHI_LAYOUTS,
     PHI_LENGTHS,
     PHI_NAMES,
     RELUBRICATION,
@@ -43,9 +45,9 @@ _PHI = len(PHI_NAMES)       # effect parameters phi (every covariance row but K)
 _SUMS = len(BUCKET_SUMS)
 PASS_SUM = SUM_INDEX["pass_work_n"]
 #: lengths of the saved lists (a work gradient, a bucket row: index then sums, a measurement's gradient):
-#: (now, earlier ones); a state of an earlier length is zero-padded on restore (the terms added since were zero
-#: then: the straightness and gauge terms and A0 have no work gradient, and the pass sums only count with a
-#: weighted pass work)
+#: (now, earlier ones); a list of an earlier length is restored by name (registry.state_layouts), the terms added
+#: since at 0 (they were zero then: the straightness and gauge terms and A0 have no work gradient, the pass sums
+#: only count with a weighted pass work, an effect added later was at its no-effect value)
 STATE_LIST_LENGTHS = {"work_gradient": PHI_LENGTHS, "buckets": BUCKET_ROW_LENGTHS,
                       "measurement_gradients": PHI_LENGTHS, "pass_open_buckets": (2,)}
 
@@ -297,9 +299,10 @@ class EffectWear:
 
     def restore(self, state: dict) -> None:
         self.effective_work_nm = float(state["effective_work_nm"])
-        self.work_gradient = _padded(state.get("work_gradient", []), _PHI)
-        self.buckets = {int(row[0]): _padded(row[1:], _SUMS) for row in state["buckets"]}
-        self.measurement_gradients = [_padded(g, _PHI) for g in state.get("measurement_gradients", [])]
+        self.work_gradient = by_name(state.get("work_gradient", []), PHI_LAYOUTS, PHI_NAMES)
+        self.buckets = {int(row[0]): by_name(row[1:], BUCKET_LAYOUTS, BUCKET_SUMS) for row in state["buckets"]}
+        self.measurement_gradients = [by_name(g, PHI_LAYOUTS, PHI_NAMES)
+                                      for g in state.get("measurement_gradients", [])]
         self.surface_start_m = float(state.get("surface_start_m", 0.0))
         last, first = state.get("last_relubrication_t_ns"), state.get("first_sample_t_ns")
         self.last_relubrication_ns = None if last is None else int(last)
@@ -317,8 +320,9 @@ class EffectWear:
                                                                               unknown)]
 
 
-def _padded(values, size: int) -> list[float]:
-    """A saved row of sums or gradients, zero-padded to ``size`` (states saved before the duty effects had
-    5 gradients and 6 bucket sums; the added terms were zero then)."""
-    out = [float(v) for v in values][:size]
-    return out + [0.0] * (size - len(out))
+def by_name(values, layouts: dict[int, tuple[str, ...]], names: tuple[str, ...]) -> list[float]:
+    """A saved row of sums or gradients in today's ``names``: its values named by the layout of its length
+    (``layouts``: registry.PHI_LAYOUTS or BUCKET_LAYOUTS; state_schema accepts only those lengths), a name it does
+    not hold at 0 (the term's value before its effect existed, or with an empty list: nothing yet)."""
+    saved = dict(zip(layouts.get(len(values), ()), (float(v) for v in values)))
+    return [saved.get(name, 0.0) for name in names]

@@ -6,9 +6,9 @@ For each accepted straightness measurement, before K is updated with it, the mod
 
 with g the straightness loss per unit K at the measurement, K and sd(K) the posterior of the measurements
 before it (models/wear/calibration.py), sigma the configured measurement noise and s_T the thermal term
-(thermal_drift: the model file's variance of the correction c_T (T - T_ref) + e, :func:`thermal_sd_m`). This
-is the one-step predictive distribution of the conjugate normal update; when the model is right, z ~ N(0, 1)
-and successive z are independent.
+(the registry's GAUGE_TEMPERATURE: the model file's variance of the correction c_T (T - T_ref) + e,
+:func:`thermal_sd_m`). This is the one-step predictive distribution of the conjugate normal update; when the
+model is right, z ~ N(0, 1) and successive z are independent.
 
 Two tests run on z, each at half the stated false-alarm rate per measurement ``FALSE_ALARM_RATE`` (so the
 union fires at most at that rate, Bonferroni):
@@ -110,7 +110,7 @@ def predict(measured_m: float, initial_m: float, loss_per_k_m: float, k: float, 
 
 
 def thermal_sd_m(offset_k: float, covariance_ct_e) -> float:
-    """sd of the thermal_drift correction c_T (T - T_ref) + e [m] from the model file's 2x2 covariance of
+    """sd of the gauge temperature correction c_T (T - T_ref) + e [m] from the model file's 2x2 covariance of
     (c_T [m/K], e [m]): sqrt(dT^2 var c_T + 2 dT cov + var e)."""
     c = np.asarray(covariance_ct_e, dtype=float)
     var = offset_k * offset_k * c[0, 0] + 2.0 * offset_k * c[0, 1] + c[1, 1]

@@ -34,7 +34,6 @@ from guide_health.models.wear.effect_life import (
     schedule_tuple,
 )
 from guide_health.models.wear.effect_wear import EffectWear
-from guide_health.models.wear.effects import straightness_wear_m
 from guide_health.models.wear.effects.parameters import EffectParameters
 from guide_health.models.wear.effects.registry import (
     COVARIANCE_INDEX,
@@ -219,8 +218,8 @@ class GuideWear:
         l_min, l_max = self.integrator.stroke_range_m()
         if not (l_min + l_max > 0):
             return math.nan * np.asarray(work_nm, dtype=float)
-        loss = straightness_wear_m(1.0, self.geometry.hardness_pa, self.geometry.contact_width_m, work_nm,
-                                   pass_work_n, l_min + l_max, PASS_WEIGHTING.weight(self.effects))
+        loss = PASS_WEIGHTING.straightness_wear_m(1.0, self.geometry.hardness_pa, self.geometry.contact_width_m,
+                                                  work_nm, pass_work_n, l_min + l_max, self.effects)
         return np.maximum(loss, 0.0)
 
     def measurement_pass_work_n(self) -> np.ndarray:

@@ -13,16 +13,10 @@ keys and simulation parameters; the rest of guide_health reaches it through the 
 methods of base.Effect), never by its name. The simulator's truth (``guide_health.sim.machine``), the
 candidates of ``guide_health.analysis.discrepancy`` and the live model (models/wear/effect_wear.py) evaluate the
 *same* functions with one parameter type (parameters.EffectParameters), so a hidden effect and the candidate
-that should find it are one model, not a fitted curve. The imports below re-export the effects' functions the
-simulator and the discrepancy fit call by name (test/test_effect_home.py's allow-list).
+that should find it are one model, not a fitted curve. The package also gives each effect module's public
+functions by name (module ``__getattr__`` over registry.MODULES: tests and tools that check a form directly), so
+no file outside an effect's module names the module.
 """
-from guide_health.models.wear.effects.load_along_rail import load_along_rail_factor
-from guide_health.models.wear.effects.load_exponent import load_exponent_factor
-from guide_health.models.wear.effects.lubrication_interval import (
-    lubrication_interval_factor,
-    relubrication_growth_factor,
-    time_since_relubrication_s,
-)
 from guide_health.models.wear.effects.multiplier import (
     combined_multiplier,
     effect_multiplier,
@@ -35,20 +29,19 @@ from guide_health.models.wear.effects.registry import (
     DUTY_EFFECT_IDS,
     EFFECT_IDS,
     EFFECT_VALUE,
+    MODULES,
 )
-from guide_health.models.wear.effects.running_in import (
-    running_in_factor,
-    running_in_factor_mean,
-    running_in_factor_spread,
-)
-from guide_health.models.wear.effects.speed_dependent_wear import LUBRICATION_SPEED_EXPONENT, asperity_load_share
-from guide_health.models.wear.effects.stroke_distribution import pass_weight_per_m, straightness_wear_m
-from guide_health.models.wear.effects.wear_rate_change import wear_rate_change_factor
 
-__all__ = ["CANDIDATE_IDS", "DUTY_EFFECT_IDS", "EFFECT_IDS", "EFFECT_VALUE", "LUBRICATION_SPEED_EXPONENT",
-           "EffectParameters", "asperity_load_share", "load_along_rail_factor", "load_exponent_factor",
-           "lubrication_interval_factor", "measured_straightness_m", "pass_weight_per_m",
-           "relubrication_growth_factor", "running_in_factor", "running_in_factor_mean",
-           "running_in_factor_spread", "straightness_wear_m", "time_since_relubrication_s",
-           "wear_rate_change_factor", "wear_rate_multiplier",
-           "combined_multiplier", "effect_multiplier"]
+
+def __getattr__(name: str):
+    """A public function or constant defined in an effect's module (the first of registry.MODULES that has it)."""
+    for module in MODULES:
+        value = vars(module).get(name)
+        if value is not None and not name.startswith("_") and (
+                name.isupper() or getattr(value, "__module__", None) == module.__name__):
+            return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+__all__ = ["CANDIDATE_IDS", "DUTY_EFFECT_IDS", "EFFECT_IDS", "EFFECT_VALUE", "EffectParameters", "combined_multiplier",
+           "effect_multiplier", "measured_straightness_m", "wear_rate_multiplier"]

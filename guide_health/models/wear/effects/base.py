@@ -109,6 +109,46 @@ class Effect:
     consistency_alternatives: tuple[str, ...] | None = None
     #: the measurement that tells it from the registry's step in K (the consistency report's words)
     consistency_separation: str = ""
+    #: its names in the bag metadata's ``effect_parameters`` (the simulator's hidden truth): a stored format, the
+    #: names and order bags have recorded (registry.RECORDED_EFFECT_PARAMETERS)
+    recorded: tuple[str, ...] = ()
+    #: its fitted parameters that do not enter the work multiplier (straightness and measurement terms: a fit
+    #: step of them reuses the effective-work sums, analysis/discrepancy/model.py)
+    outside_the_sums: tuple[str, ...] = ()
+    #: values derived from its fitted ones that the model file's parameter text lists after them
+    file_derived: tuple[str, ...] = ()
+
+    def simulation_fields(self, sim: dict[str, Any], run: dict[str, Any]) -> dict[str, Any]:
+        """Its EffectParameters fields of the simulator's hidden truth beyond the ``--effect`` value, from its
+        ``guide_health_simulation`` parameters ``sim`` and the run's facts ``run`` (sim/machine.py:
+        ``relubrication_t_s`` [s from the start], ``work_weighted_position_m`` [m])."""
+        return {}
+
+    def truth_duty_factor(self, e: Any, t_a_s: np.ndarray, t_b_s: np.ndarray, x_a_m: np.ndarray,
+                          x_b_m: np.ndarray) -> np.ndarray | None:
+        """A duty effect's exact multiplier of the simulator's moves from t_a to t_b [s from the start] and x_a
+        to x_b [m] (``e``: the EffectParameters of the hidden truth); None: 1 (no effect)."""
+        return None
+
+    def fit_duty_factor(self, values: dict[str, float], problem: Any) -> np.ndarray | None:
+        """A duty effect's multiplier of the discrepancy fit's duty cells (``values``: the fit's parameters,
+        ``problem``: analysis/discrepancy/model.py WearProblem); None: 1 (not fitted)."""
+        return None
+
+    def file_values(self, problem: Any, values: dict[str, float], t0_s: float) -> dict[str, Any]:
+        """The model file's values of the effect named live that come from the record (absolute times
+        [s since the stamps' epoch; ``t0_s`` the record's start], references); ``values``: the fit's."""
+        return {}
+
+    def file_jacobian(self, problem: Any, file_values: dict[str, Any]) -> tuple[tuple[str, str, float], ...]:
+        """(covariance row, fitted parameter, d row / d parameter) of the model file's rows that are linear
+        functions of fitted parameters other than their own (``file_values``: the file's values)."""
+        return ()
+
+    def record_references(self, problem: Any) -> dict[str, Any]:
+        """The references of its parameters the fit takes from the record (the model file writes them and the
+        report lists them: wear_monitor parameter name -> value)."""
+        return {}
 
     def plausible_strong_size(self, c: FitContext) -> tuple[dict[str, float], str, float] | None:
         """(its parameters at the strong end of its documented range on a record ``c``, what the size is, the

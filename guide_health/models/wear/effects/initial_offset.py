@@ -31,6 +31,8 @@ EFFECT = InitialOffset(
     needs_given_a0=True,         # with A0 = 0 the baseline fits A0 itself
     fitted_aliases=(("initial_offset_m", "straightness_initial_m"),),     # the model file's A0 = A0 + delta
     fields=(("initial_offset_m", 0.0, "delta (offline; live folded into A0)"),),
+    recorded=("initial_offset_m",),
+    outside_the_sums=("initial_offset_m",),
 )
 
 

@@ -29,6 +29,24 @@ class LoadAlongRail(Effect):
     def live_duty_factor(self, e, t_s, x_m, last_relubrication_s):
         return live_factor(x_m, e.load_gradient_per_m, e.load_reference_position_m)
 
+    def simulation_fields(self, sim, run):
+        return {"load_reference_position_m": run["work_weighted_position_m"]}
+
+    def truth_duty_factor(self, e, t_a_s, t_b_s, x_a_m, x_b_m):
+        """m at each move's mid-position (exact: linear in x, the work uniform in x)."""
+        if e.load_gradient_per_m == 0.0:
+            return None
+        return load_along_rail_factor(0.5 * (x_a_m + x_b_m), e.load_gradient_per_m, e.load_reference_position_m)
+
+    def fit_duty_factor(self, values, problem):
+        """m at each cell's position, x_ref the record's work-weighted mean position."""
+        if "load_gradient_per_m" not in values:
+            return None
+        return load_along_rail_factor(problem.cells.position_m, values["load_gradient_per_m"], problem.position_ref_m)
+
+    def file_values(self, problem, values, t0_s):
+        return {"load_reference_position_m": float(problem.position_ref_m)}
+
 
 EFFECT = LoadAlongRail(
     id="load_along_rail",
@@ -46,6 +64,7 @@ EFFECT = LoadAlongRail(
     fitted_to_file=("load_gradient_per_m",),
     covariance_rows=(CovarianceRow("load_gradient_per_m", 6, 2, rate=True),),
     fields=(("load_gradient_per_m", 0.0, "g"), ("load_reference_position_m", 0.0, "x_ref")),
+    recorded=("load_gradient_per_m", "load_reference_position_m"),
 )
 
 

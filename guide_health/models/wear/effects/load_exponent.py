@@ -30,6 +30,13 @@ class LoadExponent(Effect):
     def rate_factor(self, e, speed_m_s, load_n, retract):
         return load_exponent_factor(load_n, e.load_exponent, e.load_reference_n)
 
+    def simulation_fields(self, sim, run):
+        return {"load_reference_n": sim["load_reference_n"]}
+
+    def record_references(self, problem):
+        """W_ref: the record's work-weighted geometric mean load [N] (the fit's)."""
+        return {"load_reference_n": float(problem.load_reference_n)}
+
     def live_rate_gradients(self, e, seg):
         return {self.rate_row: live_gradient(seg.effective_work_nm, seg.load_n, e.load_reference_n)}
 
@@ -61,6 +68,7 @@ EFFECT = LoadExponent(
     covariance_rows=(CovarianceRow("load_exponent", 5, 1, rate=True),),
     simulation=(EffectParameter("load_reference_n", 1000.0, "N", "(0, inf)", "W_ref of the load_exponent effect"),),
     fields=(("load_exponent", 1.0, "n"), ("load_reference_n", None, "W_ref")),
+    recorded=("load_exponent", "load_reference_n"),
 )
 
 

@@ -57,6 +57,43 @@ class LubricationInterval(Effect):
         return live_factor(self.live_tau_s(e, t_s, last_relubrication_s), e.lubrication_wear_growth,
                            e.lubrication_interval_s)
 
+    def simulation_fields(self, sim, run):
+        return {"relubrication_t_s": tuple(float(t) for t in run["relubrication_t_s"])}
+
+    def truth_duty_factor(self, e, t_a_s, t_b_s, x_a_m, x_b_m):
+        """m at each move's mid-time (the time since the last relubrication before it)."""
+        if e.lubrication_wear_growth == 0.0:
+            return None
+        return relubrication_growth_factor(0.5 * (t_a_s + t_b_s), np.asarray(e.relubrication_t_s, dtype=float),
+                                           e.lubrication_wear_growth)
+
+    def fit_duty_factor(self, values, problem):
+        """m at each cell's time: the recorded form (b) or the interval form (T, a), whichever the fit frees."""
+        m = None
+        if "lubrication_wear_growth_per_s" in values:
+            m = relubrication_growth_factor(problem.cells.time_s, problem.relubrication_t_s,
+                                            values["lubrication_wear_growth_per_s"])
+        if "lubrication_interval_s" in values:
+            f = lubrication_interval_factor(problem.cells.time_s, values["lubrication_interval_s"],
+                                            values["lubrication_wear_growth"])
+            m = f if m is None else m * f
+        return m
+
+    def file_values(self, problem, values, t0_s):
+        """The growth, interval and reference of the fit's form: the record's start for a fitted interval; the
+        last recorded relubrication otherwise, with the record's mean gap between recorded ones as the interval of
+        the future ones the remaining life assumes (fewer than two: none expected, the pessimistic side)."""
+        if "lubrication_wear_growth_per_s" in values:            # the recorded relubrications were the time base
+            relube = problem.relubrication_t_s
+            gaps = np.diff(relube) if relube is not None else np.zeros(0)
+            return dict(lubrication_wear_growth=float(values["lubrication_wear_growth_per_s"]),
+                        lubrication_interval_s=0.0,
+                        lubrication_reference_stamp_s=float(t0_s + (relube[-1] if relube is not None else 0.0)),
+                        lubrication_forecast_interval_s=float(np.mean(gaps)) if gaps.size else 0.0)
+        return dict(lubrication_wear_growth=float(values["lubrication_wear_growth"]),
+                    lubrication_interval_s=float(values["lubrication_interval_s"]),
+                    lubrication_reference_stamp_s=float(t0_s))
+
     def live_tau_s(self, e, t_s, last_relubrication_s):
         """The live tau [s] at times t [s since the stamps' epoch] (:func:`live_time_since_relubrication_s`
         with the parameters of ``e``)."""
@@ -122,7 +159,7 @@ EFFECT = LubricationInterval(
                         "remaining life assumes (diagnose: the record's mean gap); 0 = none expected (the time since "
                         "the last keeps growing)"),
     ),
-    # the model file's growth, interval and reference come from the fit's form (model_file.duty_effect_parameters)
+    # the model file's growth, interval and reference come from the fit's form (file_values)
     fitted_aliases=(("lubrication_wear_growth_per_s", "lubrication_wear_growth"),),
     covariance_rows=(CovarianceRow("lubrication_wear_growth", 8, 2, rate=True),),
     simulation=(EffectParameter("relubrication_interval_h", 0.0, "h", "[0, inf)",
@@ -135,6 +172,7 @@ EFFECT = LubricationInterval(
             ("relubrication_t_s", (), "offline: recorded relubrications [s from the start]")),
     # a growth after each relubrication against a smooth trend in time or K growing with the worn volume
     consistency_alternatives=("k_trend_in_time", "k_growth_with_wear"),
+    recorded=("lubrication_wear_growth_per_s",),
 )
 
 

@@ -46,6 +46,18 @@ MATERIAL_FACTORS = (speed_dependent_wear.EFFECT, load_exponent.EFFECT, retract_a
 DUTY_FACTORS = (load_along_rail.EFFECT, wear_rate_change.EFFECT, lubrication_interval.EFFECT)
 #: the factors a planning scenario's duty scales move (models/wear/planning.py), in the order they are applied
 SCENARIO_FACTORS = (load_exponent.EFFECT, speed_dependent_wear.EFFECT)
+#: the wear rate's power n of the load, W^n (seed 000 Table 2 tests it on pin-on-disc rows)
+LOAD_POWER = load_exponent.EFFECT
+#: the material factor that follows the instantaneous sliding speed (the simulator averages it along a double-S move)
+SPEED_SHARE = speed_dependent_wear.EFFECT
+#: the duty factors of the discrepancy fit's cells, in the order their product is taken (the last bit depends on it)
+FIT_DUTY_FACTORS = (wear_rate_change.EFFECT, lubrication_interval.EFFECT, load_along_rail.EFFECT)
+#: the effects whose model-file values come from the record (Effect.file_values, file_jacobian), in the order model
+#: files have written them (a stored format)
+FILE_VALUE_EFFECTS = (load_along_rail.EFFECT, wear_rate_change.EFFECT, thermal_drift.EFFECT,
+                      lubrication_interval.EFFECT)
+#: the effects whose references the fit takes from the record (Effect.record_references), in the model file's order
+RECORD_REFERENCE_EFFECTS = (load_exponent.EFFECT, retract_asymmetry.EFFECT)
 #: each effect's fitted parameters for a record (base.FitContext -> base.FitParameter list), catalogue order
 FIT_PARAMETERS = {m.EFFECT.id: m.fit_parameters for m in MODULES}
 
@@ -87,6 +99,11 @@ if [r.row for r in COVARIANCE_ROWS] != list(range(len(COVARIANCE_ROWS))):      #
 #: ``straightness_initial_m`` A0 when the fit freed it
 COVARIANCE_NAMES = tuple(r.name for r in COVARIANCE_ROWS)
 COVARIANCE_INDEX = {name: i for i, name in enumerate(COVARIANCE_NAMES)}
+#: the bag metadata's ``effect_parameters``: the simulator's hidden truth under the names and in the order bags have
+#: recorded it (a stored format)
+RECORDED_EFFECT_PARAMETERS = tuple(name for e in EFFECTS for name in e.recorded)
+#: the fit's parameters that do not enter the work multiplier (with K and A0: Eq. 7/10's factor and the terms added)
+OUTSIDE_THE_SUMS = frozenset(name for e in EFFECTS for name in e.outside_the_sums)
 #: the effect parameters phi (every row but K) and their places in phi
 PHI_NAMES = COVARIANCE_NAMES[1:]
 PHI_INDEX = {name: i for i, name in enumerate(PHI_NAMES)}
@@ -94,23 +111,41 @@ _GENERATIONS = sorted({r.since for r in COVARIANCE_ROWS})
 #: the number of rows of the model files of each generation, oldest first (the last is today's)
 COVARIANCE_SIZES = tuple(sum(r.since <= g for r in COVARIANCE_ROWS) for g in _GENERATIONS)
 #: the parameters whose multiplier sets the present rate (the live duty buckets carry d(work)/d(each)), in
-#: row order; they sit together in phi
+#: row order, and their places in phi (a rate row added later sits after the others: rows are numbered by
+#: generation)
 RATE_NAMES = tuple(r.name for r in COVARIANCE_ROWS if r.rate)
-RATE_PHI = slice(PHI_INDEX[RATE_NAMES[0]], PHI_INDEX[RATE_NAMES[-1]] + 1)
-if PHI_NAMES[RATE_PHI] != RATE_NAMES:                                              # pragma: no cover
-    raise ValueError("the rate rows of the covariance must be consecutive")
+RATE_PHI = [PHI_INDEX[name] for name in RATE_NAMES]
+if [r.since for r in COVARIANCE_ROWS] != sorted(r.since for r in COVARIANCE_ROWS):    # pragma: no cover
+    raise ValueError("the covariance rows must be numbered by generation (older files hold the leading block)")
 
-#: the sums of a live duty bucket: the work, the effective work without running-in, the sliding distance, the
-#: effective work's derivative by each rate parameter, stroke_distribution's pass work sum W ds m / max(L, L_s)
-BUCKET_SUMS = ("work_nm", "effective_work_nm", "distance_m") + tuple(f"d_{n}" for n in RATE_NAMES) + ("pass_work_n",)
+
+def state_layouts(rows: tuple[CovarianceRow, ...]) -> tuple[dict[int, tuple[str, ...]], dict[int, tuple[str, ...]]]:
+    """The names of a saved live state's lists in each generation of ``rows`` (the covariance rows), by their
+    length: ({length: the work gradient's phi names}, {length: a duty bucket row's sums}). A bucket row holds the
+    work, the effective work without running-in, the sliding distance, the effective work's derivative by each
+    rate parameter (row order) and, from the pass weighting's generation on, its pass work sum
+    W ds m / max(L, L_s). Restore maps a saved list to today's names by these (base.Effect: a term absent from an
+    older state is at its no-effect value 0), so a new effect's row needs no state-file generation of its own."""
+    pass_since = PASS_WEIGHTING.covariance_rows[0].since
+    phi, sums = {}, {}
+    for g in sorted({r.since for r in rows}):
+        here = tuple(r for r in sorted(rows, key=lambda r: r.row) if r.since <= g)
+        phi[len(here) - 1] = tuple(r.name for r in here[1:])
+        row_sums = (("work_nm", "effective_work_nm", "distance_m") + tuple(f"d_{r.name}" for r in here if r.rate)
+                    + (("pass_work_n",) if g >= pass_since else ()))
+        sums[len(row_sums)] = row_sums
+    return phi, sums
+
+
+#: the saved lists' names by length, each generation (effect_wear.EffectWear.restore keys a saved list by them)
+PHI_LAYOUTS, BUCKET_LAYOUTS = state_layouts(COVARIANCE_ROWS)
+#: the sums of a live duty bucket (today's generation: state_layouts)
+BUCKET_SUMS = BUCKET_LAYOUTS[max(BUCKET_LAYOUTS)]
 SUM_INDEX = {name: i for i, name in enumerate(BUCKET_SUMS)}
 RATE_SUMS = slice(SUM_INDEX[f"d_{RATE_NAMES[0]}"], SUM_INDEX[f"d_{RATE_NAMES[-1]}"] + 1)
-_PASS_SINCE = next(r.since for r in COVARIANCE_ROWS if r.name == "stroke_distribution_weight")
-#: lengths of a saved work gradient and bucket row (index then sums) for each generation, today's first: a state
-#: of an older length is zero-padded on restore (the terms added since were zero then)
-PHI_LENGTHS = tuple(sorted({n - 1 for n in COVARIANCE_SIZES}, reverse=True))
-BUCKET_ROW_LENGTHS = tuple(sorted({1 + 3 + sum(r.rate and r.since <= g for r in COVARIANCE_ROWS)
-                                   + (g >= _PASS_SINCE) for g in _GENERATIONS}, reverse=True))
+#: lengths of a saved work gradient and bucket row (index then sums) for each generation, today's first
+PHI_LENGTHS = tuple(sorted(PHI_LAYOUTS, reverse=True))
+BUCKET_ROW_LENGTHS = tuple(sorted((1 + n for n in BUCKET_LAYOUTS), reverse=True))
 
 
 _SIMULATE_FIELDS = {e.simulate.name: e.simulate.field for e in EFFECTS if e.simulate.field}

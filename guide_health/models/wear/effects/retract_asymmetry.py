@@ -28,6 +28,10 @@ class RetractAsymmetry(Effect):
     def rate_factor(self, e, speed_m_s, load_n, retract):
         return None if e.retract_wear_factor == 1.0 else retract_factor(retract, e.retract_wear_factor)
 
+    def record_references(self, problem):
+        """The retract's direction: the faster direction of the record (the fit's)."""
+        return {"retract_direction": "+x" if problem.retract_sign > 0 else "-x"}
+
     def live_rate_gradients(self, e, seg):
         return {self.rate_row: live_gradient(seg.effective_work_nm, seg.work_nm * seg.duty, seg.retract,
                                              e.retract_wear_factor)}
@@ -50,6 +54,7 @@ EFFECT = RetractAsymmetry(
     covariance_rows=(CovarianceRow("retract_wear_factor", 3, 1, rate=True),),
     fields=(("retract_wear_factor", 1.0, "rho"),
             ("retract_sign", -1, "the retract's direction of travel (live; offline: the fit's)")),
+    recorded=("retract_wear_factor",),
 )
 
 

@@ -14,6 +14,7 @@ from guide_health.models.wear.effects.base import (
     FitParameter,
     SimulateValue,
 )
+from guide_health.models.wear.form_average import running_in_form_factor_spread
 
 
 class RunningInEffect(Effect):
@@ -36,6 +37,28 @@ class RunningInEffect(Effect):
     def live_factor_mean(self, e, s_start_m, s_end_m):
         """Mean K(s)/K of segments [s_start, s_end] on the present surface (:func:`running_in_factor_mean`)."""
         return running_in_factor_mean(s_start_m, s_end_m, e.running_in_ratio, e.running_in_distance_m)
+
+    def cell_factor(self, e, form: str, mean_distance_m, distance_var_m2):
+        """Mean K(s)/K of duty cells whose sliding distances on the present surface spread uniformly with the
+        given mean [m] and variance [m^2], the decay law ``form`` (models/wear/form_average.py; "exponential":
+        :func:`running_in_factor_spread`); None: 1 (no running-in)."""
+        if e.running_in_ratio == 0.0:
+            return None
+        if form != "exponential":
+            return running_in_form_factor_spread(form, mean_distance_m, distance_var_m2, e.running_in_ratio,
+                                                 e.running_in_distance_m)
+        return running_in_factor_spread(mean_distance_m, distance_var_m2, e.running_in_ratio, e.running_in_distance_m)
+
+    def simulation_fields(self, sim, run):
+        return {"running_in_distance_m": sim["running_in_distance_m"]}
+
+    def fitted_decay(self, values: dict) -> tuple[float, float]:
+        """(r, s0 [m]) of a fit's values."""
+        return values["running_in_ratio"], values["running_in_distance_m"]
+
+    def steady(self, values: dict) -> dict:
+        """A fit's values with the running-in off (the steady stage's rate)."""
+        return {**values, "running_in_ratio": 0.0}
 
     def live_decay_gradients(self, e, effective_work_nm, s_start_m, ds_m) -> dict:
         """{row name: d(effective work)/d(r), d/d(s0)} of segments (:func:`live_gradients`)."""
@@ -63,6 +86,7 @@ EFFECT = RunningInEffect(
     consistency_alternatives=(RATE_STEP_FORM,),      # a decay over the first metres looks like a step in K
     consistency_separation="a record from a new or reground surface separates running-in (the rate decays over "
                            "the first sliding distance, at every reset) from a step in K at one clock time",
+    recorded=("running_in_ratio", "running_in_distance_m"),
 )
 
 

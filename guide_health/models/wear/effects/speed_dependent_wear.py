@@ -5,6 +5,7 @@ asperities share the load equally (the seed's boundary-to-mixed transition)."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -39,6 +40,18 @@ class SpeedDependentWear(Effect):
         share = asperity_load_share(seg.speed_m_s, e.lift_speed_m_s)
         return {self.rate_row: live_gradient(seg.effective_work_nm, share, e.lift_speed_m_s)}
 
+    def speed_factor(self, e):
+        """The factor as a function of the instantaneous sliding speed v [m/s] (a move whose speed varies, as a
+        double-S move's, averages it along the move); None: no effect (v_lift infinite)."""
+        if not math.isfinite(e.lift_speed_m_s):
+            return None
+        return lambda v: asperity_load_share(v, e.lift_speed_m_s)
+
+    def without(self, e):
+        """``e`` with the factor at its no-effect value (the rest of the multiplier, when this factor is averaged
+        separately)."""
+        return replace(e, lift_speed_m_s=math.inf)
+
     def scenario_rate_factor(self, e, scales, v_s):
         """The asperity share at the scaled mean sliding speed over the present one's (None: no speed change)."""
         if self.id not in e.effects or scales.speed_scale == 1.0 or not v_s > 0:
@@ -69,6 +82,7 @@ EFFECT = SpeedDependentWear(
     covariance_rows=(CovarianceRow("lift_speed_m_s", 4, 1, rate=True),),
     requires=LiveRequirement("lift_speed_m_s", "> 0"),
     fields=(("lift_speed_m_s", math.inf, "v_lift"),),
+    recorded=("lift_speed_m_s",),
 )
 
 

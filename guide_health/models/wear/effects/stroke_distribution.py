@@ -30,6 +30,16 @@ class StrokeDistribution(Effect):
     def weight(self, e) -> float:
         return e.stroke_distribution_weight
 
+    def straightness_wear_m(self, wear_coefficient, hardness_pa, contact_width_m, effective_work_nm,
+                            effective_pass_work_n, stroke_sum_m, e):
+        """:func:`straightness_wear_m` with the weight of ``e`` (the EffectParameters)."""
+        return straightness_wear_m(wear_coefficient, hardness_pa, contact_width_m, effective_work_nm,
+                                   effective_pass_work_n, stroke_sum_m, e.stroke_distribution_weight)
+
+    def pass_weight_per_m(self, pass_length_m, slider_length_m):
+        """:func:`pass_weight_per_m`."""
+        return pass_weight_per_m(pass_length_m, slider_length_m)
+
 
 EFFECT = StrokeDistribution(
     id="stroke_distribution",
@@ -47,6 +57,8 @@ EFFECT = StrokeDistribution(
     fitted_to_file=("stroke_distribution_weight",),
     covariance_rows=(CovarianceRow("stroke_distribution_weight", 9, 3),),
     fields=(("stroke_distribution_weight", 0.0, "w"),),
+    recorded=("stroke_distribution_weight",),
+    outside_the_sums=("stroke_distribution_weight",),
 )
 
 
@@ -59,10 +71,15 @@ def pass_weight_per_m(pass_length_m: np.ndarray, slider_length_m: float) -> np.n
 def straightness_wear_m(wear_coefficient: float, hardness_pa: float, contact_width_m: float,
                         effective_work_nm: np.ndarray, effective_pass_work_n: np.ndarray,
                         stroke_sum_m: float, stroke_distribution_weight: float = 0.0) -> np.ndarray:
-    """A_wear = K / (H b) [(1 - w) 2 G / (l_min + l_max) + w P] [m].  # seed 000 Eq. 7/10 (w = 0)"""
+    """A_wear = K / (H b) [(1 - w) 2 G / (l_min + l_max) + w P] [m].  # seed 000 Eq. 7/10 (w = 0)
+
+    Without a stroke range (l_min + l_max not > 0: no completed stroke, or none of the strokes was observed)
+    Eq. 7's mean stroke is undefined: NaN, as the live monitor's straightness before its first stroke."""
     g = np.asarray(effective_work_nm, dtype=float)
     p = np.asarray(effective_pass_work_n, dtype=float)
     w = stroke_distribution_weight
+    if not stroke_sum_m > 0:
+        return np.full(np.broadcast(g, p).shape, np.nan)
     return wear_coefficient / (hardness_pa * contact_width_m) * ((1.0 - w) * 2.0 * g / stroke_sum_m + w * p)
 
 

@@ -6,6 +6,8 @@ update; its covariance rows are c_T and the gauge's offset e at T_ref (0 at the 
 correction with both moved is (c_T + dc) (T - T_ref) + de."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from guide_health.models.wear.effects.base import (
@@ -46,6 +48,31 @@ class ThermalDrift(Effect):
             return gauge_term_m(temperature_change_k, e.thermal_drift_m_per_k)
         return None
 
+    def file_values(self, problem, values, t0_s):
+        """The absolute T_ref = T_0 + dT_ref, dT_ref = -b / c_T (b fitted when A0 is given, else 0)."""
+        c, b = values["thermal_drift_m_per_k"], values.get("thermal_offset_m", 0.0)
+        return {"thermal_reference_c": float(problem.temperature_first_c - (b / c if c != 0.0 else 0.0))}
+
+    def file_jacobian(self, problem, file_values):
+        """The gauge's offset at T_ref: e = dc_T (T_ref - T_0) + db (b the fitted offset at T_0, when fitted)."""
+        offset = self.row_names[1]
+        return ((offset, "thermal_drift_m_per_k", file_values["thermal_reference_c"] - problem.temperature_first_c),
+                (offset, "thermal_offset_m", 1.0))
+
+    def fit_reference_offset(self, values: dict, se: dict, cov: np.ndarray, specs: list) -> None:
+        """dT_ref = T_ref - T_0 = -b / c_T [K] from the fitted offset b and drift c_T into ``values``, its standard
+        error by the delta method into ``se`` (``cov``: the fit's internal covariance, both um-scaled)."""
+        names = [s.name for s in specs]
+        i, j = names.index("thermal_drift_m_per_k"), names.index("thermal_offset_m")
+        c, b = values["thermal_drift_m_per_k"], values["thermal_offset_m"]
+        if c == 0.0:
+            values["thermal_reference_offset_k"], se["thermal_reference_offset_k"] = math.nan, math.nan
+            return
+        grad = np.array([b / c ** 2, -1.0 / c]) * 1e-6          # per internal (um) unit of c_T and b
+        sub = cov[np.ix_([i, j], [i, j])]
+        values["thermal_reference_offset_k"] = -b / c
+        se["thermal_reference_offset_k"] = math.sqrt(max(float(grad @ sub @ grad), 0.0))
+
     def rise_gradients(self, offsets_k) -> dict:
         """{row name: d(corrected reading)/d(row)}: the correction with both rows moved is (c_T + dc) (T - T_ref)
         + de, so a reading falls by the offsets per unit dc and by 1 per unit de."""
@@ -74,6 +101,9 @@ EFFECT = ThermalDrift(
     needs_temperature=True,
     reported_extra=("thermal_reference_offset_k",),      # dT_ref = -b / c_T (analysis/discrepancy/model.py)
     fields=(("thermal_drift_m_per_k", 0.0, "c_T"), ("thermal_reference_c", None, "live T_ref")),
+    recorded=("thermal_drift_m_per_k",),
+    outside_the_sums=("thermal_drift_m_per_k", "thermal_offset_m"),
+    file_derived=("thermal_reference_c", "thermal_gauge_offset_m"),      # T_ref, the gauge's offset there
 )
 
 

@@ -33,6 +33,28 @@ class WearRateChange(Effect):
     def live_duty_factor(self, e, t_s, x_m, last_relubrication_s):
         return live_factor(t_s, e.wear_rate_change_time_s, e.wear_rate_change_factor)
 
+    def simulation_fields(self, sim, run):
+        return {"wear_rate_change_time_s": sim["wear_rate_change_h"] * 3600.0}
+
+    def truth_duty_factor(self, e, t_a_s, t_b_s, x_a_m, x_b_m):
+        """m by the share of each move's time after t_c."""
+        if e.wear_rate_change_factor == 1.0:
+            return None
+        return wear_rate_change_factor(0.5 * (t_a_s + t_b_s), t_b_s - t_a_s, e.wear_rate_change_time_s,
+                                       e.wear_rate_change_factor)
+
+    def fit_duty_factor(self, values, problem):
+        """m by the share of each cell's measurement interval after t_c (uniform work within it)."""
+        if "wear_rate_change_factor" not in values:
+            return None
+        return wear_rate_change_factor(0.5 * (problem.cell_start_s + problem.cell_end_s),
+                                       problem.cell_end_s - problem.cell_start_s, values["wear_rate_change_time_s"],
+                                       values["wear_rate_change_factor"])
+
+    def file_values(self, problem, values, t0_s):
+        """t_c as an absolute stamp."""
+        return {"wear_rate_change_stamp_s": float(t0_s + values["wear_rate_change_time_s"])}
+
 
 EFFECT = WearRateChange(
     id="wear_rate_change",
@@ -57,6 +79,7 @@ EFFECT = WearRateChange(
     fields=(("wear_rate_change_factor", 1.0, "f"), ("wear_rate_change_time_s", math.inf, "t_c")),
     # a step in K against a smooth trend in time, K growing with the worn volume, a gauge drifting in time
     consistency_alternatives=("k_trend_in_time", "k_growth_with_wear", "gauge_drift_in_time"),
+    recorded=("wear_rate_change_factor", "wear_rate_change_time_s"),
 )
 
 
