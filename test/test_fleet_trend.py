@@ -5,6 +5,7 @@ import base64
 import csv
 import io
 import json
+import re
 import shutil
 import subprocess
 import time
@@ -15,6 +16,8 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
+from guide_health.analysis import fleet_trend_plots
+from guide_health.analysis.fleet_trend_plots import envelope
 from guide_health.cli.app import main
 from guide_health.io.outputs.fleet_history import FleetHistory
 
@@ -268,3 +271,34 @@ def test_csv_times_of_a_whole_machine_equal_the_per_row_text():
     t = [T0_UNIX_S, T0_UNIX_S + 0.9999996, T0_UNIX_S - 4e-7, T0_UNIX_S + 59.9999994, 0.0, 86399.5, 4.1e9]
     t += list(np.random.default_rng(3).uniform(0.0, 4e9, 2000))
     assert iso_array(t) == [iso(x) for x in t]
+
+
+def test_a_decimated_line_keeps_the_min_and_max_of_every_time_bin():
+    """30 days of a status every 60 s (43 200 rows) with one alarm spike of a single row: the drawn series
+    has at most 2 x 800 + 2 points, and per bin the same min and max as the raw rows, the spike among them."""
+    rng = np.random.default_rng(3)
+    t = T0_UNIX_S + 60.0 * np.arange(43_200)
+    v = 500.0 - np.arange(43_200) / 60.0 + rng.normal(0.0, 2.0, t.size)
+    v[31_337] = -50.0                                            # the one row in alarm
+    td, vd = envelope(t, v, t[0], t[-1], bins=800)
+    assert td.size <= 1602 and np.all(np.diff(td) > 0)
+    assert (td[0], td[-1]) == (t[0], t[-1]) and -50.0 in vd
+    raw_bin = np.clip(((t - t[0]) / (t[-1] - t[0]) * 800).astype(int), 0, 799)
+    drawn_bin = np.clip(((td - t[0]) / (t[-1] - t[0]) * 800).astype(int), 0, 799)
+    for b in range(800):
+        assert (vd[drawn_bin == b].min(), vd[drawn_bin == b].max()) == (v[raw_bin == b].min(), v[raw_bin == b].max())
+    assert envelope(t[:1600], v[:1600], t[0], t[1599], bins=800)[0].size == 1600     # short: whole
+    assert envelope(t, v, t[0], t[-1], bins=0)[1].size == 43_200                       # bins 0: whole
+
+
+def test_decimated_figures_leave_the_page_text_and_tables_as_they_were(history, tmp_path, monkeypatch):
+    """The page drawn from 2 bins per series (every line decimated) and from whole series: the same text,
+    ranking and embedded CSV tables; only the images differ."""
+    pages = {}
+    for bins in (0, 2):
+        monkeypatch.setattr(fleet_trend_plots, "PLOT_BINS", bins)
+        assert main(["fleet", "trend", str(history), "--out", str(tmp_path / str(bins))]) == 0
+        text = (tmp_path / str(bins) / "index.html").read_text().replace(str(tmp_path / str(bins)), "OUT")
+        pages[bins] = re.sub(r"src='data:image/png;base64,[^']*'|src=\"data:image/png;base64,[^\"]*\"", "IMG", text)
+    assert pages[0].count("IMG") == 1 + 4 and pages[0].count("<tr") == 1 + 4
+    assert pages[2] == pages[0]

@@ -11,6 +11,29 @@ from guide_health.analysis.report_plots import _pyplot, _save_figure
 
 LEVEL_COLOURS = {0: "#27ae60", 1: "#e69f00", 2: "#c0392b", 3: "#7f8c8d"}
 OVERVIEW_LEGEND_MAX = 24        # machines named in the overview's legend (beyond: a legend no one reads)
+#: time bins of a drawn series: at least the pixel columns of a panel (8 in x 110 dpi less the margins is
+#: ~690 px), so a series drawn as the min and the max of each bin looks as the full series would
+PLOT_BINS = 800
+
+
+def envelope(t, v, t_lo: float, t_hi: float, bins: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The points of a series (times ascending, values finite) to draw: per time bin of [t_lo, t_hi] its
+    first minimum and first maximum, in time order, plus the series' first and last point. Every bin keeps
+    the extremes of the full series, so no spike (an alarm) disappears from the figure, and a line of
+    43 200 rows becomes at most 2 x bins + 2 points. ``bins`` None: PLOT_BINS; a series of at most
+    2 x bins points, or bins 0, is returned whole."""
+    t, v = np.asarray(t, dtype=float), np.asarray(v, dtype=float)
+    bins = PLOT_BINS if bins is None else bins
+    if bins <= 0 or t.size <= 2 * bins:
+        return t, v
+    span = t_hi - t_lo if t_hi > t_lo else 1.0
+    b = np.clip(((t - t_lo) / span * bins).astype(np.int64), 0, bins - 1)
+    order = np.lexsort((v, b))                      # by bin, then value (stable: the first of equal values)
+    starts = np.flatnonzero(np.r_[True, b[order][1:] != b[order][:-1]])
+    ends = np.r_[starts[1:], b.size] - 1
+    last_max = np.lexsort((-np.arange(b.size), v, b))[ends]     # of equal maxima the first, too
+    keep = np.unique(np.concatenate(([0, t.size - 1], order[starts], last_max)))
+    return t[keep], v[keep]
 
 
 def _hours(t_unix_s, t0: float) -> np.ndarray:
@@ -30,9 +53,10 @@ def plot_machine_trend(path: Path, trend: MachineTrend) -> None:
     """A panel per quantity the machine reports (one line per status), then the level of each status."""
     plt = _pyplot()
     keys = [(k, label) for k, label in TREND_KEYS if any(math.isfinite(v) for v in trend.values[k])]
+    t_all = np.asarray(trend.t_unix_s, dtype=float)
     fig, axes = plt.subplots(len(keys) + 1, 1, figsize=(8, 1.9 * (len(keys) + 1) + 0.6), sharex=True,
                              squeeze=False)
-    t0 = trend.t_unix_s[0]
+    t0, t1 = trend.t_unix_s[0], trend.t_unix_s[-1]
     status = np.asarray(trend.status)
     names = sorted(set(trend.status))
     for ax, (key, label) in zip(axes[:, 0], keys):
@@ -40,15 +64,16 @@ def plot_machine_trend(path: Path, trend: MachineTrend) -> None:
         for name in names:
             sel = (status == name) & np.isfinite(values)
             if sel.any():
-                ax.plot(_hours(np.asarray(trend.t_unix_s)[sel], t0), values[sel], ".-", ms=3, label=name)
+                t, v = envelope(t_all[sel], values[sel], t0, t1)
+                ax.plot(_hours(t, t0), v, ".-", ms=3, label=name)
         ax.set_ylabel(label, fontsize=8)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, loc="upper right")
     ax = axes[-1, 0]
     for row, name in enumerate(names):
         sel = status == name
-        levels = np.asarray(trend.level)[sel]
-        ax.scatter(_hours(np.asarray(trend.t_unix_s)[sel], t0), np.full(levels.size, row), s=12,
+        t, levels = envelope(t_all[sel], np.asarray(trend.level, dtype=float)[sel], t0, t1)
+        ax.scatter(_hours(t, t0), np.full(levels.size, row), s=12,
                    c=[LEVEL_COLOURS.get(int(v), "#000") for v in levels])
     ax.set_yticks(range(len(names)))
     ax.set_yticklabels(names, fontsize=7)
@@ -66,11 +91,13 @@ def plot_fleet_overview(path: Path, trends: dict[str, MachineTrend], rows: list[
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 1.8 + 0.3 * max(4, len(rows))),
                                       gridspec_kw={"width_ratios": [3, 2]})
     t0 = min(t.t_unix_s[0] for t in trends.values())
+    t1 = max(t.t_unix_s[-1] for t in trends.values())
     for m, trend in trends.items():
         values = np.asarray(trend.values["remaining_life_h"], dtype=float)
         sel = np.isfinite(values)
         if sel.any():
-            left.plot(_hours(np.asarray(trend.t_unix_s)[sel], t0), values[sel], ".-", ms=3, label=m)
+            t, v = envelope(np.asarray(trend.t_unix_s, dtype=float)[sel], values[sel], t0, t1)
+            left.plot(_hours(t, t0), v, ".-", ms=3, label=m)
     left.set_xlabel(f"time [h] since {iso(t0)} UTC")
     left.set_ylabel("remaining precision life [h]")
     left.grid(alpha=0.3)
