@@ -127,7 +127,8 @@ def test_a_real_k_step_is_still_named_a_finding(rows):
     c = r["result"]["effects"]["wear_rate_change"]
     assert c["status"] == "finding"
     assert min(a["delta_bic"] for a in c["alternatives"]) > consistency.AMBIGUOUS_BIC      # measured +190
-    assert [a["form"] for a in c["alternatives"]] == ["k_trend_in_time", "k_growth_with_wear", "gauge_drift_in_time"]
+    assert [a["form"] for a in c["alternatives"]] == ["k_trend_in_time", "k_growth_with_wear", "gauge_drift_in_time",
+                                                      *consistency.STRUCTURE_FORMS]
     p = c["parameters"]
     assert abs(p["wear_rate_change_time_s"]["value"] / 3600.0 - 12.0) < 0.5
     assert p["wear_rate_change_factor"]["value"] == pytest.approx(2.0, rel=0.15)

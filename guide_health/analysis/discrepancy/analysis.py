@@ -278,35 +278,44 @@ FLAG_ALPHA = 0.01
 def flag_statistic(after: dict[str, Any]) -> dict[str, float]:
     """The p-values the flag compares with FLAG_ALPHA, one per test: runs test, lag-1 autocorrelation and
     Ljung-Box as they are; the Spearman correlations and the binned-work F-tests Bonferroni-adjusted over their
-    conditions (min p x count); the held-out forecast's F-test. ``min_p``: the smallest (the flag's statistic)."""
+    conditions (min p x count); the held-out forecast's F-test; the nested F-tests of structure forms added to
+    the final model (``after["structure_forms"]``, consistency.structure_form_tests), Bonferroni-adjusted over
+    the forms. ``min_p``: the smallest (the flag's statistic)."""
     conditions = after.get("conditions", [])
     n_conditions = max(after.get("condition_tests", len(conditions)), 1)
     binned = after.get("binned_work", [])
     forecast = after.get("heldout_forecast") or {}
+    forms = after.get("structure_forms", [])
     p = {"runs_test": after["runs_test"]["p_value"], "lag1_autocorrelation": after["lag1_autocorrelation"]["p_value"],
          "ljung_box": after.get("ljung_box", {}).get("p_value", 1.0),
          "conditions": min((min(r["p_value"] * n_conditions, 1.0) for r in conditions), default=1.0),
          "binned_work": min((min(r["p_value"] * len(binned), 1.0) for r in binned), default=1.0),
-         "heldout_forecast": forecast.get("p_value", 1.0)}
+         "heldout_forecast": forecast.get("p_value", 1.0),
+         "structure_forms": min((min(r["p_value"] * len(forms), 1.0) for r in forms), default=1.0)}
     p = {k: float(v) if math.isfinite(v) else 1.0 for k, v in p.items()}
     p["min_p"] = min(p.values())
     return p
 
 
-def unexplained_structure(after: dict[str, Any], named: list[str], alpha: float = FLAG_ALPHA) -> dict[str, Any]:
+def unexplained_structure(after: dict[str, Any], named: list[str], alpha: float = FLAG_ALPHA,
+                          outside: dict[str, list[str]] | None = None) -> dict[str, Any]:
     """The verdict on the residuals after the final fit: ``present`` when they are still systematic in time
     (runs test, lag-1 autocorrelation or Ljung-Box), follow an operating condition (Spearman, Bonferroni), the
     work done in some bins of one (binned work, Bonferroni) or the held-out forecast drifts away
     (``after["heldout_forecast"]``, :func:`forecast_check`), each at p < ``alpha`` (:func:`flag_statistic`,
     FLAG_ALPHA); then ``where`` (time windows of one sign) and ``conditions`` (which, with rho or F) say where
     and under which condition, and ``message`` says it first: physics outside the effect library, the named
-    effects (if any) are not an explanation. ``statistic``: the tests' p-values and their minimum."""
+    effects (if any) are not an explanation. ``statistic``: the tests' p-values and their minimum. ``outside``
+    ({named effect: why}, consistency.outside_library): named effects whose check found structure outside the
+    library (a form that is no library effect fits better, or the effect's own check failed) raise the flag
+    too, whatever the residual tests say: a named effect that absorbs such structure is never reported alone."""
     stat = flag_statistic(after)
     forecast = after.get("heldout_forecast") or {}
     missed = stat["heldout_forecast"] < alpha
-    present = stat["min_p"] < alpha
+    outside = {e: why for e, why in (outside or {}).items() if why}
+    present = stat["min_p"] < alpha or bool(outside)
     out: dict[str, Any] = {"present": present, "where": [], "conditions": [], "message": "", "statistic": stat,
-                           "alpha": alpha}
+                           "alpha": alpha, "outside_library": outside}
     if not present:
         return out
     out["where"] = [{k: w[k] for k in ("start_h", "end_h", "mean_residual_um", "t_statistic")}
@@ -336,6 +345,13 @@ def unexplained_structure(after: dict[str, Any], named: list[str], alpha: float 
             f"{c['condition']} (rho {c['rho']:+.2f})" if "rho" in c
             else f"the work per {c['condition']} bin (F = {c['f']:.1f}, p = {c['p_value']:.1g})"
             for c in out["conditions"]))
+    forms = after.get("structure_forms", [])
+    fitted = [r for r in forms if r["p_value"] * len(forms) < alpha]
+    if fitted:
+        parts.append("the residuals follow " + ", ".join(f"{r['meaning']} (F = {r['f']:.1f}, p = {r['p_value']:.1g})"
+                                                          for r in fitted))
+    if outside:
+        parts.append("the named " + "; ".join(f"{e} is a reading ({', '.join(why)})" for e, why in outside.items()))
     verdict = (f"the named effects ({', '.join(named)}) reduce the gap but do not explain it" if named
                else "no library effect explains it")
     out["message"] = ("UNEXPLAINED STRUCTURE: the residuals after the fit are not noise (" + "; ".join(parts)

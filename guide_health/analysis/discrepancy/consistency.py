@@ -14,7 +14,26 @@ library effects (but the registry's step in K, RATE_STEP):
       (c) from wear: the gauge drifts while the machine stands, wear needs motion.
 
 Every named effect is also checked against (c) in place of all the named effects (a drift that re-weights the
-jobs' work can look like a material or duty effect on a duty that varies job by job).
+jobs' work can look like a material or duty effect on a duty that varies job by job), and, in its own place,
+against the structure forms outside the library (``STRUCTURE_FORMS``: what a library effect can absorb of
+structure it does not hold):
+
+  (d) a gauge whose zero steps at one time: y += d H(t - t_s) (a gauge knocked, a rail re-clamped; no change in
+      wear). t_s is profiled, not fitted: the measurement boundary where a step in the residuals of the model
+      without the named effect (with its wear rescaled) leaves the least squares, at least ``STEP_MARGIN``
+      measurements from either end of the fit span; its BIC counts t_s as a parameter;
+  (e) a wear profile along the rail: m = max(1 + sum_k a_k cos(k pi u), 0) for k = 1..``POSITION_MODES``, u the
+      cell's position scaled to [0, 1] over the work's 1..99 % positions (a smooth basis: the first
+      ``POSITION_MODES`` modes of any profile along the travel; a foundation of varying stiffness).
+
+The same forms (c) and (e) added to the final model are the flag's nested tests of structure
+(:func:`structure_form_tests`): an F-test of the final model against it plus the form, whether anything is
+named or not (a gauge drifting in clock time is told from wear by the idle periods; a wear profile along the
+rail by where the work was done).
+
+A named effect that is a *reading* because a form outside the library fits better (or that fails its own
+check) raises the unexplained-structure flag (analysis.unexplained_structure, ``outside_library``): the effect
+absorbs structure the library does not hold, so it is never named with no flag.
 
 Each alternative replaces the named effect in the final model (the other named effects kept), is refitted on
 the same fit span and compared by BIC (both have the same measurements): dBIC = BIC_alt - BIC_named.
@@ -27,6 +46,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from scipy import special
 
 from guide_health.analysis.discrepancy.model import FitResult, WearProblem
 from guide_health.models.wear.effects.base import FitParameter
@@ -43,13 +63,26 @@ ALTERNATIVES = {
     "k_trend_in_time": "the wear coefficient changing smoothly with clock time (a linear ramp, no step)",
     "k_growth_with_wear": "the wear coefficient growing with the worn volume (debris: wear accelerating smoothly)",
     "gauge_drift_in_time": "the gauge zero drifting with clock time (no change in wear)",
+    "gauge_step_in_time": "the gauge zero stepping at one time (no change in wear)",
+    "wear_profile_along_rail": "a wear rate that varies smoothly along the rail (a profile, not a gradient)",
     RATE_STEP.id: "a step in the wear coefficient at one time",
 }
 _ALT_SPECS = {
     "k_trend_in_time": [FitParameter("k_trend_per_record", "-", -0.9, 20.0, False, (0.5, 2.0))],
     "k_growth_with_wear": [FitParameter("k_growth_per_work", "-", -0.9, 20.0, False, (0.5, 2.0))],
     "gauge_drift_in_time": [FitParameter("gauge_drift_m_per_s", "m/s", -2e-9, 2e-9, False, (0.0,))],
+    "gauge_step_in_time": [FitParameter("gauge_step_m", "m", -1e-4, 1e-4, False, (0.0,))],
 }
+#: the cosine modes of the wear profile along the rail, form (e)
+POSITION_MODES = 4
+#: a profiled gauge step leaves at least this many fit-span measurements on either side
+STEP_MARGIN = 3
+_ALT_SPECS["wear_profile_along_rail"] = [FitParameter(f"wear_profile_mode_{k}", "-", -0.9, 0.9, False, (0.0,))
+                                         for k in range(1, POSITION_MODES + 1)]
+#: the forms every named effect is checked against in its own place: structure outside the library
+STRUCTURE_FORMS = ("gauge_step_in_time", "wear_profile_along_rail")
+#: the forms the flag's nested F-tests add to the final model (each nested in it: no profiled parameter)
+NESTED_FORMS = ("gauge_drift_in_time", "wear_profile_along_rail")
 
 
 def checked_against(effect: str) -> tuple[str, ...] | None:
@@ -74,6 +107,9 @@ class CheckProblem(WearProblem):
         per_interval = np.bincount(k, weights=c.work_nm, minlength=n + 1)
         before = np.concatenate(([0.0], np.cumsum(per_interval)))[k] + 0.5 * per_interval[k]
         self.work_share_before = before / max(float(per_interval.sum()), 1e-300)
+        lo, hi = _weighted_quantiles(c.position_m, c.work_nm, (0.01, 0.99))
+        self.position_low_m, self.position_span_m = lo, max(hi - lo, 1e-6)
+        self.gauge_step_at_s = float(self.t_s[-1])       # set by profile_gauge_step before a fit of form (d)
 
     def fit_span(self) -> WearProblem:
         """The fit span's problem (WearProblem.fit_span) with the work shares of its cells only."""
@@ -93,13 +129,52 @@ class CheckProblem(WearProblem):
                                / self.t_span_s, 0.0)
         if "k_growth_per_work" in values:
             m = m * np.maximum(1.0 + values["k_growth_per_work"] * self.work_share_before, 0.0)
+        if "wear_profile_mode_1" in values:
+            u = np.clip((self.cells.position_m - self.position_low_m) / self.position_span_m, 0.0, 1.0)
+            profile = sum(values[f"wear_profile_mode_{k}"] * np.cos(k * np.pi * u)
+                          for k in range(1, POSITION_MODES + 1))
+            m = m * np.maximum(1.0 + profile, 0.0)
         return m
 
     def predict_m(self, values: dict[str, float]) -> np.ndarray:
         y = super().predict_m(values)
         if "gauge_drift_m_per_s" in values:
             y = y + values["gauge_drift_m_per_s"] * (self.t_s - self.t_first_s)
+        if "gauge_step_m" in values:
+            y = y + values["gauge_step_m"] * (self.t_s >= self.gauge_step_at_s)
         return y
+
+
+def _weighted_quantiles(values: np.ndarray, weights: np.ndarray, q: tuple[float, ...]) -> list[float]:
+    """Weighted quantiles of ``values`` (the first value whose cumulative weight share reaches each q)."""
+    order = np.argsort(values, kind="stable")
+    cum = np.cumsum(weights[order])
+    share = cum / max(float(cum[-1]), 1e-300) if cum.size else cum
+    return [float(values[order][min(int(np.searchsorted(share, x)), values.size - 1)]) for x in q]
+
+
+def profile_gauge_step(problem: CheckProblem, final: FitResult, replaces: list[str]) -> float:
+    """The time [s] of form (d)'s step: the fit model without the ``replaces`` effects (their parameters at no
+    effect), its residuals r on the fit span regressed on [1, wear w, H(t - t_j)] for every boundary j with
+    ``STEP_MARGIN`` measurements on either side; the boundary of the least residual sum of squares (half-way
+    between the measurements). The record's end when the fit span is too short for a step."""
+    dropped = {s.name for e in replaces for s in problem.specs[e]}
+    values = {k: v for k, v in final.values.items() if k not in dropped}
+    span = problem.fit_mask
+    t, y = problem.t_s[span], problem.y_m[span]
+    pred = problem.predict_m(values)[span]
+    n = t.size
+    if n < 2 * STEP_MARGIN + 2:
+        return float(problem.t_s[-1]) + 1.0
+    r, w = (y - pred) * 1e6, (pred - pred[0]) * 1e6
+    best, at = np.inf, float(t[-1])
+    for j in range(STEP_MARGIN, n - STEP_MARGIN + 1):
+        x = np.column_stack((np.ones(n), w, (np.arange(n) >= j).astype(float)))
+        coef, *_ = np.linalg.lstsq(x, r, rcond=None)
+        rss = float(np.sum((r - x @ coef) ** 2))
+        if rss < best:
+            best, at = rss, 0.5 * float(t[j - 1] + t[j])
+    return at
 
 
 def idle_hours(problem: WearProblem) -> tuple[float, float]:
@@ -127,6 +202,12 @@ def separating_measurement(named: str, alternative: str, fit: FitResult, problem
         return ("a longer record at a steady duty separates a step from a smooth trend: after a step the wear "
                 "rate stays constant, under a trend it keeps changing; a logged event (wiper, lubricant) dates a "
                 "step")
+    if alternative == "gauge_step_in_time":
+        return ("a straightness check of a reference artefact (or the rail re-measured) separates a gauge that "
+                f"stepped at {fit.extra['gauge_step_time_s'] / 3600.0:.1f} h from wear: a gauge step moves both")
+    if alternative == "wear_profile_along_rail":
+        return ("a straightness profile along the rail (positions, not one number) separates a wear profile along "
+                "the rail from the named effect")
     return BY_ID[named].consistency_separation or "a longer record at a steady duty"
 
 
@@ -143,13 +224,28 @@ def _status(rows: list[dict], own_check_passed: bool) -> str:
     return "ambiguous" if any(abs(r["delta_bic"]) <= AMBIGUOUS_BIC for r in rows) else "finding"
 
 
+def outside_library(check: dict[str, Any]) -> list[str]:
+    """Why a named effect's check says the record holds structure outside the library: its own check failed, or
+    a form that is no library effect fits better than it by more than ``AMBIGUOUS_BIC`` ([] when neither)."""
+    why = [] if check["own_check"].get("passed", True) else [check["own_check"].get("reason", "its own check failed")]
+    return why + [f"{r['form']} fits better by {-r['delta_bic']:.1f} in BIC" for r in check["alternatives"]
+                  if r["form"] not in BY_ID and r["delta_bic"] < -AMBIGUOUS_BIC]
+
+
 def _alternative(alt_problem: CheckProblem, kept: tuple[str, ...], form: str, final: FitResult,
                  replaces: list[str]) -> dict[str, Any]:
     """The fit with ``form`` in place of the effects ``replaces`` (``kept`` stay), scored against ``final``."""
+    profiled = 0.0
+    if form == "gauge_step_in_time":
+        alt_problem.gauge_step_at_s = profile_gauge_step(alt_problem, final, replaces)
+        profiled = float(np.log(final.n_fit))          # the step's time counts as a parameter
     f = alt_problem.fit(kept + (form,), warm=final)
-    return {"form": form, "meaning": ALTERNATIVES[form], "replaces": replaces, "delta_bic": f.bic - final.bic,
-            "bic": f.bic, "heldout_rmse_um": f.heldout_rmse_um,
-            "parameters": {s.name: f.values[s.name] for s in alt_problem.specs[form]}, "_fit": f}
+    if profiled:
+        f.extra["gauge_step_time_s"] = alt_problem.gauge_step_at_s
+    return {"form": form, "meaning": ALTERNATIVES[form], "replaces": replaces,
+            "delta_bic": f.bic + profiled - final.bic, "bic": f.bic + profiled, "heldout_rmse_um": f.heldout_rmse_um,
+            "parameters": {s.name: f.values[s.name] for s in alt_problem.specs[form]}
+            | ({"gauge_step_time_h": alt_problem.gauge_step_at_s / 3600.0} if profiled else {}), "_fit": f}
 
 
 def check_named_effects(problem: WearProblem, final: FitResult, named: list[str]) -> dict[str, dict[str, Any]]:
@@ -163,7 +259,7 @@ def check_named_effects(problem: WearProblem, final: FitResult, named: list[str]
     whole = _alternative(alt_problem, (), "gauge_drift_in_time", final, list(named))
     out: dict[str, dict[str, Any]] = {}
     for effect in named:
-        forms = [a for a in checked_against(effect) or () if a not in named]
+        forms = [a for a in dict.fromkeys((*(checked_against(effect) or ()), *STRUCTURE_FORMS)) if a not in named]
         own = own_check(effect, problem, final)
         rest = tuple(e for e in named if e != effect)
         rows = [_alternative(alt_problem, rest, form, final, [effect]) for form in forms]
@@ -183,3 +279,20 @@ def check_named_effects(problem: WearProblem, final: FitResult, named: list[str]
                 for r in sorted(close, key=lambda r: r["delta_bic"]))),
         }
     return out
+
+
+def structure_form_tests(problem: WearProblem, final: FitResult, named: list[str]) -> list[dict[str, Any]]:
+    """The flag's nested tests: the final model plus each of ``NESTED_FORMS`` refitted on the fit span, F =
+    ((RSS_final - RSS_plus) / q) / (RSS_plus / (n - k_plus)) against F(q, n - k_plus), q the form's parameters
+    (the extra-sum-of-squares F-test of nested least-squares models)."""
+    alt_problem = CheckProblem(problem)
+    rows = []
+    for form in NESTED_FORMS:
+        plus = alt_problem.fit(tuple(named) + (form,), warm=final)
+        q, dof = len(alt_problem.specs[form]), plus.n_fit - plus.n_params
+        if dof <= 0 or plus.rss_um2 <= 0:
+            continue
+        f = max(final.rss_um2 - plus.rss_um2, 0.0) / q / (plus.rss_um2 / dof)
+        rows.append({"form": form, "meaning": ALTERNATIVES[form], "f": float(f), "dof": [q, dof],
+                     "p_value": float(special.fdtrc(q, dof, f))})
+    return rows

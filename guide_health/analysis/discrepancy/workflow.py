@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from guide_health.analysis.discrepancy.analysis import disagreement, forecast_check, unexplained_structure
-from guide_health.analysis.discrepancy.consistency import check_named_effects
+from guide_health.analysis.discrepancy.consistency import check_named_effects, outside_library, structure_form_tests
 from guide_health.analysis.discrepancy.duty import DutyCells
 from guide_health.analysis.discrepancy.fit_pool import FitPool
 from guide_health.analysis.discrepancy.model import FitResult, WearProblem, rel_errors
@@ -29,7 +29,8 @@ SEPARATING_DUTY = {e.id: e.separating_duty for e in EFFECTS}
 
 # what the JSON keeps of the residual analysis after the final fit
 RESIDUALS_AFTER_KEYS = ("residual_rms_um", "runs_test", "lag1_autocorrelation", "ljung_box", "systematic_in_time",
-                        "systematic_conditions", "binned_work", "systematic_binned", "heldout_forecast", "windows")
+                        "systematic_conditions", "binned_work", "systematic_binned", "heldout_forecast", "windows",
+                        "structure_forms")
 STEADY_STAGE_DISTANCES = 3.0     # the running-in transient is over after 3 s0 (exp(-3) = 5 %)
 
 
@@ -173,9 +174,10 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
     after = disagreement(problem, final.predicted_m, mask=problem.fit_mask)     # the fit's own residuals
     named = list(selection.named)
     after["heldout_forecast"] = forecast_check(problem, final)
-    structure = unexplained_structure(after, named)
-    final_gap = _gap(final)
+    after["structure_forms"] = structure_form_tests(problem, final, named)
     consistency = check_named_effects(problem, final, named)
+    structure = unexplained_structure(after, named, outside={e: outside_library(c) for e, c in consistency.items()})
+    final_gap = _gap(final)
     effects = {e: {"meaning": EFFECT_MEANING[e], **consistency[e],
                    "parameters": {name: final_gap["parameters"][name] for name in _names(problem, e)
                                   if name in final_gap["parameters"]}}
