@@ -19,6 +19,7 @@ docs/discrepancy.md between its markers.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import multiprocessing as mp
@@ -39,6 +40,8 @@ MARKERS = ("<!-- life calibration table: bench/life_calibration.py -->", "<!-- e
 def one_run(args: tuple[str, int, float]) -> dict:
     import test_model_file as t
 
+    from guide_health.models.wear.planning import life_interval
+
     form, seed, rate_hz = args
     if form == "exponential":
         params, run = t.bench_running_in(seed, rate_hz=rate_hz)
@@ -50,9 +53,13 @@ def one_run(args: tuple[str, int, float]) -> dict:
                                    sliding_deadband_m=params["sliding_deadband_m"])
     result = t.diagnose_cells(cells, params)
     model = result["model_file"]
-    life = t.replay_life({**params, **model}, run)
-    named_only = t.replay_life({**params, **{k: v for k, v in model.items() if not k.startswith("running_in_form_")}},
-                               run) if "running_in_form_weights" in model else life
+    monitor = t.PrecisionMonitor(t.wear_axis_params({**params, **model}))
+    monitor.process_run(run)
+    report = monitor.report()
+    life = tuple(report[k] for k in ("remaining_life_h", "remaining_life_h_low", "remaining_life_h_high"))
+    # the named form's interval alone: the same replay's life inputs without the forms
+    named_only = tuple(x / 3600.0 for x in life_interval(dataclasses.replace(monitor.axis.life_inputs("guide"),
+                                                                               forms=None)))
     return {"form": form, "seed": seed, "rate_hz": rate_hz, "named": result["named_effects"],
             "status": {e: c["status"] for e, c in result["consistency"].items()},
             "alternatives": {e: {a["form"]: a["delta_bic"] for a in c["alternatives"]}
@@ -124,8 +131,9 @@ def main() -> None:
     a = ap.parse_args()
     cached = json.loads(a.cache.read_text()) if a.cache and a.cache.exists() else []
     done = {(r["form"], r["seed"], r["rate_hz"]): r for r in cached}
-    jobs = [(form, seed, a.rate) for form in a.forms.split(",")
-            for seed in range(a.first_seed, a.first_seed + a.seeds)]
+    # seed by seed over the forms: a run cut short still has as many seeds of each form
+    jobs = [(form, seed, a.rate) for seed in range(a.first_seed, a.first_seed + a.seeds)
+            for form in a.forms.split(",")]
     rows = [done[j] for j in jobs if j in done]
     with mp.get_context("spawn").Pool(a.workers) as pool:
         for r in pool.imap(one_run, [j for j in jobs if j not in done]):
