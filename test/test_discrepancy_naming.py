@@ -165,6 +165,24 @@ def test_a_linear_decay_named_as_a_step_has_running_in_beside_it():
     assert result["model_file"]["effects"] == "wear_rate_change"
 
 
+def test_the_decay_alternative_is_the_best_of_its_decay_laws():
+    """The decay with sliding distance in place of a step is fitted in every decay law of form_average, the
+    lowest BIC kept (its law reported), and the problem's law is the library's again after the check."""
+    bic = {"exponential": 10.0, "hyperbolic": 4.0, "inverse_square": 7.0}
+
+    class Problem:
+        running_in_form = "exponential"
+
+        def fit(self, effects, warm=None):
+            return SimpleNamespace(bic=bic[self.running_in_form])
+
+    problem = Problem()
+    fit, extra = consistency._alternative_fit(problem, ("running_in",), "running_in", None)
+    assert fit.bic == 4.0 and extra == {"decay_law": "hyperbolic"} and problem.running_in_form == "exponential"
+    fit, extra = consistency._alternative_fit(problem, ("k_trend_in_time",), "k_trend_in_time", None)
+    assert fit.bic == 10.0 and extra == {}
+
+
 def test_the_model_file_carries_findings_and_tie_leaders_only():
     """consistency.model_effects: a finding, and a tie the named effect leads, are carried; a reading whose
     better alternative is a check-only form (a trend, a gauge drift) is left out with nothing in its place; a
