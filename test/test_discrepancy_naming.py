@@ -127,8 +127,8 @@ def test_a_real_k_step_is_still_named_a_finding(rows):
     c = r["result"]["effects"]["wear_rate_change"]
     assert c["status"] == "finding"
     assert min(a["delta_bic"] for a in c["alternatives"]) > consistency.AMBIGUOUS_BIC      # measured +190
-    assert [a["form"] for a in c["alternatives"]] == ["k_trend_in_time", "k_growth_with_wear", "gauge_drift_in_time",
-                                                      *consistency.STRUCTURE_FORMS]
+    assert [a["form"] for a in c["alternatives"]] == ["k_trend_in_time", "k_growth_with_wear", "running_in",
+                                                      "gauge_drift_in_time", *consistency.STRUCTURE_FORMS]
     p = c["parameters"]
     assert abs(p["wear_rate_change_time_s"]["value"] / 3600.0 - 12.0) < 0.5
     assert p["wear_rate_change_factor"]["value"] == pytest.approx(2.0, rel=0.15)
@@ -141,6 +141,99 @@ def test_running_in_is_still_named_running_in(rows):
     assert [a["form"] for a in c["alternatives"]][:1] == ["wear_rate_change"]
     assert min(a["delta_bic"] for a in c["alternatives"]) > consistency.AMBIGUOUS_BIC       # measured +158
     assert not r["result"]["data_resolution"]["too_little_data"]
+
+
+def test_a_linear_decay_named_as_a_step_has_running_in_beside_it():
+    """Running-in linear to zero at s0 = 600 m (the independent writer of test_model_file.py: seed 000's bench,
+    20 h at 5 Hz, seed 100): the rate levels off at s0, and the selection names wear_rate_change. Its check fits
+    the decay with sliding distance in its place (each decay law, the best kept): within the tie (measured
+    dBIC +0.8), so the step is ambiguous with running_in reported beside it and what separates them; the model
+    file carries the step, which leads the tie."""
+    import test_model_file as writer
+
+    from guide_health.models.wear.form_average import RUNNING_IN_FORMS
+
+    params, run, _ = writer.running_in_of_form("linear", 100, 5.0)
+    result = diagnose_cells(duty_cells_from_runs(run, params["slider_length_m"]), params)
+    assert result["named_effects"] == ["wear_rate_change"]
+    c = result["effects"]["wear_rate_change"]
+    decay = next(a for a in c["alternatives"] if a["form"] == "running_in")
+    assert c["status"] == "ambiguous" and 0.0 <= decay["delta_bic"] <= consistency.AMBIGUOUS_BIC, c["check"]
+    assert decay["decay_law"] in RUNNING_IN_FORMS and decay["parameters"]["running_in_ratio"] > 0.5
+    assert "running_in dBIC" in c["check"] and "reground surface" in c["separating_measurement"]
+    assert result["model_file_effects"] == ["wear_rate_change"] and c["in_model_file"]
+    assert result["model_file"]["effects"] == "wear_rate_change"
+
+
+def test_the_decay_alternative_is_the_best_of_its_decay_laws():
+    """The decay with sliding distance in place of a step is fitted in every decay law of form_average, the
+    lowest BIC kept (its law reported), and the problem's law is the library's again after the check."""
+    bic = {"exponential": 10.0, "hyperbolic": 4.0, "inverse_square": 7.0}
+
+    class Problem:
+        running_in_form = "exponential"
+
+        def fit(self, effects, warm=None):
+            return SimpleNamespace(bic=bic[self.running_in_form])
+
+    problem = Problem()
+    fit, extra = consistency._alternative_fit(problem, ("running_in",), "running_in", None)
+    assert fit.bic == 4.0 and extra == {"decay_law": "hyperbolic"} and problem.running_in_form == "exponential"
+    fit, extra = consistency._alternative_fit(problem, ("k_trend_in_time",), "k_trend_in_time", None)
+    assert fit.bic == 10.0 and extra == {}
+
+
+def test_the_model_file_carries_findings_and_tie_leaders_only():
+    """consistency.model_effects: a finding, and a tie the named effect leads, are carried; a reading whose
+    better alternative is a check-only form (a trend, a gauge drift) is left out with nothing in its place; a
+    reading or a tie an alternative library effect leads is left out with that effect in its place (once)."""
+    def check(status, **alternatives):
+        return {"status": status, "alternatives": [{"form": f, "delta_bic": d} for f, d in alternatives.items()]}
+
+    rule = consistency.model_effects
+    assert rule(["running_in"], {"running_in": check("finding", wear_rate_change=9.0)}) == (["running_in"], {})
+    assert rule(["running_in"], {"running_in": check("ambiguous", wear_rate_change=2.0)}) == (["running_in"], {})
+    assert rule(["wear_rate_change"], {"wear_rate_change": check("reading", k_trend_in_time=-11.0,
+                                                                 running_in=30.0)}) == ([], {"wear_rate_change": ""})
+    assert rule(["running_in"], {"running_in": check("ambiguous", wear_rate_change=-3.4)}) == (
+        ["wear_rate_change"], {"running_in": "wear_rate_change"})
+    assert rule(["running_in", "load_exponent"], {
+        "running_in": check("reading", wear_rate_change=-6.3, gauge_drift_in_time=40.0),
+        "load_exponent": check("finding")}) == (["wear_rate_change", "load_exponent"],
+                                                {"running_in": "wear_rate_change"})
+    # an own check failed with every alternative worse: left out, nothing in its place
+    assert rule(["lubrication_interval"], {"lubrication_interval": check("reading", k_trend_in_time=20.0)}) == (
+        [], {"lubrication_interval": ""})
+
+
+def test_a_reading_is_not_in_the_model_file(rows, tmp_path):
+    """The K ramp (seed 0) names wear_rate_change, a reading (the trend in its place is better): model.yaml
+    carries no step (its effects empty, no change factor), says so in its header and report.md, and the replay
+    with it forecasts from K alone: the same life as the base parameters with the file's K."""
+    from guide_health.analysis.discrepancy.model_file import write_model_file
+    from guide_health.analysis.discrepancy.report import markdown
+    from guide_health.models.wear.precision import PrecisionMonitor
+    from guide_health.params.typed import wear_axis_params
+
+    r = rows["k_ramp0"]
+    result = r["result"]
+    assert r["status"] == {"wear_rate_change": "reading"}
+    model = result["model_file"]
+    assert result["model_file_effects"] == [] and model["effects"] == "" and "wear_rate_change_factor" not in model
+    assert result["effects"]["wear_rate_change"]["in_model_file"] is False
+    write_model_file(tmp_path / "model.yaml", wear_monitor_params(JOBS), model, r["named"],
+                     left_out=("wear_rate_change",))
+    assert "# named but left out of this model (the record prefers another form): wear_rate_change" in (
+        tmp_path / "model.yaml").read_text()
+    assert "Left out of model.yaml (the record prefers another form; the live remaining life is not forecast from " \
+           "it): wear_rate_change, a reading." in markdown(result)
+    params, run = independent_run("k_ramp", 0)
+    lives = []
+    for p in ({**params, **model}, {**params, "wear_coefficient": model["wear_coefficient"]}):
+        monitor = PrecisionMonitor(wear_axis_params(p))
+        monitor.process_run(run)
+        lives.append(monitor.report()["remaining_life_h"])
+    assert lives[0] == pytest.approx(lives[1], rel=1e-9)
 
 
 def test_two_hours_of_a_30_h_duty_is_too_little_data(tmp_path):

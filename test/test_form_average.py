@@ -75,20 +75,29 @@ def test_bic_weights_are_the_schwarz_posterior():
     assert w == pytest.approx([0.75, 0.25, 0.0])
 
 
-def test_the_averaged_interval_widens_with_the_forms_and_is_the_named_one_alone():
-    """One form of weight 1 (the params default): the named interval exactly; forms that agree: the same; a form
-    with weight 1/2 forecasting e^0.2 longer: the high end moves to the mixture's quantile (checked by its cdf),
-    never inside the named interval; the point value is the named form's."""
-    z, life = 1.684, (100.0, 100.0 * math.exp(-1.684 * 0.02), 100.0 * math.exp(1.684 * 0.02))
+def test_the_averaged_interval_is_the_mixtures_and_the_named_one_alone():
+    """One form of weight 1 (the params default): the named life and interval exactly; forms that agree: the
+    same; two forms of weight 1/2, the other forecasting e^0.2 longer: the point is the mixture's median (e^0.1,
+    by symmetry) and the ends its quantiles at Phi(-z), Phi(z) (checked by its cdf); a form of weight 0.99
+    forecasting e^0.2 longer: its own interval, nearly, not joined with the named one (model averaging, not
+    the union: the named low end is left behind)."""
+    from scipy.special import ndtr
+
+    z, sd = 1.684, 0.02
+    life = (100.0, 100.0 * math.exp(-z * sd), 100.0 * math.exp(z * sd))
     assert form_averaged_interval_s(life, [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], z) == life
     same = form_averaged_interval_s(life, [0.0, 0.0, 0.0], [0.5, 0.3, 0.2], z)
     assert same == pytest.approx(life, rel=1e-9)
     wide = form_averaged_interval_s(life, [0.0, 0.2, 0.0], [0.5, 0.5, 0.0], z)
-    assert wide[0] == 100.0 and wide[1] == pytest.approx(life[1], rel=1e-9)
     mu = math.log(100.0) + np.array([0.0, 0.2])
-    from scipy.special import ndtr
-    assert 0.5 * (ndtr((math.log(wide[2]) - mu) / 0.02)).sum() == pytest.approx(ndtr(z), abs=1e-9)
-    assert wide[2] > 100.0 * math.exp(0.2)
+    assert wide[0] == pytest.approx(100.0 * math.exp(0.1), rel=1e-9)
+    for end, p in ((wide[1], ndtr(-z)), (wide[2], ndtr(z))):
+        assert 0.5 * (ndtr((math.log(end) - mu) / sd)).sum() == pytest.approx(p, abs=1e-9)
+    assert life[1] < wide[1] < 100.0 and wide[2] > 100.0 * math.exp(0.2)     # the union would keep life[1]
+    moved = form_averaged_interval_s(life, [0.0, 0.2, 0.0], [0.01, 0.99, 0.0], z)
+    assert moved[1] > life[2]
+    assert ndtr((math.log(moved[1]) - mu) / sd) @ [0.01, 0.99] == pytest.approx(ndtr(-z), abs=1e-9)
+    assert moved[1] < moved[0] < moved[2]
     # no finite interval: unchanged
     assert form_averaged_interval_s((100.0, 0.0, math.inf), [0, 0.2, 0], [0.5, 0.5, 0], z) == (100.0, 0.0, math.inf)
     assert mixture_quantile(0.5, np.array([1.0, 3.0]), np.array([0.5, 0.5]), 0.1) == pytest.approx(2.0, abs=1e-9)
@@ -102,8 +111,8 @@ def test_form_weights_must_sum_to_one():
 
 
 def test_live_per_sample_path_equals_the_vectorised_path_with_the_forms():
-    """The node's per-sample callbacks and process_run give the same averaged interval, also after a restore;
-    it contains the interval without the forms, with the same point value."""
+    """The node's per-sample callbacks and process_run give the same averaged life and interval, also after a
+    restore; the forms forecasting longer lives move the point (the mixture's median) and the high end up."""
     params = wear_monitor_params(JOBS)
     sim = dict(simulation_params(JOBS), duration_h=2.0, joint_state_rate_hz=10.0)
     run = simulate_machine(params, sim, seed=2, effects={"running_in": 1.0})
@@ -119,8 +128,9 @@ def test_live_per_sample_path_equals_the_vectorised_path_with_the_forms():
     a, b, c = offline.report(), live.report(), named.report()
     for key in ("remaining_life_h", "remaining_life_h_low", "remaining_life_h_high"):
         assert b[key] == pytest.approx(a[key], rel=1e-6), key
-    assert a["remaining_life_h"] == pytest.approx(c["remaining_life_h"], rel=1e-12)
-    assert a["remaining_life_h_low"] <= c["remaining_life_h_low"]
+    # the mixture's median lies between the named form's point and the longest form's (offset 0.15)
+    assert c["remaining_life_h"] < a["remaining_life_h"] < c["remaining_life_h"] * math.exp(0.15)
+    assert a["remaining_life_h_low"] < a["remaining_life_h"] < a["remaining_life_h_high"]
     assert a["remaining_life_h_high"] > c["remaining_life_h_high"] * math.exp(0.1)
     again = PrecisionMonitor(wear_axis_params(p))
     again.restore(json.loads(json.dumps(offline.state())))
@@ -137,8 +147,7 @@ def test_bench_interval_contains_the_truth_and_widens_when_the_forms_disagree():
     """Seed 000's bench, 20 h at 5 Hz, then forecast. The library's form (seed 1): running_in named, its
     interval contains the true life. A hyperbolic running-in (the independent writer's, seed 1): the forms
     disagree (the hyperbolic forecasts a longer life, its weight > 0.3), and the averaged interval contains the
-    truth that the named form's alone misses (measured 2026-11-27: truth 4.385 h, named [3.84, 4.26] h,
-    averaged [3.84, 4.59] h)."""
+    truth that the named form's alone misses (measured 2026-11-27: truth 4.385 h, named [3.84, 4.26] h)."""
     clear = bench_case("exponential", 1)
     assert clear["named"] == ["running_in"] and clear["life"][1] <= clear["truth_h"] <= clear["life"][2], clear
     hyp = bench_case("hyperbolic", 1)
@@ -152,19 +161,19 @@ def test_life_calibration_per_running_in_form():
     """30 seeds per running-in form: the library's exponential and two shapes the workflow does not fit with
     (linear to zero at s0, stretched exponential; the independent writer of test_model_file.py), 20 h at 5 Hz
     then forecast (bench/life_calibration.py prints the same table; docs/discrepancy.md). The nominal 90 %
-    interval covers the true remaining life in >= 83 % of the seeds of each form, and at least as often as the
-    named form's interval alone. Measured 2026-11-27 (seeds 100-129): exponential 29/30 (named alone 28),
-    linear 29/30 (29), stretched exponential 29/30 (named alone 11/30); the issue's upper bound of 96 % is
-    therefore not met, by one seed on each: the averaged interval errs wide."""
+    interval (the BIC-weighted mixture of the forms' forecasts) covers the true remaining life in 83-96 % of the
+    seeds of each form (the issue's calibration band: 25 to 28 of 30). Measured 2026-11-27 (seeds 100-129):
+    exponential 27/30, stretched exponential 28/30; linear 29/30, one seed above the band: this test fails
+    there (a calibrated 90 % gives >= 29 of 30 with probability 0.18; docs/discrepancy.md)."""
     sys.path.insert(0, str(ROOT / "bench"))
     import multiprocessing as mp
 
-    from life_calibration import FORMS, one_run, table
+    from life_calibration import covers, one_run, table
+    forms = ("exponential", "linear", "stretched_exponential")
     with mp.get_context("spawn").Pool(2) as pool:
-        rows = pool.map(one_run, [(form, seed, 5.0) for form in FORMS for seed in range(100, 130)])
+        rows = pool.map(one_run, [(form, seed, 5.0) for seed in range(100, 130) for form in forms])
     print("\n".join(table(rows)))
-    for form in FORMS:
+    for form in forms:
         mine = [r for r in rows if r["form"] == form]
-        covered = sum(r["life"][1] <= r["truth_h"] <= r["life"][2] for r in mine)
-        alone = sum(r["named_only"][1] <= r["truth_h"] <= r["named_only"][2] for r in mine)
-        assert covered / len(mine) >= 0.83 and covered >= alone, (form, covered, alone)
+        covered = sum(covers(r["life"], r["truth_h"]) for r in mine)
+        assert 0.83 <= covered / len(mine) <= 0.96, (form, covered, len(mine))

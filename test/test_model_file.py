@@ -371,6 +371,9 @@ RUNNING_IN_FORMS = {
     # distance 2 r s0 is the library bench's r s0
     "stretched_exponential": (lambda s, r, s0: s + 2 * r * s0 * (1 - (1 + np.sqrt(s / s0)) * np.exp(-np.sqrt(s / s0))),
                               150.0),
+    # 1 + r (1 + s/s0)^-0.5 (a decay without end, slower than any fitted form): int_0^s = 2 r s0 (sqrt(1 + s/s0) - 1);
+    # s0 = 5 m, so that its extra distance over the bench's 20 h (~4.8 km) is about the library bench's r s0
+    "power_law": (lambda s, r, s0: s + 2 * r * s0 * (np.sqrt(1 + s / s0) - 1), 5.0),
 }
 
 
@@ -440,7 +443,7 @@ def test_running_in_of_other_forms_10_seeds():
     long tail), life 2-9 % short, covered 3/10; linear: wear_rate_change 8/10 (the kink at s0 as a change
     point), running_in 2/10, life within 4 %, covered 10/10; inverse square: running_in, life 0-6 % short,
     covered 6/10. The plain model: 0.36-0.52 of the truth."""
-    check_other_forms(other_form_rows(tuple(RUNNING_IN_FORMS), range(10), 10.0))
+    check_other_forms(other_form_rows(tuple(f for f in RUNNING_IN_FORMS if f != "power_law"), range(10), 10.0))
 
 
 # --- the CLI ----------------------------------------------------------------------------------------

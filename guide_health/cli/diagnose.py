@@ -87,7 +87,8 @@ def run(args) -> dict:
     result["files"]["model"] = str(out / "model.yaml")
     structure = result.get("unexplained_structure", {})
     write_model_file(out / "model.yaml", params, result["model_file"], result["named_effects"], source=str(bag),
-                     unexplained=structure.get("message", "") if structure.get("present") else "")
+                     unexplained=structure.get("message", "") if structure.get("present") else "",
+                     left_out=tuple(e for e, c in result["effects"].items() if not c.get("in_model_file", True)))
     result["report_s"] = time.perf_counter() - t1
     result["total_s"] = time.perf_counter() - t0
     result.pop("series")

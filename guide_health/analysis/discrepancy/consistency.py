@@ -6,7 +6,10 @@ The checks (after the forward selection) are the effects': each effect's module 
 against (``Effect.consistency_alternatives``, registry.CONSISTENCY_ALTERNATIVES), its own physics check
 (``Effect.own_consistency_check``, e.g. a relubrication period seen to repeat) and the measurement that tells it
 from a step in K (``Effect.consistency_separation``). The alternative forms here are forms for the check, not
-library effects (but the registry's step in K, RATE_STEP):
+library effects (but the registry's step in K, RATE_STEP, and its decay of K with sliding distance,
+SLIDING_DECAY, fitted in each decay law of models/wear/form_average.py and the best by BIC kept: a decaying
+wear rate of another shape, e.g. linear to a floor, must not pass as a step because the exponential fits it
+less well):
 
   (a) a smooth trend in K with clock time: m = 1 + a (t - t_first) / (t_last - t_first),
   (b) K growing with the worn volume: m = 1 + a W(t) / W_total, W the Archard work done before the cell,
@@ -50,7 +53,8 @@ from scipy import special
 
 from guide_health.analysis.discrepancy.model import FitResult, WearProblem
 from guide_health.models.wear.effects.base import FitParameter
-from guide_health.models.wear.effects.registry import BY_ID, CONSISTENCY_ALTERNATIVES, RATE_STEP
+from guide_health.models.wear.effects.registry import BY_ID, CONSISTENCY_ALTERNATIVES, RATE_STEP, SLIDING_DECAY
+from guide_health.models.wear.form_average import RUNNING_IN_FORMS
 
 #: |BIC_alternative - BIC_named| at or below this is a tie (Kass & Raftery 1995: 6..10 "strong")
 AMBIGUOUS_BIC = 6.0
@@ -66,6 +70,8 @@ ALTERNATIVES = {
     "gauge_step_in_time": "the gauge zero stepping at one time (no change in wear)",
     "wear_profile_along_rail": "a wear rate that varies smoothly along the rail (a profile, not a gradient)",
     RATE_STEP.id: "a step in the wear coefficient at one time",
+    SLIDING_DECAY.id: "the wear coefficient decaying with the sliding distance (running-in; the best of its decay "
+                      "laws)",
 }
 _ALT_SPECS = {
     "k_trend_in_time": [FitParameter("k_trend_per_record", "-", -0.9, 20.0, False, (0.5, 2.0))],
@@ -208,7 +214,8 @@ def separating_measurement(named: str, alternative: str, fit: FitResult, problem
     if alternative == "wear_profile_along_rail":
         return ("a straightness profile along the rail (positions, not one number) separates a wear profile along "
                 "the rail from the named effect")
-    return BY_ID[named].consistency_separation or "a longer record at a steady duty"
+    return (BY_ID[named].consistency_separation or getattr(BY_ID.get(alternative), "consistency_separation", "")
+            or "a longer record at a steady duty")
 
 
 def own_check(effect: str, problem: WearProblem, fit: FitResult) -> dict[str, Any]:
@@ -232,6 +239,23 @@ def outside_library(check: dict[str, Any]) -> list[str]:
                   if r["form"] not in BY_ID and r["delta_bic"] < -AMBIGUOUS_BIC]
 
 
+def _alternative_fit(alt_problem: CheckProblem, effects: tuple[str, ...], form: str,
+                     final: FitResult) -> tuple[FitResult, dict[str, Any]]:
+    """(fit, extra reported values) of ``effects`` (``form`` among them); the decay with sliding distance in
+    each of its decay laws, the lowest BIC kept (its law reported)."""
+    if form != SLIDING_DECAY.id:
+        return alt_problem.fit(effects, warm=final), {}
+    fits = []
+    try:
+        for law in RUNNING_IN_FORMS:
+            alt_problem.running_in_form = law
+            fits.append((alt_problem.fit(effects, warm=final), law))
+    finally:
+        alt_problem.running_in_form = RUNNING_IN_FORMS[0]
+    f, law = min(fits, key=lambda fl: fl[0].bic if np.isfinite(fl[0].bic) else np.inf)
+    return f, {"decay_law": law}
+
+
 def _alternative(alt_problem: CheckProblem, kept: tuple[str, ...], form: str, final: FitResult,
                  replaces: list[str]) -> dict[str, Any]:
     """The fit with ``form`` in place of the effects ``replaces`` (``kept`` stay), scored against ``final``."""
@@ -239,13 +263,13 @@ def _alternative(alt_problem: CheckProblem, kept: tuple[str, ...], form: str, fi
     if form == "gauge_step_in_time":
         alt_problem.gauge_step_at_s = profile_gauge_step(alt_problem, final, replaces)
         profiled = float(np.log(final.n_fit))          # the step's time counts as a parameter
-    f = alt_problem.fit(kept + (form,), warm=final)
+    f, extra = _alternative_fit(alt_problem, kept + (form,), form, final)
     if profiled:
         f.extra["gauge_step_time_s"] = alt_problem.gauge_step_at_s
     return {"form": form, "meaning": ALTERNATIVES[form], "replaces": replaces,
             "delta_bic": f.bic + profiled - final.bic, "bic": f.bic + profiled, "heldout_rmse_um": f.heldout_rmse_um,
             "parameters": {s.name: f.values[s.name] for s in alt_problem.specs[form]}
-            | ({"gauge_step_time_h": alt_problem.gauge_step_at_s / 3600.0} if profiled else {}), "_fit": f}
+            | ({"gauge_step_time_h": alt_problem.gauge_step_at_s / 3600.0} if profiled else {}), **extra, "_fit": f}
 
 
 def check_named_effects(problem: WearProblem, final: FitResult, named: list[str]) -> dict[str, dict[str, Any]]:
@@ -296,3 +320,26 @@ def structure_form_tests(problem: WearProblem, final: FitResult, named: list[str
         rows.append({"form": form, "meaning": ALTERNATIVES[form], "f": float(f), "dof": [q, dof],
                      "p_value": float(special.fdtrc(q, dof, f))})
     return rows
+
+
+def model_effects(named: list[str], checks: dict[str, dict[str, Any]]) -> tuple[list[str], dict[str, str]]:
+    """(the effects the model file carries, {named effect left out: the library effect in its place, or ""}).
+
+    Only what the record prefers is forecast from: a finding, or a tie the named effect leads (no alternative
+    fits better; the tie is reported). A reading, or a tie an alternative leads, is left out of the model; when
+    that alternative is a library effect (the step in K, the decay with sliding distance) it stands in its
+    place, else (a trend, a gauge drift: forms for the check only) nothing does."""
+    carried: list[str] = []
+    left_out: dict[str, str] = {}
+    for effect in named:
+        check = checks.get(effect, {"status": "finding", "alternatives": []})
+        best = min(check["alternatives"], key=lambda a: a["delta_bic"], default=None)
+        if check["status"] == "finding" or (check["status"] == "ambiguous" and (best is None
+                                                                               or best["delta_bic"] >= 0.0)):
+            carried.append(effect)
+            continue
+        stand_in = best["form"] if best is not None and best["delta_bic"] < 0.0 and best["form"] in BY_ID else ""
+        left_out[effect] = stand_in
+        if stand_in and stand_in not in named and stand_in not in carried:
+            carried.append(stand_in)
+    return carried, left_out

@@ -165,12 +165,16 @@ def not_live_effects(named: list[str]) -> list[str]:
 
 
 def write_model_file(path: Path, base_params: dict[str, Any], model: dict[str, Any], named: list[str],
-                     source: str = "", unexplained: str = "") -> None:
+                     source: str = "", unexplained: str = "", left_out: tuple[str, ...] = ()) -> None:
     """DIR/model.yaml; the merged parameters (base then model) are validated first. ``unexplained``: the
-    unexplained-structure message, which then heads the file (its effects are fitted, not an explanation)."""
+    unexplained-structure message, which then heads the file (its effects are fitted, not an explanation);
+    ``left_out``: named effects the model does not carry (readings: consistency.model_effects)."""
     validate_wear_params({**base_params, **model})
     body = yaml.safe_dump({"/**/wear_monitor": {"ros__parameters": model}}, sort_keys=False, width=200)
-    write_text(path, "\n".join(_header(named, source, [unexplained] if unexplained else [])) + "\n" + body)
+    header = _header(named, source, [unexplained] if unexplained else [])
+    if left_out:
+        header.append(f"# named but left out of this model (the record prefers another form): {', '.join(left_out)}")
+    write_text(path, "\n".join(header) + "\n" + body)
 
 
 def write_axes_model_file(path: Path, axes: dict[str, dict[str, Any]], models: dict[str, dict[str, Any]],

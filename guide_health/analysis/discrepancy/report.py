@@ -34,11 +34,25 @@ def model_file_lines(result: dict[str, Any]) -> list[str]:
     skipped = not_live_effects(result["named_effects"])
     if skipped:
         out.append(f"Named but not applied live: {', '.join(skipped)}.")
+    out += left_out_lines(result)
     if result.get("unexplained_structure", {}).get("present") and live:
         out.append("The residuals still have structure: these effects are fitted, not an explanation.")
     out.append("Load it after the base parameters: `guide-health replay BAG --params BASE --params model.yaml`, or "
                "`wear_monitor --ros-args --params-file BASE --params-file model.yaml` (docs/model_file.md).")
     return out
+
+
+def left_out_lines(result: dict[str, Any]) -> list[str]:
+    """The named effects model.yaml leaves out (readings, ties an alternative leads: consistency.model_effects)
+    and what stands in their place."""
+    left = {e: c.get("in_model_file_in_its_place", "") for e, c in result.get("effects", {}).items()
+            if not c.get("in_model_file", True)}
+    if not left:
+        return []
+    parts = [f"{e}, a {result['effects'][e]['status']}" + (f" ({alt} in its place)" if alt else "")
+             for e, alt in left.items()]
+    return ["Left out of model.yaml (the record prefers another form; the live remaining life is not forecast "
+            f"from it): {'; '.join(parts)}."]
 
 
 def _nothing_named(result: dict[str, Any]) -> str:

@@ -13,7 +13,8 @@ from typing import Any
 import numpy as np
 
 from guide_health.analysis.discrepancy.analysis import disagreement, forecast_check, unexplained_structure
-from guide_health.analysis.discrepancy.consistency import check_named_effects, outside_library, structure_form_tests
+from guide_health.analysis.discrepancy.consistency import (check_named_effects, model_effects, outside_library,
+                                                          structure_form_tests)
 from guide_health.analysis.discrepancy.duty import DutyCells
 from guide_health.analysis.discrepancy.fit_pool import FitPool
 from guide_health.analysis.discrepancy.model import FitResult, WearProblem, rel_errors
@@ -210,15 +211,22 @@ def diagnose_cells(cells: DutyCells, params: dict[str, Any], heldout_fraction: f
     }
     if SLIDING_DECAY.id in named:
         result.update(_steady_stage(problem, base, final))
-    _model_file_and_series(result, problem, params, (base, final), named, relubrication_t_s)
+    carried, left_out = model_effects(named, consistency)
+    for effect in named:
+        effects[effect]["in_model_file"] = effect not in left_out
+        if left_out.get(effect):
+            effects[effect]["in_model_file_in_its_place"] = left_out[effect]
+    result["model_file_effects"] = carried
+    _model_file_and_series(result, problem, params, (base, final), carried, relubrication_t_s)
     result["fit_s"] = time.perf_counter() - t0
     return result
 
 
 def _model_file_and_series(result: dict, problem: WearProblem, params: dict, fits: tuple[FitResult, FitResult],
                            named: list[str], relubrication_t_s) -> None:
-    """The model file (the named effects refitted on every measurement: the held-out span scored the choice),
-    its forecast, and the series for the plot and residuals.csv."""
+    """The model file (``named``: the effects it carries, consistency.model_effects; refitted on every
+    measurement: the held-out span scored the choice), its forecast, and the series for the plot and
+    residuals.csv."""
     base, final = fits
     whole = WearProblem(problem.cells, params, heldout_fraction=0.0, relubrication_t_s=relubrication_t_s)
     whole_fit = whole.fit(tuple(named), warm=final)

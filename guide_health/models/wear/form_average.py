@@ -13,10 +13,13 @@ decay differs):
 per form in :data:`RUNNING_IN_FORMS` order, the BIC weight w_i = exp(-BIC_i / 2) / sum_j exp(-BIC_j / 2)
 (the posterior probability of the form under equal priors, Schwarz's approximation) and the offset
 delta_i = ln(life_i / life_named) of its forecast from the named form's. The live interval
-(:func:`form_averaged_interval_s`) is then the 90 % interval of the BIC-weighted mixture of the forms'
-lognormal forecasts, each with the named form's delta-method spread, joined with the named form's own
-interval: model averaging (Hoeting et al. 1999, Stat. Sci. 14: 382, Eq. 1) rather than the envelope of the
-forms, because a form the record rules out (weight ~0) must not widen the interval, and a near tie must.
+(:func:`form_averaged_interval_s`) is then the BIC-weighted mixture of the forms' lognormal forecasts, each
+with the named form's delta-method spread: its median the point life, its quantiles at Phi(-z) and Phi(z) the
+90 % interval. This is Bayesian model averaging (Hoeting et al. 1999, Stat. Sci. 14: 382, Eq. 1: the posterior
+predictive is the posterior-weighted mixture of the models' predictives), neither the envelope of the forms nor
+the mixture joined with the named form's interval: both contain the mixture's interval, so they cover more
+often than they claim by construction (docs/discrepancy.md measures both); and a form the record rules out
+(weight ~0) must not widen the interval, while a near tie must, by its share.
 The offsets are those at the end of the diagnosed record; the forms converge as the decay dies out, so
 holding them later errs wide.
 """
@@ -111,9 +114,8 @@ def form_averaged_interval_s(life: tuple[float, float, float], ln_offsets, weigh
                              z: float) -> tuple[float, float, float]:
     """(life, low, high) [s] with the running-in forms' forecasts averaged in (module text): ln life of form i
     ~ N(ln life + delta_i, sd^2), sd = ln(high / low) / (2 z) of the named form's interval (its 90 % ends at
-    +-z sd); the interval is the mixture's quantiles at Phi(-z) and Phi(z) (one form: the named interval
-    exactly) joined with the named form's own. The point
-    value stays the named form's. Unchanged with one form of weight 1, or without a finite interval."""
+    +-z sd); the point is the mixture's median, the interval its quantiles at Phi(-z) and Phi(z) (one form:
+    the named life and interval exactly). Unchanged with one form of weight 1, or without a finite interval."""
     centre, low, high = life
     w = np.asarray(weights, dtype=float)
     d = np.asarray(ln_offsets, dtype=float)
@@ -124,6 +126,7 @@ def form_averaged_interval_s(life: tuple[float, float, float], ln_offsets, weigh
     sd = max(math.log(high / low) / (2.0 * z), 1e-9)
     mid = 0.5 * math.log(high * low)           # the named form's ln-life centre (its interval's middle)
     centres, shares = mid + d[keep], w[keep] / w[keep].sum()
-    q_low = mixture_quantile(float(ndtr(-z)), centres, shares, sd)
-    q_high = mixture_quantile(float(ndtr(z)), centres, shares, sd)
-    return centre, min(low, math.exp(q_low)), max(high, math.exp(q_high))
+    # the named point sits at the interval's ln-middle (delta method); each form's point moves with its centre
+    shift = math.log(centre) - mid
+    q_low, q_mid, q_high = (mixture_quantile(float(ndtr(x)), centres, shares, sd) for x in (-z, 0.0, z))
+    return math.exp(q_mid + shift), math.exp(q_low), math.exp(q_high)

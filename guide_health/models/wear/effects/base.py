@@ -64,6 +64,8 @@ class LiveRequirement:
 
 #: the token of ``Effect.consistency_alternatives`` for the registry's step in the wear coefficient (RATE_STEP)
 RATE_STEP_FORM = "rate_step"
+#: the token for the registry's decay of K with sliding distance (SLIDING_DECAY), fitted in each of its decay laws
+SLIDING_DECAY_FORM = "sliding_decay"
 
 
 @dataclass(frozen=True)
@@ -104,7 +106,8 @@ class Effect:
     #: its ``guide_health_simulation`` parameters (params/simulation.py; the simulator's truth beyond the value)
     simulation: tuple[EffectParameter, ...] = ()
     #: the alternative forms the consistency check fits in its place (analysis/discrepancy/consistency.py: forms
-    #: whose signature in a record can look like it; ``RATE_STEP_FORM``: the registry's step in K); None: no check
+    #: whose signature in a record can look like it; ``RATE_STEP_FORM``: the registry's step in K;
+    #: ``SLIDING_DECAY_FORM``: the registry's decay with sliding distance); None: no check
     #: of its own beyond the selection
     consistency_alternatives: tuple[str, ...] | None = None
     #: the measurement that tells it from the registry's step in K (the consistency report's words)

@@ -25,7 +25,13 @@ from guide_health.models.wear.effects import (
     thermal_drift,
     wear_rate_change,
 )
-from guide_health.models.wear.effects.base import RATE_STEP_FORM, CovarianceRow, Effect, EffectParameter
+from guide_health.models.wear.effects.base import (
+    RATE_STEP_FORM,
+    SLIDING_DECAY_FORM,
+    CovarianceRow,
+    Effect,
+    EffectParameter,
+)
 
 #: the catalogue, in the order simulate and diagnose list (and diagnose tries) the effects: the wear-rate and
 #: measurement terms first, then the duty effects
@@ -84,8 +90,9 @@ COVARIANCE_ALIASES = {fitted: row for e in EFFECTS for fitted, row in e.fitted_a
 LIVE_PARAMETERS: tuple[EffectParameter, ...] = tuple(p for e in EFFECTS for p in e.parameters)
 PARAMETER_OWNER = {p.name: e.id for e in EFFECTS for p in e.parameters}
 #: the alternative forms each effect with a consistency check of its own is checked against (the step in K's id
-#: for RATE_STEP_FORM), analysis/discrepancy/consistency.py
-CONSISTENCY_ALTERNATIVES = {e.id: tuple(RATE_STEP.id if a == RATE_STEP_FORM else a for a in e.consistency_alternatives)
+#: for RATE_STEP_FORM, the decay with sliding distance's for SLIDING_DECAY_FORM), analysis/discrepancy/consistency.py
+_FORM_TOKENS = {RATE_STEP_FORM: RATE_STEP.id, SLIDING_DECAY_FORM: SLIDING_DECAY.id}
+CONSISTENCY_ALTERNATIVES = {e.id: tuple(_FORM_TOKENS.get(a, a) for a in e.consistency_alternatives)
                             for e in EFFECTS if e.consistency_alternatives is not None}
 
 #: the rows of the baseline model: K first, A0 (when the fit freed it, or initial_offset's delta) last

@@ -9,6 +9,7 @@ import math
 import numpy as np
 
 from guide_health.models.wear.effects.base import (
+    SLIDING_DECAY_FORM,
     CovarianceRow,
     Effect,
     EffectParameter,
@@ -77,8 +78,10 @@ EFFECT = WearRateChange(
     simulation=(EffectParameter("wear_rate_change_h", 10.0, "h", "[0, inf)",
                                 "t_c of the wear_rate_change effect, from the start"),),
     fields=(("wear_rate_change_factor", 1.0, "f"), ("wear_rate_change_time_s", math.inf, "t_c")),
-    # a step in K against a smooth trend in time, K growing with the worn volume, a gauge drifting in time
-    consistency_alternatives=("k_trend_in_time", "k_growth_with_wear", "gauge_drift_in_time"),
+    # a step in K against a smooth trend in time, K growing with the worn volume, K decaying with the sliding
+    # distance (running-in in each of its decay laws: a decaying rate that levels off reads as a step), a gauge
+    # drifting in time
+    consistency_alternatives=("k_trend_in_time", "k_growth_with_wear", SLIDING_DECAY_FORM, "gauge_drift_in_time"),
     recorded=("wear_rate_change_factor", "wear_rate_change_time_s"),
 )
 
