@@ -13,8 +13,12 @@ from typing import Any
 import numpy as np
 
 from guide_health.analysis.discrepancy.analysis import disagreement, forecast_check, unexplained_structure
-from guide_health.analysis.discrepancy.consistency import (check_named_effects, model_effects, outside_library,
-                                                          structure_form_tests)
+from guide_health.analysis.discrepancy.consistency import (
+    check_named_effects,
+    model_effects,
+    outside_library,
+    structure_form_tests,
+)
 from guide_health.analysis.discrepancy.duty import DutyCells
 from guide_health.analysis.discrepancy.fit_pool import FitPool
 from guide_health.analysis.discrepancy.model import FitResult, WearProblem, rel_errors
