@@ -18,11 +18,15 @@ import time
 
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
+from std_srvs.srv import Trigger
 
 from guide_health.errors import InputError
 from guide_health.io.state_store import StateStore, resolve_state_path, resume_with
 from guide_health.models.slewing.monitor import SlewingMonitor, contact_level
+from guide_health.models.slewing.raceway_wear import RACEWAY_WEAR_KEYS
 from guide_health.models.slewing.rating import ROWS
 from guide_health.models.slewing.stamp_merge import ANGLE, LOAD, StampMerge
 from guide_health.models.wear.input_rules import header_stamp_ns, joint_state_reason
@@ -48,7 +52,9 @@ EXTRA_KEYS = ("p_max_MPa", "p_max_position_mm", "shear_depth_mm", "von_mises_sub
                   ("fatigue_damage", ""), ("fatigue_remaining_life", "_h"), ("dynamic_capacity", "_n"),
                   ("static_capacity", "_n"))),
               "fatigue_governing_row", "static_safety_factor", "static_safety_row", "limiting_curve_safety",
-              "oscillation_strokes", "oscillation_strokes_below_critical", "rejected_axis_angles")
+              "oscillation_strokes", "oscillation_strokes_below_critical", "rejected_axis_angles",
+              # raceway wear -> tilting clearance, k and the remaining life to the replacement clearance
+              *RACEWAY_WEAR_KEYS, "rejected_tilting_clearances")
 #: the parameters a saved damage belongs to: another bearing geometry (capacities) refuses the saved state
 FINGERPRINT_PARAMS = ("machine_id", "bearing", "roller_count", "radial_roller_count", "roller_diameter_m",
                       "roller_length_m", "raceway_diameter_m", "raceway_hardness_hrc")
@@ -79,8 +85,12 @@ class SlewingMonitorNode(Node):
         # loads and angles in stamp order, as the offline analysis takes them (models/slewing/stamp_merge.py)
         self.merge = StampMerge(self._consume, p.input_align_window_s)
         self.create_subscription(JointState, p.axis_topic, self._on_axis, 100)
+        self.create_subscription(Float64, p.tilting_clearance_topic, self._on_clearance, 10)
+        # std_srvs/Trigger maintenance/<axis_joint>/measure: the tilting clearance in maintenance_straightness_m
+        self.create_service(Trigger, f"maintenance/{p.axis_joint}/measure", self._on_measure)
         self.periodic.create("diagnostics_period_s", p.diagnostics_period_s, self.publish_diagnostics)
         self.state_key = f"{p.machine_id}/{p.bearing}/slewing_fatigue"
+        self.wear_key = f"{p.machine_id}/{p.bearing}/raceway_wear"
         self.fingerprint = {name: getattr(p, name) for name in FINGERPRINT_PARAMS}
         self.state_refused = 0          # saved states that did not read back (the damage started at zero)
         self.state_path = resolve_state_path(p.state_file, p.machine_id, self.get_name())
@@ -95,6 +105,7 @@ class SlewingMonitorNode(Node):
         fatigue = self.core.fatigue
         try:
             resumed = resume_with(self.store, self.state_key, self.fingerprint, fatigue.restore)
+            resume_with(self.store, self.wear_key, self.fingerprint, self.core.wear.restore)
         except InputError as exc:
             self.state_refused += 1
             what = str(exc).splitlines()[0].rsplit("; ", 1)[0]      # the store's advice does not apply here
@@ -112,7 +123,8 @@ class SlewingMonitorNode(Node):
             return
         self.merge.release(time.monotonic())
         try:
-            self.store.save({self.state_key: self.core.fatigue.state()}, self.fingerprint)
+            self.store.save({self.state_key: self.core.fatigue.state(), self.wear_key: self.core.wear.state()},
+                            self.fingerprint)
         except InputError as exc:
             self.get_logger().error(str(exc), throttle_duration_sec=60.0)
 
@@ -158,6 +170,29 @@ class SlewingMonitorNode(Node):
         if reason:
             self.get_logger().warning(f"rejected axis angle: {reason} ({self.core.rejected_angles} so far)",
                                       throttle_duration_sec=LOG_THROTTLE_S)
+
+    def _on_clearance(self, msg: Float64) -> None:
+        """A measured tilting clearance [m], dated at the latest axis stamp: every sample received before it is
+        taken first (the tilting test is made at standstill, so the travel so far is complete)."""
+        self.merge.flush()
+        reason = self.core.on_tilting_clearance(float(msg.data))
+        if reason:
+            self.get_logger().warning(f"rejected tilting clearance: {reason} ({self.core.rejected_clearances} so far)")
+
+    def _on_measure(self, request, response):
+        """maintenance/<axis_joint>/measure: the tilting clearance read [m] in ``maintenance_straightness_m``
+        (as `guide-health maintenance NS <axis_joint> measure --value 0.42mm --node slewing_monitor` sets it),
+        dated ``maintenance_time_s`` (0 = the latest axis stamp); the values are cleared after the call."""
+        names = ("maintenance_guide", "maintenance_straightness_m", "maintenance_time_s", "maintenance_note")
+        values = {name: self.get_parameter(name).value for name in names}
+        self.set_parameters([Parameter(name, value=SLEWING_MONITOR_SCHEMA[name].default) for name in names])
+        self.merge.flush()
+        clearance_m, time_s = float(values["maintenance_straightness_m"]), float(values["maintenance_time_s"])
+        reason = self.core.on_tilting_clearance(clearance_m, round(time_s * 1e9) if time_s > 0 else None)
+        response.success = reason is None
+        response.message = reason or (f"tilting clearance {clearance_m * 1e3:.4g} mm entered "
+                                      f"({self.core.wear.estimator.count} measurements)")
+        return response
 
     def _report(self) -> tuple:
         level, message, values = self.core.period_report()

@@ -11,6 +11,7 @@ import math
 from typing import Any
 
 from guide_health.errors import InputError
+from guide_health.params.machine import MAINTENANCE_PARAMS
 from guide_health.params.schema import NodeSchema, Param, alarm_and_sensor_qos_params
 
 #: ISO 76:2006 static load rating reference: 4000 MPa contact stress at the most heavily loaded
@@ -54,6 +55,19 @@ SLEWING_MONITOR_PARAMS = (
     Param("axis_joint", "slew", "", "", "joint name of the slewing axis in axis_topic"),
     Param("reversal_deadband_rad", 1.0e-3, "rad", "(0, 1]",
           "a reversal of the axis counts once it came back this far (encoder noise is no oscillation)"),
+    # raceway wear of the axial rows -> tilting clearance (models/slewing/raceway_wear.py, docs/slewing.md)
+    Param("tilting_clearance_topic", "slewing/tilting_clearance", "", "",
+          "std_msgs/Float64: a measured tilting clearance [m] (the tilting test), dated at the latest axis stamp"),
+    Param("tilting_clearance_initial_m", 0.3e-3, "m", "(0, 0.01]",
+          "c_0, the tilting clearance of the new bearing (the acceptance record or the first tilting test)"),
+    Param("tilting_clearance_limit_m", 1.0e-3, "m", "(0, 0.01]",
+          "replacement clearance: the manufacturer's permissible tilting clearance for this size (> c_0)"),
+    Param("tilting_clearance_noise_m", 20.0e-6, "m", "(0, 0.001]",
+          "sd of one tilting-clearance reading (dial gauge and the test's repeatability)"),
+    Param("raceway_wear_coefficient_m2_n", 1.0e-13, "m^2/N", "(0, 1e-6]",
+          "prior of k = K/H, Archard's dimensional wear coefficient of the raceways (learned from the clearances)"),
+    Param("raceway_wear_coefficient_rel_sd", 1.0, "-", "(0, 10]", "relative sd of the prior of k"),
+    *MAINTENANCE_PARAMS[:4],
     Param("diagnostics_period_s", 1.0, "s", "[0.01, 3600]", "period of the /diagnostics status", dynamic=True),
     Param("input_timeout_s", 2.0, "s", "(0, 86400]", "STALE when slewing/load is silent longer", dynamic=True),
     Param("state_file", "auto", "", "",
@@ -69,7 +83,7 @@ SLEWING_MONITOR_PARAMS = (
 
 def _check_types(params: dict[str, Any]) -> None:
     for name in ("machine_id", "bearing", "stress_model", "roller_profile", "axis_topic", "axis_joint",
-                 "state_file"):
+                 "state_file", "tilting_clearance_topic"):
         if not isinstance(params.get(name), str):
             raise InputError(f"parameter {name} must be a string, got {params.get(name)!r}")
     for name in ("roller_count", "radial_roller_count"):
@@ -84,7 +98,8 @@ def _check_types(params: dict[str, Any]) -> None:
                "friction", "allowable_contact_stress_pa", "warn_fraction", "roller_end_radius_m",
                "crown_drop_m", "log_profile_coeff_m", "diagnostics_period_s", "input_timeout_s",
                "raceway_hardness_hrc", "reversal_deadband_rad", "checkpoint_period_s",
-               "input_align_window_s")
+               "input_align_window_s", "tilting_clearance_initial_m", "tilting_clearance_limit_m",
+               "tilting_clearance_noise_m", "raceway_wear_coefficient_m2_n", "raceway_wear_coefficient_rel_sd")
     for name in numbers:
         value = params.get(name)
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
@@ -125,6 +140,9 @@ def _slewing_cross_checks(params: dict[str, Any]) -> None:
             raise InputError(f"parameter {name} must be >= 0, got {params[name]!r}")
     if params["roller_end_radius_m"] > 0.5 * params["roller_length_m"]:
         raise InputError("parameter roller_end_radius_m must not exceed half the roller length")
+    if not params["tilting_clearance_limit_m"] > params["tilting_clearance_initial_m"]:
+        raise InputError(f"tilting_clearance_limit_m {params['tilting_clearance_limit_m']!r} must exceed "
+                         f"tilting_clearance_initial_m {params['tilting_clearance_initial_m']!r}")
     if params["roller_diameter_m"] >= params["raceway_diameter_m"]:
         raise InputError("roller_diameter_m must be smaller than raceway_diameter_m")
     if params["roller_count"] * params["roller_diameter_m"] > math.pi * params["raceway_diameter_m"]:
