@@ -26,7 +26,7 @@ from std_srvs.srv import Trigger
 from guide_health.errors import InputError
 from guide_health.io.state_store import StateStore, resolve_state_path, resume_with
 from guide_health.models.slewing.monitor import SlewingMonitor, contact_level
-from guide_health.models.slewing.raceway_wear import RACEWAY_WEAR_KEYS
+from guide_health.models.slewing.raceway_wear import RACEWAY_WEAR_KEYS, check_wear_state
 from guide_health.models.slewing.rating import ROWS
 from guide_health.models.slewing.stamp_merge import ANGLE, LOAD, StampMerge
 from guide_health.models.wear.input_rules import header_stamp_ns, joint_state_reason
@@ -90,7 +90,6 @@ class SlewingMonitorNode(Node):
         self.create_service(Trigger, f"maintenance/{p.axis_joint}/measure", self._on_measure)
         self.periodic.create("diagnostics_period_s", p.diagnostics_period_s, self.publish_diagnostics)
         self.state_key = f"{p.machine_id}/{p.bearing}/slewing_fatigue"
-        self.wear_key = f"{p.machine_id}/{p.bearing}/raceway_wear"
         self.fingerprint = {name: getattr(p, name) for name in FINGERPRINT_PARAMS}
         self.state_refused = 0          # saved states that did not read back (the damage started at zero)
         self.state_path = resolve_state_path(p.state_file, p.machine_id, self.get_name())
@@ -104,8 +103,7 @@ class SlewingMonitorNode(Node):
         JSON, malformed, another bearing): one line, counted, the damage starts at zero."""
         fatigue = self.core.fatigue
         try:
-            resumed = resume_with(self.store, self.state_key, self.fingerprint, fatigue.restore)
-            resume_with(self.store, self.wear_key, self.fingerprint, self.core.wear.restore)
+            resumed = resume_with(self.store, self.state_key, self.fingerprint, self._restore)
         except InputError as exc:
             self.state_refused += 1
             what = str(exc).splitlines()[0].rsplit("; ", 1)[0]      # the store's advice does not apply here
@@ -117,14 +115,23 @@ class SlewingMonitorNode(Node):
             self.get_logger().info(f"resumed from {self.state_path} ({self.state_key}): fatigue damage {damage}, "
                                    f"{fatigue.strokes} strokes")
 
+    def _restore(self, saved: dict) -> None:
+        """The fatigue state and, when saved with it, the raceway wear (both checked before either changes)."""
+        wear = saved.get("raceway_wear")
+        if wear is not None:
+            check_wear_state(wear)
+        self.core.fatigue.restore(saved)
+        if wear is not None:
+            self.core.wear.restore(wear)
+
     def checkpoint(self) -> None:
         """The fatigue state in one transaction (a failed write is logged and retried at the next one)."""
         if self.store is None:
             return
         self.merge.release(time.monotonic())
         try:
-            self.store.save({self.state_key: self.core.fatigue.state(), self.wear_key: self.core.wear.state()},
-                            self.fingerprint)
+            state = {**self.core.fatigue.state(), "raceway_wear": self.core.wear.state()}
+            self.store.save({self.state_key: state}, self.fingerprint)
         except InputError as exc:
             self.get_logger().error(str(exc), throttle_duration_sec=60.0)
 
