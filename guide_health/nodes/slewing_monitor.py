@@ -30,6 +30,7 @@ from guide_health.models.slewing.raceway_wear import RACEWAY_WEAR_KEYS, check_we
 from guide_health.models.slewing.rating import ROWS
 from guide_health.models.slewing.stamp_merge import ANGLE, LOAD, StampMerge
 from guide_health.models.wear.input_rules import header_stamp_ns, joint_state_reason
+from guide_health.models.wear.state_schema import fingerprint_mismatch
 from guide_health.nodes.common import run_node
 from guide_health.nodes.live_params import PeriodicTimers, apply_slewing_changes
 from guide_health.nodes.qos import SensorSubscriptions
@@ -84,7 +85,8 @@ class SlewingMonitorNode(Node):
         self.axis_joint = p.axis_joint
         # loads and angles in stamp order, as the offline analysis takes them (models/slewing/stamp_merge.py)
         self.merge = StampMerge(self._consume, p.input_align_window_s)
-        self.create_subscription(JointState, p.axis_topic, self._on_axis, 100)
+        # the axis with the loads' QoS (reliable KEEP_ALL: a lagging node pushes back instead of losing angles)
+        self.sensors.subscribe(JointState, p.axis_topic, self._on_axis)
         self.create_subscription(Float64, p.tilting_clearance_topic, self._on_clearance, 10)
         # std_srvs/Trigger maintenance/<axis_joint>/measure: the tilting clearance in maintenance_straightness_m
         self.create_service(Trigger, f"maintenance/{p.axis_joint}/measure", self._on_measure)
@@ -92,13 +94,34 @@ class SlewingMonitorNode(Node):
         self.state_key = f"{p.machine_id}/{p.bearing}/slewing_fatigue"
         self.fingerprint = {name: getattr(p, name) for name in FINGERPRINT_PARAMS}
         self.state_refused = 0          # saved states that did not read back (the damage started at zero)
+        self.state_reset_applied = False    # state_reset replaced a state of another geometry
         self.state_path = resolve_state_path(p.state_file, p.machine_id, self.get_name())
         self.store = StateStore(self.state_path) if self.state_path is not None else None
         if self.store is not None:
+            self._refuse_another_geometry(p.state_reset)
             self._resume()
             self.periodic.create("checkpoint_period_s", p.checkpoint_period_s, self.checkpoint)
 
+    def _refuse_another_geometry(self, reset: bool) -> None:
+        """A saved state of another bearing geometry: InputError (one line naming what differs; the node does not
+        start and the file is untouched) unless ``state_reset``, which starts from zero and replaces it."""
+        saved = self.store.saved_fingerprint(self.state_key)
+        diff = fingerprint_mismatch(saved, self.fingerprint) if isinstance(saved, dict) else ""
+        if not diff:
+            return
+        if not reset:
+            self.store.close()
+            raise InputError(f"state file {self.state_path}: the slewing state '{self.state_key}' was saved for "
+                             f"another bearing: {diff}; restore those parameters, move the file away, or start "
+                             "with state_reset:=true to start from zero")
+        self.get_logger().warning(f"state_reset: the saved state of '{self.state_key}' ({diff}) is not resumed; "
+                                  "the fatigue damage and the raceway wear start at zero and the next checkpoint "
+                                  "replaces it")
+        self.state_reset_applied = True
+
     def _resume(self) -> None:
+        if self.state_reset_applied:
+            return
         """The damage and angle-counting state saved under ``state_key``; one that does not read back (not
         JSON, malformed, another bearing): one line, counted, the damage starts at zero."""
         fatigue = self.core.fatigue
@@ -185,6 +208,11 @@ class SlewingMonitorNode(Node):
         reason = self.core.on_tilting_clearance(float(msg.data))
         if reason:
             self.get_logger().warning(f"rejected tilting clearance: {reason} ({self.core.rejected_clearances} so far)")
+            return
+        wear = self.core.wear
+        self.get_logger().info(f"tilting clearance {float(msg.data) * 1e3:.4g} mm at axis stamp "
+                               f"{wear.estimator.measurement_t_ns[-1]} ns (clearance per unit k "
+                               f"{wear.clearance_per_k:.6g})")
 
     def _on_measure(self, request, response):
         """maintenance/<axis_joint>/measure: the tilting clearance read [m] in ``maintenance_straightness_m``

@@ -12,7 +12,7 @@ from typing import Any
 
 from guide_health.errors import InputError
 from guide_health.params.machine import MAINTENANCE_PARAMS
-from guide_health.params.schema import NodeSchema, Param, alarm_and_sensor_qos_params
+from guide_health.params.schema import NodeSchema, NumberList, Param, alarm_and_sensor_qos_params
 
 #: ISO 76:2006 static load rating reference: 4000 MPa contact stress at the most heavily loaded
 #: roller/raceway contact of roller bearings (through-hardened bearing steel, >= 58 HRC).
@@ -55,6 +55,11 @@ SLEWING_MONITOR_PARAMS = (
     Param("axis_joint", "slew", "", "", "joint name of the slewing axis in axis_topic"),
     Param("reversal_deadband_rad", 1.0e-3, "rad", "(0, 1]",
           "a reversal of the axis counts once it came back this far (encoder noise is no oscillation)"),
+    # the manufacturer's static limiting load curve M_lim(F_a) (docs/slewing.md): a table, both lists empty = none
+    Param("limiting_curve_axial_load_n", NumberList(), "N", "",
+          "static limiting load curve: F_a values, strictly ascending (empty: no curve)"),
+    Param("limiting_curve_moment_nm", NumberList(), "N m", "",
+          "static limiting load curve: the allowed M_T at each F_a (>= 0, not rising with F_a)"),
     # raceway wear of the axial rows -> tilting clearance (models/slewing/raceway_wear.py, docs/slewing.md)
     Param("tilting_clearance_topic", "slewing/tilting_clearance", "", "",
           "std_msgs/Float64: a measured tilting clearance [m] (the tilting test), dated at the latest axis stamp"),
@@ -74,6 +79,9 @@ SLEWING_MONITOR_PARAMS = (
     Param("state_file", "auto", "", "",
           "SQLite state file of the fatigue damage; auto = $ROS_HOME/guide_health/<machine_id>/<node>.db "
           "(ROS_HOME: ~/.ros); '' or none = no persistence"),
+    Param("state_reset", False, "", "",
+          "start from zero when state_file holds a state of another bearing geometry (replaced at the next "
+          "checkpoint); false: such a state stops the node at start, nothing overwritten"),
     Param("input_align_window_s", 0.5, "s", "[0, 60]",
           "loads and axis angles are taken in stamp order; a sample waits up to this (wall time) for the other "
           "topic; 0 = on arrival"),
@@ -141,6 +149,7 @@ def _slewing_cross_checks(params: dict[str, Any]) -> None:
             raise InputError(f"parameter {name} must be >= 0, got {params[name]!r}")
     if params["roller_end_radius_m"] > 0.5 * params["roller_length_m"]:
         raise InputError("parameter roller_end_radius_m must not exceed half the roller length")
+    _check_limiting_curve(params["limiting_curve_axial_load_n"], params["limiting_curve_moment_nm"])
     if not params["tilting_clearance_limit_m"] > params["tilting_clearance_initial_m"]:
         raise InputError(f"tilting_clearance_limit_m {params['tilting_clearance_limit_m']!r} must exceed "
                          f"tilting_clearance_initial_m {params['tilting_clearance_initial_m']!r}")
@@ -149,6 +158,22 @@ def _slewing_cross_checks(params: dict[str, Any]) -> None:
     if params["roller_count"] * params["roller_diameter_m"] > math.pi * params["raceway_diameter_m"]:
         raise InputError(f"{params['roller_count']} rollers of {params['roller_diameter_m']} m do not fit on a "
                          f"raceway of diameter {params['raceway_diameter_m']} m")
+
+
+def _check_limiting_curve(axial_n: list, moment_nm: list) -> None:
+    """The manufacturer's curve: one M_T per F_a, none or >= 2 points, F_a strictly ascending, M_T >= 0 and
+    not rising with F_a (a static limiting load curve falls as the axial load grows)."""
+    if len(axial_n) != len(moment_nm):
+        raise InputError(f"limiting_curve_axial_load_n has {len(axial_n)} values, limiting_curve_moment_nm "
+                         f"{len(moment_nm)}: one allowed moment per axial load")
+    if not axial_n:
+        return
+    if len(axial_n) < 2:
+        raise InputError("limiting load curve: need >= 2 points (F_a, M_T)")
+    if any(b <= a for a, b in zip(axial_n, axial_n[1:])):
+        raise InputError(f"limiting_curve_axial_load_n must be strictly ascending, got {axial_n}"[:200])
+    if min(moment_nm) < 0 or any(b > a for a, b in zip(moment_nm, moment_nm[1:])):
+        raise InputError(f"limiting_curve_moment_nm must be >= 0 and not rising with F_a, got {moment_nm}"[:200])
 
 
 SLEWING_MONITOR_SCHEMA = NodeSchema("slewing_monitor", SLEWING_MONITOR_PARAMS, _slewing_cross_checks)

@@ -303,7 +303,9 @@ class SlewingMonitor:
             slewing_ratings(params.roller_count, params.radial_roller_count or params.roller_count,
                             params.roller_diameter_m, params.roller_length_m, params.raceway_diameter_m,
                             params.raceway_hardness_hrc),
-            reversal_deadband_rad=params.reversal_deadband_rad)
+            reversal_deadband_rad=params.reversal_deadband_rad,
+            limiting_curve=((tuple(params.limiting_curve_axial_load_n), tuple(params.limiting_curve_moment_nm))
+                            if params.limiting_curve_axial_load_n else None))
         self.rejected_angles = 0
         # raceway wear of the axial rows -> tilting clearance, k from measured clearances (raceway_wear.py)
         self.wear = raceway_wear_model(params)
