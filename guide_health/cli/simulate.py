@@ -140,7 +140,7 @@ def run_slewing(args) -> dict:
 def _slewing_messages_per_s(sim: dict) -> float:
     """Messages per simulated second: the load rate of the crane duty; a yaw or pitch motion's load, its axis
     samples (one per axis_sample_step_rad, the first and the end) per motion of the oscillating duties."""
-    if sim.get("duty", "crane") == "crane":
+    if sim["duty"] == "crane":
         return float(sim["load_rate_hz"])
     step = float(sim["axis_sample_step_rad"])
     if sim["duty"] == "yaw":
