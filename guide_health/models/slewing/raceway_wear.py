@@ -55,7 +55,6 @@ from typing import Any
 import numpy as np
 
 from guide_health.models.slewing.finite_roller import finite_roller_contact
-from guide_health.models.slewing.row_loads import axial_row_roller_load_distributions
 from guide_health.models.wear.calibration import WearCoefficientEstimator
 from guide_health.models.wear.life import LifeNow
 from guide_health.models.wear.planning import LifeInputs, life_interval
@@ -111,14 +110,17 @@ class RacewayWear:
         self.chi_table = chi_table
         self.estimator = estimator
         self.clearance_limit_m = float(clearance_limit_m)
+        self._cos = np.cos(2.0 * np.pi * np.arange(self.roller_count) / self.roller_count)   # roller azimuths
         self.rate_per_k_rad = 0.0         # d g / d phi at the load in force [m per (m^2/N) per rad]
         self.clearance_per_k = 0.0        # g: clearance growth per unit k so far
 
     def on_loads(self, axial_load_n: float, tilting_moment_nm: float) -> None:
-        upper, lower = axial_row_roller_load_distributions(axial_load_n, tilting_moment_nm, self.roller_count,
-                                                           self.raceway_diameter_m)
-        self.rate_per_k_rad = (clearance_rate_per_k(upper, self.chi_table, self.raceway_diameter_m)
-                               + clearance_rate_per_k(lower, self.chi_table, self.raceway_diameter_m))
+        """The rate at F_a [N], M_T [N m] (finite: the monitor's input rule). Both axial rows at once: the roller
+        pair at psi_j presses Q_j = |F_a / Z + (4 M_T / (Z D_pw)) cos psi_j| on one row or the other (seed 003
+        Eq. 1, row_loads.axial_row_roller_load_distributions), so sum over both rows = sum_j Q_j chi(Q_j)."""
+        z = self.roller_count
+        loads = np.abs(axial_load_n / z + (4.0 * abs(tilting_moment_nm) / (z * self.raceway_diameter_m)) * self._cos)
+        self.rate_per_k_rad = clearance_rate_per_k(loads, self.chi_table, self.raceway_diameter_m)
 
     def on_travel(self, travel_rad: float) -> None:
         self.clearance_per_k += abs(travel_rad) * self.rate_per_k_rad
