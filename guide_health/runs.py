@@ -64,3 +64,6 @@ class SlewingLoadRun:
     # slewing axis angle (sensor_msgs/JointState, the rating life's angle travelled); empty: none recorded
     axis_t_ns: np.ndarray = field(default_factory=_i64)
     axis_angle_rad: np.ndarray = field(default_factory=_f64)
+    # measured tilting clearances (std_msgs/Float64 [m], dated by their log time); empty: none recorded
+    clearance_t_ns: np.ndarray = field(default_factory=_i64)
+    clearance_m: np.ndarray = field(default_factory=_f64)

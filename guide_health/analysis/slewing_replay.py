@@ -20,6 +20,10 @@ def analyse_slewing_run(run, params: dict, progress=None) -> tuple[SlewingMonito
     axis_t = np.asarray(run.axis_t_ns, dtype=np.int64).tolist()
     axis_angle = np.asarray(run.axis_angle_rad, dtype=float).tolist()
     next_axis = 0
+    # measured tilting clearances at their log times: after every sample stamped at or before them
+    clearances = list(zip(np.asarray(run.clearance_t_ns, dtype=np.int64).tolist(),
+                          np.asarray(run.clearance_m, dtype=float).tolist()))
+    next_clearance = 0
     p_max = np.full(n, np.nan)
     levels = {OK: 0, WARN: 0, ERROR: 0}
     worst_i = -1
@@ -28,9 +32,11 @@ def analyse_slewing_run(run, params: dict, progress=None) -> tuple[SlewingMonito
                                             np.asarray(run.radial_n, float).tolist(),
                                             np.asarray(run.moment_nm, float).tolist(),
                                             np.asarray(run.t_ns, dtype=np.int64).tolist())):
-        while next_axis < len(axis_t) and axis_t[next_axis] < t:     # stamp order; a load first at equal stamps
-            monitor.on_axis_angle(axis_angle[next_axis], axis_t[next_axis])
-            next_axis += 1
+        while next_clearance < len(clearances) and clearances[next_clearance][0] < t:
+            next_axis = _angles_until(monitor, axis_t, axis_angle, next_axis, clearances[next_clearance][0], True)
+            monitor.on_tilting_clearance(clearances[next_clearance][1])
+            next_clearance += 1
+        next_axis = _angles_until(monitor, axis_t, axis_angle, next_axis, t, False)  # a load first at equal stamps
         if monitor.on_loads(fa, fr, mt, t_ns=t) is None:
             rep = monitor.worst_sample
             p_max[i] = rep["p_max_MPa"]
@@ -39,13 +45,17 @@ def analyse_slewing_run(run, params: dict, progress=None) -> tuple[SlewingMonito
                 worst, worst_i = rep, i
         if progress is not None and (i % 20000 == 0 or i == n - 1):
             progress(i + 1, n)
-    for j in range(next_axis, len(axis_t)):
-        monitor.on_axis_angle(axis_angle[j], axis_t[j])
+    for stamp, clearance_m in clearances[next_clearance:]:
+        next_axis = _angles_until(monitor, axis_t, axis_angle, next_axis, stamp, True)
+        monitor.on_tilting_clearance(clearance_m)
+    _angles_until(monitor, axis_t, axis_angle, next_axis, None, True)
     report = dict(worst or {})
     if axis_t:            # the rating life per row (docs/slewing.md), the keys of the live status
         fatigue_level, fatigue_message, fatigue_values = monitor.fatigue.report()
         report.update(fatigue_values, fatigue_level=int(fatigue_level), fatigue_message=fatigue_message,
                       rejected_axis_angles=monitor.rejected_angles)
+        report.update(monitor.wear.report(monitor.elapsed_s()),
+                      rejected_tilting_clearances=monitor.rejected_clearances)
     report.update(
         loads=n, rejected_loads=monitor.rejected, samples_missing_estimate=monitor.stamp_gaps.missing,
         load_period_estimate_us=monitor.stamp_gaps.period_ns * 1e-3,
@@ -59,3 +69,14 @@ def analyse_slewing_run(run, params: dict, progress=None) -> tuple[SlewingMonito
     )
     report["series"] = p_max
     return monitor, report
+
+
+def _angles_until(monitor: SlewingMonitor, axis_t: list, axis_angle: list, start: int, t_ns: int | None,
+                  inclusive: bool) -> int:
+    """Feed the axis angles from ``start`` stamped before ``t_ns`` (at or before when ``inclusive``; None: all);
+    returns the next index."""
+    i = start
+    while i < len(axis_t) and (t_ns is None or axis_t[i] < t_ns or (inclusive and axis_t[i] == t_ns)):
+        monitor.on_axis_angle(axis_angle[i], axis_t[i])
+        i += 1
+    return i

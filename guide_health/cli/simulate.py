@@ -16,6 +16,7 @@ from guide_health.models.wear.maintenance import RESETS_WEAR, MaintenanceEvent
 from guide_health.params import (
     SCHEMAS,
     SIMULATION_SCHEMA,
+    SLEWING_MONITOR_SCHEMA,
     SLEWING_SIMULATION_DEFAULTS,
     load_node_params,
     simulation_params,
@@ -23,7 +24,8 @@ from guide_health.params import (
     wear_monitor_params,
 )
 from guide_health.params.machine import axes_params, simulation_axes
-from guide_health.params.simulation import REALISTIC_MOTION
+from guide_health.params.simulation import REALISTIC_MOTION, SLEWING_DUTIES
+from guide_health.params.typed import slewing_monitor_params
 from guide_health.sim.machine import (
     START_TIME_NS,
     apply_maintenance_truth,
@@ -63,6 +65,10 @@ def add_arguments(parser) -> None:
                              "noise, guide/load at 100 Hz on its own clock (params/simulation.py REALISTIC_MOTION, "
                              "applied before --rate and --hours)")
     parser.add_argument("--namespace", default="", help="topic namespace, e.g. /m1")
+    parser.add_argument("--duty", choices=SLEWING_DUTIES, default=None,
+                        help="--kind slewing: crane work cycles, yaw (long dwell, occasional large rotations) or "
+                             "pitch (constant small oscillations), with the axis angle and tilting-clearance "
+                             "readings (default: the section's duty)")
     parser.add_argument("--effect", action="append", metavar="NAME=VALUE",
                         help="physics the baseline model lacks, hidden in the truth (models/wear/effects/, "
                              "docs/discrepancy.md's table), VALUE in SI: " + ", ".join(
@@ -115,15 +121,31 @@ def run_slewing(args) -> dict:
     sim = load_node_params(args.params, "guide_health_slewing_simulation", SLEWING_SIMULATION_DEFAULTS,
                            required=False)     # the scenario section is optional: its defaults are a crane
     _override_duration(args, sim, "load_rate_hz")
+    if args.duty is not None:
+        sim["duty"] = args.duty
+    bearing = slewing_monitor_params(load_node_params(args.params, "slewing_monitor",
+                                                      SLEWING_MONITOR_SCHEMA.defaults(), required=False))
     out = new_bag_path(args.out)
-    check_bag_budget(args, sim["duration_h"], sim["load_rate_hz"], out)
+    check_bag_budget(args, sim["duration_h"], _slewing_messages_per_s(sim), out)
     t0 = time.perf_counter()
-    run = simulate_slewing(sim, seed=args.seed)
-    write_slewing_bag(run, out, storage=args.storage, namespace=args.namespace)
+    run = simulate_slewing(sim, seed=args.seed, bearing=bearing)
+    write_slewing_bag(run, out, storage=args.storage, namespace=args.namespace, axis_topic=bearing.axis_topic,
+                      axis_joint=bearing.axis_joint, clearance_topic=bearing.tilting_clearance_topic)
     print(f"wrote {run.t_ns.size} slewing loads ({sim['duration_h']:g} h) to {out} in "
           f"{time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return {"bag": str(out), "storage": args.storage, "kind": "slewing", "messages": int(run.t_ns.size),
             "duration_h": float(sim["duration_h"]), "load_rate_hz": float(sim["load_rate_hz"])}
+
+
+def _slewing_messages_per_s(sim: dict) -> float:
+    """Messages per simulated second: the load rate of the crane duty; a yaw or pitch motion's load, its axis
+    samples (one per axis_sample_step_rad, the first and the end) per motion of the oscillating duties."""
+    if sim["duty"] == "crane":
+        return float(sim["load_rate_hz"])
+    step = float(sim["axis_sample_step_rad"])
+    if sim["duty"] == "yaw":
+        return (3.0 + float(sim["yaw_rotation_max_rad"]) / step) / float(sim["yaw_dwell_min_s"])
+    return (3.0 + 2.0 * float(sim["pitch_amplitude_max_rad"]) / step) / (0.5 * float(sim["pitch_period_s"]))
 
 
 def run_life_test(args) -> dict:

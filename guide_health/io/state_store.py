@@ -157,6 +157,16 @@ class StateStore:
         os.write(fd, f"{os.getpid()}\n".encode())
         self._lock_fd = fd
 
+    def saved_fingerprint(self, key: str) -> dict | None:
+        """The fingerprint saved with ``key`` (None: no row, unreadable or not a JSON mapping: ``load`` says why)."""
+        try:
+            row = self._db.execute("SELECT fingerprint_json FROM monitor_fingerprint WHERE key = ?",
+                                   (key,)).fetchone()
+            saved = json.loads(row[0]) if row is not None else None
+        except (sqlite3.Error, TypeError, ValueError, RecursionError):
+            return None
+        return saved if isinstance(saved, dict) else None
+
     def load(self, key: str, fingerprint: dict | None = None, check=None) -> dict | None:
         """The saved state of ``key`` (None if there is none), refused whole (InputError, one line naming the
         file and what to do) when it cannot be read, is not JSON, was saved under another ``fingerprint`` (a

@@ -30,7 +30,8 @@ Around each such message the player therefore waits until every other publisher'
 acknowledged (it is in the readers' queues), and after it until the message itself is (a sample lost to
 a full transport buffer is resent only at the next heartbeat, seconds later, while joint_states flow on:
 measured, measurements dated up to 3600 s of bag time late), which preserves the bag's order at the
-subscriber.
+subscriber's queue. ``--barrier-settle S`` waits S s more before the header-less message, for a subscriber
+that dates it on arrival and must have taken the data before it (acknowledged = queued, not yet taken).
 
 The same holds for any sparse topic (fewer than ``--barrier-sparse`` of the bag's messages, default
 1 %), e.g. a guide load that changes once per job: a reliable sample refused by a full reader queue is
@@ -188,6 +189,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--barrier-types", nargs="*", default=list(DEFAULT_BARRIER_TYPES), metavar="TYPE",
                    help="header-less message types published only after all earlier data is acknowledged "
                         "(keeps their order among stamped messages); none: no barriers")
+    p.add_argument("--barrier-settle", type=float, default=0.0, metavar="S",
+                   help="after a barrier's data is acknowledged (it is in the readers' queues, not yet taken by "
+                        "their callbacks), wait S seconds more before the header-less message, so a node that "
+                        "dates it on arrival has taken the data before it (default 0)")
     p.add_argument("--barrier-sparse", type=float, default=DEFAULT_BARRIER_SPARSE, metavar="FRACTION",
                    help="also treat topics with fewer than FRACTION of the bag's messages as barriers (a "
                         "rare load change delayed by a resend would otherwise reach the node after the "
@@ -401,6 +406,8 @@ def publish_in_order(messages, playback: Playback, pacer: Pacer, args) -> tuple[
                 if not other.wait_for_all_acked(ack_wait):
                     _log(f"warning: {other.topic_name} not acknowledged within {args.ack_timeout:g} s "
                          f"before a {conn.topic} message; order may not be kept")
+            if args.barrier_settle > 0:
+                time.sleep(args.barrier_settle)
         try:
             publish[conn.id](data)
         except RCLError as exc:
@@ -496,6 +503,9 @@ def main(argv=None) -> int:
     except ImportError:  # pragma: no cover - rclpy is needed to publish anyway
         user_args = argv
     args = build_parser().parse_args(user_args)
+    if not 0.0 <= args.barrier_settle <= 3600.0:
+        _log(f"error: --barrier-settle must be in [0, 3600] s, got {args.barrier_settle!r}")
+        return 1
     use_fast_heartbeat_profile()
     try:
         return play(args, ["bag_player"] + argv)

@@ -18,14 +18,19 @@ import time
 
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
+from std_srvs.srv import Trigger
 
 from guide_health.errors import InputError
 from guide_health.io.state_store import StateStore, resolve_state_path, resume_with
 from guide_health.models.slewing.monitor import SlewingMonitor, contact_level
+from guide_health.models.slewing.raceway_wear import RACEWAY_WEAR_KEYS, check_wear_state
 from guide_health.models.slewing.rating import ROWS
 from guide_health.models.slewing.stamp_merge import ANGLE, LOAD, StampMerge
 from guide_health.models.wear.input_rules import header_stamp_ns, joint_state_reason
+from guide_health.models.wear.state_schema import fingerprint_mismatch
 from guide_health.nodes.common import run_node
 from guide_health.nodes.live_params import PeriodicTimers, apply_slewing_changes
 from guide_health.nodes.qos import SensorSubscriptions
@@ -50,7 +55,9 @@ EXTRA_KEYS = ("p_max_MPa", "p_max_position_mm", "shear_depth_mm", "von_mises_sub
                   ("fatigue_damage", ""), ("fatigue_remaining_life", "_h"), ("dynamic_capacity", "_n"),
                   ("static_capacity", "_n"))),
               "fatigue_governing_row", "static_safety_factor", "static_safety_row", "limiting_curve_safety",
-              "oscillation_strokes", "oscillation_strokes_below_critical", "rejected_axis_angles")
+              "oscillation_strokes", "oscillation_strokes_below_critical", "rejected_axis_angles",
+              # raceway wear -> tilting clearance, k and the remaining life to the replacement clearance
+              *RACEWAY_WEAR_KEYS, "rejected_tilting_clearances")
 #: the parameters a saved damage belongs to: another bearing geometry (capacities) refuses the saved state
 FINGERPRINT_PARAMS = ("machine_id", "bearing", "roller_count", "radial_roller_count", "roller_diameter_m",
                       "roller_length_m", "raceway_diameter_m", "raceway_hardness_hrc")
@@ -80,23 +87,48 @@ class SlewingMonitorNode(Node):
         self.axis_joint = p.axis_joint
         # loads and angles in stamp order, as the offline analysis takes them (models/slewing/stamp_merge.py)
         self.merge = StampMerge(self._consume, p.input_align_window_s)
-        self.create_subscription(JointState, p.axis_topic, self._on_axis, 100)
+        # the axis with the loads' QoS (reliable KEEP_ALL: a lagging node pushes back instead of losing angles)
+        self.sensors.subscribe(JointState, p.axis_topic, self._on_axis)
+        self.create_subscription(Float64, p.tilting_clearance_topic, self._on_clearance, 10)
+        # std_srvs/Trigger maintenance/<axis_joint>/measure: the tilting clearance in maintenance_straightness_m
+        self.create_service(Trigger, f"maintenance/{p.axis_joint}/measure", self._on_measure)
         self.periodic.create("diagnostics_period_s", p.diagnostics_period_s, self.publish_diagnostics)
         self.state_key = f"{p.machine_id}/{p.bearing}/slewing_fatigue"
         self.fingerprint = {name: getattr(p, name) for name in FINGERPRINT_PARAMS}
         self.state_refused = 0          # saved states that did not read back (the damage started at zero)
+        self.state_reset_applied = False    # state_reset replaced a state of another geometry
         self.state_path = resolve_state_path(p.state_file, p.machine_id, self.get_name())
         self.store = StateStore(self.state_path) if self.state_path is not None else None
         if self.store is not None:
+            self._refuse_another_geometry(p.state_reset)
             self._resume()
             self.periodic.create("checkpoint_period_s", p.checkpoint_period_s, self.checkpoint)
 
+    def _refuse_another_geometry(self, reset: bool) -> None:
+        """A saved state of another bearing geometry: InputError (one line naming what differs; the node does not
+        start and the file is untouched) unless ``state_reset``, which starts from zero and replaces it."""
+        saved = self.store.saved_fingerprint(self.state_key)
+        diff = fingerprint_mismatch(saved, self.fingerprint) if isinstance(saved, dict) else ""
+        if not diff:
+            return
+        if not reset:
+            self.store.close()
+            raise InputError(f"state file {self.state_path}: the slewing state '{self.state_key}' was saved for "
+                             f"another bearing: {diff}; restore those parameters, move the file away, or start "
+                             "with state_reset:=true to start from zero")
+        self.get_logger().warning(f"state_reset: the saved state of '{self.state_key}' ({diff}) is not resumed; "
+                                  "the fatigue damage and the raceway wear start at zero and the next checkpoint "
+                                  "replaces it")
+        self.state_reset_applied = True
+
     def _resume(self) -> None:
+        if self.state_reset_applied:
+            return
         """The damage and angle-counting state saved under ``state_key``; one that does not read back (not
         JSON, malformed, another bearing): one line, counted, the damage starts at zero."""
         fatigue = self.core.fatigue
         try:
-            resumed = resume_with(self.store, self.state_key, self.fingerprint, fatigue.restore)
+            resumed = resume_with(self.store, self.state_key, self.fingerprint, self._restore)
         except InputError as exc:
             self.state_refused += 1
             what = str(exc).splitlines()[0].rsplit("; ", 1)[0]      # the store's advice does not apply here
@@ -108,13 +140,23 @@ class SlewingMonitorNode(Node):
             self.get_logger().info(f"resumed from {self.state_path} ({self.state_key}): fatigue damage {damage}, "
                                    f"{fatigue.strokes} strokes")
 
+    def _restore(self, saved: dict) -> None:
+        """The fatigue state and, when saved with it, the raceway wear (both checked before either changes)."""
+        wear = saved.get("raceway_wear")
+        if wear is not None:
+            check_wear_state(wear)
+        self.core.fatigue.restore(saved)
+        if wear is not None:
+            self.core.wear.restore(wear)
+
     def checkpoint(self) -> None:
         """The fatigue state in one transaction (a failed write is logged and retried at the next one)."""
         if self.store is None:
             return
         self.merge.release(time.monotonic())
         try:
-            self.store.save({self.state_key: self.core.fatigue.state()}, self.fingerprint)
+            state = {**self.core.fatigue.state(), "raceway_wear": self.core.wear.state()}
+            self.store.save({self.state_key: state}, self.fingerprint)
         except InputError as exc:
             self.get_logger().error(str(exc), throttle_duration_sec=60.0)
 
@@ -160,6 +202,34 @@ class SlewingMonitorNode(Node):
         if reason:
             self.get_logger().warning(f"rejected axis angle: {reason} ({self.core.rejected_angles} so far)",
                                       throttle_duration_sec=LOG_THROTTLE_S)
+
+    def _on_clearance(self, msg: Float64) -> None:
+        """A measured tilting clearance [m], dated at the latest axis stamp: every sample received before it is
+        taken first (the tilting test is made at standstill, so the travel so far is complete)."""
+        self.merge.flush()
+        reason = self.core.on_tilting_clearance(float(msg.data))
+        if reason:
+            self.get_logger().warning(f"rejected tilting clearance: {reason} ({self.core.rejected_clearances} so far)")
+            return
+        wear = self.core.wear
+        self.get_logger().info(f"tilting clearance {float(msg.data) * 1e3:.4g} mm at axis stamp "
+                               f"{wear.estimator.measurement_t_ns[-1]} ns (clearance per unit k "
+                               f"{wear.clearance_per_k:.6g})")
+
+    def _on_measure(self, request, response):
+        """maintenance/<axis_joint>/measure: the tilting clearance read [m] in ``maintenance_straightness_m``
+        (as `guide-health maintenance NS <axis_joint> measure --value 0.42mm --node slewing_monitor` sets it),
+        dated ``maintenance_time_s`` (0 = the latest axis stamp); the values are cleared after the call."""
+        names = ("maintenance_guide", "maintenance_straightness_m", "maintenance_time_s", "maintenance_note")
+        values = {name: self.get_parameter(name).value for name in names}
+        self.set_parameters([Parameter(name, value=SLEWING_MONITOR_SCHEMA[name].default) for name in names])
+        self.merge.flush()
+        clearance_m, time_s = float(values["maintenance_straightness_m"]), float(values["maintenance_time_s"])
+        reason = self.core.on_tilting_clearance(clearance_m, round(time_s * 1e9) if time_s > 0 else None)
+        response.success = reason is None
+        response.message = reason or (f"tilting clearance {clearance_m * 1e3:.4g} mm entered "
+                                      f"({self.core.wear.estimator.count} measurements)")
+        return response
 
     def _report(self) -> tuple:
         level, message, values = self.core.period_report()

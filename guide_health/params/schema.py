@@ -42,6 +42,11 @@ def _is_number(value: Any) -> bool:
     return isinstance(value, numbers.Real) and not isinstance(value, bool)
 
 
+class NumberList(list):
+    """The default of a table parameter: a list of finite numbers of any length (type ``float[]``); a
+    ``list`` default of numbers fixes the length instead."""
+
+
 @dataclass(frozen=True)
 class Param:
     """One parameter: ``interval`` (numbers) or ``choices`` (strings) is its allowed range, '' = any."""
@@ -63,6 +68,8 @@ class Param:
     @property
     def type_name(self) -> str:
         """bool | int | float | string | float[n] (the type the YAML value must have)."""
+        if isinstance(self.default, NumberList):
+            return "float[]"
         if isinstance(self.default, list):
             if not self.default or isinstance(self.default[0], str):
                 return "string[]"
@@ -138,6 +145,10 @@ def coerce_value(name: str, value: Any, default: Any) -> Any:
         if not isinstance(value, str):
             raise InputError(f"parameter {name} must be a string, got {value!r}")
         return value
+    if isinstance(default, NumberList):
+        if not isinstance(value, (list, tuple)) or not all(_is_number(v) and math.isfinite(v) for v in value):
+            raise InputError(f"parameter {name} must be a list of finite numbers, got {value!r}"[:200])
+        return [float(v) for v in value]
     if isinstance(default, list) and (not default or isinstance(default[0], str)):
         if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
             raise InputError(f"parameter {name} must be a list of strings, got {value!r}")

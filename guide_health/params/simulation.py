@@ -78,6 +78,8 @@ def _machine_simulation_cross_checks(p: dict[str, Any]) -> None:
 SIMULATION_SCHEMA = NodeSchema("guide_health_simulation", MACHINE_SIMULATION_PARAMS,
                                _machine_simulation_cross_checks)
 
+SLEWING_DUTIES = ("crane", "yaw", "pitch")
+
 #: duty of a mid-size crane on a 2 m slewing ring (131.32.2000 class); the moment range keeps the
 #: busiest roller near the seed's 103 kN example at the heaviest lifts
 SLEWING_SIMULATION_PARAMS = (
@@ -91,6 +93,24 @@ SLEWING_SIMULATION_PARAMS = (
     Param("cycle_s", 120.0, "s", "(0, inf)", "work cycle: hoist 20 % / slew 30 % / lower 20 % / return 30 %"),
     Param("sway_fraction", 0.08, "-", "[0, inf)", "dynamic moment amplitude / static moment while slewing"),
     Param("slew_radial_n", 3.0e4, "N", "[0, inf)", "inertial radial load peak during slew acceleration"),
+    # oscillating duties (sim/slewing_duty.py): yaw (long dwell, occasional large rotations), pitch (constant
+    # small oscillations); loads per motion: F_a = dead_weight_n (+-5 %), M_T lognormal about dead_moment_nm
+    Param("duty", "crane", "", "", "crane (work cycles), yaw or pitch", choices=SLEWING_DUTIES),
+    Param("moment_cv", 0.3, "-", "[0, 5]", "yaw/pitch: coefficient of variation of M_T between motions"),
+    Param("yaw_dwell_min_s", 60.0, "s", "(0, inf)", "yaw: shortest dwell between two rotations"),
+    Param("yaw_dwell_mean_s", 3600.0, "s", "(0, inf)", "yaw: mean dwell (min + exponential)"),
+    Param("yaw_rotation_min_rad", 0.2, "rad", "(0, inf)", "yaw: smallest rotation of an event"),
+    Param("yaw_rotation_max_rad", 3.14, "rad", "(0, inf)", "yaw: largest rotation (uniform, either sense)"),
+    Param("slew_speed_rad_s", 0.01, "rad/s", "(0, inf)", "yaw: rotation speed"),
+    Param("pitch_period_s", 8.0, "s", "(0, inf)", "pitch: period of one oscillation"),
+    Param("pitch_amplitude_min_rad", 0.005, "rad", "(0, inf)", "pitch: smallest amplitude (half the swing)"),
+    Param("pitch_amplitude_max_rad", 0.05, "rad", "(0, inf)", "pitch: largest amplitude (uniform)"),
+    Param("axis_sample_step_rad", 0.05, "rad", "(0, inf)", "yaw/pitch: angle between two axis samples"),
+    Param("clearance_measurements", 6, "-", "[0, 1000]", "yaw/pitch: tilting-clearance measurements, evenly"),
+    Param("true_raceway_wear_coefficient_m2_n", 2.0e-13, "m^2/N", "(0, 1e-6]", "the simulated bearing's k"),
+    Param("tilting_clearance_initial_m", 0.3e-3, "m", "(0, 0.01]", "c_0 of the simulated bearing"),
+    Param("tilting_clearance_limit_m", 1.0e-3, "m", "(0, 0.01]", "replacement clearance (the truth's end)"),
+    Param("tilting_clearance_noise_m", 20.0e-6, "m", "[0, 0.001]", "sd of a simulated tilting-clearance reading"),
 )
 
 
@@ -98,6 +118,13 @@ def _slewing_simulation_cross_checks(p: dict[str, Any]) -> None:
     for name in ("duration_h", "load_rate_hz", "cycle_s", "boom_radius_min_m", "boom_radius_max_m"):
         if not float(p[name]) > 0:
             raise InputError(f"slewing simulation: {name} must be > 0, got {p[name]!r}")
+    if p["duty"] not in SLEWING_DUTIES:
+        raise InputError(f"slewing simulation: duty must be one of {SLEWING_DUTIES}, got {p['duty']!r}")
+    for low, high in (("yaw_rotation_min_rad", "yaw_rotation_max_rad"),
+                      ("pitch_amplitude_min_rad", "pitch_amplitude_max_rad"),
+                      ("tilting_clearance_initial_m", "tilting_clearance_limit_m")):
+        if not float(p[low]) < float(p[high]):
+            raise InputError(f"slewing simulation: {low} must be < {high}")
     if p["boom_radius_max_m"] < p["boom_radius_min_m"]:
         raise InputError("slewing simulation: boom_radius_max_m < boom_radius_min_m")
     for name in ("dead_weight_n", "dead_moment_nm", "payload_max_n", "sway_fraction", "slew_radial_n"):

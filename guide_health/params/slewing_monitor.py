@@ -11,7 +11,8 @@ import math
 from typing import Any
 
 from guide_health.errors import InputError
-from guide_health.params.schema import NodeSchema, Param, alarm_and_sensor_qos_params
+from guide_health.params.machine import MAINTENANCE_PARAMS
+from guide_health.params.schema import NodeSchema, NumberList, Param, alarm_and_sensor_qos_params
 
 #: ISO 76:2006 static load rating reference: 4000 MPa contact stress at the most heavily loaded
 #: roller/raceway contact of roller bearings (through-hardened bearing steel, >= 58 HRC).
@@ -54,11 +55,33 @@ SLEWING_MONITOR_PARAMS = (
     Param("axis_joint", "slew", "", "", "joint name of the slewing axis in axis_topic"),
     Param("reversal_deadband_rad", 1.0e-3, "rad", "(0, 1]",
           "a reversal of the axis counts once it came back this far (encoder noise is no oscillation)"),
+    # the manufacturer's static limiting load curve M_lim(F_a) (docs/slewing.md): a table, both lists empty = none
+    Param("limiting_curve_axial_load_n", NumberList(), "N", "",
+          "static limiting load curve: F_a values, strictly ascending (empty: no curve)"),
+    Param("limiting_curve_moment_nm", NumberList(), "N m", "",
+          "static limiting load curve: the allowed M_T at each F_a (>= 0, not rising with F_a)"),
+    # raceway wear of the axial rows -> tilting clearance (models/slewing/raceway_wear.py, docs/slewing.md)
+    Param("tilting_clearance_topic", "slewing/tilting_clearance", "", "",
+          "std_msgs/Float64: a measured tilting clearance [m] (the tilting test), dated at the latest axis stamp"),
+    Param("tilting_clearance_initial_m", 0.3e-3, "m", "(0, 0.01]",
+          "c_0, the tilting clearance of the new bearing (the acceptance record or the first tilting test)"),
+    Param("tilting_clearance_limit_m", 1.0e-3, "m", "(0, 0.01]",
+          "replacement clearance: the manufacturer's permissible tilting clearance for this size (> c_0)"),
+    Param("tilting_clearance_noise_m", 20.0e-6, "m", "(0, 0.001]",
+          "sd of one tilting-clearance reading (dial gauge and the test's repeatability)"),
+    Param("raceway_wear_coefficient_m2_n", 1.0e-13, "m^2/N", "(0, 1e-6]",
+          "prior of k = K/H, Archard's dimensional wear coefficient of the raceways (learned from the clearances)"),
+    Param("raceway_wear_coefficient_rel_sd", 2.0, "-", "(0, 10]",
+          "relative sd of the prior of k (wear coefficients scatter by orders of magnitude: a weak prior)"),
+    *MAINTENANCE_PARAMS[:4],
     Param("diagnostics_period_s", 1.0, "s", "[0.01, 3600]", "period of the /diagnostics status", dynamic=True),
     Param("input_timeout_s", 2.0, "s", "(0, 86400]", "STALE when slewing/load is silent longer", dynamic=True),
     Param("state_file", "auto", "", "",
           "SQLite state file of the fatigue damage; auto = $ROS_HOME/guide_health/<machine_id>/<node>.db "
           "(ROS_HOME: ~/.ros); '' or none = no persistence"),
+    Param("state_reset", False, "", "",
+          "start from zero when state_file holds a state of another bearing geometry (replaced at the next "
+          "checkpoint); false: such a state stops the node at start, nothing overwritten"),
     Param("input_align_window_s", 0.5, "s", "[0, 60]",
           "loads and axis angles are taken in stamp order; a sample waits up to this (wall time) for the other "
           "topic; 0 = on arrival"),
@@ -69,7 +92,7 @@ SLEWING_MONITOR_PARAMS = (
 
 def _check_types(params: dict[str, Any]) -> None:
     for name in ("machine_id", "bearing", "stress_model", "roller_profile", "axis_topic", "axis_joint",
-                 "state_file"):
+                 "state_file", "tilting_clearance_topic"):
         if not isinstance(params.get(name), str):
             raise InputError(f"parameter {name} must be a string, got {params.get(name)!r}")
     for name in ("roller_count", "radial_roller_count"):
@@ -84,7 +107,8 @@ def _check_types(params: dict[str, Any]) -> None:
                "friction", "allowable_contact_stress_pa", "warn_fraction", "roller_end_radius_m",
                "crown_drop_m", "log_profile_coeff_m", "diagnostics_period_s", "input_timeout_s",
                "raceway_hardness_hrc", "reversal_deadband_rad", "checkpoint_period_s",
-               "input_align_window_s")
+               "input_align_window_s", "tilting_clearance_initial_m", "tilting_clearance_limit_m",
+               "tilting_clearance_noise_m", "raceway_wear_coefficient_m2_n", "raceway_wear_coefficient_rel_sd")
     for name in numbers:
         value = params.get(name)
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
@@ -125,11 +149,31 @@ def _slewing_cross_checks(params: dict[str, Any]) -> None:
             raise InputError(f"parameter {name} must be >= 0, got {params[name]!r}")
     if params["roller_end_radius_m"] > 0.5 * params["roller_length_m"]:
         raise InputError("parameter roller_end_radius_m must not exceed half the roller length")
+    _check_limiting_curve(params["limiting_curve_axial_load_n"], params["limiting_curve_moment_nm"])
+    if not params["tilting_clearance_limit_m"] > params["tilting_clearance_initial_m"]:
+        raise InputError(f"tilting_clearance_limit_m {params['tilting_clearance_limit_m']!r} must exceed "
+                         f"tilting_clearance_initial_m {params['tilting_clearance_initial_m']!r}")
     if params["roller_diameter_m"] >= params["raceway_diameter_m"]:
         raise InputError("roller_diameter_m must be smaller than raceway_diameter_m")
     if params["roller_count"] * params["roller_diameter_m"] > math.pi * params["raceway_diameter_m"]:
         raise InputError(f"{params['roller_count']} rollers of {params['roller_diameter_m']} m do not fit on a "
                          f"raceway of diameter {params['raceway_diameter_m']} m")
+
+
+def _check_limiting_curve(axial_n: list, moment_nm: list) -> None:
+    """The manufacturer's curve: one M_T per F_a, none or >= 2 points, F_a strictly ascending, M_T >= 0 and
+    not rising with F_a (a static limiting load curve falls as the axial load grows)."""
+    if len(axial_n) != len(moment_nm):
+        raise InputError(f"limiting_curve_axial_load_n has {len(axial_n)} values, limiting_curve_moment_nm "
+                         f"{len(moment_nm)}: one allowed moment per axial load")
+    if not axial_n:
+        return
+    if len(axial_n) < 2:
+        raise InputError("limiting load curve: need >= 2 points (F_a, M_T)")
+    if any(b <= a for a, b in zip(axial_n, axial_n[1:])):
+        raise InputError(f"limiting_curve_axial_load_n must be strictly ascending, got {axial_n}"[:200])
+    if min(moment_nm) < 0 or any(b > a for a, b in zip(moment_nm, moment_nm[1:])):
+        raise InputError(f"limiting_curve_moment_nm must be >= 0 and not rising with F_a, got {moment_nm}"[:200])
 
 
 SLEWING_MONITOR_SCHEMA = NodeSchema("slewing_monitor", SLEWING_MONITOR_PARAMS, _slewing_cross_checks)

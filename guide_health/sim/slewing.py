@@ -13,10 +13,11 @@ from typing import Any
 import numpy as np
 
 from guide_health.errors import InputError
-from guide_health.params import SLEWING_SIMULATION_SCHEMA, slewing_simulation_params
-from guide_health.params.typed import typed_params
+from guide_health.params import SLEWING_MONITOR_SCHEMA, SLEWING_SIMULATION_SCHEMA, slewing_simulation_params
+from guide_health.params.typed import slewing_monitor_params, typed_params
 from guide_health.runs import SlewingLoadRun
 from guide_health.sim.machine import START_TIME_NS
+from guide_health.sim.slewing_duty import simulate_oscillating_duty
 
 
 def _smoothstep(u: np.ndarray) -> np.ndarray:
@@ -24,10 +25,15 @@ def _smoothstep(u: np.ndarray) -> np.ndarray:
     return u * u * (3.0 - 2.0 * u)
 
 
-def simulate_slewing(sim: dict[str, Any], seed: int = 0) -> SlewingLoadRun:
-    """Load samples at `load_rate_hz` for `duration_h` (see the module doc for the cycle)."""
+def simulate_slewing(sim: dict[str, Any], seed: int = 0, bearing: Any = None) -> SlewingLoadRun:
+    """Load samples at `load_rate_hz` for `duration_h` (see the module doc for the cycle); duty yaw or pitch:
+    sim/slewing_duty.py on ``bearing`` (typed slewing_monitor parameters; None = the seed-003 bearing)."""
     values = slewing_simulation_params(sim)            # validated; the run's metadata keeps the dict
     p = typed_params(SLEWING_SIMULATION_SCHEMA.section, values, validate=False)
+    if p.duty != "crane":
+        if bearing is None:
+            bearing = slewing_monitor_params(SLEWING_MONITOR_SCHEMA.defaults())
+        return simulate_oscillating_duty(p, bearing, seed, {"simulation": values})
     rng = np.random.default_rng(seed)
     n = int(round(p.duration_h * 3600.0 * p.load_rate_hz))
     if n < 1:

@@ -436,18 +436,22 @@ def _report_counts(path, joint: str, namespace, counts: dict, stats: dict | None
 
 def read_slewing_bag(path, namespace: str | None = None, progress: ProgressFn | None = None,
                      chunk_messages: int = 200_000, *, fast: bool = True, stats: dict | None = None,
-                     axis_topic: str = "slewing/joint_states", axis_joint: str = "slew") -> SlewingLoadRun:
+                     axis_topic: str = "slewing/joint_states", axis_joint: str = "slew",
+                     clearance_topic: str = "slewing/tilting_clearance") -> SlewingLoadRun:
     """Read `<ns>/slewing/load` into a SlewingLoadRun (axial = force.z, radial = hypot(force.x, force.y),
     moment = hypot(torque.x, torque.y)) and the angle of joint `axis_joint` on `<ns>/<axis_topic>` (when
-    recorded; messages without the joint are skipped and counted); namespace None = auto-detected. Raises
-    InputError on a bad bag."""
+    recorded; messages without the joint are skipped and counted) and the measured tilting clearances of
+    `<ns>/<clearance_topic>` (Float64 [m], log time); namespace None = auto-detected. Raises InputError on a bad
+    bag."""
     path = Path(path)
-    wanted = {**SLEWING_TOPICS, axis_topic: JOINT_STATE}
+    wanted = {**SLEWING_TOPICS, axis_topic: JOINT_STATE, clearance_topic: FLOAT64}
     read = _read_topics(path, wanted, namespace, "slewing/load", axis_joint, progress, chunk_messages, fast,
                         stats)
     axis = read.topics.get(topic_name(read.namespace, axis_topic), _empty_topic(("sec", "nsec", "position")))
+    clearance = read.topics.get(topic_name(read.namespace, clearance_topic), _empty_topic(("data",), log=True))
     if stats is not None:
         stats[axis_topic] = axis.counts
+        stats[clearance_topic] = clearance.counts
     load = read.topics.get(topic_name(read.namespace, "slewing/load"),
                            _empty_topic(("sec", "nsec") + WRENCH_NAMES))
     values, counts = load.values, load.counts
@@ -460,4 +464,5 @@ def read_slewing_bag(path, namespace: str | None = None, progress: ProgressFn | 
         t_ns=_stamps(values), axial_n=values["fz"],
         radial_n=np.hypot(values["fx"], values["fy"]), moment_nm=np.hypot(values["tx"], values["ty"]),
         metadata=read_run_metadata(path), axis_t_ns=_stamps(axis.values), axis_angle_rad=axis.values["position"],
+        clearance_t_ns=clearance.values["log_t_ns"], clearance_m=clearance.values["data"],
     )

@@ -161,9 +161,10 @@ def _extra_series(extra: list | None, namespace: str) -> list[_TopicSeries]:
 
 def write_slewing_bag(run: SlewingLoadRun, path, storage: str = "sqlite3", namespace: str = "",
                       progress: ProgressFn | None = None, axis_topic: str = "slewing/joint_states",
-                      axis_joint: str = "slew") -> Path:
-    """Write `<ns>/slewing/load` WrenchStamped: force.z = axial, force.x = radial, torque.x = moment; and,
-    when the run has axis angles, `<ns>/<axis_topic>` JointState with the one joint `axis_joint` (rad)."""
+                      axis_joint: str = "slew", clearance_topic: str = "slewing/tilting_clearance") -> Path:
+    """Write `<ns>/slewing/load` WrenchStamped: force.z = axial, force.x = radial, torque.x = moment; when the
+    run has axis angles, `<ns>/<axis_topic>` JointState with the one joint `axis_joint` (rad); when it has
+    tilting clearances, `<ns>/<clearance_topic>` Float64 [m] at their times (the log time dates them)."""
     at = np.asarray(run.axis_t_ns, dtype=np.int64)
     angle = np.asarray(run.axis_angle_rad, dtype=np.float64)
     _check_len(axis_topic, at, angle)
@@ -187,6 +188,12 @@ def write_slewing_bag(run: SlewingLoadRun, path, storage: str = "sqlite3", names
     if at.size:
         series.append(_TopicSeries(topic_name(namespace, axis_topic), JOINT_STATE, at,
                                    lambda i: encode_joint_states(at[i], angle[i], None, axis_joint)))
+    ct = np.asarray(run.clearance_t_ns, dtype=np.int64)
+    clearance = np.asarray(run.clearance_m, dtype=np.float64)
+    _check_len(clearance_topic, ct, clearance)
+    if ct.size:
+        series.append(_TopicSeries(topic_name(namespace, clearance_topic), FLOAT64, ct,
+                                   lambda i: encode_float64(clearance[i])))
     return _write_bag(series, path, storage, run.metadata, progress)
 
 

@@ -25,8 +25,10 @@ from guide_health.models.slewing.finite_roller import (
     palmgren_line_stiffness,
 )
 from guide_health.models.slewing.mcewen import McEwenMaxima, cached_mcewen_maxima, mcewen_maxima
+from guide_health.models.slewing.raceway_wear import RacewayWear, sliding_weight_table
 from guide_health.models.slewing.rating import slewing_ratings
 from guide_health.models.slewing.row_loads import AxialRowLoads, axial_row_roller_loads, radial_row_roller_load_max_n
+from guide_health.models.wear.calibration import WearCoefficientEstimator
 from guide_health.models.wear.stream_gaps import StampGaps
 
 #: seed 003 Sec. 4 example: 131.32.2000.00Z, E = 210 GPa, nu = 0.3, d = 32 mm, l = 31.3 mm, f = 0.1
@@ -301,8 +303,13 @@ class SlewingMonitor:
             slewing_ratings(params.roller_count, params.radial_roller_count or params.roller_count,
                             params.roller_diameter_m, params.roller_length_m, params.raceway_diameter_m,
                             params.raceway_hardness_hrc),
-            reversal_deadband_rad=params.reversal_deadband_rad)
+            reversal_deadband_rad=params.reversal_deadband_rad,
+            limiting_curve=((tuple(params.limiting_curve_axial_load_n), tuple(params.limiting_curve_moment_nm))
+                            if params.limiting_curve_axial_load_n else None))
         self.rejected_angles = 0
+        # raceway wear of the axial rows -> tilting clearance, k from measured clearances (raceway_wear.py)
+        self.wear = raceway_wear_model(params)
+        self.rejected_clearances = 0
 
     def reject_axis_angle(self) -> None:
         """Count an axis sample the node could not use (malformed message, joint missing, non-finite)."""
@@ -313,8 +320,27 @@ class SlewingMonitor:
         if not math.isfinite(angle_rad):
             self.reject_axis_angle()
             return "non-finite axis angle (NaN/inf) ignored"
-        self.fatigue.on_angle(angle_rad, None if t_ns is None else t_ns * 1e-9)
+        fatigue = self.fatigue
+        open_travel, strokes = fatigue.stroke_travel_rad, fatigue.strokes
+        fatigue.on_angle(angle_rad, None if t_ns is None else t_ns * 1e-9)
+        # the new ground the fatigue counter accepted (a reversal restarts its open stroke's travel)
+        self.wear.on_travel(fatigue.stroke_travel_rad - (open_travel if fatigue.strokes == strokes else 0.0))
         return None
+
+    def on_tilting_clearance(self, clearance_m: float, t_ns: int | None = None) -> str | None:
+        """A measured tilting clearance [m] (topic or the maintenance service's measure), dated ``t_ns`` (None:
+        the latest axis stamp); returns the rejection reason (counted) or None."""
+        last = self.fatigue.last_t_s
+        stamp = t_ns if t_ns is not None else (round(last * 1e9) if last is not None else 0)
+        reason = self.wear.on_measurement(stamp, clearance_m)
+        if reason:
+            self.rejected_clearances += 1
+        return reason
+
+    def elapsed_s(self) -> float:
+        """Time between the first and the latest axis stamp [s] (the duty so far)."""
+        f = self.fatigue
+        return (f.last_t_s - f.first_t_s) if f.first_t_s is not None else 0.0
 
     def on_loads(self, axial_n: float, radial_n: float, moment_nm: float, t_ns: int | None = None) -> str | None:
         """One load sample (``t_ns``: its header stamp, None when unknown or invalid); returns the rejection
@@ -327,6 +353,7 @@ class SlewingMonitor:
             return "non-finite load (NaN/inf) ignored"
         report = self.model.report_for_loads(axial_n, radial_n, moment_nm)
         self.fatigue.on_loads(axial_n, radial_n, moment_nm)
+        self.wear.on_loads(axial_n, moment_nm)
         self.worst_sample = report              # the report of this sample (offline analysis reads it)
         self.loads_in_period += 1
         if self.worst is None or report["p_max_MPa"] > self.worst["p_max_MPa"]:
@@ -360,6 +387,7 @@ class SlewingMonitor:
                 message = f"only invalid loads this period ({self.last_problem}); last valid: {message}"
         fatigue_level, fatigue_message, fatigue_values = self.fatigue.report()
         values.update(fatigue_values, rejected_axis_angles=self.rejected_angles)
+        values.update(self.wear.report(self.elapsed_s()), rejected_tilting_clearances=self.rejected_clearances)
         if report is not None and fatigue_level > OK:
             level, message = max(level, fatigue_level), f"{message}; {fatigue_message}"
         if gaps.missing:
@@ -369,3 +397,14 @@ class SlewingMonitor:
         self.worst = None
         self.loads_in_period = 0
         return level, message, values
+
+
+def raceway_wear_model(params: Any) -> RacewayWear:
+    """The raceway wear model of the configured bearing: chi(Q) of its rollers, k's prior and the clearances."""
+    chi = sliding_weight_table(params.roller_length_m, params.roller_diameter_m, params.youngs_modulus_pa,
+                               params.poisson)
+    estimator = WearCoefficientEstimator(params.raceway_wear_coefficient_m2_n,
+                                         params.raceway_wear_coefficient_rel_sd,
+                                         params.tilting_clearance_noise_m, params.tilting_clearance_initial_m)
+    return RacewayWear(params.roller_count, params.raceway_diameter_m, chi, estimator,
+                       params.tilting_clearance_limit_m)
