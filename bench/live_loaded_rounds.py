@@ -20,6 +20,7 @@ import collections
 import multiprocessing
 import os
 import re
+import shlex
 import signal
 import subprocess
 import sys
@@ -120,7 +121,7 @@ def main(argv: list[str] | None = None) -> int:
     failed_rounds = done = 0
     try:
         print(f"{args.burners} burners (pids {[proc.pid for proc in burners]}); "
-              f"{' '.join(PYTEST_COMMAND + args.pytest_args)}", flush=True)
+              f"{shlex.join([sys.executable] + PYTEST_COMMAND + args.pytest_args)}", flush=True)
         for index in range(1, args.rounds + 1):
             bad, failed = run_round(index, args.pytest_args, args.log_dir)
             failed_rounds += bad
