@@ -250,7 +250,7 @@ def test_live_through_a_bag_equals_replay_and_sigkill_restart_resumes(tmp_path, 
         played = play_bag(bag, env, ["--wait-subscribers", "1"])
         assert played.returncode == 0, played.stderr
         done = collector.wait_for(name, lambda s: int(float(s["values"]["oscillation_strokes"])) >= offline[
-            "oscillation_strokes"] and s["level"] == 3, timeout=300.0)
+            "oscillation_strokes"] and s["level"] == 3, timeout=120.0)
         assert done is not None, [(s["level"], s["values"].get("oscillation_strokes"))
                                   for s in collector.history.get(name, [])][-5:]
         # a status stamped > 2 checkpoint periods after the final one: the node's timers ran on past it, so its
