@@ -48,3 +48,14 @@ def ros_context(ros_test_env):
     rclpy.init(context=context)
     yield context
     rclpy.shutdown(context=context)
+
+
+@pytest.fixture
+def live_wear_node(ros_test_env, tmp_path):
+    """live_node.LiveWearNode in this test's isolation (ros_test_env), stopped at the test's end."""
+    pytest.importorskip("rclpy")
+    from live_node import LiveWearNode
+
+    live = LiveWearNode(ros_test_env(), tmp_path)
+    yield live
+    live.close()

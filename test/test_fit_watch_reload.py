@@ -261,129 +261,47 @@ def test_replay_model_at_equals_the_load_between_the_halves(tmp_path):
         assert offline[key] == pytest.approx(split[key], rel=1e-9), key
 
 
-class TriggerClient:
-    """~/load_model and set_parameters of a remote wear_monitor, from a private rclpy context."""
-
-    def __init__(self, target: str = "wear_monitor"):
-        import rclpy
-        from rcl_interfaces.srv import SetParameters
-        from rclpy.executors import SingleThreadedExecutor
-        from std_srvs.srv import Trigger
-
-        self.rclpy = rclpy
-        self.context = rclpy.context.Context()
-        rclpy.init(context=self.context)
-        self.node = rclpy.create_node("load_model_client", context=self.context)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.trigger = self.node.create_client(Trigger, f"/{target}/load_model")
-        self.set_client = self.node.create_client(SetParameters, f"/{target}/set_parameters")
-        assert self.trigger.wait_for_service(timeout_sec=60.0)
-        assert self.set_client.wait_for_service(timeout_sec=60.0)
-
-    def _call(self, client, request):
-        future = client.call_async(request)
-        self.executor.spin_until_future_complete(future, timeout_sec=60.0)
-        assert future.done()
-        return future.result()
-
-    def load(self):
-        from std_srvs.srv import Trigger
-
-        return self._call(self.trigger, Trigger.Request())
-
-    def set_model_file(self, path: str):
-        from rcl_interfaces.srv import SetParameters
-        from rclpy.parameter import Parameter
-
-        request = SetParameters.Request(parameters=[Parameter("model_file", value=path).to_parameter_msg()])
-        return self._call(self.set_client, request).results[0]
-
-    def close(self):
-        self.executor.shutdown()
-        self.node.destroy_node()
-        self.rclpy.shutdown(context=self.context)
-
-
 @pytest.mark.ros
-def test_live_load_model_equals_replay_with_model_at(tmp_path, ros_test_env):
+def test_live_load_model_equals_replay_with_model_at(tmp_path, live_wear_node):
     """bag 1 (0-2 h, +6 um from 1 h: the test fires) -> wear_monitor; ~/load_model of an anchored file clears
     the WARN; a bad file is refused in one line with the model unchanged; bag 2 (2-3 h); every fit key and
     the model's numbers equal the offline replay of both bags with the file loaded at 2 h (analyse_bag's
     load: the path of replay --model-at)."""
-    pytest.importorskip("rclpy")
-    from guide_health.analysis.replay import analyse_bag
-    from guide_health.io.bag.bag_set import resolve_bags
-    from guide_health.io.bag.writer import write_machine_bag
-    from guide_health.models.wear import fit_watch
-    from guide_health.nodes.session import (
-        DiagnosticsCollector,
-        bag_counts,
-        clean_fastdds_shm,
-        play_bag,
-        start_node,
-        stop_node,
-    )
-    from guide_health.params import simulation_params, wear_monitor_params
+    from live_node import BENCH_STATUS, TriggerClient, reload_scenario
 
-    bench_file = ROOT / "config" / "bench_000.yaml"
-    params = wear_monitor_params(bench_file)
-    sim = dict(simulation_params(bench_file), duration_h=3.1, joint_state_rate_hz=10.0, load_rate_hz=1.0,
-               measurement_interval_h=0.25)
-    run = simulate_machine(params, sim, seed=7)
-    t0 = int(run.straightness_t_ns[0])
-    run.straightness_m[run.straightness_t_ns > t0 + HOUR_NS] += 6e-6
-    at = t0 + 2 * HOUR_NS
-    first, second = split_run(run, at)
-    write_machine_bag(first, tmp_path / "b1", storage="sqlite3")
-    write_machine_bag(second, tmp_path / "b2", storage="sqlite3")
-    model = {"wear_coefficient": params["wear_coefficient"], "straightness_initial_m": 30e-6,
-             "model_from_stamp_s": (t0 + HOUR_NS) * 1e-9}
-    good, bad = tmp_path / "model.yaml", tmp_path / "bad.yaml"
-    good.write_text(yaml.safe_dump({"/**/wear_monitor": {"ros__parameters": model}}))
+    from guide_health.models.wear import fit_watch
+    from guide_health.nodes.session import bag_counts
+
+    scene = reload_scenario(tmp_path)
+    bad = tmp_path / "bad.yaml"
     bad.write_text(yaml.safe_dump({"/**/wear_monitor": {"ros__parameters": {"wear_coefficient": -1.0}}}))
-    half = analyse_bag(tmp_path / "b1", params)[1]
-    whole = analyse_bag(resolve_bags([str(tmp_path / "b1"), str(tmp_path / "b2")]), params,
-                        load=(at, wear_axis_params({**params, **model})))[1]
-    assert half["model_fit"] == "broken" and whole["model_fit"] == "ok"
-    name = "bench_000/wear_monitor: x precision"
-    env = ros_test_env()
-    collector = node = client = None
+    assert scene.half["model_fit"] == "broken" and scene.whole["model_fit"] == "ok"
+    live_wear_node.start(scene.bench_file, {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25,
+                                            "model_file": str(scene.good)})
+    live_wear_node.play(scene.b1)
+    warned = live_wear_node.wait_counts(BENCH_STATUS, bag_counts(scene.half))
+    assert warned["values"]["model_fit"] == "broken" and warned["level"] >= Level.WARN
+    client = TriggerClient()
     try:
-        collector = DiagnosticsCollector("reload_collector")
-        node = start_node("guide_health.nodes.wear_monitor", bench_file,
-                          {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25,
-                           "model_file": str(good)}, env, log_path=tmp_path / "node.log")
-        assert collector.wait_for(name, timeout=120.0) is not None, (tmp_path / "node.log").read_text()
-        assert play_bag(tmp_path / "b1", env, ["--wait-subscribers", "1", "--max-rate", "0"]).returncode == 0
-        warned = collector.wait_counts(name, bag_counts(half))
-        assert warned["values"]["model_fit"] == "broken" and warned["level"] >= Level.WARN
-        client = TriggerClient()
         response = client.load()
-        assert response.success and response.message == f"loaded {good}"
-        cleared = collector.wait_for(name, lambda s: s["values"]["model_fit"] == "ok", timeout=60.0)
+        assert response.success and response.message == f"loaded {scene.good}"
+        cleared = live_wear_node.collector.wait_for(BENCH_STATUS, lambda s: s["values"]["model_fit"] == "ok",
+                                                    timeout=60.0)
         assert cleared is not None and "no longer fits" not in cleared["message"]
         assert client.set_model_file(str(bad)).successful
         refused = client.load()
         assert not refused.success and refused.message.startswith("load_model refused: ")
         assert "\n" not in refused.message and "wear_coefficient" in refused.message
-        assert client.set_model_file(str(good)).successful
-        assert play_bag(tmp_path / "b2", env, ["--wait-subscribers", "1", "--max-rate", "0"]).returncode == 0
-        live = collector.wait_counts(name, bag_counts(whole))
+        assert client.set_model_file(str(scene.good)).successful
     finally:
-        if client is not None:
-            client.close()
-        if node is not None:
-            stop_node(node)
-        if collector is not None:
-            collector.close()
-        clean_fastdds_shm()
-    values = live["values"]
+        client.close()
+    live_wear_node.play(scene.b2)
+    values = live_wear_node.wait_counts(BENCH_STATUS, bag_counts(scene.whole))["values"]
     for key in fit_watch.FIT_STATUS_KEYS + ("wear_coefficient", "straightness_um", "remaining_life_h", "measurements"):
-        if isinstance(whole[key], str):
-            assert values[key] == whole[key], key
+        if isinstance(scene.whole[key], str):
+            assert values[key] == scene.whole[key], key
         else:
-            assert float(values[key]) == pytest.approx(whole[key], rel=1e-4, abs=1e-9), key
+            assert float(values[key]) == pytest.approx(scene.whole[key], rel=1e-4, abs=1e-9), key
 
 
 def test_load_model_service_refuses_in_one_line_and_keeps_the_model(tmp_path):

@@ -1,8 +1,6 @@
 """The mission's 'tests replay rosbags': bag_player -> topics -> wear_monitor -> /diagnostics agrees with
 the offline `guide-health replay` of the same bag; a SIGKILLed node resumes from its SQLite checkpoint."""
 import json
-import os
-import signal
 import sqlite3
 from pathlib import Path
 
@@ -15,13 +13,9 @@ from guide_health.analysis.replay import analyse  # noqa: E402
 from guide_health.io.bag.reader import read_machine_bag  # noqa: E402
 from guide_health.io.bag.writer import write_machine_bag  # noqa: E402
 from guide_health.nodes.session import (  # noqa: E402
-    DiagnosticsCollector,
     bag_counts,
     clean_fastdds_shm,
-    play_bag,
     settled_status_after_bag,
-    start_node,
-    stop_node,
 )
 from guide_health.params import simulation_params, wear_monitor_params  # noqa: E402
 from guide_health.sim.machine import simulate_machine  # noqa: E402
@@ -40,7 +34,9 @@ def ros_env(ros_test_env):
     clean_fastdds_shm()
 
 
-def make_bag(tmp_path: Path, storage: str, hours: float = 1.5, rate: float = 10.0, seed: int = 7):
+def make_bag(tmp_path: Path, storage: str, hours: float = 0.5, rate: float = 10.0, seed: int = 7):
+    """A bench bag: 0.5 h at 10 Hz (18000 joint samples, 3 measurements): live == offline holds sample by
+    sample, so a longer bag proves nothing more."""
     params = wear_monitor_params(BENCH)
     sim = dict(simulation_params(BENCH), duration_h=hours, joint_state_rate_hz=rate, load_rate_hz=1.0,
                measurement_interval_h=0.25)
@@ -59,7 +55,7 @@ def make_bag_with_early_loads(tmp_path: Path, lead_ns: int = 550_000_000):
     from guide_health.io.bag.writer import _TopicSeries, _write_bag
 
     params = wear_monitor_params(BENCH)
-    sim = dict(simulation_params(BENCH), duration_h=1.5, joint_state_rate_hz=10.0, load_rate_hz=1.0,
+    sim = dict(simulation_params(BENCH), duration_h=0.5, joint_state_rate_hz=10.0, load_rate_hz=1.0,
                measurement_interval_h=0.25)
     run = simulate_machine(params, sim, seed=7)
     jt, lt, st = (np.asarray(a, np.int64) for a in (run.joint_t_ns, run.load_t_ns, run.straightness_t_ns))
@@ -99,46 +95,43 @@ def test_live_node_matches_offline_replay(tmp_path, ros_env, storage):
     assert values["measurements"] == offline["measurements"]
 
 
-def test_sigkill_and_restart_continue_where_the_node_stopped(tmp_path, ros_env):
+def test_sigkill_and_restart_continue_where_the_node_stopped(tmp_path, live_wear_node):
+    import subprocess
+    import sys
+
+    from guide_health.nodes.session import PLAYER_WAIT_TIMEOUT_S
+
     params, bag = make_bag(tmp_path, "sqlite3", seed=8)
     offline = analyse(read_machine_bag(bag, joint="x"), params)[1]
     state_db = tmp_path / "state.db"
     overrides = {"state_file": str(state_db), "diagnostics_period_s": 0.25, "checkpoint_period_s": 1.0}
-    collector = DiagnosticsCollector("test_collector_kill")
+    live_wear_node.start(BENCH, overrides, STATUS)
+    # at the player's default rate cap; its acknowledgements end with the node: it gives up 5 s after the bag
+    player = subprocess.Popen([sys.executable, "-m", "guide_health.nodes.bag_player", str(bag),
+                               "--wait-subscribers", "1", "--wait-timeout", f"{PLAYER_WAIT_TIMEOUT_S:g}",
+                               "--ack-timeout", "5"], env=live_wear_node.env,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
-        node = start_node("guide_health.nodes.wear_monitor", BENCH, overrides, ros_env, tmp_path / "node1.log")
-        assert collector.wait_for(STATUS, timeout=120.0) is not None
-        import subprocess
-        import sys
-        player = subprocess.Popen([sys.executable, "-m", "guide_health.nodes.bag_player", str(bag),
-                                   "--wait-subscribers", "1", "--ack-timeout", "5"], env=ros_env,
-                                  stdout=subprocess.DEVNULL,
-                                  stderr=subprocess.DEVNULL)
         half = offline["sliding_distance_m"] / 2
-        assert collector.wait_for(STATUS, lambda s: float(s["values"]["sliding_distance_m"]) > half,
-                                  timeout=300.0) is not None
-        os.kill(node.pid, signal.SIGKILL)             # no clean shutdown: only checkpoints survive
-        node.wait()
+        assert live_wear_node.collector.wait_for(STATUS, lambda s: float(s["values"]["sliding_distance_m"]) > half,
+                                                 timeout=300.0) is not None
+        live_wear_node.kill()                         # no clean shutdown: only checkpoints survive
         player.wait(timeout=300)
-        with sqlite3.connect(state_db) as db:
-            saved = json.loads(db.execute("SELECT state_json FROM monitor_state").fetchone()[0])
-        checkpoint_t_ns = saved["integrator"]["last_t_ns"]
-        assert saved["integrator"]["sliding_distance_m"] < offline["sliding_distance_m"]
-        clean_fastdds_shm()
-        # restart and finish the bag from the checkpoint
-        node = start_node("guide_health.nodes.wear_monitor", BENCH, overrides, ros_env, tmp_path / "node2.log")
-        # node 2 is up and discovered once it publishes the checkpoint's numbers (node 1 is dead)
-        resumed = collector.wait_for(STATUS, lambda s: abs(float(s["values"]["sliding_distance_m"]) - saved[
-            "integrator"]["sliding_distance_m"]) < 1e-6, timeout=120.0)
-        assert resumed is not None, (tmp_path / "node2.log").read_text()
-        played = play_bag(bag, ros_env, ["--wait-subscribers", "1", "--max-rate", "0",
-                                         "--start-after-ns", str(checkpoint_t_ns)])
-        assert played.returncode == 0, played.stderr
-        live = collector.wait_counts(STATUS, bag_counts(offline))
-        stop_node(node)
     finally:
-        collector.close()
-    assert "resumed from" in (tmp_path / "node2.log").read_text()
+        if player.poll() is None:
+            player.kill()
+            player.wait()
+    with sqlite3.connect(state_db) as db:
+        saved = json.loads(db.execute("SELECT state_json FROM monitor_state").fetchone()[0])
+    checkpoint_t_ns = saved["integrator"]["last_t_ns"]
+    assert saved["integrator"]["sliding_distance_m"] < offline["sliding_distance_m"]
+    # restart and finish the bag from the checkpoint: node 2 is up once it publishes the checkpoint's numbers
+    live_wear_node.start(BENCH, overrides, STATUS, up=lambda s: abs(float(s["values"]["sliding_distance_m"]) - saved[
+        "integrator"]["sliding_distance_m"]) < 1e-6)
+    log = live_wear_node.log_path
+    live_wear_node.play(bag, ["--start-after-ns", str(checkpoint_t_ns)])
+    live = live_wear_node.wait_counts(STATUS, bag_counts(offline))
+    assert "resumed from" in log.read_text()
     values = {k: float(v) for k, v in live["values"].items()
               if k not in ("lubrication_regime", "load_source", "model_fit") and "_utc" not in k}   # the numbers
     # interfaces.md: replaying from the checkpoint stamp "restores it completely without counting a

@@ -176,42 +176,24 @@ def test_simulated_regrind_is_replayed_and_listed(tmp_path):
 
 
 # --- live ----------------------------------------------------------------------------------------------------
-@pytest.fixture
-def ros_env(ros_test_env):
-    from guide_health.nodes.session import clean_fastdds_shm
-
-    env = ros_test_env()
-    yield env
-    clean_fastdds_shm()
-
-
 @pytest.mark.ros
-def test_regrind_mid_bag_live_equals_offline(tmp_path, ros_env):
-    pytest.importorskip("rclpy")
+def test_regrind_mid_bag_live_equals_offline(tmp_path, live_wear_node):
     from guide_health.analysis.replay import analyse_bag
     from guide_health.cli.simulate import event_series
     from guide_health.io.bag.writer import write_machine_bag
-    from guide_health.nodes.session import DiagnosticsCollector, bag_counts, play_bag, start_node, stop_node
+    from guide_health.nodes.session import bag_counts
 
-    event = regrind(0.75)
-    params, run = bench_run(hours=1.5, events=[event])
+    event = regrind(0.25)               # 0.5 h: the regrind between samples, live == offline on each of them
+    params, run = bench_run(hours=0.5, events=[event])
     bag = tmp_path / "bag"
     write_machine_bag(run, bag, extra=event_series([event], params["machine_id"]))
     offline = analyse_bag(bag, params)[1]
     assert offline["maintenance_events"][0]["applied"] is True
     status = "bench_000/wear_monitor: x precision"
-    collector = DiagnosticsCollector("maintenance_collector")
-    node = start_node("guide_health.nodes.wear_monitor", BENCH,
-                      {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25}, ros_env,
-                      log_path=tmp_path / "node.log")
-    try:
-        assert collector.wait_for(status, timeout=120.0) is not None, (tmp_path / "node.log").read_text()
-        played = play_bag(bag, ros_env, ["--wait-subscribers", "1"])
-        assert played.returncode == 0, played.stderr + (tmp_path / "node.log").read_text()[-3000:]
-        live = collector.wait_counts(status, bag_counts(offline))     # every message taken (a loaded machine is slow)
-    finally:
-        stop_node(node)
-        collector.close()
+    live_wear_node.start(BENCH, {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25}, status)
+    live_wear_node.play(bag)            # uncapped: reliable KEEP_ALL, the event ordered by the player's barrier
+    live = live_wear_node.wait_counts(status, bag_counts(offline))     # every message taken
+    live_wear_node.close()              # clean shutdown: the state database read below is complete
     values = live["values"]
     assert int(values["samples"]) == offline["samples"] and int(values["maintenance_event_count"]) == 1
     assert int(values["measurements"]) == offline["measurements"]

@@ -364,14 +364,16 @@ def test_maintenance_command_regrinds_an_axis_of_a_live_three_axis_node(tmp_path
         assert (values["kind"], values["axis"], float(values["straightness_m"])) == ("regrind", "y", 4e-6)
         # the same call again: refused, exit 1, nothing applied
         second = maintenance_cli(ros_env, "/m1", "y", "regrind", "--value", "4 um")
+        refused_at = time.monotonic()
         assert second.returncode == 1, second.stdout + second.stderr
         assert second.stdout.startswith("refused: already applied at ")
         # no such node: exit 2, one line
-        missing = maintenance_cli(ros_env, "/m2", "y", "regrind", "--timeout", "3")
+        missing = maintenance_cli(ros_env, "/m2", "y", "regrind", "--timeout", "1")
         assert missing.returncode == 2 and missing.stdout == ""
         assert missing.stderr.count("\n") == 1 and "no node /m2/wear_monitor found" in missing.stderr
-        time.sleep(1.0)
-        assert collector.get(status)["values"]["maintenance_event_count"] == "1"
+        # a status published after the refused call (not a quiet time): still one event
+        later = collector.wait_for(status, lambda s: s["received"] > refused_at + 0.5, timeout=60.0)
+        assert later is not None and later["values"]["maintenance_event_count"] == "1"
     finally:
         stop_node(node)
         collector.close()

@@ -3,15 +3,13 @@ file): the restart runs on the loaded model and gives the numbers of a run that 
 newer configured model wins over the record; a record that does not read back is refused in one line and
 counted, the node runs on the configured model. The anchor stamp is part of the model's digest."""
 import dataclasses
-import os
-import signal
 from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
 import yaml
 from test_fit_watch import CHANGE_H, HOUR_NS
-from test_fit_watch_reload import TriggerClient, changed_run
+from test_fit_watch_reload import changed_run
 
 from guide_health.errors import InputError
 from guide_health.io.state_store import StateStore
@@ -20,7 +18,6 @@ from guide_health.models.wear import fit_watch
 from guide_health.models.wear.axis import AxisMonitor, split_run
 from guide_health.nodes.model_service import model_digest, on_load_model, resume_loaded_model, resumed_model
 from guide_health.params.typed import wear_axis_params
-from guide_health.sim.machine import simulate_machine
 
 ROOT = Path(__file__).resolve().parents[1]
 COMPARED = ("straightness_um", "wear_coefficient", "remaining_life_h", "remaining_life_h_low", "measurements")
@@ -164,82 +161,37 @@ def test_the_anchor_stamp_is_part_of_the_model_digest():
 
 
 @pytest.mark.ros
-def test_sigkill_after_a_live_load_and_restart_with_the_original_params(tmp_path, ros_test_env):
+def test_sigkill_after_a_live_load_and_restart_with_the_original_params(tmp_path, live_wear_node):
     """bag 1 (0-2 h, +6 um from 1 h: the test fires) -> wear_monitor; ~/load_model of a file anchored at 1 h;
     SIGKILL; a restart with the same parameters (the files as before the load); bag 2 (2-3 h): every fit key
     and the model's numbers equal the uninterrupted run (offline replay of both bags with the file loaded at
     2 h, which test_fit_watch_reload shows equal to the live run without a kill)."""
-    pytest.importorskip("rclpy")
-    from guide_health.analysis.replay import analyse_bag
-    from guide_health.io.bag.bag_set import resolve_bags
-    from guide_health.io.bag.writer import write_machine_bag
-    from guide_health.nodes.session import (
-        DiagnosticsCollector,
-        bag_counts,
-        clean_fastdds_shm,
-        play_bag,
-        start_node,
-        stop_node,
-    )
-    from guide_health.params import simulation_params, wear_monitor_params
+    from live_node import BENCH_STATUS, TriggerClient, reload_scenario
 
-    bench_file = ROOT / "config" / "bench_000.yaml"
-    params = wear_monitor_params(bench_file)
-    sim = dict(simulation_params(bench_file), duration_h=3.1, joint_state_rate_hz=10.0, load_rate_hz=1.0,
-               measurement_interval_h=0.25)
-    run = simulate_machine(params, sim, seed=7)
-    t0 = int(run.straightness_t_ns[0])
-    run.straightness_m[run.straightness_t_ns > t0 + HOUR_NS] += 6e-6
-    at = t0 + 2 * HOUR_NS
-    first, second = split_run(run, at)
-    write_machine_bag(first, tmp_path / "b1", storage="sqlite3")
-    write_machine_bag(second, tmp_path / "b2", storage="sqlite3")
-    model = {"wear_coefficient": params["wear_coefficient"], "straightness_initial_m": 30e-6,
-             "model_from_stamp_s": (t0 + HOUR_NS) * 1e-9}
-    good = tmp_path / "model.yaml"
-    good.write_text(yaml.safe_dump({"/**/wear_monitor": {"ros__parameters": model}}))
-    half = analyse_bag(tmp_path / "b1", params)[1]
-    whole = analyse_bag(resolve_bags([str(tmp_path / "b1"), str(tmp_path / "b2")]), params,
-                        load=(at, wear_axis_params({**params, **model})))[1]
-    name = "bench_000/wear_monitor: x precision"
-    overrides = {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25, "model_file": str(good)}
-    env = ros_test_env()
-    collector = node = client = None
+    from guide_health.nodes.session import bag_counts
+
+    scene = reload_scenario(tmp_path)
+    overrides = {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25,
+                 "model_file": str(scene.good)}
+    live_wear_node.start(scene.bench_file, overrides)
+    live_wear_node.play(scene.b1)
+    assert live_wear_node.wait_counts(BENCH_STATUS, bag_counts(scene.half))["values"]["model_fit"] == "broken"
+    client = TriggerClient()
     try:
-        collector = DiagnosticsCollector("restart_collector")
-        node = start_node("guide_health.nodes.wear_monitor", bench_file, overrides, env, log_path=tmp_path / "n1.log")
-        assert collector.wait_for(name, timeout=120.0) is not None, (tmp_path / "n1.log").read_text()
-        assert play_bag(tmp_path / "b1", env, ["--wait-subscribers", "1", "--max-rate", "0"]).returncode == 0
-        assert collector.wait_counts(name, bag_counts(half))["values"]["model_fit"] == "broken"
-        client = TriggerClient()
         assert client.load().success                    # checkpointed with the record at once
-        client.close()
-        client = None
-        os.kill(node.pid, signal.SIGKILL)               # no clean shutdown: only the checkpoint survives
-        node.wait()
-        node = None
-        clean_fastdds_shm()
-        collector.close()
-        collector = DiagnosticsCollector("restart_collector2")
-        node = start_node("guide_health.nodes.wear_monitor", bench_file, overrides, env, log_path=tmp_path / "n2.log")
-        resumed = collector.wait_for(name, lambda s: s["values"]["model_fit"] == "ok", timeout=120.0)
-        assert resumed is not None, (tmp_path / "n2.log").read_text()
-        assert play_bag(tmp_path / "b2", env, ["--wait-subscribers", "1", "--max-rate", "0"]).returncode == 0
-        live = collector.wait_counts(name, bag_counts(whole))
     finally:
-        if client is not None:
-            client.close()
-        if node is not None:
-            stop_node(node)
-        if collector is not None:
-            collector.close()
-        clean_fastdds_shm()
-    values = live["values"]
+        client.close()
+    live_wear_node.kill()                               # no clean shutdown: only the checkpoint survives
+    live_wear_node.start(scene.bench_file, overrides, up=lambda s: s["values"]["model_fit"] == "ok")
+    log = live_wear_node.log_path
+    live_wear_node.play(scene.b2)
+    live = live_wear_node.wait_counts(BENCH_STATUS, bag_counts(scene.whole))
+    values, whole = live["values"], scene.whole
     assert live["level"] < Level.WARN
     for key in fit_watch.FIT_STATUS_KEYS + COMPARED:
         if isinstance(whole[key], str):
             assert values[key] == whole[key], key
         else:
             assert float(values[key]) == pytest.approx(whole[key], rel=1e-4, abs=1e-9), key
-    log = (tmp_path / "n2.log").read_text()
-    assert "axis x: resumed with the model loaded at " in log and f"from {good}" in log
+    text = log.read_text()
+    assert "axis x: resumed with the model loaded at " in text and f"from {scene.good}" in text

@@ -21,6 +21,7 @@ import yaml
 
 from guide_health.cli.app import main as cli_main
 from guide_health.errors import InputError
+from guide_health.nodes.session import PLAYER_WAIT_TIMEOUT_S
 from guide_health.params import WEAR_MONITOR_SCHEMA, wear_monitor_params
 from guide_health.params.ros_args import check_ros_args
 
@@ -51,7 +52,7 @@ def probe(tmp_path: Path, env: dict, *ros_args: str) -> dict:
     script = tmp_path / "probe.py"
     script.write_text(PROBE)
     proc = subprocess.run([sys.executable, str(script), "--ros-args", *ros_args], capture_output=True, text=True,
-                          env=env, timeout=60)
+                          env=env, timeout=PLAYER_WAIT_TIMEOUT_S)
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
@@ -180,7 +181,7 @@ def _node_verdicts(paths: list[Path], env: dict, tmp_path: Path, batch: int = 7)
                 procs.append((log, subprocess.Popen(
                     [sys.executable, "-m", "guide_health.nodes.wear_monitor", "--ros-args", "-r", f"__ns:=/s{i}",
                      "--params-file", str(path)], env=env, stdout=out, stderr=subprocess.STDOUT)))
-        end = time.monotonic() + 90
+        end = time.monotonic() + 300                 # an upper bound: seven start-ups on a loaded machine
         while time.monotonic() < end and any(p.poll() is None and "start: " not in log.read_text()
                                              for log, p in procs):
             time.sleep(0.2)
@@ -235,7 +236,7 @@ def test_each_shipped_config_reaches_the_node_under_a_namespace(tmp_path, ros_te
         proc = subprocess.Popen([sys.executable, "-m", f"guide_health.nodes.{node}", "--ros-args", "-r", "__ns:=/m1",
                                  "--params-file", str(CONFIG / config)], env=env, stdout=out, stderr=subprocess.STDOUT)
     try:
-        end, seen = time.monotonic() + 60, None
+        end, seen = time.monotonic() + PLAYER_WAIT_TIMEOUT_S, None
         while time.monotonic() < end and seen is None and proc.poll() is None:
             seen = next((s for s in list(collector.latest.values()) if s["hardware_id"] == machine), None)
             time.sleep(0.1)
@@ -251,7 +252,7 @@ def test_each_shipped_config_reaches_the_node_under_a_namespace(tmp_path, ros_te
         assert "axes " in start[0] and f"{machine}/wear_monitor.db (new)" in start[0]
 
 
-def _start_line(cmd: list[str], env: dict, log: Path, timeout: float = 60.0) -> str:
+def _start_line(cmd: list[str], env: dict, log: Path, timeout: float = PLAYER_WAIT_TIMEOUT_S) -> str:
     """The node's ``start:`` line ('' when it logs none within ``timeout``); the node is stopped (SIGINT)."""
     with open(log, "w") as out:
         proc = subprocess.Popen(cmd, env=env, stdout=out, stderr=subprocess.STDOUT)
@@ -412,7 +413,7 @@ def test_readme_node_command_lines_run_as_written_under_a_namespace(tmp_path, ro
                 proc = subprocess.Popen([script, *argv[1:]], env=dict(env, ROS_HOME=str(tmp_path / f"home{i}")),
                                         stdout=out, stderr=subprocess.STDOUT)
             try:
-                end, seen = time.monotonic() + 60, False
+                end, seen = time.monotonic() + PLAYER_WAIT_TIMEOUT_S, False
                 while time.monotonic() < end and not seen and proc.poll() is None:
                     seen = any(s["hardware_id"] == machine for s in list(collector.latest.values()))
                     time.sleep(0.1)

@@ -9,14 +9,7 @@ import pytest
 pytest.importorskip("rclpy")
 
 from guide_health.cli.app import main  # noqa: E402
-from guide_health.nodes.session import (  # noqa: E402
-    DiagnosticsCollector,
-    bag_counts,
-    clean_fastdds_shm,
-    play_bag,
-    start_node,
-    stop_node,
-)
+from guide_health.nodes.session import PLAYER_WAIT_TIMEOUT_S, bag_counts  # noqa: E402
 
 pytestmark = pytest.mark.ros
 BENCH = Path(__file__).resolve().parents[1] / "config" / "bench_000.yaml"
@@ -37,19 +30,20 @@ def call_plan(env, scenario: str) -> tuple[bool, str]:
     context = rclpy.Context()
     rclpy.init(args=[], context=context)
     try:
-        return _call(context, "/wear_monitor", "/plan", {"plan_scenario": scenario}, 30.0)
+        return _call(context, "/wear_monitor", "/plan", {"plan_scenario": scenario}, PLAYER_WAIT_TIMEOUT_S)
     finally:
         rclpy.shutdown(context=context)
         os.environ.clear()
         os.environ.update(old)
 
 
-def test_live_plan_service_equals_the_offline_plan(tmp_path, ros_test_env, capsys):
+def test_live_plan_service_equals_the_offline_plan(tmp_path, live_wear_node, capsys):
     from guide_health.io.bag.writer import write_machine_bag
     from guide_health.params import simulation_params, wear_monitor_params
     from guide_health.sim.machine import simulate_machine
 
-    sim = dict(simulation_params(BENCH), duration_h=1.0, joint_state_rate_hz=10.0, load_rate_hz=1.0,
+    # 1 h at 2 Hz: the plan's rows are the model's numbers after the bag, the same function live and offline
+    sim = dict(simulation_params(BENCH), duration_h=1.0, joint_state_rate_hz=2.0, load_rate_hz=1.0,
                measurement_interval_h=0.25)
     bag = tmp_path / "bag"
     write_machine_bag(simulate_machine(wear_monitor_params(BENCH), sim, seed=5), bag)
@@ -58,21 +52,12 @@ def test_live_plan_service_equals_the_offline_plan(tmp_path, ros_test_env, capsy
     offline = json.loads(capsys.readouterr().out)["rows"]
     assert main(["replay", str(bag), "--params", str(BENCH), "--no-plot", "--json", "--out", str(tmp_path / "r")]) == 0
     counts = bag_counts(json.loads(capsys.readouterr().out))
-    env = ros_test_env()
-    collector = DiagnosticsCollector("plan_collector")
-    node = start_node("guide_health.nodes.wear_monitor", BENCH, {"state_file": "none", "diagnostics_period_s": 0.25},
-                      env, tmp_path / "node.log")
-    try:
-        assert collector.wait_for(STATUS, timeout=120.0) is not None, (tmp_path / "node.log").read_text()
-        assert play_bag(bag, env, ["--wait-subscribers", "1", "--max-rate", "0"]).returncode == 0
-        status = collector.wait_counts(STATUS, counts, timeout=300.0)
-        assert all(float(status["values"][k]) == v for k, v in counts.items()), "messages were lost on the way"
-        ok, answer = call_plan(env, SCENARIO)
-        bad_ok, reason = call_plan(env, "load=0")
-    finally:
-        stop_node(node)
-        collector.close()
-        clean_fastdds_shm()
+    live_wear_node.start(BENCH, {"state_file": "none", "diagnostics_period_s": 0.25}, STATUS)
+    live_wear_node.play(bag)
+    status = live_wear_node.wait_counts(STATUS, counts)
+    assert all(float(status["values"][k]) == v for k, v in counts.items()), "messages were lost on the way"
+    ok, answer = call_plan(live_wear_node.env, SCENARIO)
+    bad_ok, reason = call_plan(live_wear_node.env, "load=0")
     assert ok, answer
     live = json.loads(answer)["rows"]
     assert [r["scenario"] for r in live] == [r["scenario"] for r in offline] == ["as observed", "lighter, one shift"]

@@ -182,46 +182,28 @@ def test_no_rejections_no_block():
 
 # --- live == offline ------------------------------------------------------------------------------------------
 @pytest.mark.ros
-def test_live_node_counts_what_replay_counts_and_bag_player_skips_short_messages(tmp_path, ros_test_env,
+def test_live_node_counts_what_replay_counts_and_bag_player_skips_short_messages(tmp_path, live_wear_node,
                                                                               damaged_bag):
     """bag_player -> wear_monitor on the bag with every damage: the player skips the messages shorter than
     their type's fixed part (exit 3, one line naming topics and counts) and publishes the others; the node
     counts each published damaged message under the reason replay gives it, and receives every other message
     (samples, load samples, measurements equal to replay's)."""
-    pytest.importorskip("rclpy")
-    from guide_health.nodes.session import (
-        DiagnosticsCollector,
-        bag_counts,
-        clean_fastdds_shm,
-        play_bag,
-        start_node,
-        stop_node,
-    )
+    from guide_health.nodes.session import bag_counts
 
     params, bag, _ = damaged_bag
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         _, offline, _ = analyse_bag(bag, params)
-    env = ros_test_env()
     skipped = {}
     for kind in PLAYER_SKIPS:
         skipped[KINDS[kind][1]] = skipped.get(KINDS[kind][1], 0) + 1
     live_expected = {reason: n - skipped.get(reason, 0) for reason, n in offline_counts(offline).items()}
     live_expected = {reason: n for reason, n in live_expected.items() if n}
     status_name = "bench_000/wear_monitor: x precision"
-    collector = DiagnosticsCollector("ledger_collector")
-    node = start_node("guide_health.nodes.wear_monitor", BENCH,
-                      {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25}, env,
-                      log_path=tmp_path / "node.log")
-    try:
-        assert collector.wait_for(status_name, timeout=120.0) is not None, (tmp_path / "node.log").read_text()
-        played = play_bag(bag, env, ["--wait-subscribers", "1", "--max-rate", "0"])
-        counts = dict(bag_counts(offline), **{rules.rejected_key(r): n for r, n in live_expected.items()})
-        live = collector.wait_counts(status_name, counts, timeout=300.0)
-    finally:
-        stop_node(node)
-        collector.close()
-        clean_fastdds_shm()
+    live_wear_node.start(BENCH, {"state_file": str(tmp_path / "state.db"), "diagnostics_period_s": 0.25}, status_name)
+    played = live_wear_node.play(bag, returncode=None)
+    counts = dict(bag_counts(offline), **{rules.rejected_key(r): n for r, n in live_expected.items()})
+    live = live_wear_node.wait_counts(status_name, counts)
     assert played.returncode == 3, played.stderr
     assert ("error: skipped 6 messages that are not a CDR payload of their type (/guide/load: 3, "
             "/guide/straightness: 1, /joint_states: 2)") in played.stderr.splitlines()[-1]

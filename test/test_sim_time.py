@@ -46,27 +46,34 @@ def test_clock_option_and_tick_period():
     assert node.sent == [5_000_000_000, 5_100_000_000, 5_150_000_000]
 
 
-def run_clock_on(collector, from_ns, done, step_ns=5 * 10**9, steps=12):
+#: the test's own /clock after the bag: one tick per TICK_WALL_S of wall time, each one status period of bag time on
+PERIOD_S = 1.0
+TICK_WALL_S = 0.25
+
+
+def run_clock_on(collector, from_ns, done, timeout_s=300.0):
     """After the bag: the node has its data queued but stamps a status only when /clock passes a period, so
-    run the clock on (5 s of bag time per step, at most 60 s) until ``done(status)``. The steps start once
-    the node's /clock subscription has matched this publisher (a best-effort tick sent before is lost). The
-    node's progress shows only at a tick, and a loaded machine may take minutes to drain the queue that the
-    player filled: the ticks are spaced more and more widely (2 s doubling up to 60 s of wall time, about 8
-    minutes for the 12), each wait ending as soon as a status is done."""
+    run the clock on, one period of bag time per tick at a fixed wall-time cadence, until ``done(status)``
+    (at most ``timeout_s``: a loaded machine may take minutes to drain the queue the player filled; the wait
+    ends as soon as a status is done). The ticks start once the node's /clock subscription has matched this
+    publisher (a best-effort tick sent before is lost). (the done status or None, the ticks sent)."""
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from rosgraph_msgs.msg import Clock
 
     publisher = collector.node.create_publisher(Clock, "/clock", QoSProfile(depth=1,
                                                 reliability=ReliabilityPolicy.BEST_EFFORT))
     assert wait_until(lambda: publisher.get_subscription_count() >= 1, 120.0), "no /clock subscriber matched"
-    for k in range(1, steps + 1):
-        status = collector.wait_for(STATUS, done, timeout=min(60.0, 2.0 ** k))
+    end = time.monotonic() + timeout_s
+    ticks = 0
+    while time.monotonic() < end:
+        status = collector.wait_for(STATUS, done, timeout=TICK_WALL_S)
         if status is not None:
-            return status
+            return status, ticks
+        ticks += 1
         msg = Clock()
-        msg.clock.sec, msg.clock.nanosec = divmod(from_ns + k * step_ns, 10**9)
+        msg.clock.sec, msg.clock.nanosec = divmod(from_ns + int(ticks * PERIOD_S * 1e9), 10**9)
         publisher.publish(msg)
-    return collector.wait_for(STATUS, done, timeout=60.0)
+    return None, ticks
 
 
 def wait_until(condition, timeout_s: float) -> bool:
@@ -89,7 +96,7 @@ def ros_env(ros_test_env):
 @pytest.mark.ros
 def test_node_with_use_sim_time_runs_on_the_bag_clock(tmp_path, ros_env):
     params = wear_monitor_params(BENCH)
-    sim = dict(simulation_params(BENCH), duration_h=0.5, joint_state_rate_hz=10.0, load_rate_hz=1.0,
+    sim = dict(simulation_params(BENCH), duration_h=0.1, joint_state_rate_hz=10.0, load_rate_hz=1.0,
                measurement_interval_h=0.25)
     run = simulate_machine(params, sim, seed=11)
     bag = tmp_path / "bag"
@@ -101,26 +108,28 @@ def test_node_with_use_sim_time_runs_on_the_bag_clock(tmp_path, ros_env):
 
     collector = DiagnosticsCollector("sim_time_collector")
     node = start_node("guide_health.nodes.wear_monitor", BENCH,
-                      {"state_file": "''", "machine_id": "simtime_m1", "diagnostics_period_s": 5.0,
+                      {"state_file": "''", "machine_id": "simtime_m1", "diagnostics_period_s": PERIOD_S,
                        "use_sim_time": "true",
                        "input_timeout_s": 60.0}, ros_env, log_path=tmp_path / "node.log")
     try:
         # the node is up once its /diagnostics publisher is in the graph (not after a fixed delay)
         assert wait_until(lambda: collector.node.count_publishers("/diagnostics") >= 1, 120.0), \
             (tmp_path / "node.log").read_text()
-        time.sleep(6.0)                          # > one period of wall time: a wall-time timer would have fired
+        time.sleep(2.5 * PERIOD_S)               # > two periods of wall time: a wall-time timer would have fired
         assert collector.get(STATUS) is None, "a status before /clock started"
         played = play_bag(bag, ros_env, ["--wait-subscribers", "1", "--max-rate", "0", "--clock", "10"])
         assert played.returncode == 0, played.stderr
-        live = run_clock_on(collector, bag_end_ns, lambda s: float(s["values"]["samples"]) >= offline["samples"])
+        live, ticks = run_clock_on(collector, bag_end_ns,
+                                   lambda s: float(s["values"]["samples"]) >= offline["samples"])
     finally:
         stop_node(node)
         collector.close()
     assert live is not None, (tmp_path / "node.log").read_text()
     stamps = [status["stamp_ns"] for status in collector.history[STATUS]]
-    # the clock published /clock up to the bag's end; this test ran it on for at most 60 s of bag time
-    assert all(bag_start_ns <= t <= bag_end_ns + 60 * 10**9 for t in stamps), (stamps[:3], bag_start_ns)
-    # 1800 s of bag time + 60 s at one status per 5 s of bag time: at most 372, whatever the wall time
-    assert 10 <= len(stamps) <= 373
+    # the player published /clock up to the bag's end; this test ran it on by ``ticks`` periods of bag time
+    last_ns = bag_end_ns + int(ticks * PERIOD_S * 1e9)
+    assert all(bag_start_ns <= t <= last_ns for t in stamps), (stamps[:3], bag_start_ns, ticks)
+    # one status per period of bag time (360 s of bag + the ticks), whatever the wall time took
+    assert 10 <= len(stamps) <= (last_ns - bag_start_ns) / (PERIOD_S * 1e9) + 1, (len(stamps), ticks)
     assert float(live["values"]["samples"]) == offline["samples"]
     assert float(live["values"]["sliding_distance_m"]) == pytest.approx(offline["sliding_distance_m"], rel=1e-9)

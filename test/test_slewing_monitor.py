@@ -146,7 +146,9 @@ def test_slewing_bag_through_bag_player_and_node_matches_offline(tmp_path, ros_t
 
     env = ros_test_env()
     bag = tmp_path / "slewing"
-    write_slewing_bag(simulate_slewing({"duration_h": 0.02, "load_rate_hz": 200.0}, seed=2), bag)
+    # 10.8 s of loads at 200 Hz: every message counted and the worst period's contact equal to offline's need no
+    # longer stream (the node handles each load message on its own, a few hundred a second)
+    write_slewing_bag(simulate_slewing({"duration_h": 0.003, "load_rate_hz": 200.0}, seed=2), bag)
     params = load_node_params(CONFIG, "slewing_monitor", SLEWING_MONITOR_DEFAULTS)
     _, offline = analyse_slewing_run(read_slewing_bag(bag), params)
     name = "slewing_131/slewing_monitor: 131.32.2000.00Z roller contact"
@@ -174,7 +176,7 @@ def test_slewing_bag_through_bag_player_and_node_matches_offline(tmp_path, ros_t
     assert stale is not None, "no STALE status after the loads stopped"
     history = collector.history[name]
     received = sum(int(float(s["values"]["loads_in_period"])) for s in history)
-    assert received == offline["messages"] == 14400                      # nothing lost
+    assert received == offline["messages"] == 2160                       # nothing lost
     assert float(history[-1]["values"]["samples_missing_estimate"]) == offline["samples_missing_estimate"] == 0
     periods = [s for s in history if int(float(s["values"]["loads_in_period"])) > 0]
     live_max = max(float(s["values"]["p_max_MPa"]) for s in periods)

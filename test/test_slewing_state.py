@@ -232,7 +232,8 @@ def test_live_through_a_bag_equals_replay_and_sigkill_restart_resumes(tmp_path, 
     angles arrive on two topics; the node takes them in stamp order as the replay does: 1e-6, where one angle
     step at the neighbouring load sample moves the damage by ~1e-4);
     then SIGKILL and a restart: the start-up line says resumed and the first status carries the damage of
-    the last checkpoint (the bag ended > 2 checkpoint periods before the kill: the final damage)."""
+    the last checkpoint (the node ran > 2 checkpoint periods past the bag's end before the kill: the final
+    damage)."""
     from guide_health.analysis.replay import analyse_slewing_bag
     from guide_health.io.bag.writer import write_slewing_bag
     from guide_health.nodes.session import DiagnosticsCollector, clean_fastdds_shm, play_bag, start_node, stop_node
@@ -254,7 +255,10 @@ def test_live_through_a_bag_equals_replay_and_sigkill_restart_resumes(tmp_path, 
             "oscillation_strokes"] and s["level"] == 3, timeout=120.0)
         assert done is not None, [(s["level"], s["values"].get("oscillation_strokes"))
                                   for s in collector.history.get(name, [])][-5:]
-        time.sleep(1.5)                             # > 2 checkpoint periods after the last message
+        # a status stamped > 2 checkpoint periods after the final one: the node's timers ran on past it, so its
+        # checkpoint timer fired since (node time, not a quiet wall time, which a CPU-starved node may not use)
+        past = done["stamp_ns"] + int(3 * overrides["checkpoint_period_s"] * 1e9)
+        assert collector.wait_for(name, lambda s: s["stamp_ns"] >= past, timeout=120.0) is not None
         os.kill(node.pid, signal.SIGKILL)
         node.wait()
         clean_fastdds_shm()

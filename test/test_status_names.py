@@ -19,6 +19,7 @@ from pathlib import Path
 import pytest
 import yaml
 
+from guide_health.nodes.session import PLAYER_WAIT_TIMEOUT_S
 from guide_health.nodes.status import status_name
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -148,7 +149,7 @@ def test_the_file_as_rcl_gives_it_to_the_aggregator(tmp_path, ros_test_env):
     script = tmp_path / "probe.py"
     script.write_text(PROBE)
     proc = subprocess.run([sys.executable, str(script), "--ros-args", "-r", "__ns:=/plant", "--params-file",
-                           str(AGGREGATOR)], capture_output=True, text=True, env=env, timeout=60)
+                           str(AGGREGATOR)], capture_output=True, text=True, env=env, timeout=PLAYER_WAIT_TIMEOUT_S)
     flat = json.loads(proc.stdout.strip().splitlines()[-1])
     params: dict = {}
     for key, value in flat.items():                              # "monitors.regex" -> {"monitors": {"regex"}}

@@ -84,7 +84,7 @@ def test_systemd_analyze_verifies_the_unit(tmp_path):
 
 @pytest.mark.ros
 def test_the_expanded_exec_start_runs_the_machine_under_its_namespace(tmp_path, ros_test_env):
-    from guide_health.nodes.session import DiagnosticsCollector
+    from guide_health.nodes.session import PLAYER_WAIT_TIMEOUT_S, DiagnosticsCollector
 
     test_env = ros_test_env()
     machine_env = dict(environment_file(ENV_EXAMPLE.read_text()),
@@ -105,7 +105,7 @@ def test_the_expanded_exec_start_runs_the_machine_under_its_namespace(tmp_path, 
     with open(journal, "w") as out:
         proc = subprocess.Popen(argv, env=env, stdout=out, stderr=subprocess.STDOUT, cwd=tmp_path)
     try:
-        end, seen = time.monotonic() + 60, None
+        end, seen = time.monotonic() + PLAYER_WAIT_TIMEOUT_S, None
         while time.monotonic() < end and seen is None and proc.poll() is None:
             seen = next((name for name, s in list(collector.latest.items()) if s["hardware_id"] == "bench_000"),
                         None)
