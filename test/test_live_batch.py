@@ -6,6 +6,7 @@ samples), bad samples of every input rule (one load rejected by one guide's shar
 measure event stamped in the middle of a batch, straightness measurements between batches, a resumed load
 state, two guides with unequal shares, the profile model, a rolling guide with temperatures and the live wear
 effects."""
+import functools
 import math
 from pathlib import Path
 
@@ -152,12 +153,19 @@ def axis_params(**overrides):
     return p
 
 
+@functools.lru_cache(maxsize=2)
+def two_guides_sample_by_sample(resumed: bool) -> tuple:
+    """(params, events, the sample-by-sample monitor, its rejections): one reference per `resumed`, shared by
+    the batch sizes (read only: the tests compare reports)."""
+    params = axis_params()
+    events = stream(3, 6000, params["load_max_n"] / params["guide_load_shares"][0])
+    return (params, events, *run(params, events, 0, resumed))
+
+
 @pytest.mark.parametrize("batch", [3, 64, 100000])
 @pytest.mark.parametrize("resumed", [False, True])
 def test_batches_equal_sample_by_sample_two_guides(batch, resumed):
-    params = axis_params()
-    events = stream(3, 6000, params["load_max_n"] / params["guide_load_shares"][0])
-    one, r1 = run(params, events, 0, resumed)
+    params, events, one, r1 = two_guides_sample_by_sample(resumed)
     many, rn = run(params, events, batch, resumed)
     assert_same(one, many, r1, rn, 6000)
     assert one.batches == [0, 0] and min(many.batches) >= (1 if batch < 10**5 else 0)   # both ways taken

@@ -123,22 +123,44 @@ def _result(report: dict) -> str:
     return json.dumps({k: v for k, v in report.items() if k not in NOT_RESULTS}, sort_keys=True, default=str)
 
 
-def test_every_layout_replays_equal_to_the_sqlite3_original(original, tmp_path):
-    """13 layouts: every message read (bag_info counts, replay messages), the regrind applied, the report
-    equal to the original's. On the rosbags reader the no-message-index layouts lost the maintenance and
-    straightness topics or every message."""
+#: one layout per reader path: zstd, lz4 and uncompressed chunks, unchunked records, a file without summary,
+#: message indexes over a chunk's shuffled messages, records walked without indexes across chunks that overlap
+#: in time (the overlapping by-topic layout without indexes: the end-to-end test below)
+TWIN_LAYOUTS = ("zstd_4KiB", "lz4_8MiB", "unchunked", "no_summary", "shuffled_within_chunks",
+                "shuffled_across_no_message_index")
+
+
+def _check_layouts(original, tmp_path, names) -> None:
+    """Every message of each layout in `names` read (bag_info counts, replay messages), the regrind applied,
+    the report equal to the original's."""
     bag, messages = original
     params = wear_monitor_params(PARAMS)
     truth = analyse_bag(bag, params)[1]
     assert truth["maintenance_events"][0]["applied"] is True and truth["measurements"] >= 2
     counts = {t: sum(m[0] == t for m in messages) for t in {m[0] for m in messages}}
-    for name, (msgs, kwargs) in _layouts(messages).items():
+    layouts = _layouts(messages)
+    assert set(names) <= set(layouts)
+    for name in names:
+        msgs, kwargs = layouts[name]
         path = write_mcap_bag(bag, msgs, tmp_path / name, **kwargs)
         info = bag_info(path)
         assert {t: v["count"] for t, v in info["topics"].items()} == counts, name
         report = analyse_bag(path, params)[1]
         assert report["messages"] == truth["messages"], name
         assert _result(report) == _result(truth), name
+
+
+def test_each_reader_path_replays_equal_to_the_sqlite3_original(original, tmp_path):
+    """The default run's twin of the 13-layout test: one layout per reader path (TWIN_LAYOUTS)."""
+    _check_layouts(original, tmp_path, TWIN_LAYOUTS)
+
+
+@pytest.mark.slow
+def test_every_layout_replays_equal_to_the_sqlite3_original(original, tmp_path):
+    """13 layouts: every message read (bag_info counts, replay messages), the regrind applied, the report
+    equal to the original's. On the rosbags reader the no-message-index layouts lost the maintenance and
+    straightness topics or every message."""
+    _check_layouts(original, tmp_path, list(_layouts(original[1])))
 
 
 def test_replay_of_an_mcap_bag_without_message_indexes_equals_sqlite3_end_to_end(original, tmp_path):

@@ -8,6 +8,8 @@ simulator on one axis (never handed to the fit) and the simulator's K (3e-6: the
 recovers it within 10 %, which a fit across the regrind does not)."""
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import subprocess
 import sys
@@ -20,6 +22,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bag_cut import cut_bag, join_as_split_bag  # noqa: E402
 
 from guide_health.analysis.discrepancy.duty import read_duty_cells  # noqa: E402
+from guide_health.cli.app import main  # noqa: E402
 from guide_health.io.bag.bag_set import resolve_bags  # noqa: E402
 from guide_health.params import wear_monitor_params  # noqa: E402
 
@@ -37,9 +40,13 @@ def cli(*args):
 
 
 def ok_json(*args) -> dict:
-    proc = cli(*args, "--json")
-    assert proc.returncode == 0, proc.stderr
-    return json.loads(proc.stdout)
+    """The command's JSON from main() in this process (what the console script runs, without starting an
+    interpreter per call); the exit codes and one-line errors go through `cli`."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main([*map(str, args), "--json"])
+    assert code == 0, err.getvalue()
+    return json.loads(out.getvalue())
 
 
 def without(report: dict, keys=TIMING) -> dict:

@@ -33,7 +33,7 @@ import reference_wear as ref  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 JOBS = ROOT / "config" / "machine_jobs.yaml"
 NOISE_RANGE_M = (0.2e-6, 0.4e-6)                       # test_discrepancy.py's measurement noise range
-RATE_200 = {"joint_state_rate_hz": 200.0}     # the cheap runs: 200 Hz, 20 % fewer samples than the preset
+RATE_100 = {"joint_state_rate_hz": 100.0}     # the cheap runs: 100 Hz, 60 % fewer samples than the preset
 PARAM_TOL = {"load_exponent": ("load_exponent", 0.1), "retract_asymmetry": ("retract_wear_factor", 0.15)}
 
 
@@ -183,12 +183,13 @@ def named_right(r) -> bool:
 
 
 def test_realistic_motion_acceptance_cheap():
-    """Default suite (two 20 h runs at 200 Hz, one per process; 24 s at load average 3): load_exponent
-    seed 0 (hidden 1.76, fitted 1.72, as at 250 Hz in the slow test) and retract_asymmetry seed 5 (hidden
-    0.28, fitted 0.26) are named with their parameter. Shorter records do not identify the retract factor
+    """Default suite (two 20 h runs at 100 Hz, one per process): load_exponent seed 0 (hidden 1.76, fitted
+    1.715 at 100 Hz and at 200 Hz, 1.72 at 250 Hz in the slow test) and retract_asymmetry seed 5 (hidden 0.28,
+    fitted 0.259 at 100 and 200 Hz) are named with their parameter; phantom sliding 1e-5 to 2e-5. Shorter
+    records do not identify the retract factor
     (10 h of 1.5 h jobs: seeds 0 and 1 not named), so the default suite runs two full-length cases."""
     with mp.get_context("spawn").Pool(2) as pool:
-        rows = pool.map(realistic_case, [("load_exponent", 0, RATE_200), ("retract_asymmetry", 5, RATE_200)])
+        rows = pool.map(realistic_case, [("load_exponent", 0, RATE_100), ("retract_asymmetry", 5, RATE_100)])
     for r in rows:
         print(r)
         assert named_right(r), r
