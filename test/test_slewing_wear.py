@@ -235,3 +235,19 @@ def test_live_yaw_bag_equals_replay_for_every_wear_key(tmp_path, ros_test_env):
     assert not mismatch, mismatch
     assert float(live["fatigue_damage_upper_axial"]) == pytest.approx(offline["fatigue_damage_upper_axial"], rel=5e-3)
 
+
+
+def test_the_bag_size_guard_expects_the_duty_s_message_count(yaw_run):
+    """`simulate`'s size guard estimates the expected messages of an oscillating duty from its mean cycle: the
+    2-year yaw run above (loads + axis samples + readings: ~18 000) within 20 % of it, where the shortest dwell
+    would estimate ~5 M and refuse a long duty's bag by its size; a pitch hour likewise."""
+    from guide_health.cli.simulate import _slewing_messages_per_s
+    from guide_health.params.simulation import slewing_simulation_params
+    from guide_health.sim.slewing import simulate_slewing
+
+    for sim, run in ((YAW, yaw_run), ({"duty": "pitch", "duration_h": 1.0}, None)):
+        values = slewing_simulation_params(sim)
+        run = run if run is not None else simulate_slewing(sim, seed=3)
+        written = run.t_ns.size + run.axis_t_ns.size + run.clearance_m.size
+        expected = _slewing_messages_per_s(values) * values["duration_h"] * 3600.0
+        assert written == pytest.approx(expected, rel=0.20), (sim["duty"], written, expected)

@@ -138,14 +138,20 @@ def run_slewing(args) -> dict:
 
 
 def _slewing_messages_per_s(sim: dict) -> float:
-    """Messages per simulated second: the load rate of the crane duty; a yaw or pitch motion's load, its axis
-    samples (one per axis_sample_step_rad, the first and the end) per motion of the oscillating duties."""
+    """Expected messages per simulated second: the load rate of the crane duty; for the oscillating duties, a
+    motion's load and its axis samples (one per axis_sample_step_rad, the first and the end) over the mean
+    cycle (yaw: mean dwell + mean rotation / slew speed; pitch: half a period, a swing of twice the mean
+    amplitude). The expectation, not a worst case: over the thousands of motions of a long duty the count is
+    close to it, where the shortest dwell would overstate a yaw duty ~3600-fold."""
     if sim["duty"] == "crane":
         return float(sim["load_rate_hz"])
     step = float(sim["axis_sample_step_rad"])
     if sim["duty"] == "yaw":
-        return (3.0 + float(sim["yaw_rotation_max_rad"]) / step) / float(sim["yaw_dwell_min_s"])
-    return (3.0 + 2.0 * float(sim["pitch_amplitude_max_rad"]) / step) / (0.5 * float(sim["pitch_period_s"]))
+        rotation_rad = 0.5 * (float(sim["yaw_rotation_min_rad"]) + float(sim["yaw_rotation_max_rad"]))
+        cycle_s = float(sim["yaw_dwell_mean_s"]) + rotation_rad / float(sim["slew_speed_rad_s"])
+        return (3.0 + rotation_rad / step) / cycle_s
+    swing_rad = float(sim["pitch_amplitude_min_rad"]) + float(sim["pitch_amplitude_max_rad"])
+    return (3.0 + swing_rad / step) / (0.5 * float(sim["pitch_period_s"]))
 
 
 def run_life_test(args) -> dict:
