@@ -21,6 +21,7 @@ from guide_health.io.bag.reader import read_machine_bag
 from guide_health.io.bag.writer import write_machine_bag
 from guide_health.models.levels import LEVEL_NAMES
 from guide_health.nodes.session import (
+    PLAYER_WAIT_TIMEOUT_S,
     DiagnosticsCollector,
     clean_fastdds_shm,
     isolated_ros_env,
@@ -68,7 +69,9 @@ def main(argv: list[str] | None = None) -> int:
                       log_path=out / "wear_monitor.log")
     name = f"{params['machine_id']}/wear_monitor: {params['joint']} precision"
     try:
-        if collector.wait_for(name, timeout=30.0) is None:
+        # the first status: ends as soon as it arrives; the bound is the live tests' start-up bound (a node's
+        # imports and discovery took over 30 s at a load average of ~20)
+        if collector.wait_for(name, timeout=PLAYER_WAIT_TIMEOUT_S) is None:
             print("demo: wear_monitor did not come up (see out/demo/wear_monitor.log)", file=sys.stderr)
             return 1
         t0 = time.monotonic()
