@@ -17,7 +17,7 @@ import pytest
 from matplotlib.image import imread
 
 from guide_health.analysis import fleet_trend_plots
-from guide_health.analysis.fleet_trend_plots import envelope
+from guide_health.analysis.fleet_trend_plots import min_max_per_bin
 from guide_health.cli.app import main
 from guide_health.io.outputs.fleet_history import FleetHistory
 
@@ -280,15 +280,15 @@ def test_a_decimated_line_keeps_the_min_and_max_of_every_time_bin():
     t = T0_UNIX_S + 60.0 * np.arange(43_200)
     v = 500.0 - np.arange(43_200) / 60.0 + rng.normal(0.0, 2.0, t.size)
     v[31_337] = -50.0                                            # the one row in alarm
-    td, vd = envelope(t, v, t[0], t[-1], bins=800)
+    td, vd = min_max_per_bin(t, v, t[0], t[-1], bins=800)
     assert td.size <= 1602 and np.all(np.diff(td) > 0)
     assert (td[0], td[-1]) == (t[0], t[-1]) and -50.0 in vd
     raw_bin = np.clip(((t - t[0]) / (t[-1] - t[0]) * 800).astype(int), 0, 799)
     drawn_bin = np.clip(((td - t[0]) / (t[-1] - t[0]) * 800).astype(int), 0, 799)
     for b in range(800):
         assert (vd[drawn_bin == b].min(), vd[drawn_bin == b].max()) == (v[raw_bin == b].min(), v[raw_bin == b].max())
-    assert envelope(t[:1600], v[:1600], t[0], t[1599], bins=800)[0].size == 1600     # short: whole
-    assert envelope(t, v, t[0], t[-1], bins=0)[1].size == 43_200                       # bins 0: whole
+    assert min_max_per_bin(t[:1600], v[:1600], t[0], t[1599], bins=800)[0].size == 1600     # short: whole
+    assert min_max_per_bin(t, v, t[0], t[-1], bins=0)[1].size == 43_200                       # bins 0: whole
 
 
 def test_decimated_figures_leave_the_page_text_and_tables_as_they_were(history, tmp_path, monkeypatch):

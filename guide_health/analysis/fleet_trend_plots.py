@@ -16,7 +16,7 @@ OVERVIEW_LEGEND_MAX = 24        # machines named in the overview's legend (beyon
 PLOT_BINS = 800
 
 
-def envelope(t, v, t_lo: float, t_hi: float, bins: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+def min_max_per_bin(t, v, t_lo: float, t_hi: float, bins: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The points of a series (times ascending, values finite) to draw: per time bin of [t_lo, t_hi] its
     first minimum and first maximum, in time order, plus the series' first and last point. Every bin keeps
     the extremes of the full series, so no spike (an alarm) disappears from the figure, and a line of
@@ -64,7 +64,7 @@ def plot_machine_trend(path: Path, trend: MachineTrend) -> None:
         for name in names:
             sel = (status == name) & np.isfinite(values)
             if sel.any():
-                t, v = envelope(t_all[sel], values[sel], t0, t1)
+                t, v = min_max_per_bin(t_all[sel], values[sel], t0, t1)
                 ax.plot(_hours(t, t0), v, ".-", ms=3, label=name)
         ax.set_ylabel(label, fontsize=8)
         ax.grid(alpha=0.3)
@@ -72,7 +72,7 @@ def plot_machine_trend(path: Path, trend: MachineTrend) -> None:
     ax = axes[-1, 0]
     for row, name in enumerate(names):
         sel = status == name
-        t, levels = envelope(t_all[sel], np.asarray(trend.level, dtype=float)[sel], t0, t1)
+        t, levels = min_max_per_bin(t_all[sel], np.asarray(trend.level, dtype=float)[sel], t0, t1)
         ax.scatter(_hours(t, t0), np.full(levels.size, row), s=12,
                    c=[LEVEL_COLOURS.get(int(v), "#000") for v in levels])
     ax.set_yticks(range(len(names)))
@@ -96,7 +96,7 @@ def plot_fleet_overview(path: Path, trends: dict[str, MachineTrend], rows: list[
         values = np.asarray(trend.values["remaining_life_h"], dtype=float)
         sel = np.isfinite(values)
         if sel.any():
-            t, v = envelope(np.asarray(trend.t_unix_s, dtype=float)[sel], values[sel], t0, t1)
+            t, v = min_max_per_bin(np.asarray(trend.t_unix_s, dtype=float)[sel], values[sel], t0, t1)
             left.plot(_hours(t, t0), v, ".-", ms=3, label=m)
     left.set_xlabel(f"time [h] since {iso(t0)} UTC")
     left.set_ylabel("remaining precision life [h]")
