@@ -203,7 +203,7 @@ def test_candidate_model_is_the_simulated_physics():
            "stroke_distribution": 0.7, "thermal_drift": 1e-6, "initial_offset": 3e-6}
     run = simulate_machine(params, sim, seed=3, effects=eff)
     problem = WearProblem(duty_cells_from_runs(run, params["slider_length_m"]), params)
-    problem.load_reference_n = sim["load_reference_n"]
+    problem.fit_references["load_reference_n"] = sim["load_reference_n"]
     values = dict(wear_coefficient=params["wear_coefficient"], running_in_ratio=2.0, running_in_distance_m=400.0,
                   retract_wear_factor=0.3, lift_speed_m_s=0.05, load_exponent=1.5, stroke_distribution_weight=0.7,
                   thermal_drift_m_per_k=1e-6, initial_offset_m=3e-6)

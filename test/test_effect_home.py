@@ -15,12 +15,7 @@ HOME = "models/wear/effects/{}.py"
 REGISTRY = "models/wear/effects/registry.py"
 
 #: files outside an effect's home that may still name it: {file: (the effects it may name, why)}
-ALLOWED = {
-    "analysis/discrepancy/model.py": (
-        {"load_exponent"},
-        "WearProblem.load_reference_n: the record's work-weighted W_ref, an attribute under the EffectParameters "
-        "field's name that the fit passes on and tests set (renaming it touches every discrepancy module and test)"),
-}
+ALLOWED: dict[str, tuple[set[str], str]] = {}
 
 
 def effect_pattern(effect) -> re.Pattern:

@@ -235,7 +235,7 @@ def test_the_model_file_values_from_the_record_keep_their_order_and_closed_forms
     from guide_health.analysis.discrepancy.model_file import model_parameters
 
     t0_s, c_t, b = 1.7e9, 2.0e-6, 1.0e-6
-    problem = SimpleNamespace(a0_free=False, a0_m=10e-6, load_reference_n=5000.0, retract_sign=1,
+    problem = SimpleNamespace(a0_free=False, a0_m=10e-6, fit_references={"load_reference_n": 5000.0}, retract_sign=1,
                               cells=SimpleNamespace(t0_ns=int(t0_s * 1e9)), temperature_first_c=21.0,
                               position_ref_m=0.25, relubrication_t_s=np.array([3600.0, 10800.0, 14400.0]))
     values = {"wear_coefficient": 4e-6, "thermal_drift_m_per_k": c_t, "thermal_offset_m": b,

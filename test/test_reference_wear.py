@@ -116,7 +116,7 @@ def test_candidate_model_with_the_true_parameters_is_the_reference(effect):
     problem = WearProblem(duty_cells_from_runs(run, params["slider_length_m"]), params)
     n = effects.get("load_exponent", 1.0)
     values = {"wear_coefficient": params["wear_coefficient"]
-              * (problem.load_reference_n / sim["load_reference_n"]) ** (n - 1.0)}
+              * (problem.fit_references["load_reference_n"] / sim["load_reference_n"]) ** (n - 1.0)}
     names = {"running_in": "running_in_ratio", "retract_asymmetry": "retract_wear_factor",
              "speed_dependent_wear": "lift_speed_m_s", "load_exponent": "load_exponent",
              "stroke_distribution": "stroke_distribution_weight", "thermal_drift": "thermal_drift_m_per_k",

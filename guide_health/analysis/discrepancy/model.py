@@ -29,7 +29,7 @@ from guide_health.models.wear.effects import (
     effect_multiplier,
     measured_straightness_m,
 )
-from guide_health.models.wear.effects.base import FitContext
+from guide_health.models.wear.effects.base import FitContext, work_weighted_geomean
 from guide_health.models.wear.effects.base import FitParameter as ParamSpec
 from guide_health.models.wear.effects.registry import (
     BY_ID,
@@ -38,6 +38,7 @@ from guide_health.models.wear.effects.registry import (
     GAUGE_TEMPERATURE,
     OUTSIDE_THE_SUMS,
     PASS_WEIGHTING,
+    RECORD_REFERENCE_EFFECTS,
     SLIDING_DECAY,
 )
 from guide_health.models.wear.input_rules import reading_in_force_index
@@ -99,14 +100,6 @@ class FitResult:
         }
 
 
-def work_weighted_geomean(values: np.ndarray, work: np.ndarray, mask: np.ndarray | None = None) -> float:
-    """exp(sum w ln x / sum w) over the cells in ``mask`` (0 when they carry no work)."""
-    if mask is not None:
-        values, work = values[mask], work[mask]
-    total = work.sum()
-    return float(np.exp((work * np.log(values)).sum() / total)) if total > 0 else 0.0
-
-
 def rel_errors(pred: np.ndarray, meas: np.ndarray) -> np.ndarray:
     return np.abs(pred - meas) / np.abs(meas)
 
@@ -115,8 +108,8 @@ def rel_errors(pred: np.ndarray, meas: np.ndarray) -> np.ndarray:
 MIN_MEASUREMENTS = 6
 #: parameters of the prediction that do not enter the multiplier m (Eq. 7/10's factor and the terms added to it)
 _OUTSIDE_THE_SUMS = frozenset({"wear_coefficient", "straightness_initial_m"}) | OUTSIDE_THE_SUMS
-#: the EffectParameters fields a fit may hold (the load reference is the problem's own)
-_EFFECT_FIELDS = tuple(f.name for f in dataclasses.fields(EffectParameters) if f.name != "load_reference_n")
+#: the EffectParameters fields a fit may hold (those taken from the record, WearProblem.fit_references, win)
+_EFFECT_FIELDS = tuple(f.name for f in dataclasses.fields(EffectParameters))
 
 
 class WearProblem:
@@ -163,7 +156,8 @@ class WearProblem:
         if not self.feed_speed_m_s > 0:
             self.feed_speed_m_s = float(np.median(cells.speed_m_s))
         self.retract_speed_m_s = speeds[self.retract_sign]
-        self.load_reference_n = work_weighted_geomean(cells.load_n, cells.work_nm)
+        # effect parameters taken from the record instead of fitted (Effect.fit_references: e.g. a reference load)
+        self.fit_references = {k: v for e in RECORD_REFERENCE_EFFECTS for k, v in e.fit_references(cells).items()}
         # temperature change at the measurements (relative to the first measurement)
         self.temperature_change_k = None
         self.temperature_first_c = math.nan
@@ -237,11 +231,11 @@ class WearProblem:
         """Measured straightness [m] at every measurement for physical parameter values."""
         c = self.cells
         # the fitted effect parameters; one not fitted keeps EffectParameters' no-effect value
-        eff = EffectParameters(load_reference_n=self.load_reference_n,
-                               **{name: values[name] for name in _EFFECT_FIELDS if name in values})
+        eff = EffectParameters(**{**{name: values[name] for name in _EFFECT_FIELDS if name in values},
+                                  **self.fit_references})
         # the effective work depends on the multiplier's parameters (and the sliding decay's law) only: a
         # finite-difference step of K, A0 or a term outside the sums (most of a fit's evaluations) reuses the last sums
-        key = (self.load_reference_n, self.running_in_form,
+        key = (tuple(sorted(self.fit_references.items())), self.running_in_form,
                *sorted((k, v) for k, v in values.items() if k not in _OUTSIDE_THE_SUMS))
         if self._work_cache is None or self._work_cache[0] != key:
             ri = SLIDING_DECAY.cell_factor(eff, self.running_in_form, c.sliding_distance_m, c.sliding_distance_var_m2)

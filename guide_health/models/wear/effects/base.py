@@ -148,6 +148,11 @@ class Effect:
         functions of fitted parameters other than their own (``file_values``: the file's values)."""
         return ()
 
+    def fit_references(self, cells: Any) -> dict[str, float]:
+        """EffectParameters fields the fit takes from the record instead of fitting them (duty cells with
+        ``load_n`` [N], ``work_nm`` [N m], ...): field name -> value."""
+        return {}
+
     def record_references(self, problem: Any) -> dict[str, Any]:
         """The references of its parameters the fit takes from the record (the model file writes them and the
         report lists them: wear_monitor parameter name -> value)."""
@@ -253,3 +258,11 @@ class FitContext:
     position_spread_m: float
     relubrication_gap_s: float | None
     a0_free: bool
+
+
+def work_weighted_geomean(values: np.ndarray, work: np.ndarray, mask: np.ndarray | None = None) -> float:
+    """exp(sum w ln x / sum w) over the cells in ``mask`` (0 when they carry no work)."""
+    if mask is not None:
+        values, work = values[mask], work[mask]
+    total = work.sum()
+    return float(np.exp((work * np.log(values)).sum() / total)) if total > 0 else 0.0

@@ -14,6 +14,7 @@ from guide_health.models.wear.effects.base import (
     FitContext,
     FitParameter,
     SimulateValue,
+    work_weighted_geomean,
 )
 
 
@@ -33,9 +34,13 @@ class LoadExponent(Effect):
     def simulation_fields(self, sim, run):
         return {"load_reference_n": sim["load_reference_n"]}
 
+    def fit_references(self, cells):
+        """W_ref [N]: the record's work-weighted geometric mean load, so the fitted K stays the baseline's."""
+        return {"load_reference_n": work_weighted_geomean(cells.load_n, cells.work_nm)}
+
     def record_references(self, problem):
         """W_ref: the record's work-weighted geometric mean load [N] (the fit's)."""
-        return {"load_reference_n": float(problem.load_reference_n)}
+        return {"load_reference_n": float(problem.fit_references["load_reference_n"])}
 
     def live_rate_gradients(self, e, seg):
         return {self.rate_row: live_gradient(seg.effective_work_nm, seg.load_n, e.load_reference_n)}
