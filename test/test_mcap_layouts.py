@@ -54,7 +54,7 @@ def in_process(*args) -> subprocess.CompletedProcess:
 def original(tmp_path_factory):
     """(bag, messages [(topic, type, msgdef, log time, data)] in log-time order) of a simulated 2 h bag with
     a regrind at 1 h and a straightness reading every 0.5 h; joint states and loads at 2 Hz (14 400 messages
-    each: still ~200 chunks of 4 KiB, and each message written by the mcap writer's Python code)."""
+    each: still 671 chunks of 4 KiB in the zstd layout, each message written by the mcap writer's Python code)."""
     from rosbags.rosbag2 import Reader
 
     tmp = tmp_path_factory.mktemp("mcap_layouts")
