@@ -4,6 +4,8 @@ line, report files are never written through a symbolic link and are 0640, a joi
 error naming the joint and the joints present (exit 2)."""
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import os
 import shutil
@@ -14,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from guide_health.cli.app import main
 from guide_health.errors import InputError
 from guide_health.io.bag import reader as bag_reader
 from guide_health.io.bag import writer as bag_writer
@@ -44,8 +47,18 @@ def bag(tmp_path_factory) -> Path:
 
 
 def cli(*args):
+    """The console script (an interpreter of its own): the warning line of a stale count on its stderr."""
     return subprocess.run([sys.executable, "-m", "guide_health.cli", *map(str, args)], capture_output=True,
                           text=True, timeout=120, env=dict(os.environ, PYTHONPATH=str(ROOT)))
+
+
+def in_process(*args) -> subprocess.CompletedProcess:
+    """main() in this process (what the console script runs, without an interpreter start per call), as `cli`
+    gives it: exit code, stdout, stderr."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main([*map(str, args)])
+    return subprocess.CompletedProcess(args, code, out.getvalue(), err.getvalue())
 
 
 def _copy_with_count(bag: Path, dest: Path, old: int, new: int) -> Path:
@@ -72,7 +85,7 @@ def test_metadata_counts_that_disagree_are_reported_with_the_stored_rows_used(ba
     assert report["bag_count_mismatch"] == {"/joint_states": {"metadata": 1500, "rows": 2000}}
     warning = [line for line in proc.stderr.splitlines() if "warning" in line]
     assert len(warning) == 1 and "/joint_states 1500 in metadata.yaml, 2000 stored" in warning[0], proc.stderr
-    good = cli("replay", bag, "--params", PARAMS, "--json", "--no-plot", "--out", tmp_path / "g")
+    good = in_process("replay", bag, "--params", PARAMS, "--json", "--no-plot", "--out", tmp_path / "g")
     assert "bag_count_mismatch" not in json.loads(good.stdout) and "warning" not in good.stderr
 
 
@@ -82,7 +95,7 @@ def test_metadata_counting_more_messages_than_read_is_an_error(bag, tmp_path):
     wrong = _copy_with_count(bag, tmp_path / "more", 2000, 2500)
     with pytest.raises(InputError, match="topic /joint_states: metadata.yaml counts 2500 messages, only 2000"):
         bag_reader.read_machine_bag(wrong)
-    proc = cli("replay", wrong, "--params", PARAMS, "--json", "--no-plot", "--out", tmp_path / "r")
+    proc = in_process("replay", wrong, "--params", PARAMS, "--json", "--no-plot", "--out", tmp_path / "r")
     assert proc.returncode == 2 and proc.stdout == ""
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "2500" in lines[0] and "2000" in lines[0] and "stale" not in lines[0], proc.stderr
@@ -105,7 +118,7 @@ def test_storage_files_outside_the_bag_folder_are_refused(bag, tmp_path, how):
     meta.write_text(meta.read_text().replace(db.name, name))
     with pytest.raises(InputError, match="outside the bag folder"):
         bag_reader.read_machine_bag(evil)
-    proc = cli("replay", evil, "--params", PARAMS, "--json", "--no-plot", "--out", tmp_path / "r")
+    proc = in_process("replay", evil, "--params", PARAMS, "--json", "--no-plot", "--out", tmp_path / "r")
     assert proc.returncode == 2 and proc.stdout == "", proc.stdout
     assert proc.stderr.count("\n") == 1 and "outside the bag folder" in proc.stderr and repr(name) in proc.stderr
 
@@ -117,7 +130,7 @@ def test_a_joint_missing_offline_is_an_error_naming_the_joints_present(bag, tmp_
     params = tmp_path / "y.yaml"
     params.write_text(PARAMS.read_text().replace("joint: x", "joint: 'y'"))     # bare y is a bool to rcl
     assert "joint: 'y'" in params.read_text()
-    proc = cli("replay", bag, "--params", params, "--json", "--no-plot", "--out", tmp_path / "r")
+    proc = in_process("replay", bag, "--params", params, "--json", "--no-plot", "--out", tmp_path / "r")
     assert proc.returncode == 2 and proc.stdout == ""
     assert proc.stderr.count("\n") == 1 and "joint 'y' (joints present: x)" in proc.stderr, proc.stderr
 
@@ -128,13 +141,13 @@ def test_replay_never_writes_through_a_symlink_and_reports_are_0640(bag, tmp_pat
     victim = tmp_path / "victim.txt"
     victim.write_text("keep me")
     (out / "report.json").symlink_to(victim)
-    proc = cli("replay", bag, "--params", PARAMS, "--json", "--out", out)
+    proc = in_process("replay", bag, "--params", PARAMS, "--json", "--out", out)
     assert proc.returncode == 2 and victim.read_text() == "keep me"
     assert proc.stderr.count("\n") == 1 and "symbolic link" in proc.stderr and "report.json" in proc.stderr
     (out / "report.json").unlink()
     (out / "straightness.csv").write_text("old")
     os.chmod(out / "straightness.csv", 0o666)               # an older, wider file is narrowed
-    proc = cli("replay", bag, "--params", PARAMS, "--json", "--out", out)
+    proc = in_process("replay", bag, "--params", PARAMS, "--json", "--out", out)
     assert proc.returncode == 0, proc.stderr
     for name in ("report.json", "straightness.csv", "straightness.png"):
         assert (out / name).stat().st_mode & 0o777 == REPORT_MODE == 0o640, name

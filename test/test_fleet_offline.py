@@ -38,6 +38,16 @@ def fleet_bags(tmp_path_factory):
     return root
 
 
+@pytest.fixture(scope="module")
+def scheduler():
+    """The address of a Dask scheduler with one worker process, shared by the tests that hand bags to a
+    scheduler (a cluster's start-up costs each worker an interpreter and the package's imports)."""
+    from distributed import LocalCluster
+
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        yield cluster.scheduler_address
+
+
 def run_cli(capsys, argv):
     code = main([*argv, "--json"])
     return code, json.loads(capsys.readouterr().out)
@@ -75,24 +85,21 @@ def test_fleet_replay_on_local_worker_processes_equals_single_replays(fleet_bags
     assert imread(fleet["files"]["png"]).shape[0] > 100
 
 
-def test_fleet_replay_on_a_scheduler_address_equals_serial(fleet_bags, tmp_path, capsys):
-    from distributed import LocalCluster
-
+def test_fleet_replay_on_a_scheduler_address_equals_serial(fleet_bags, scheduler, tmp_path, capsys):
     _, serial = run_cli(capsys, ["fleet", "replay", str(fleet_bags / "bags"), "--params", str(CONFIG),
                                  "--workers", "0", "--no-plot", "--out", str(tmp_path / "serial")])
     assert serial["engine"] == "serial"
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        code, remote = run_cli(capsys, ["fleet", "replay", str(fleet_bags / "bags"), "--params", str(CONFIG),
-                                        "--scheduler", cluster.scheduler_address, "--no-plot",
-                                        "--out", str(tmp_path / "remote")])
-    assert code == 0 and remote["engine"] == cluster.scheduler_address
+    code, remote = run_cli(capsys, ["fleet", "replay", str(fleet_bags / "bags"), "--params", str(CONFIG),
+                                    "--scheduler", scheduler, "--no-plot", "--out", str(tmp_path / "remote")])
+    assert code == 0 and remote["engine"] == scheduler
     assert all(same_result(a["result"], b["result"]) for a, b in zip(serial["results"], remote["results"]))
 
 
-def test_a_bad_bag_is_named_and_the_others_complete(fleet_bags, tmp_path, capsys):
+def test_a_bad_bag_is_named_and_the_others_complete(fleet_bags, scheduler, tmp_path, capsys):
+    """On a worker process (the shared scheduler's): the bad bags' one-line errors travel back."""
     code, fleet = run_cli(capsys, ["fleet", "replay", str(fleet_bags / "bags" / "bag0"), str(fleet_bags / "broken"),
                                    str(fleet_bags / "bags" / "bag2"), str(fleet_bags / "missing"),
-                                   "--params", str(CONFIG), "--workers", "2", "--no-plot",
+                                   "--params", str(CONFIG), "--scheduler", scheduler, "--no-plot",
                                    "--out", str(tmp_path / "partial")])
     assert code == PARTIAL_EXIT_STATUS == 3
     assert (fleet["ok"], fleet["failed"]) == (2, 2)

@@ -29,6 +29,9 @@ COMPARED = ("wear_volume_mm3", "straightness_um", "wear_coefficient", "wear_coef
             "sliding_distance_m", "duty_load_speed_w")
 EXACT = ("samples", "load_samples", "measurements", "strokes", "rejected_samples", "rejected_recent_share",
          "samples_missing_estimate", "joint_period_estimate_us", "stroke_min_m", "stroke_max_m")
+#: joint samples per stream (100 Hz): 30 s and 20 s hold 3 and 2 standstills, the 6 arrival gaps, the 4
+#: measurements, both events and every bad sample (the batches equal the sample-by-sample feed at any length)
+N_TWO_GUIDES, N_VARIANT = 3000, 2000
 
 
 def stream(seed: int, n: int, load_max_primary_n: float):
@@ -158,7 +161,7 @@ def two_guides_sample_by_sample(resumed: bool) -> tuple:
     """(params, events, the sample-by-sample monitor, its rejections): one reference per `resumed`, shared by
     the batch sizes (read only: the tests compare reports)."""
     params = axis_params()
-    events = stream(3, 6000, params["load_max_n"] / params["guide_load_shares"][0])
+    events = stream(3, N_TWO_GUIDES, params["load_max_n"] / params["guide_load_shares"][0])
     return (params, events, *run(params, events, 0, resumed))
 
 
@@ -167,7 +170,7 @@ def two_guides_sample_by_sample(resumed: bool) -> tuple:
 def test_batches_equal_sample_by_sample_two_guides(batch, resumed):
     params, events, one, r1 = two_guides_sample_by_sample(resumed)
     many, rn = run(params, events, batch, resumed)
-    assert_same(one, many, r1, rn, 6000)
+    assert_same(one, many, r1, rn, N_TWO_GUIDES)
     assert one.batches == [0, 0] and min(many.batches) >= (1 if batch < 10**5 else 0)   # both ways taken
     # the axis's gate judges a load once, at the first guide's share: 3 huge + 3 too big for that share
     assert one.rejected["load above the plausible maximum"] == 6
@@ -186,10 +189,10 @@ def test_batches_equal_sample_by_sample_profile_rolling_effects(variant):
         nsk = machine_axes_params(ROOT / "config" / "nsk_lh45.yaml")
         params = dict(next(iter(nsk.values())), axis="y", guides=["front", "rear"],
                       guide_load_shares=[0.6, 0.4], load_max_n=15000.0, straightness_limit_m=60e-6)
-    events = stream(8, 4000, params["load_max_n"] / params["guide_load_shares"][0])
+    events = stream(8, N_VARIANT, params["load_max_n"] / params["guide_load_shares"][0])
     one, r1 = run(params, events, 0, False)
     many, rn = run(params, events, 50, False)
-    assert_same(one, many, r1, rn, 4000)
+    assert_same(one, many, r1, rn, N_VARIANT)
     assert (many.primary.effect_wear is not None) == (variant == "effects")
 
 

@@ -9,6 +9,8 @@ copied byte for byte into each mcap file).
 """
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import os
 import subprocess
@@ -21,6 +23,7 @@ import yaml
 from mcap import writer as mcap_writer
 
 from guide_health.analysis.replay import analyse_bag
+from guide_health.cli.app import main
 from guide_health.errors import InputError
 from guide_health.io.bag.info import bag_info
 from guide_health.params import wear_monitor_params
@@ -38,15 +41,29 @@ def cli(*args):
                           text=True, timeout=300, env=dict(os.environ, PYTHONPATH=str(ROOT)))
 
 
+def in_process(*args) -> subprocess.CompletedProcess:
+    """main() in this process (what the console script runs, without an interpreter start per call), as `cli`
+    gives it: exit code, stdout, stderr. One end-to-end replay and one refusal still go through `cli`."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main([*map(str, args)])
+    return subprocess.CompletedProcess(args, code, out.getvalue(), err.getvalue())
+
+
 @pytest.fixture(scope="module")
 def original(tmp_path_factory):
     """(bag, messages [(topic, type, msgdef, log time, data)] in log-time order) of a simulated 2 h bag with
-    a regrind at 1 h and a straightness reading every 0.5 h."""
+    a regrind at 1 h and a straightness reading every 0.5 h; joint states and loads at 2 Hz (14 400 messages
+    each: still 671 chunks of 4 KiB in the zstd layout, each message written by the mcap writer's Python code)."""
     from rosbags.rosbag2 import Reader
 
-    bag = tmp_path_factory.mktemp("mcap_layouts") / "sqlite3"
-    proc = cli("simulate", "--params", PARAMS, "--hours", 2, "--rate", 2, "--seed", 4, "--out", bag,
-               "--maintenance", "regrind:x@1h=10um")
+    tmp = tmp_path_factory.mktemp("mcap_layouts")
+    bag, sim_params = tmp / "sqlite3", tmp / "bench_2hz.yaml"
+    text = PARAMS.read_text()
+    assert text.count("load_rate_hz: 10.0\n") == 1
+    sim_params.write_text(text.replace("load_rate_hz: 10.0\n", "load_rate_hz: 2.0\n"))
+    proc = in_process("simulate", "--params", sim_params, "--hours", 2, "--rate", 2, "--seed", 4, "--out", bag,
+                      "--maintenance", "regrind:x@1h=10um")
     assert proc.returncode == 0, proc.stderr
     with Reader(bag) as reader:
         messages = [(c.topic, c.msgtype, c.msgdef.data, t, bytes(raw)) for c, t, raw in reader.messages()]
@@ -164,12 +181,13 @@ def test_every_layout_replays_equal_to_the_sqlite3_original(original, tmp_path):
 
 
 def test_replay_of_an_mcap_bag_without_message_indexes_equals_sqlite3_end_to_end(original, tmp_path):
-    """The CLI on chunks that overlap in time and have no message index: exit 0, no warning, the same JSON."""
+    """The CLI (the console script) on chunks that overlap in time and have no message index: exit 0, no
+    warning, the JSON of the original's replay (main() in this process)."""
     bag, messages = original
     msgs, kwargs = _layouts(messages)["overlapping_no_message_index"]
     path = write_mcap_bag(bag, msgs, tmp_path / "mcap", **kwargs)
-    got = [cli("replay", b, "--params", PARAMS, "--json", "--no-plot", "--out", tmp_path / f"r{i}")
-           for i, b in enumerate((bag, path))]
+    got = [run("replay", b, "--params", PARAMS, "--json", "--no-plot", "--out", tmp_path / f"r{i}")
+           for i, (run, b) in enumerate(((in_process, bag), (cli, path)))]
     assert [p.returncode for p in got] == [0, 0], got[1].stderr
     assert "warning" not in got[1].stderr
     assert _result(json.loads(got[1].stdout)) == _result(json.loads(got[0].stdout))
@@ -189,7 +207,8 @@ def _hide_message(mcap_file: Path, messages: list, topic: str) -> None:
 @pytest.mark.parametrize("topic", [MAINTENANCE, STRAIGHTNESS])
 def test_messages_no_reader_delivers_are_refused_naming_topic_and_counts(original, tmp_path, topic):
     """Uncompressed chunks without message indexes; one message of `topic` hidden: open checked (info) and
-    replay both refuse in one line with the topic and both counts (never 'stale metadata'), exit 2."""
+    replay (main() in this process) both refuse in one line with the topic and both counts (never 'stale
+    metadata'), exit 2."""
     bag, messages = original
     msgs, kwargs = _layouts(messages)["no_message_index_none"]
     path = write_mcap_bag(bag, msgs, tmp_path / "bag", **kwargs, enable_crcs=False)     # a valid edit
@@ -199,14 +218,15 @@ def test_messages_no_reader_delivers_are_refused_naming_topic_and_counts(origina
         bag_info(path)
     with pytest.raises(InputError, match=f"topic {topic}: the file holds {n} messages, {n - 1} were read"):
         analyse_bag(path, wear_monitor_params(PARAMS))
-    proc = cli("replay", path, "--params", PARAMS, "--json", "--no-plot", "--out", tmp_path / "r")
+    proc = in_process("replay", path, "--params", PARAMS, "--json", "--no-plot", "--out", tmp_path / "r")
     lines = proc.stderr.strip().splitlines()
     assert proc.returncode == 2 and proc.stdout == "" and len(lines) == 1, proc.stderr
     assert topic in lines[0] and f"{n} messages, {n - 1} were read" in lines[0] and "stale" not in lines[0]
 
 
 def test_a_chunk_in_a_compression_no_reader_reads_is_refused(original, tmp_path):
-    """A chunk whose compression is not none/zstd/lz4: its messages cannot be delivered, exit 2, one line."""
+    """A chunk whose compression is not none/zstd/lz4: its messages cannot be delivered, exit 2, one line (the
+    console script)."""
     bag, messages = original
     path = write_mcap_bag(bag, messages, tmp_path / "bag", compression=mcap_writer.CompressionType.LZ4,
                           chunk_size=4096)

@@ -39,14 +39,20 @@ def cli(*args):
                           text=True, timeout=600)
 
 
-def ok_json(*args) -> dict:
-    """The command's JSON from main() in this process (what the console script runs, without starting an
-    interpreter per call); the exit codes and one-line errors go through `cli`."""
+def in_process(*args) -> tuple[int, str, str]:
+    """(exit code, stdout, stderr) of main() in this process: what the console script runs, without starting
+    an interpreter per call (one replay and one diagnose still go through `cli`, the console script)."""
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main([*map(str, args), "--json"])
-    assert code == 0, err.getvalue()
-    return json.loads(out.getvalue())
+        code = main([*map(str, args)])
+    return code, out.getvalue(), err.getvalue()
+
+
+def ok_json(*args) -> dict:
+    """The command's JSON from main() in this process."""
+    code, out, err = in_process(*args, "--json")
+    assert code == 0, err
+    return json.loads(out)
 
 
 def without(report: dict, keys=TIMING) -> dict:
@@ -59,9 +65,9 @@ def recording(tmp_path_factory):
     0.7 h and 1.3 h, named against their time order (c_b first, then c_a, then c_c)."""
     tmp = tmp_path_factory.mktemp("recording")
     one = tmp / "one"
-    proc = cli("simulate", "--params", BENCH, "--out", one, "--hours", "2", "--rate", "10",
-               "--maintenance", "relubricate:x@1h")
-    assert proc.returncode == 0, proc.stderr
+    code, _, err = in_process("simulate", "--params", BENCH, "--out", one, "--hours", "2", "--rate", "10",
+                              "--maintenance", "relubricate:x@1h")
+    assert code == 0, err
     shifts = tmp / "shifts"
     shifts.mkdir()
     edges = [T0_NS, T0_NS + int(0.7 * HOUR_NS), T0_NS + int(1.3 * HOUR_NS), T0_NS + 3 * HOUR_NS]
@@ -69,12 +75,17 @@ def recording(tmp_path_factory):
     return {"one": one, "parts": parts, "dir": shifts, "tmp": tmp}
 
 
-def test_three_consecutive_bags_replay_exactly_as_the_recording(recording):
+@pytest.fixture(scope="module")
+def recording_replay(recording) -> dict:
+    """The recording's own replay (JSON), the truth of the bag-set replays."""
+    return ok_json("replay", recording["one"], "--params", BENCH, "--out", recording["tmp"] / "r_one", "--no-plot")
+
+
+def test_three_consecutive_bags_replay_exactly_as_the_recording(recording, recording_replay):
     """The same JSON to the last bit (timing and file keys aside), whatever order the bags are named in, and
     as a directory of bags; the relubrication recorded in the middle bag is applied; two gaps of one sample
     period (the cuts) are listed with start, end and duration."""
-    tmp = recording["tmp"]
-    one = ok_json("replay", recording["one"], "--params", BENCH, "--out", tmp / "r_one", "--no-plot")
+    tmp, one = recording["tmp"], recording_replay
     c_b, c_a, c_c = recording["parts"]
     three = ok_json("replay", c_c, c_b, c_a, "--params", BENCH, "--out", tmp / "r_three", "--no-plot")
     folder = ok_json("replay", recording["dir"], "--params", BENCH, "--out", tmp / "r_dir", "--no-plot")
@@ -88,16 +99,15 @@ def test_three_consecutive_bags_replay_exactly_as_the_recording(recording):
         assert gap["end_ns"] == T0_NS + int(cut * HOUR_NS)                           # the next bag's first message
         assert 0 < gap["duration_s"] <= 0.1 + 1e-9                                    # one 10 Hz sample period
         assert gap["duration_s"] == pytest.approx((gap["end_ns"] - gap["start_ns"]) * 1e-9, abs=1e-12)
-    text = cli("replay", c_a, c_b, c_c, "--params", BENCH, "--out", tmp / "r_text", "--no-plot").stdout
+    text = in_process("replay", c_a, c_b, c_c, "--params", BENCH, "--out", tmp / "r_text", "--no-plot")[1]
     assert text.count("gap:") == 2 and "bags:  3 from" in text
 
 
-def test_split_bag_directory_replays_as_the_unsplit_bag(recording):
+def test_split_bag_directory_replays_as_the_unsplit_bag(recording, recording_replay):
     """One bag of three storage files (one metadata.yaml, as `ros2 bag record` splits) == the unsplit bag."""
-    tmp = recording["tmp"]
+    tmp, one = recording["tmp"], recording_replay
     split = join_as_split_bag(recording["parts"], tmp / "split")
     assert len(list(split.glob("*.db3"))) == 3
-    one = ok_json("replay", recording["one"], "--params", BENCH, "--out", tmp / "s_one", "--no-plot")
     out = ok_json("replay", split, "--params", BENCH, "--out", tmp / "s_split", "--no-plot")
     assert without(out) == without(one)
     assert "gaps" not in out                       # one bag
@@ -142,20 +152,19 @@ def test_a_split_sqlite3_bag_is_read_on_the_fast_path_with_every_message_in_orde
 
 
 def test_a_gap_between_shifts_is_reported_and_overlapping_bags_refused(recording):
-    """Bags with 0.3 h missing between them: the gap's duration is 0.3 h (to one sample period); bags that
-    overlap in time: exit 2 with one line naming both."""
+    """The first and the last of the three cuts (0.6 h missing between them): the gap's duration is 0.6 h (to
+    one sample period); bags that overlap in time: exit 2 with one line naming both (the console script)."""
     tmp = recording["tmp"]
-    early = cut_bag(recording["one"], [T0_NS, T0_NS + int(0.7 * HOUR_NS)], tmp, ["early"])[0]
-    late = cut_bag(recording["one"], [T0_NS + HOUR_NS, T0_NS + 3 * HOUR_NS], tmp, ["late"])[0]
+    early, _, late = recording["parts"]                      # c_b: 0 .. 0.7 h, c_c: 1.3 .. 2 h
     out = ok_json("replay", late, early, "--params", BENCH, "--out", tmp / "g", "--no-plot")
     (gap,) = out["gaps"]
-    assert gap["duration_s"] == pytest.approx(0.3 * 3600.0, abs=0.1 + 1e-9)
+    assert gap["duration_s"] == pytest.approx(0.6 * 3600.0, abs=0.1 + 1e-9)
     assert gap["start_utc"] < gap["end_utc"]
     overlap = cut_bag(recording["one"], [T0_NS + int(0.5 * HOUR_NS), T0_NS + HOUR_NS], tmp, ["overlap"])[0]
     proc = cli("replay", early, overlap, "--params", BENCH, "--out", tmp / "o", "--no-plot")
     assert proc.returncode == 2
     err = proc.stderr.strip().splitlines()
-    assert len(err) == 1 and "overlap" in err[0] and "early" in err[0] and "overlap" in err[0]
+    assert len(err) == 1 and "overlap" in err[0] and early.name in err[0] and "overlap" in err[0]
 
 
 def test_duty_cells_of_three_bags_are_the_recordings(recording):
@@ -213,19 +222,24 @@ def xyz(tmp_path_factory):
     params = tmp / "xyz_fast.yaml"
     params.write_text(text)
     bag = tmp / "bag"
-    proc = cli("simulate", "--params", params, "--out", bag, "--seed", "0", "--effect", "y.running_in=2.5",
-               "--maintenance", "regrind:x@4h=2um")
-    assert proc.returncode == 0, proc.stderr
+    code, _, err = in_process("simulate", "--params", params, "--out", bag, "--seed", "0", "--effect",
+                              "y.running_in=2.5", "--maintenance", "regrind:x@4h=2um")
+    assert code == 0, err
     return {"params": params, "bag": bag, "tmp": tmp}
 
 
-def test_diagnose_per_axis_names_the_effect_hidden_on_y_only(xyz):
+@pytest.fixture(scope="module")
+def xyz_diagnose(xyz) -> dict:
+    """diagnose of the whole machine (every axis), written under xyz's "d"."""
+    return ok_json("diagnose", xyz["bag"], "--params", xyz["params"], "--out", xyz["tmp"] / "d", "--no-plot")
+
+
+def test_diagnose_per_axis_names_the_effect_hidden_on_y_only(xyz, xyz_diagnose):
     """axes {x, y, z}: running_in named on y and nothing on x (regrind split: K within 10 % of the
     simulator's 3e-6 on both surfaces, the new one from the 2 um entered, residuals at the noise) or z;
     report.md a section per axis, a CSV per axis, model.yaml with a section per axis that replay loads."""
     tmp = xyz["tmp"]
-    out = ok_json("diagnose", xyz["bag"], "--params", xyz["params"], "--out", tmp / "d", "--no-plot")
-    axes = out["axes"]
+    axes = xyz_diagnose["axes"]
     assert list(axes) == ["x", "y", "z"]
     assert {a: r["named_effects"] for a, r in axes.items()} == {"x": [], "y": ["running_in"], "z": []}
     assert axes["x"]["data"]["wear_resets"] == [{"t_h": 4.0, "straightness_after_um": pytest.approx(2.0)}]
@@ -241,21 +255,24 @@ def test_diagnose_per_axis_names_the_effect_hidden_on_y_only(xyz):
     assert replay["axes"]["y"]["effects"] == "running_in"
 
 
-def test_diagnose_axis_choice_and_too_few_measurements_name_the_axes(xyz):
-    """--axis y diagnoses y alone; an unknown axis, and a record with 5 measurements per axis (the first 2 h),
-    exit 2 with one line naming the axes present and the count per axis."""
+def test_diagnose_axis_choice_and_too_few_measurements_name_the_axes(xyz, xyz_diagnose):
+    """--axis x diagnoses x alone, giving x's result of the whole machine's diagnose (its fit time aside); an
+    unknown axis (the console script), and a record with 5 measurements per axis (the first 2 h), exit 2 with
+    one line naming the axes present and the count per axis."""
     tmp = xyz["tmp"]
-    only = ok_json("diagnose", xyz["bag"], "--params", xyz["params"], "--axis", "y", "--out", tmp / "dy",
+    only = ok_json("diagnose", xyz["bag"], "--params", xyz["params"], "--axis", "x", "--out", tmp / "dx",
                    "--no-plot")
-    assert list(only["axes"]) == ["y"] and only["axes"]["y"]["named_effects"] == ["running_in"]
+    assert list(only["axes"]) == ["x"]
+    assert without(only["axes"]["x"], ("fit_s",)) == without(xyz_diagnose["axes"]["x"], ("fit_s",))
+    assert only["axes"]["x"]["data"]["wear_resets"] and only["axes"]["x"]["named_effects"] == []
     proc = cli("diagnose", xyz["bag"], "--params", xyz["params"], "--axis", "q", "--out", tmp / "dq")
     assert proc.returncode == 2
     (line,) = proc.stderr.strip().splitlines()
     assert "q" in line and "x, y, z" in line
     short = cut_bag(xyz["bag"], [T0_NS, T0_NS + 2 * HOUR_NS + 1], tmp, ["short"])[0]
-    proc = cli("diagnose", short, "--params", xyz["params"], "--out", tmp / "ds")
-    assert proc.returncode == 2
-    (line,) = proc.stderr.strip().splitlines()
+    code, _, err = in_process("diagnose", short, "--params", xyz["params"], "--out", tmp / "ds")
+    assert code == 2
+    (line,) = err.strip().splitlines()
     assert "axis x has 5" in line and "x: 5, y: 5, z: 5" in line
 
 

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import json
 import math
-import tempfile
 from pathlib import Path
 
 import pytest
@@ -277,6 +276,16 @@ def _decode_like_store(value):
     return _decode(value)
 
 
+@pytest.fixture(scope="module")
+def round_trip_store(tmp_path_factory):
+    """One state file for every example of the round trip: each save replaces KEY's row and fingerprint (an
+    upsert in one transaction), so each example restores what it saved (opening a database per example was
+    most of an example's time)."""
+    store = StateStore(tmp_path_factory.mktemp("round_trip") / "state.db")
+    yield store
+    store.close()
+
+
 @hypothesis.settings(max_examples=100, deadline=None,
                      suppress_health_check=[hypothesis.HealthCheck.too_slow, hypothesis.HealthCheck.data_too_large])
 @pytest.mark.parametrize("params", [RULE_PARAMS, ROLLING_PARAMS, EFFECT_RULE_PARAMS],
@@ -284,7 +293,7 @@ def _decode_like_store(value):
 @hypothesis.given(run=bad_runs(), temperatures=st.lists(st.tuples(st.integers(-10**9, 10**11),
                                                                   st.floats(allow_nan=True, allow_infinity=True)),
                                                         max_size=6))
-def test_every_state_a_monitor_reaches_is_accepted_and_round_trips(params, run, temperatures):
+def test_every_state_a_monitor_reaches_is_accepted_and_round_trips(round_trip_store, params, run, temperatures):
     """The other side: whatever inputs a monitor saw (test_input_rules' arbitrary runs: any floats, stamps
     back and forth, jumps, straightness before any stroke; with the effects also any temperature readings),
     the state it saves is accepted by the schema and restores to the same state (a legal state refused would
@@ -298,12 +307,7 @@ def test_every_state_a_monitor_reaches_is_accepted_and_round_trips(params, run, 
         relubricate(monitor, int(run.joint_t_ns[0]))
     monitor.process_run(run)
     monitor.report()
-    with tempfile.TemporaryDirectory() as tmp:
-        store = StateStore(Path(tmp) / "s.db")
-        try:
-            store.save({KEY: monitor.state()}, fingerprint(params))
-            again = PrecisionMonitor(wear_axis_params(params))
-            assert resume_monitor(store, KEY, fingerprint(params), again)
-            assert _comparable(again.state()) == _comparable(monitor.state())
-        finally:
-            store.close()
+    round_trip_store.save({KEY: monitor.state()}, fingerprint(params))
+    again = PrecisionMonitor(wear_axis_params(params))
+    assert resume_monitor(round_trip_store, KEY, fingerprint(params), again)
+    assert _comparable(again.state()) == _comparable(monitor.state())

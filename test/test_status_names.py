@@ -10,6 +10,7 @@ analyzer's path + "/" + the name with every '/' written as ' ' (getOutputName, s
 which removeLeadingNameChaff drops a ``find_and_remove_prefix`` entry (also '/' -> ' ') and the ': ' or
 ' ' that follow it. The analyzers' parameters are read as rcl gives them to the aggregator node
 ``analyzers`` (a probe node in a subprocess), so the regex tested is the string the aggregator compiles."""
+import functools
 import json
 import re
 import subprocess
@@ -28,9 +29,16 @@ MONITOR_NODES = ("wear_monitor", "wear_monitor_y", "slewing_monitor", "vibration
 TASKS = ("x precision", "x fatigue", "y lubrication", "131.32.2000.00Z roller contact", "x vibration")
 
 
+@functools.lru_cache(maxsize=1)
+def file_params() -> dict:
+    """The aggregator node's parameters as the file writes them, parsed once (read only: thousands of names
+    are checked against them)."""
+    return yaml.safe_load(AGGREGATOR.read_text())["/**/analyzers"]["ros__parameters"]
+
+
 def analyzers(params: dict | None = None):
     """(base path, {name: analyzer parameters}) of the file's aggregator node (rcl's ``params`` when given)."""
-    params = params or yaml.safe_load(AGGREGATOR.read_text())["/**/analyzers"]["ros__parameters"]
+    params = params or file_params()
     return params["path"], {k: v for k, v in params.items() if isinstance(v, dict)}
 
 
