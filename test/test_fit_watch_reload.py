@@ -4,9 +4,9 @@ the running monitor (models/wear/model_load.py) clears the WARN, and the remaini
 10 % of the simulator's truth: the noise-free straightness's last 5 h extrapolated linearly to the limit
 (after 15 h the truth's rate is constant: no running-in on bench 000). Live == offline for the load path.
 CI runs seed 0 of each change; the 10-seed version is ``slow``."""
+import contextlib
+import io
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -200,10 +200,15 @@ def test_since_date_rules():
 
 
 def run_cli(*args) -> str:
-    proc = subprocess.run([sys.executable, "-m", "guide_health.cli", *args], capture_output=True, text=True,
-                          cwd=ROOT, timeout=600)
-    assert proc.returncode == 0, proc.stderr
-    return proc.stdout
+    """``guide-health ARGS`` in this process (the command's own main(); test_model_file.py runs diagnose and
+    replay as a subprocess): its stdout, after exit status 0."""
+    from guide_health.cli.app import main
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main([str(a) for a in args])
+    assert code == 0, err.getvalue()
+    return out.getvalue()
 
 
 def test_diagnose_since_cli(tmp_path):

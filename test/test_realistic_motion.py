@@ -33,7 +33,7 @@ import reference_wear as ref  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 JOBS = ROOT / "config" / "machine_jobs.yaml"
 NOISE_RANGE_M = (0.2e-6, 0.4e-6)                       # test_discrepancy.py's measurement noise range
-RATE_100 = {"joint_state_rate_hz": 100.0}     # the cheap runs: 100 Hz, 60 % fewer samples than the preset
+RATE_50 = {"joint_state_rate_hz": 50.0}       # the cheap runs: 50 Hz, a fifth of the preset's samples
 PARAM_TOL = {"load_exponent": ("load_exponent", 0.1), "retract_asymmetry": ("retract_wear_factor", 0.15)}
 
 
@@ -131,15 +131,21 @@ def test_sliding_deadband_keeps_standstill_noise_out():
     assert raw.cells > 1.3 * cells.cells
 
 
-def test_simulate_motion_realistic_cli(tmp_path):
+def test_simulate_motion_realistic_cli(tmp_path, capsys):
     proc = subprocess.run([sys.executable, "-m", "guide_health.cli", "simulate", "--params", str(JOBS), "--out",
                            str(tmp_path / "bag"), "--hours", "0.01", "--motion", "realistic", "--json"],
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert '"motion_profile": "jerk_limited"' in proc.stdout and '"joint_state_rate_hz": 250.0' in proc.stdout
-    bad = subprocess.run([sys.executable, "-m", "guide_health.cli", "simulate", "--params", str(JOBS), "--out",
-                          str(tmp_path / "bad"), "--motion", "jerky"], capture_output=True, text=True, timeout=300)
-    assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) <= 2
+    # the refusal in-process (the same main() the command runs; the subprocess above covers the command)
+    from guide_health.cli.app import main
+    try:
+        code = main(["simulate", "--params", str(JOBS), "--out", str(tmp_path / "bad"), "--motion", "jerky"])
+    except SystemExit as exc:             # argparse's refusal of a choice
+        code = exc.code
+    err = capsys.readouterr().err
+    assert code == 2 and 1 <= len(err.strip().splitlines()) <= 2 and "jerky" in err, err
+    assert not (tmp_path / "bad").exists()
 
 
 # --- acceptance ---------------------------------------------------------------------------------------
@@ -183,13 +189,15 @@ def named_right(r) -> bool:
 
 
 def test_realistic_motion_acceptance_cheap():
-    """Default suite (two 20 h runs at 100 Hz, one per process): load_exponent seed 0 (hidden 1.76, fitted
-    1.715 at 100 Hz and at 200 Hz, 1.72 at 250 Hz in the slow test) and retract_asymmetry seed 5 (hidden 0.28,
-    fitted 0.259 at 100 and 200 Hz) are named with their parameter; phantom sliding 1e-5 to 2e-5. Shorter
-    records do not identify the retract factor
-    (10 h of 1.5 h jobs: seeds 0 and 1 not named), so the default suite runs two full-length cases."""
+    """Default suite (two 20 h runs at 50 Hz, one per process): load_exponent seed 0 (hidden 1.76, fitted
+    1.715 at 50, 100 and 200 Hz, 1.72 at 250 Hz in the slow test) and retract_asymmetry seed 5 (hidden 0.28,
+    fitted 0.258 at 50 Hz, 0.259 at 100 and 200 Hz) are named with their parameter; phantom sliding +3e-6 and
+    +4e-6 at 50 Hz (1e-5 to 2e-5 at 100 Hz). Shorter records do not identify the retract factor
+    (10 h of 1.5 h jobs: seeds 0 and 1 not named), so the default suite runs two full-length cases at the
+    lowest rate that keeps the fitted parameters: the simulation and the duty cells scale with the samples,
+    the fit with the cells."""
     with mp.get_context("spawn").Pool(2) as pool:
-        rows = pool.map(realistic_case, [("load_exponent", 0, RATE_100), ("retract_asymmetry", 5, RATE_100)])
+        rows = pool.map(realistic_case, [("load_exponent", 0, RATE_50), ("retract_asymmetry", 5, RATE_50)])
     for r in rows:
         print(r)
         assert named_right(r), r

@@ -194,7 +194,9 @@ def test_k_update_recovers_true_k_and_life_interval_from_bag(tmp_path):
     from guide_health.io.bag.writer import write_machine_bag
 
     p = bench_params()
-    sim = dict(simulation_params(BENCH), duration_h=4.6, joint_state_rate_hz=20.0,
+    # 10 Hz joints (5 mm steps, the stroke detection's threshold) and 1 Hz loads (the bench's constant 6000 N):
+    # the bag's messages are the cost, the K update needs the measurements and the work
+    sim = dict(simulation_params(BENCH), duration_h=4.6, joint_state_rate_hz=10.0, load_rate_hz=1.0,
                wear_coefficient_factor=1.5, straightness_noise_m=0.5e-6)
     for seed in range(3):
         run = simulate_machine(p, sim, seed=seed)
