@@ -89,11 +89,12 @@ def dues_from_history(db: Path) -> tuple[list[Due], float]:
     except sqlite3.DatabaseError as exc:
         raise InputError(f"{db}: not a fleet history (fleet_monitor history_file): {exc}") from None
     found: dict[tuple[str, str], Due] = {}
-    for _, machine, name, *dates in rows:
-        due = _due(machine, name, {k: v for k, v in zip(LIMIT_KEYS, dates) if v is not None})
-        if due is not None:
-            found[(machine, name)] = due
-    return list(found.values()), float(newest) if newest is not None else math.nan
+    for _, machine, name, *dates in reversed(rows):         # newest first: each status's first readable row
+        if (machine, name) not in found:
+            due = _due(machine, name, {k: v for k, v in zip(LIMIT_KEYS, dates) if v is not None})
+            if due is not None:
+                found[(machine, name)] = due
+    return list(reversed(found.values())), float(newest) if newest is not None else math.nan
 
 
 def schedule(dues: list[Due], start_s: float, horizon_s: float, group_days: float) -> list[dict[str, Any]]:

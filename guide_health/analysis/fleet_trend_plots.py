@@ -52,7 +52,7 @@ def _fixed_margins(fig, left_in: float, bottom_in: float, top_in: float, hspace:
 def plot_machine_trend(path: Path, trend: MachineTrend) -> None:
     """A panel per quantity the machine reports (one line per status), then the level of each status."""
     plt = _pyplot()
-    keys = [(k, label) for k, label in TREND_KEYS if any(math.isfinite(v) for v in trend.values[k])]
+    keys = [(k, label) for k, label in TREND_KEYS if np.isfinite(trend.values[k]).any()]
     t_all = np.asarray(trend.t_unix_s, dtype=float)
     fig, axes = plt.subplots(len(keys) + 1, 1, figsize=(8, 1.9 * (len(keys) + 1) + 0.6), sharex=True,
                              squeeze=False)
