@@ -355,3 +355,18 @@ def test_trends_read_as_columns_equal_the_row_by_row_reading(tmp_path):
             writer.writerow([f"{r[0]:.3f}", time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime(r[0])), r[2],
                              LEVEL_NAMES[r[3]], *["" if v != v else f"{v:.6g}" for v in numbers], r[4]])
         assert (tmp_path / "m.csv").read_bytes() == expected.getvalue().encode()
+
+
+def test_a_machine_figure_drawn_again_equals_a_new_one(history, tmp_path):
+    """The page draws every machine into one reused figure per panel count (MachineFigures): after other
+    machines of the same and of other panel counts and statuses, each PNG equals the machine's figure drawn
+    alone, byte for byte."""
+    from guide_health.analysis.fleet_trend import read_trends
+    from guide_health.analysis.fleet_trend_plots import MachineFigures, plot_machine_trend
+
+    trends, figures = read_trends(history), MachineFigures()
+    for i, m in enumerate(["m1", "c1", "m2", "m3", "c1", "m1"]):
+        plot_machine_trend(tmp_path / f"reused{i}.png", trends[m], figures)
+        plot_machine_trend(tmp_path / f"alone{i}.png", trends[m])
+        assert (tmp_path / f"reused{i}.png").read_bytes() == (tmp_path / f"alone{i}.png").read_bytes(), m
+    assert sorted(figures._figures) == [2, 3, 4]    # panels: c1 1 key + levels; m1, m3 2 keys; m2 3 keys + levels
