@@ -135,3 +135,14 @@ def test_only_the_wanted_keys_of_damaged_bytes_are_the_full_decoding_filtered(st
         return
     assert [tuple(s) for s in decode_diagnostic_array(damaged, wanted)] == [
         (*s[:4], {k: v for k, v in s.values.items() if k in wanted}) for s in full]
+
+
+def test_a_message_cut_inside_a_skipped_last_value_is_malformed_on_the_wanted_keys_path():
+    """fleet_monitor's path skips the values it does not keep by their lengths: a last value whose length
+    runs past the end is malformed there too, not a message read short."""
+    raw = serialization.serialize_message(build([(0, "m1/wear_monitor: x precision", "", "m1",
+                                                   [("remaining_life_h", "812.5"), ("guide", "front")])]))
+    end = raw.rindex(b"front") + 3
+    with pytest.raises(MalformedMessage, match="past the end"):
+        decode_diagnostic_array(raw[:end], frozenset({"remaining_life_h"}))
+    assert decode_diagnostic_array(raw, frozenset({"remaining_life_h"}))[0].values == {"remaining_life_h": "812.5"}

@@ -132,7 +132,8 @@ def test_history_dues_are_each_status_newest_readable_dates(tmp_path):
 
     t0 = datetime(2027, 1, 4, tzinfo=UTC).timestamp()
     history = FleetHistory(str(tmp_path / "fleet.db"), period_s=0.0)
-    rows = [("m1", -2, "2027-02-01"), ("m1", 0, "garbage"), ("m2", -1, "2027-02-05"), ("m2", 0, "2027-02-07"),
+    rows = [("m1", -3, "2027-01-20"), ("m1", -2, "2027-02-01"), ("m1", 0, "garbage"), ("m2", -1, "2027-02-05"),
+            ("m2", 0, "2027-02-07"),
             ("m3", -1, "not a date"), ("m3", 0, "garbage"), ("m2", 1, None)]
     for m, day, low in rows:
         dates = {} if low is None else {"limit_date_utc_low": low, "limit_date_utc": "2027-03-01"}
