@@ -89,6 +89,9 @@ def status_values(machine: int, axis: str) -> dict[str, str]:
     values = {k: f"{0.1 * (i + 1) + machine * 1e-3:.6g}" for i, k in enumerate(PRECISION_KEYS + EXTRA_PRECISION_KEYS)}
     values.update(remaining_life_h=f"{800.0 - machine:.1f}", straightness_um=f"{6.0 + machine * 0.01:.2f}",
                   guide="front", last_maintenance="")
+    # the limit dates as the node publishes them (ISO-8601 UTC dates), so the page's plan reads real dates
+    for key, month in zip(("limit_date_utc_low", "limit_date_utc", "limit_date_utc_high"), range(machine, machine + 3)):
+        values[key] = f"{2027 + month // 12}-{1 + month % 12:02d}-{1 + machine % 28:02d}"
     return values
 
 

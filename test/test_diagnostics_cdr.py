@@ -110,3 +110,39 @@ def test_a_message_cut_inside_its_last_value_is_malformed_not_a_shorter_value():
     with pytest.raises(MalformedMessage, match=f"string of 6 bytes at byte {end - 7} past the end"):
         decode_diagnostic_array(raw[:end])
     assert decode_diagnostic_array(raw)[0].values == {"remaining_life_h": "812.5"}
+
+
+@hypothesis.settings(max_examples=150, deadline=None, derandomize=True)
+@hypothesis.given(st.lists(STATUS, min_size=1, max_size=3), st.data())
+def test_only_the_wanted_keys_of_damaged_bytes_are_the_full_decoding_filtered(statuses, data):
+    """fleet_monitor's path (only some keys, the others walked by their lengths and matched in C): on
+    truncated or damaged bytes, MalformedMessage exactly when the full decoding raises it, else the full
+    decoding's statuses with only the wanted values."""
+    raw = bytearray(serialization.serialize_message(build(statuses)))
+    cut = data.draw(st.integers(0, len(raw) - 1))
+    if data.draw(st.booleans()):
+        damaged = bytes(raw[:cut])
+    else:
+        raw[cut] = data.draw(st.integers(0, 255))
+        damaged = bytes(raw)
+    wanted = frozenset({"remaining_life_h"} | {p[0][0].split("\x00")[0] for *_, p in statuses
+                                               if p and p[0][0].isascii()})
+    try:
+        full = decode_diagnostic_array(damaged)
+    except MalformedMessage:
+        with pytest.raises(MalformedMessage):
+            decode_diagnostic_array(damaged, wanted)
+        return
+    assert [tuple(s) for s in decode_diagnostic_array(damaged, wanted)] == [
+        (*s[:4], {k: v for k, v in s.values.items() if k in wanted}) for s in full]
+
+
+def test_a_message_cut_inside_a_skipped_last_value_is_malformed_on_the_wanted_keys_path():
+    """fleet_monitor's path skips the values it does not keep by their lengths: a last value whose length
+    runs past the end is malformed there too, not a message read short."""
+    raw = serialization.serialize_message(build([(0, "m1/wear_monitor: x precision", "", "m1",
+                                                   [("remaining_life_h", "812.5"), ("guide", "front")])]))
+    end = raw.rindex(b"front") + 3
+    with pytest.raises(MalformedMessage, match="past the end"):
+        decode_diagnostic_array(raw[:end], frozenset({"remaining_life_h"}))
+    assert decode_diagnostic_array(raw, frozenset({"remaining_life_h"}))[0].values == {"remaining_life_h": "812.5"}

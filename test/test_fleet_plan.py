@@ -122,3 +122,27 @@ def test_schedule_rule_and_ics_folding():
     folded = fold(line)
     assert all(len(part.encode()) <= 75 for part in folded.split("\r\n"))
     assert folded.replace("\r\n ", "").rstrip("\r\n") == line
+
+
+def test_history_dues_are_each_status_newest_readable_dates(tmp_path):
+    """dues_from_history: a status's newest row with dates counts; newest dates unreadable: its last readable
+    ones before them; none readable: no due; a newer row without dates changes nothing."""
+    from guide_health.analysis.fleet_plan import dues_from_history
+    from guide_health.io.outputs.fleet_history import FleetHistory
+
+    t0 = datetime(2027, 1, 4, tzinfo=UTC).timestamp()
+    history = FleetHistory(str(tmp_path / "fleet.db"), period_s=0.0)
+    rows = [("m1", -3, "2027-01-20"), ("m1", -2, "2027-02-01"), ("m1", 0, "garbage"), ("m2", -1, "2027-02-05"),
+            ("m2", 0, "2027-02-07"),
+            ("m3", -1, "not a date"), ("m3", 0, "garbage"), ("m2", 1, None)]
+    for m, day, low in rows:
+        dates = {} if low is None else {"limit_date_utc_low": low, "limit_date_utc": "2027-03-01"}
+        history.record(t0 + day * DAY_S, m, "x precision", 0, "", {"remaining_life_h": 5.0, **dates})
+    history.commit()
+    dues, newest = dues_from_history(tmp_path / "fleet.db")
+    assert newest == t0 + DAY_S
+    assert sorted((d.machine, _iso_day(d.limit_low_s)) for d in dues) == [("m1", "2027-02-01"), ("m2", "2027-02-07")]
+
+
+def _iso_day(t_s: float) -> str:
+    return datetime.fromtimestamp(t_s, tz=UTC).strftime("%Y-%m-%d")

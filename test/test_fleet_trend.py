@@ -242,10 +242,10 @@ def test_a_layout_1_history_is_migrated_by_fleet_monitor_with_the_same_trends(tm
     m9 = read_trends(db)["m9"]
     life = m9.values["remaining_life_h"]
     assert [math.isnan(v) for v in life] == [True, True, False, False, True]
-    assert life[2:4] == [12.5, 7.25]
+    assert life[2:4].tolist() == [12.5, 7.25]
     assert math.isnan(m9.values["straightness_um"][3]) and m9.values["life_used_fraction"][4] == 0.5
     assert math.isnan(m9.values["end_stress_ratio"][4])
-    assert (m9.level, m9.message) == ([0, 1, 0, 1, 0], [f"row {i}" for i in range(5)])
+    assert (m9.level.tolist(), m9.message) == ([0, 1, 0, 1, 0], [f"row {i}" for i in range(5)])
     con = sqlite3.connect(db)
     assert con.execute("SELECT limit_date_utc_low FROM fleet_history WHERE limit_date_utc_low IS NOT NULL"
                        ).fetchall() == [("2027-01-05",)]
@@ -302,3 +302,71 @@ def test_decimated_figures_leave_the_page_text_and_tables_as_they_were(history, 
         pages[bins] = re.sub(r"src='data:image/png;base64,[^']*'|src=\"data:image/png;base64,[^\"]*\"", "IMG", text)
     assert pages[0].count("IMG") == 1 + 4 and pages[0].count("<tr") == 1 + 4
     assert pages[2] == pages[0]
+
+
+def test_trends_read_as_columns_equal_the_row_by_row_reading(tmp_path):
+    """The reader groups machines by a stable sort of numpy columns, finds level changes per status by array
+    comparison and writes the CSV column-wise: on a history with equal times, every level, NULL, text and
+    unreadable values and messages that need quoting, the same trends, changes and CSV bytes as a loop over
+    the rows in time order."""
+    import random
+    import sqlite3
+
+    from guide_health.analysis.fleet_trend import TREND_KEYS, read_trends, write_trend_csv
+    from guide_health.io.outputs.fleet_history import HISTORY_SCHEMA, INSERT_ROW, history_row
+    from guide_health.models.levels import LEVEL_NAMES
+
+    rng, db, rows = random.Random(5), tmp_path / "h.db", []
+    for k in range(300):
+        for m in ("m2", "c,1", "m1"):
+            for name in ("x precision", 'b1 "roller"'):
+                if rng.random() < 0.7:
+                    values = {"remaining_life_h": rng.choice(["", "nan", "inf", repr(rng.uniform(-5.0, 900.0))]),
+                              "straightness_um": repr(rng.uniform(0.0, 30.0))}
+                    rows.append(history_row(T0_UNIX_S + 60.0 * (k // 4), m, name, rng.choice([0, 0, 1, 2, 3]),
+                                            rng.choice(["", 'a, "b"', "c\nd"]), values))
+    con = sqlite3.connect(db)
+    con.executescript(HISTORY_SCHEMA)
+    con.executemany(INSERT_ROW, rows)
+    con.execute("UPDATE fleet_history SET straightness_um = CASE WHEN rowid % 2 THEN 'abc' ELSE '2.5' END "
+                "WHERE rowid % 37 = 0")
+    con.commit()
+    ordered = con.execute("SELECT * FROM fleet_history ORDER BY t_unix_s").fetchall()
+    con.close()
+    trends = read_trends(db)
+    assert list(trends) == list(dict.fromkeys(r[1] for r in ordered))           # order of the first row
+    for m, trend in trends.items():
+        mine = [r for r in ordered if r[1] == m]
+        assert trend.t_unix_s.tolist() == [r[0] for r in mine] and trend.message == [r[4] for r in mine]
+        changes, last = [], {}
+        for t, _, name, level, text, *_ in mine:
+            if name in last and last[name] != level:
+                changes.append({"t_unix_s": t, "status": name, "from": LEVEL_NAMES[last[name]],
+                                "to": LEVEL_NAMES[level], "message": text})
+            last[name] = level
+        assert trend.level_changes() == changes and len(changes) > 50
+        assert trend.latest_level() == max(last.values())
+        write_trend_csv(tmp_path / "m.csv", trend)
+        expected = io.StringIO()
+        writer = csv.writer(expected)
+        writer.writerow(["t_unix_s", "time_utc", "status", "level", *[k for k, _ in TREND_KEYS], "message"])
+        for r in mine:
+            numbers = [float(v) if isinstance(v, float) or v == "2.5" else float("nan") for v in r[5:9]]
+            writer.writerow([f"{r[0]:.3f}", time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime(r[0])), r[2],
+                             LEVEL_NAMES[r[3]], *["" if v != v else f"{v:.6g}" for v in numbers], r[4]])
+        assert (tmp_path / "m.csv").read_bytes() == expected.getvalue().encode()
+
+
+def test_a_machine_figure_drawn_again_equals_a_new_one(history, tmp_path):
+    """The page draws every machine into one reused figure per panel count (MachineFigures): after other
+    machines of the same and of other panel counts and statuses, each PNG equals the machine's figure drawn
+    alone, byte for byte."""
+    from guide_health.analysis.fleet_trend import read_trends
+    from guide_health.analysis.fleet_trend_plots import MachineFigures, plot_machine_trend
+
+    trends, figures = read_trends(history), MachineFigures()
+    for i, m in enumerate(["m1", "c1", "m2", "m3", "c1", "m1"]):
+        plot_machine_trend(tmp_path / f"reused{i}.png", trends[m], figures)
+        plot_machine_trend(tmp_path / f"alone{i}.png", trends[m])
+        assert (tmp_path / f"reused{i}.png").read_bytes() == (tmp_path / f"alone{i}.png").read_bytes(), m
+    assert sorted(figures._figures) == [2, 3, 4]    # panels: c1 1 key + levels; m1, m3 2 keys; m2 3 keys + levels

@@ -76,24 +76,45 @@ def dues_from_fleet_dir(path: Path) -> list[Due]:
 
 def dues_from_history(db: Path) -> tuple[list[Due], float]:
     """From the fleet_monitor history: each machine's statuses' latest row with the limit dates (the axis is
-    the status name); and the newest row's time [unix s]."""
+    the status name); and the newest row's time [unix s]. SQLite picks each status's newest row with a lower
+    date (index fleet_history_machine); only a status whose newest dates are unreadable reads its older rows."""
+    dates, low = ", ".join(f"f.{k}" for k in LIMIT_KEYS), LIMIT_KEYS[1]
     try:
         con = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
         try:
             check_history_layout(db, con)
-            rows = con.execute(f"SELECT t_unix_s, hardware_id, name, {', '.join(LIMIT_KEYS)} FROM fleet_history "
-                               f"WHERE {LIMIT_KEYS[1]} IS NOT NULL ORDER BY t_unix_s").fetchall()
+            newest_rows = con.execute(
+                f"SELECT f.t_unix_s, f.hardware_id, f.name, {dates} FROM fleet_history f JOIN (SELECT hardware_id, "
+                f"name, MAX(t_unix_s) AS t FROM fleet_history WHERE {low} IS NOT NULL GROUP BY hardware_id, name) g "
+                f"ON f.hardware_id = g.hardware_id AND f.name = g.name AND f.t_unix_s = g.t WHERE f.{low} IS NOT NULL "
+                "ORDER BY f.t_unix_s").fetchall()
+            found = _newest_readable_dues(newest_rows)
+            unread = {(machine, name) for _, machine, name, *_ in newest_rows} - found.keys()
+            if unread:
+                rows = con.execute(f"SELECT t_unix_s, hardware_id, name, {', '.join(LIMIT_KEYS)} FROM fleet_history "
+                                   f"WHERE {low} IS NOT NULL ORDER BY t_unix_s").fetchall()
+                found.update(_newest_readable_dues(r for r in rows if (r[1], r[2]) in unread))
             newest = con.execute("SELECT MAX(t_unix_s) FROM fleet_history").fetchone()[0]
         finally:
             con.close()
     except sqlite3.DatabaseError as exc:
         raise InputError(f"{db}: not a fleet history (fleet_monitor history_file): {exc}") from None
-    found: dict[tuple[str, str], Due] = {}
-    for _, machine, name, *dates in rows:
-        due = _due(machine, name, {k: v for k, v in zip(LIMIT_KEYS, dates) if v is not None})
-        if due is not None:
-            found[(machine, name)] = due
     return list(found.values()), float(newest) if newest is not None else math.nan
+
+
+def _newest_readable_dues(rows) -> dict[tuple[str, str], Due]:
+    """Per (machine, status) the Due of its last row (rows in time order) whose dates are readable."""
+    found: dict[tuple[str, str], Due] = {}
+    unreadable: set[tuple] = set()          # date texts that gave no Due: a status repeats its texts
+    for _, machine, name, *dates in reversed(list(rows)):
+        if (machine, name) in found or tuple(dates) in unreadable:
+            continue
+        due = _due(machine, name, {k: v for k, v in zip(LIMIT_KEYS, dates) if v is not None})
+        if due is None:
+            unreadable.add(tuple(dates))
+        else:
+            found[(machine, name)] = due
+    return found
 
 
 def schedule(dues: list[Due], start_s: float, horizon_s: float, group_days: float) -> list[dict[str, Any]]:

@@ -26,39 +26,50 @@ TREND_KEYS = FLEET_VALUES
 
 @dataclass
 class MachineTrend:
-    """The history rows of one machine (every status of its monitors), oldest first."""
+    """The history rows of one machine (every status of its monitors), oldest first: times [unix s], levels
+    and each trend key's values (NaN: not reported) as numpy columns, status names and messages as lists."""
 
     machine: str
-    t_unix_s: list[float] = field(default_factory=list)
+    t_unix_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
     status: list[str] = field(default_factory=list)
-    level: list[int] = field(default_factory=list)
+    level: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     message: list[str] = field(default_factory=list)
-    values: dict[str, list[float]] = field(default_factory=lambda: {k: [] for k, _ in TREND_KEYS})
+    values: dict[str, np.ndarray] = field(default_factory=lambda: {k: np.zeros(0) for k, _ in TREND_KEYS})
+    _changes: list[dict] | None = field(default=None, init=False, repr=False, compare=False)
+
+    def _rows_of_status(self) -> dict[str, np.ndarray]:
+        """Each status name's row indices, ascending."""
+        names = np.asarray(self.status, dtype=object)
+        return {name: np.flatnonzero(names == name) for name in dict.fromkeys(self.status)}
 
     def level_changes(self) -> list[dict]:
-        """Every change of level of one status: {t_unix_s, status, from, to, message}."""
-        last: dict[str, int] = {}
-        changes = []
-        for t, name, level, text in zip(self.t_unix_s, self.status, self.level, self.message):
-            if name in last and last[name] != level:
-                changes.append({"t_unix_s": t, "status": name, "from": LEVEL_NAMES.get(last[name], str(last[name])),
-                                "to": LEVEL_NAMES.get(level, str(level)), "message": text})
-            last[name] = level
-        return changes
+        """Every change of level of one status, in row order: {t_unix_s, status, from, to, message}."""
+        if self._changes is None:
+            at, before = [], []                 # the row of each change, and the status's level before it
+            for rows in self._rows_of_status().values():
+                levels = self.level[rows]
+                changed = np.flatnonzero(levels[1:] != levels[:-1])
+                at.append(rows[changed + 1])
+                before.append(levels[changed])
+            rows = np.concatenate(at) if at else np.zeros(0, dtype=np.int64)
+            previous = np.concatenate(before) if before else np.zeros(0, dtype=np.int64)
+            order = np.argsort(rows, kind="stable")
+            self._changes = [{"t_unix_s": float(self.t_unix_s[i]), "status": self.status[i],
+                              "from": LEVEL_NAMES.get(was, str(was)),
+                              "to": LEVEL_NAMES.get(int(self.level[i]), str(int(self.level[i]))),
+                              "message": self.message[i]}
+                             for i, was in zip(rows[order].tolist(), previous[order].tolist())]
+        return self._changes
 
     def latest(self, key: str) -> float:
         """The latest finite value of a trend key (NaN: none)."""
-        for v in reversed(self.values[key]):
-            if math.isfinite(v):
-                return v
-        return math.nan
+        finite = np.flatnonzero(np.isfinite(self.values[key]))
+        return float(self.values[key][finite[-1]]) if finite.size else math.nan
 
     def latest_level(self) -> int:
         """The worst of the latest level of each status."""
-        latest: dict[str, int] = {}
-        for name, level in zip(self.status, self.level):
-            latest[name] = level
-        return max(latest.values()) if latest else 3
+        rows = self._rows_of_status()
+        return max(int(self.level[r[-1]]) for r in rows.values()) if rows else 3
 
 
 #: the trend keys are the history's REAL columns (io/outputs/fleet_history.py, layout 2)
@@ -94,24 +105,44 @@ def read_trends(db: Path, machine: str | None = None, days: float | None = None)
             con.close()
     except sqlite3.DatabaseError as exc:
         raise InputError(f"{db}: not a fleet history (fleet_monitor history_file): {exc}") from None
-    groups: dict[str, list] = {}            # a machine's rows, machines in the order of their first row
-    for row in rows:
-        groups.setdefault(row[1], []).append(row)
+    trends = _machine_trends(rows)
     del rows
-    trends = {hw: _machine_trend(hw, machine_rows) for hw, machine_rows in groups.items()}
     if machine is not None and not trends:
         known = _machines(db)
         raise InputError(f"{db}: no history of machine '{machine}'; machines: {', '.join(known) or 'none'}")
     return trends
 
 
-def _machine_trend(machine: str, rows: list) -> MachineTrend:
-    """A machine's trend from its rows (t, hardware_id, name, level, message, *TREND_KEYS), transposed in C
-    (zip); a REAL column's value is a float or NULL, a migrated one may be a text (_number)."""
-    t, _, names, levels, messages, *columns = zip(*rows)
-    return MachineTrend(machine, list(map(float, t)), list(names), list(map(int, levels)), list(messages),
-                        {key: [v if type(v) is float else _number(v) for v in column]
-                         for (key, _), column in zip(TREND_KEYS, columns)})
+def _real_column(column: tuple) -> np.ndarray:
+    """A REAL column as floats (NULL: NaN); a migrated value may be a text (_number, NaN if unreadable)."""
+    try:
+        return np.array(column, dtype=float)
+    except (TypeError, ValueError):
+        return np.array([_number(v) for v in column], dtype=float)
+
+
+def _machine_trends(rows: list) -> dict[str, MachineTrend]:
+    """Every machine's trend from the rows (t, hardware_id, name, level, message, *TREND_KEYS) in time order:
+    transposed once (zip, in C), grouped by a stable sort of the machine, so a machine keeps its rows' time
+    order; machines in the order of their first row."""
+    if not rows:
+        return {}
+    t, hw, names, levels, messages, *columns = zip(*rows)
+    machines, first, code = np.unique(np.array(hw, dtype=object), return_index=True, return_inverse=True)
+    by_first = np.argsort(first, kind="stable")
+    rank = np.empty(machines.size, dtype=np.int64)
+    rank[by_first] = np.arange(machines.size)           # machine -> place of its first row
+    row_rank = rank[code.ravel()]
+    order = np.argsort(row_rank, kind="stable")
+    ends = np.cumsum(np.bincount(row_rank, minlength=machines.size))
+    t_all, level_all = np.array(t, dtype=float)[order], np.array(levels, dtype=np.int64)[order]
+    names_all, messages_all = np.array(names, dtype=object)[order], np.array(messages, dtype=object)[order]
+    values_all = {key: _real_column(column)[order] for (key, _), column in zip(TREND_KEYS, columns)}
+    trends = {}
+    for m, lo, hi in zip(machines[by_first].tolist(), [0, *ends[:-1].tolist()], ends.tolist()):
+        trends[m] = MachineTrend(m, t_all[lo:hi], names_all[lo:hi].tolist(), level_all[lo:hi],
+                                 messages_all[lo:hi].tolist(), {k: v[lo:hi] for k, v in values_all.items()})
+    return trends
 
 
 def check_history_layout(db: Path, con: sqlite3.Connection) -> None:
@@ -149,15 +180,20 @@ def iso_array(t_unix_s) -> list[str]:
     return [text.replace("T", " ") for text in np.datetime_as_string(us, unit="s").tolist()]
 
 
+def _number_texts(values: np.ndarray) -> list[str]:
+    """A trend column's CSV texts: 6 significant digits, '' for NaN (not reported)."""
+    return ["" if v != v else f"{v:.6g}" for v in values.tolist()]
+
+
 def write_trend_csv(path: Path, trend: MachineTrend) -> None:
-    times = iso_array(trend.t_unix_s)
+    """One row per status row: time (unix s and UTC), status, level name, the trend keys, message."""
+    levels = [LEVEL_NAMES.get(level, level) for level in trend.level.tolist()]
+    columns = [[f"{t:.3f}" for t in trend.t_unix_s.tolist()], iso_array(trend.t_unix_s), trend.status, levels,
+               *[_number_texts(trend.values[k]) for k, _ in TREND_KEYS], trend.message]
     with open_output(path) as handle:
         writer = csv.writer(handle)
         writer.writerow(["t_unix_s", "time_utc", "status", "level", *[k for k, _ in TREND_KEYS], "message"])
-        for i, t in enumerate(trend.t_unix_s):
-            writer.writerow([f"{t:.3f}", times[i], trend.status[i], LEVEL_NAMES.get(trend.level[i], trend.level[i]),
-                             *["" if math.isnan(trend.values[k][i]) else f"{trend.values[k][i]:.6g}"
-                               for k, _ in TREND_KEYS], trend.message[i]])
+        writer.writerows(zip(*columns))
 
 
 def ranking(trends: dict[str, MachineTrend]) -> list[dict]:

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from guide_health.analysis.fleet_plan import dues_from_history, plan_section_html, schedule
 from guide_health.analysis.fleet_trend import MachineTrend, iso, ranking, read_trends, safe_name, write_trend_csv
-from guide_health.analysis.fleet_trend_plots import plot_fleet_overview, plot_machine_trend
+from guide_health.analysis.fleet_trend_plots import MachineFigures, plot_fleet_overview, plot_machine_trend
 from guide_health.errors import InputError
 from guide_health.io.outputs.files import open_output, write_text
 
@@ -37,13 +37,14 @@ def write_trend_report(db: Path, out: Path, machine: str | None = None, days: fl
     rows = ranking(trends)
     plotted = {r["machine"] for r in rows[:max_plots]}
     files: dict[str, dict[str, str]] = {}
+    figures = MachineFigures()
     for m, trend in trends.items():
         base = out / f"machine_{safe_name(m)}"
         files[m] = {"csv": str(base.with_suffix(".csv"))}
         write_trend_csv(Path(files[m]["csv"]), trend)
         if m in plotted:
             files[m]["png"] = str(base.with_suffix(".png"))
-            plot_machine_trend(Path(files[m]["png"]), trend)
+            plot_machine_trend(Path(files[m]["png"]), trend, figures)
     overview = out / "fleet_overview.png"
     plot_fleet_overview(overview, trends, rows)
     with open_output(out / "ranking.csv") as handle:

@@ -27,13 +27,15 @@ def _pyplot():
 
 
 def _save_figure(plt, fig, path) -> None:
-    """Write ``fig`` (110 dpi) and close it; a path that cannot be written is bad input."""
+    """Write ``fig`` (110 dpi) and close it (``plt`` None: a figure of the object API, not pyplot's, is kept
+    by its owner); a path that cannot be written is bad input."""
     try:
         save_figure(fig, path)
     except OSError as exc:
         raise InputError(f"cannot write plot {path}: {exc.strerror or exc}") from exc
     finally:
-        plt.close(fig)
+        if plt is not None:
+            plt.close(fig)
 
 
 def plot_straightness_report(path: Path, monitor, report: dict, t_h, measured, model, name: str = "") -> None:

@@ -13,6 +13,8 @@ MalformedMessage with one line; trailing bytes are allowed (Fast DDS pads to 4).
 """
 from __future__ import annotations
 
+import functools
+import re
 import struct
 from typing import NamedTuple
 
@@ -68,30 +70,35 @@ def _count(raw: bytes, offset: int, least_bytes: int, what: str) -> tuple[int, i
     return n, offset + 4
 
 
-def _wanted_values(raw: bytes, offset: int, pairs: int, wanted: frozenset) -> tuple[dict, int]:
-    """The KeyValues whose key (its bytes up to the first NUL) is in `wanted` (ASCII keys as bytes): every
-    pair is walked, only those texts are decoded."""
+@functools.lru_cache(maxsize=16)
+def _key_pattern(keys: frozenset) -> re.Pattern:
+    """Matches, at a key's first byte and within its bytes, a wanted key's text ended by a NUL or by the
+    key's end: the key's text (its bytes up to the first NUL) is that key."""
+    texts = sorted((re.escape(k.encode("ascii")) for k in keys), key=len, reverse=True)
+    return re.compile(b"(" + b"|".join(texts) + rb")(?:\x00|\Z)", re.DOTALL)
+
+
+def _wanted_values(raw: bytes, offset: int, pairs: int, pattern: re.Pattern) -> tuple[dict, int]:
+    """The KeyValues whose key is one `pattern` (_key_pattern) matches: every pair is walked reading only
+    its two lengths and matching the key in C; only the wanted texts are decoded. A length that runs past
+    the end is caught by struct (a read past the end) or by the check after the last pair."""
     values = {}
-    size = len(raw)
-    for _ in range(pairs):
-        offset += -(offset - 4) & 3
-        if offset + 4 > size:
-            raise MalformedMessage(f"key length at byte {offset} past the end ({size} bytes)")
-        (length,) = _U32(raw, offset)
-        start, offset = offset + 4, offset + 4 + length
-        if offset > size:
-            raise MalformedMessage(f"key of {length} bytes at byte {start - 4} past the end ({size} bytes)")
-        cut = raw.find(b"\x00", start, offset)
-        key = raw[start:offset if cut < 0 else cut]
-        offset += -(offset - 4) & 3
-        if key in wanted:
-            values[key.decode("ascii")], offset = _string(raw, offset)
-            continue
-        if offset + 4 > size:
-            raise MalformedMessage(f"value length at byte {offset} past the end ({size} bytes)")
-        offset += 4 + _U32(raw, offset)[0]
-        if offset > size:
-            raise MalformedMessage(f"value at byte {offset} past the end ({size} bytes)")
+    match = pattern.match
+    try:
+        for _ in range(pairs):
+            offset += -(offset - 4) & 3
+            start = offset + 4
+            offset = start + _U32(raw, offset)[0]
+            found = match(raw, start, offset)
+            offset += -(offset - 4) & 3
+            if found is not None:
+                values[found.group(1).decode("ascii")], offset = _string(raw, offset)
+                continue
+            offset += 4 + _U32(raw, offset)[0]
+    except struct.error:
+        raise MalformedMessage(f"key or value length at byte {offset} past the end ({len(raw)} bytes)") from None
+    if offset > len(raw):
+        raise MalformedMessage(f"key or value ending at byte {offset} past the end ({len(raw)} bytes)")
     return values, offset
 
 
@@ -102,7 +109,7 @@ def decode_diagnostic_array(raw: bytes, keys: frozenset | None = None) -> list[R
     if len(raw) < 16 or raw[0:2] not in _CDR_LE:
         raise MalformedMessage(f"no little endian CDR DiagnosticArray ({len(raw)} bytes, "
                                f"encapsulation {raw[0:2].hex() or 'none'})")
-    wanted = None if keys is None else frozenset(k.encode("ascii") for k in keys)
+    pattern = None if keys is None else _key_pattern(frozenset(keys))
     _, offset = _string(raw, 12)                      # after stamp.sec, stamp.nanosec: frame_id
     n, offset = _count(raw, _aligned4(offset), _MIN_STATUS_BYTES, "status")
     statuses = []
@@ -114,8 +121,8 @@ def decode_diagnostic_array(raw: bytes, keys: frozenset | None = None) -> list[R
         message, offset = _string(raw, _aligned4(offset))
         hardware_id, offset = _string(raw, _aligned4(offset))
         pairs, offset = _count(raw, _aligned4(offset), _MIN_PAIR_BYTES, "values")
-        if wanted is not None:
-            values, offset = _wanted_values(raw, offset, pairs, wanted)
+        if pattern is not None:
+            values, offset = _wanted_values(raw, offset, pairs, pattern)
         else:
             values = {}
             for _ in range(pairs):
