@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import json
 import math
-import multiprocessing as mp
 import sys
 from pathlib import Path
 from types import SimpleNamespace
@@ -36,6 +35,7 @@ from guide_health.sim.machine import simulate_machine
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import independent_drift as ind  # noqa: E402
+from case_pool import case_pool  # noqa: E402
 
 JOBS = Path(__file__).resolve().parents[1] / "config" / "machine_jobs.yaml"
 HOURS = 30.0
@@ -75,7 +75,7 @@ def case(args, keep_run: bool = False):
 
 def run_cases(cases, here=()):
     """The cases in two processes; those in ``here`` in this process meanwhile, their (params, run) kept."""
-    with mp.get_context("spawn").Pool(2) as pool:
+    with case_pool() as pool:
         pending = pool.map_async(case, cases)
         rows = [case(c, keep_run=True) for c in here] + pending.get()
     for r in rows:

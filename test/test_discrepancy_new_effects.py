@@ -18,7 +18,7 @@ base (m = 1 + b tau, tau the time since the last) and recover b.
 from __future__ import annotations
 
 import math
-import multiprocessing as mp
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +28,9 @@ from guide_health.analysis.discrepancy.duty import duty_cells_from_runs
 from guide_health.analysis.discrepancy.workflow import diagnose_cells
 from guide_health.params import simulation_params, wear_monitor_params
 from guide_health.sim.machine import simulate_machine
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from case_pool import case_pool  # noqa: E402
 
 JOBS = Path(__file__).resolve().parents[1] / "config" / "machine_jobs.yaml"
 RATE_HZ = 10.0
@@ -96,7 +99,7 @@ def case(args):
 
 
 def run_cases(effects, seeds):
-    with mp.get_context("spawn").Pool(2) as pool:
+    with case_pool() as pool:
         rows = pool.map(case, [(e, s) for e in effects for s in seeds])
     for r in rows:
         print(f"{r['effect']} seed {r['seed']}: named {r['named']} flag {r['flag']} "
@@ -233,7 +236,7 @@ def _relube_case_in(args):
 def test_lubrication_from_recorded_relubrications_9_of_10(tmp_path):
     """Seeds 0-9: named with the recorded time base in >= 9/10, the law b within 3 se and 20 % when named alone
     (measured 2026-11-23: named alone 10/10, unflagged, b 0.91-1.14x the hidden one). ~4 min."""
-    with mp.get_context("spawn").Pool(2) as pool:
+    with case_pool() as pool:
         rows = pool.map(_relube_case_in, [(s, str(tmp_path)) for s in range(10)])
     for r in rows:
         print(r)

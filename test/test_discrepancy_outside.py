@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import json
 import math
-import multiprocessing as mp
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -39,6 +39,9 @@ from guide_health.analysis.discrepancy.workflow import diagnose_cells
 from guide_health.cli.diagnose import format_text
 from guide_health.params import simulation_params, wear_monitor_params
 from guide_health.sim.machine import simulate_machine
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from case_pool import case_pool  # noqa: E402
 
 JOBS = Path(__file__).resolve().parents[1] / "config" / "machine_jobs.yaml"
 RATE_HZ = 10.0
@@ -109,7 +112,7 @@ def outside_case(args):
 
 
 def run_cases(cases):
-    with mp.get_context("spawn").Pool(2) as pool:
+    with case_pool() as pool:
         rows = pool.map(outside_case, cases)
     for r in rows:
         print(f"{r['law'] or 'clean'} seed {r['seed']}: named {r['named']}, flag {r['flag']}, "
