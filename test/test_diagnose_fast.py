@@ -70,9 +70,16 @@ def bag(tmp_path_factory):
     return path, params
 
 
-def test_fast_cell_keys_give_the_cells_of_np_unique(bag, monkeypatch):
+@pytest.fixture(scope="module")
+def serial_read(bag):
+    """(cells, messages) of the bag read in the test process with the fast cell keys."""
     path, params = bag
-    fast, messages = duty.read_duty_cells(path, params)
+    return duty.read_duty_cells(path, params)
+
+
+def test_fast_cell_keys_give_the_cells_of_np_unique(bag, serial_read, monkeypatch):
+    path, params = bag
+    fast, messages = serial_read
     monkeypatch.setattr(duty, "_cell_keys", unique_keys)
     plain, messages_plain = duty.read_duty_cells(path, params)
     assert messages == messages_plain > 100_000
@@ -80,9 +87,9 @@ def test_fast_cell_keys_give_the_cells_of_np_unique(bag, monkeypatch):
     assert_cells_identical(fast, plain)
 
 
-def test_cells_read_in_a_child_process_equal_the_serial_read(bag):
+def test_cells_read_in_a_child_process_equal_the_serial_read(bag, serial_read):
     path, params = bag
-    serial = duty.read_duty_cells(path, params)
+    serial = serial_read
     pending = start_duty_cells(path, params, background=True)
     assert pending.background
     child = pending.result()

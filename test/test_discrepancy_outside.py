@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import json
 import math
-import multiprocessing as mp
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -39,6 +39,9 @@ from guide_health.analysis.discrepancy.workflow import diagnose_cells
 from guide_health.cli.diagnose import format_text
 from guide_health.params import simulation_params, wear_monitor_params
 from guide_health.sim.machine import simulate_machine
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from case_pool import case_pool  # noqa: E402
 
 JOBS = Path(__file__).resolve().parents[1] / "config" / "machine_jobs.yaml"
 RATE_HZ = 10.0
@@ -84,15 +87,20 @@ def outside_truth(run, law: str, params: dict, stroke_sum_m: float) -> np.ndarra
         / stroke_sum_m
 
 
-def outside_case(args):
-    law, seed = args
+def outside_diagnosis(law: str, seed: int) -> dict:
+    """diagnose_cells of a run (``seed``: motion and noise of 0.3 um) whose straightness follows ``law``."""
     params = wear_monitor_params(JOBS)
     sim = dict(simulation_params(JOBS), duration_h=HOURS, joint_state_rate_hz=RATE_HZ, load_rate_hz=RATE_HZ)
     run = simulate_machine(params, sim, seed=seed)
     truth = run.metadata["truth"]
     noise = np.random.default_rng(500 + seed).normal(0.0, 0.3e-6, run.straightness_m.size)
     run.straightness_m = outside_truth(run, law, params, truth["stroke_min_m"] + truth["stroke_max_m"]) + noise
-    result = diagnose_cells(duty_cells_from_runs(run, params["slider_length_m"]), params)
+    return diagnose_cells(duty_cells_from_runs(run, params["slider_length_m"]), params)
+
+
+def outside_case(args):
+    law, seed = args
+    result = outside_diagnosis(law, seed)
     s = result["series"]
     fit = ~np.asarray(s["heldout"], dtype=bool)
     residual = (np.asarray(s["measured_um"]) - np.asarray(s["final_um"]))
@@ -104,7 +112,7 @@ def outside_case(args):
 
 
 def run_cases(cases):
-    with mp.get_context("spawn").Pool(2) as pool:
+    with case_pool() as pool:
         rows = pool.map(outside_case, cases)
     for r in rows:
         print(f"{r['law'] or 'clean'} seed {r['seed']}: named {r['named']}, flag {r['flag']}, "
@@ -149,17 +157,11 @@ def test_outside_the_library_and_clean_controls_10_seeds():
 
 
 def test_flag_comes_first_in_every_output(tmp_path):
-    """A speed-squared run flagged: the text summary's first line, report.md's first paragraph, the JSON's
-    first key and the PNG title carry it."""
-    row = outside_case(("speed_squared", 0))
-    result = dict(row["result"])
-    assert result["unexplained_structure"]["present"], "seed 0 of speed_squared is flagged (measured)"
+    """A speed-squared run flagged (seed 0, its noise included): the text summary's first line, report.md's
+    first paragraph, the JSON's first key and the PNG title carry it."""
+    full = outside_diagnosis("speed_squared", 0)
+    assert full["unexplained_structure"]["present"], "seed 0 of speed_squared is flagged (measured)"
     params = wear_monitor_params(JOBS)
-    sim = dict(simulation_params(JOBS), duration_h=HOURS, joint_state_rate_hz=RATE_HZ, load_rate_hz=RATE_HZ)
-    run = simulate_machine(params, sim, seed=0)
-    truth = run.metadata["truth"]
-    run.straightness_m = outside_truth(run, "speed_squared", params, truth["stroke_min_m"] + truth["stroke_max_m"])
-    full = diagnose_cells(duty_cells_from_runs(run, params["slider_length_m"]), params)
     files = write_report(full, tmp_path, bag="speed_squared", with_plot=False)
     md = (tmp_path / "report.md").read_text().splitlines()
     assert md[2].startswith("> **UNEXPLAINED STRUCTURE")
