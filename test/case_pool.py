@@ -3,14 +3,13 @@
 A spawned worker is a new interpreter that imports numpy, scipy and the discrepancy workflow again (about 3 CPU s,
 two per pool). ``case_pool`` forks its workers from a fork server that imported them once. The server has a single
 thread, so forking it is safe under pytest-xdist's threads (a plain fork of the test process is not). Each case
-seeds its own generators: the start method changes no result. The server is stopped when the pool closes, so its
-CPU time (and its workers') is reaped into the test process's, as a spawned pool's is.
+seeds its own generators: the start method changes no result. The server outlives the pool (idle) and serves the
+next pool of the same process; it ends with the process.
 """
 from __future__ import annotations
 
 import contextlib
 import multiprocessing as mp
-from multiprocessing import forkserver
 
 #: what every case imports (the server imports it once; a worker imports only its test module on top)
 PRELOAD = ["numpy", "scipy.optimize", "scipy.stats", "scipy.integrate", "guide_health.params",
@@ -23,9 +22,5 @@ def case_pool(processes: int = 2):
     """A multiprocessing Pool of ``processes`` workers forked from a preloaded fork server."""
     context = mp.get_context("forkserver")
     context.set_forkserver_preload(PRELOAD)
-    try:
-        with context.Pool(processes) as pool:
-            yield pool
-    finally:
-        # the module's server, ended and waited for (no public call does both; the next pool starts a new one)
-        forkserver._forkserver._stop()
+    with context.Pool(processes) as pool:
+        yield pool
