@@ -12,7 +12,7 @@ the fit frees K).
 - ``load_along_rail`` claims the wear at each position grows with the work done there: with a gauge offset and
   a gauge drift in clock time freed beside it, g must stay 3 sd from 0. Jobs at either end of the rail in
   alternating 3 h blocks with g = 2 /m pass; plain Archard wear with the jobs moving along the rail job by job
-  plus the 3 um creep is fitted by g != 0 and fails.
+  plus the 3 um creep, or a 1 um gauge offset, is fitted by g != 0 and fails.
 """
 from __future__ import annotations
 
@@ -132,6 +132,16 @@ def test_load_along_rail_that_is_a_clock_time_creep_fails():
     assert z > 3.0
     assert not check["passed"] and check["sd_from_none"] < 3.0
     assert "apart from a gauge offset and a gauge drift in clock time" in check["reason"]
+
+
+def test_load_along_rail_that_is_a_gauge_offset_fails():
+    """A gauge or form error there from the first measurement (1 um, A0 given) with the jobs moving along the rail:
+    g is fitted at > 5 sd alone and still > 3 sd beside a drift alone (measured 7.7 and 4.1), so the offset must
+    be freed too: with it the check fails."""
+    cells = cells_of(np.full(JOBS_N, 1000.0), POSITIONS_MOVING, ONES, lambda t: np.full_like(t, 1e-6), seed=5)
+    fit, z, check = named_and_checked(cells, "load_along_rail", "load_gradient_per_m", 0.0)
+    assert z > 5.0
+    assert not check["passed"] and check["sd_from_none"] < 3.0
 
 
 def test_a_failed_own_check_is_a_reading_outside_the_library():
