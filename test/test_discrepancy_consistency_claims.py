@@ -12,7 +12,8 @@ the fit frees K).
 - ``load_along_rail`` claims the wear at each position grows with the work done there: with a gauge offset and
   a gauge drift in clock time freed beside it, g must stay 3 sd from 0. Jobs at either end of the rail in
   alternating 3 h blocks with g = 2 /m pass; plain Archard wear with the jobs moving along the rail job by job
-  plus the 3 um creep, or a 1 um gauge offset, is fitted by g != 0 and fails.
+  plus the 3 um creep, a 10 um creep (jobs moving over the first half), or a 1 um gauge offset, is fitted by
+  g != 0 and fails.
 """
 from __future__ import annotations
 
@@ -132,6 +133,18 @@ def test_load_along_rail_that_is_a_clock_time_creep_fails():
     assert z > 3.0
     assert not check["passed"] and check["sd_from_none"] < 3.0
     assert "apart from a gauge offset and a gauge drift in clock time" in check["reason"]
+
+
+def test_load_along_rail_that_is_a_fast_creep_needs_the_drift_freed():
+    """The jobs move along the rail over the first 15 h and then stay at its end, the gauge creeps 10 um over the
+    record (0.33 um/h): g is fitted at > 4 sd alone and still > 3 sd beside an offset alone (measured 4.5 and
+    3.5), so the drift must be freed too: with it the check fails."""
+    hours = np.arange(JOBS_N) / PER_HOUR
+    x = np.where(hours < 15.0, 0.05 + 0.3 * hours / 15.0, 0.35)
+    cells = cells_of(np.full(JOBS_N, 1000.0), x, ONES, lambda t: 10e-6 * t / t[-1], seed=6)
+    fit, z, check = named_and_checked(cells, "load_along_rail", "load_gradient_per_m", 0.0)
+    assert z > 4.0
+    assert not check["passed"] and check["sd_from_none"] < 3.0
 
 
 def test_load_along_rail_that_is_a_gauge_offset_fails():
