@@ -29,6 +29,10 @@ structure it does not hold):
       cell's position scaled to [0, 1] over the work's 1..99 % positions (a smooth basis: the first
       ``POSITION_MODES`` modes of any profile along the travel; a foundation of varying stiffness).
 
+An effect's own check may refit the final model with check forms freed beside it (``ConsistencyRecord.refit_beside``:
+(c), or (f) a gauge offset y += d, a form error there from the first measurement, when A0 is given): its size
+must stay significant beside them.
+
 The same forms (c) and (e) added to the final model are the flag's nested tests of structure
 (:func:`structure_form_tests`): an F-test of the final model against it plus the form, whether anything is
 named or not (a gauge drifting in clock time is told from wear by the idle periods; a wear profile along the
@@ -52,8 +56,14 @@ import numpy as np
 from scipy import special
 
 from guide_health.analysis.discrepancy.model import FitResult, WearProblem
-from guide_health.models.wear.effects.base import FitParameter
-from guide_health.models.wear.effects.registry import BY_ID, CONSISTENCY_ALTERNATIVES, RATE_STEP, SLIDING_DECAY
+from guide_health.models.wear.effects.base import ConsistencyRecord, FitParameter
+from guide_health.models.wear.effects.registry import (
+    BY_ID,
+    CONSISTENCY_ALTERNATIVES,
+    INITIAL_TERM,
+    RATE_STEP,
+    SLIDING_DECAY,
+)
 from guide_health.models.wear.form_average import RUNNING_IN_FORMS
 
 #: |BIC_alternative - BIC_named| at or below this is a tie (Kass & Raftery 1995: 6..10 "strong")
@@ -78,6 +88,8 @@ _ALT_SPECS = {
     "k_growth_with_wear": [FitParameter("k_growth_per_work", "-", -0.9, 20.0, False, (0.5, 2.0))],
     "gauge_drift_in_time": [FitParameter("gauge_drift_m_per_s", "m/s", -2e-9, 2e-9, False, (0.0,))],
     "gauge_step_in_time": [FitParameter("gauge_step_m", "m", -1e-4, 1e-4, False, (0.0,))],
+    # a gauge or form error there from the first measurement: y + d (an effect's own check frees it beside it)
+    "gauge_offset": [FitParameter("gauge_offset_m", "m", -1e-4, 1e-4, False, (0.0,))],
 }
 #: the cosine modes of the wear profile along the rail, form (e)
 POSITION_MODES = 4
@@ -148,7 +160,7 @@ class CheckProblem(WearProblem):
             y = y + values["gauge_drift_m_per_s"] * (self.t_s - self.t_first_s)
         if "gauge_step_m" in values:
             y = y + values["gauge_step_m"] * (self.t_s >= self.gauge_step_at_s)
-        return y
+        return y + values.get("gauge_offset_m", 0.0)
 
 
 def _weighted_quantiles(values: np.ndarray, weights: np.ndarray, q: tuple[float, ...]) -> list[float]:
@@ -218,11 +230,24 @@ def separating_measurement(named: str, alternative: str, fit: FitResult, problem
             or "a longer record at a steady duty")
 
 
-def own_check(effect: str, problem: WearProblem, fit: FitResult) -> dict[str, Any]:
-    """The effect's check of its own physics against the record (its module's), {"passed": True} without one."""
+def own_check(effect: str, problem: WearProblem, fit: FitResult,
+              alt_problem: CheckProblem | None = None) -> dict[str, Any]:
+    """The effect's check of its own physics against the record (its module's), {"passed": True} without one.
+    Its ``refit_beside(forms)``: ``fit``'s model with the check forms freed beside it, on ``alt_problem`` (made
+    from ``problem`` when not given); "gauge_offset" is left out when A0 or its offset is fitted (it is that
+    term)."""
     relubrications = problem.relubrication_t_s.size if problem.relubrication_t_s is not None else None
     fit_span_s = float(problem.t_s[problem.fit_mask][-1] - problem.t_s[0])
-    return BY_ID[effect].own_consistency_check(relubrications, fit_span_s, fit.values)
+
+    def refit_beside(forms: tuple[str, ...]) -> tuple[dict[str, float], dict[str, float]]:
+        alt = alt_problem if alt_problem is not None else CheckProblem(problem)
+        offset_fitted = alt.a0_free or INITIAL_TERM.id in fit.effects
+        freed = tuple(f for f in forms if not (f == "gauge_offset" and offset_fitted))
+        beside = alt.fit(tuple(fit.effects) + freed, warm=fit)
+        return beside.values, beside.std_errors
+
+    return BY_ID[effect].own_consistency_check(ConsistencyRecord(relubrications, fit_span_s, fit.values,
+                                                                 refit_beside))
 
 
 def _status(rows: list[dict], own_check_passed: bool) -> str:
@@ -284,7 +309,7 @@ def check_named_effects(problem: WearProblem, final: FitResult, named: list[str]
     out: dict[str, dict[str, Any]] = {}
     for effect in named:
         forms = [a for a in dict.fromkeys((*(checked_against(effect) or ()), *STRUCTURE_FORMS)) if a not in named]
-        own = own_check(effect, problem, final)
+        own = own_check(effect, problem, final, alt_problem)
         rest = tuple(e for e in named if e != effect)
         rows = [_alternative(alt_problem, rest, form, final, [effect]) for form in forms]
         if not (rest == () and "gauge_drift_in_time" in forms):

@@ -33,10 +33,11 @@ import numpy as np
 from guide_health.analysis.discrepancy.analysis import noise_sd_von_neumann
 from guide_health.analysis.discrepancy.model import FitResult, WearProblem, fit_context
 from guide_health.analysis.rejections import REJECTED_SHARE_LEAD, rejection_summary, wear_input_share
+from guide_health.models.wear.effects.base import SIGNIFICANT_SD
 from guide_health.models.wear.effects.registry import BY_ID
 
-#: detectable = this many sd of the effect's size estimate (3: a 0.3 % two-sided false-detection rate)
-DETECTABLE_SD = 3.0
+#: detectable = this many sd of the effect's size estimate (the effects' significance rule, base.SIGNIFICANT_SD)
+DETECTABLE_SD = SIGNIFICANT_SD
 #: the fewest fitted measurements from which an effect is named: K, A0, an effect's two parameters and the
 #: BIC's penalty need about three measurements per parameter
 MIN_FIT_MEASUREMENTS = 12

@@ -3,6 +3,8 @@ for ``simulate --effect`` and its words for the report (plain data), and the int
 module reaches its physics (the methods of :class:`Effect`; an effect's module overrides those of its kind)."""
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -60,6 +62,36 @@ class LiveRequirement:
 
     def holds(self, value: float) -> bool:
         return value > 0 if self.condition == "> 0" else value != 0.0
+
+
+#: an effect's size is significant (and detectable, analysis/discrepancy/resolution.py) when it is at least this many
+#: standard errors from its no-effect value (3: a 0.3 % two-sided false-detection rate)
+SIGNIFICANT_SD = 3.0
+
+
+@dataclass(frozen=True)
+class ConsistencyRecord:
+    """What an effect's own consistency check (:meth:`Effect.own_consistency_check`) sees of a record: the number
+    of recorded relubrications (None: none), the fit span from the first measurement [s], the final fit's values,
+    and ``refit_beside(forms)``: the final model refitted on the same fit span with the check forms ``forms``
+    (analysis/discrepancy/consistency.py: e.g. "gauge_drift_in_time", "gauge_offset") freed beside the named
+    effects, as (values, standard errors)."""
+
+    relubrications: int | None
+    fit_span_s: float
+    values: dict[str, float]
+    refit_beside: Callable[[tuple[str, ...]], tuple[dict[str, float], dict[str, float]]]
+
+
+def size_beside_check(claim: str, size: float, sd: float, beside: str) -> dict[str, Any]:
+    """The check that an effect's size stays significant with the forms ``beside`` freed next to it (its signature
+    is not theirs): passed when |size| >= ``SIGNIFICANT_SD`` sd (``claim``: what the size is, e.g. "n - 1")."""
+    z = abs(size) / sd if sd > 0 else math.inf
+    passed = bool(z >= SIGNIFICANT_SD)
+    return {"passed": passed, "size": float(size), "std_error": float(sd), "sd_from_none": float(z),
+            "reason": (f"{claim} = {size:+.3g} ± {sd:.2g} with {beside} freed beside it ({z:.1f} sd from none"
+                       + ("" if passed else f", below {SIGNIFICANT_SD:g}: the record does not show {claim} apart from "
+                                            f"{beside}") + ")")}
 
 
 #: the token of ``Effect.consistency_alternatives`` for the registry's step in the wear coefficient (RATE_STEP)
@@ -164,10 +196,8 @@ class Effect:
         none documented."""
         return None
 
-    def own_consistency_check(self, relubrications: int | None, fit_span_s: float,
-                              values: dict[str, float]) -> dict[str, Any]:
-        """The check of its own physics against a record (``relubrications``: the number recorded, None: none;
-        ``fit_span_s``: the fit span from the first measurement; ``values``: the final fit's): {"passed": bool,
+    def own_consistency_check(self, record: ConsistencyRecord) -> dict[str, Any]:
+        """The check of its own physics against a record (:class:`ConsistencyRecord`): {"passed": bool,
         "reason": words, ...}; {"passed": True} without one."""
         return {"passed": True}
 

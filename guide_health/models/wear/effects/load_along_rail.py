@@ -12,6 +12,7 @@ from guide_health.models.wear.effects.base import (
     FitContext,
     FitParameter,
     SimulateValue,
+    size_beside_check,
 )
 
 
@@ -21,6 +22,17 @@ class LoadAlongRail(Effect):
     def plausible_strong_size(self, c):
         g = min(3.0, 0.9 / max(c.position_spread_m, 1e-3))
         return {"load_gradient_per_m": g}, "g [1/m]", g
+
+    def own_consistency_check(self, record):
+        """Its claim: the wear at each position grows with the work done there, at a rate linear in x, so its
+        signature grows from zero with the work (where the jobs were, not when). A gauge or form error is there
+        from the first measurement and does not grow (an offset), and a gauge drifting with clock time grows
+        with the clock: where the jobs' positions move along the rail over the record, either can pass for a
+        gradient. The check refits with both freed beside it (the offset only when the parameters give A0;
+        else A0 is fitted already): g must stay ``SIGNIFICANT_SD`` standard errors from 0."""
+        values, se = record.refit_beside(("gauge_offset", "gauge_drift_in_time"))
+        return size_beside_check("g [1/m]", values["load_gradient_per_m"], se["load_gradient_per_m"],
+                                 "a gauge offset and a gauge drift in clock time")
 
     def live_values(self, p, named):
         return {"load_gradient_per_m": float(p["load_gradient_per_m"]) if named else 0.0,

@@ -14,6 +14,7 @@ from guide_health.models.wear.effects.base import (
     FitContext,
     FitParameter,
     SimulateValue,
+    size_beside_check,
     work_weighted_geomean,
 )
 
@@ -23,6 +24,16 @@ class LoadExponent(Effect):
 
     def plausible_strong_size(self, c):
         return {"load_exponent": 2.0}, "n - 1", 1.0
+
+    def own_consistency_check(self, record):
+        """Its claim: the wear rate follows the load, W^n. A gauge whose zero drifts with clock time adds wear-like
+        growth that does not follow the load; where the load history trends with time (or light jobs fill more
+        hours than heavy ones) n - 1 can take that growth. The check refits with a gauge drift in clock time
+        freed beside it: n - 1 must stay ``SIGNIFICANT_SD`` standard errors from 0 (the jobs' loads, not the
+        clock, carry it; idle periods, where the clock runs and nothing wears, separate the two as well)."""
+        values, se = record.refit_beside(("gauge_drift_in_time",))
+        return size_beside_check("n - 1", values["load_exponent"] - 1.0, se["load_exponent"],
+                                 "a gauge drift in clock time")
 
     def live_values(self, p, named):
         return {"load_exponent": float(p["load_exponent"]) if named else 1.0,

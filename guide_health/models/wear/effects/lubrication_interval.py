@@ -32,9 +32,10 @@ class LubricationInterval(Effect):
         return ({"lubrication_interval_s": min(8.0 * 3600.0, 0.5 * c.fit_end_s), "lubrication_wear_growth": 2.0},
                 "a (T = 8 h or half the fit span)", 2.0)
 
-    def own_consistency_check(self, relubrications, fit_span_s, values):
+    def own_consistency_check(self, record):
         """Its period must be observed: relubrications recorded, or the fitted interval repeating at least
         ``MIN_LUBRICATION_CYCLES`` times in the fit span (a sawtooth that does not repeat is no evidence)."""
+        relubrications, fit_span_s, values = record.relubrications, record.fit_span_s, record.values
         if relubrications is not None:
             return {"passed": True, "reason": f"{relubrications} relubrications recorded"}
         t_fit_h = fit_span_s / 3600.0
