@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 import re
-import time
 
 import numpy as np
 import pytest
@@ -221,30 +220,28 @@ def test_live_yaw_bag_equals_replay_for_every_wear_key(tmp_path, ros_test_env):
         assert collector.wait_for(name, timeout=120.0) is not None, (tmp_path / "node.log").read_text()
         played = play_bag(bag, env, ["--wait-subscribers", "1"])
         assert played.returncode == 0, played.stderr
-        played_at = time.monotonic()       # every message acknowledged; the last ones may wait out the merge window
-        done = collector.wait_for(name, lambda s: int(float(s["values"].get("tilting_clearance_measurements", 0)))
-                                  == 6 and int(float(s["values"]["oscillation_strokes"])) >= offline[
-                                      "oscillation_strokes"] and s["received"] > played_at + 2.0, timeout=180.0)
-        assert done is not None, [(s["values"].get("oscillation_strokes"), s["values"].get(
-            "tilting_clearance_measurements")) for s in collector.history.get(name, [])][-3:]
+        keys = (*RACEWAY_WEAR_KEYS, "fatigue_damage_upper_axial")
+
+        def replay_numbers(status) -> bool:
+            return all(float(status["values"].get(key, "nan")) == pytest.approx(offline[key], rel=1e-9, abs=0.0)
+                       for key in keys)
+        # the player ends once the node's reader queues hold everything; a loaded node is still working through
+        # them: its numbers reach replay's once it has (a misdated or lost reading never does)
+        done = collector.wait_for(name, replay_numbers, timeout=180.0)
+        last = collector.get(name)
     finally:
         stop_node(node)
         collector.close()
         clean_fastdds_shm()
-    live = done["values"]
-    mismatch = {key: (float(live[key]), offline[key]) for key in RACEWAY_WEAR_KEYS
-                if float(live[key]) != pytest.approx(offline[key], rel=1e-9, abs=0.0)}
+    assert done is not None, {key: ((last or {"values": {}})["values"].get(key), offline[key]) for key in keys}
     recorded = read_slewing_bag(bag)           # the stamps as the bag holds them (replay's input)
     axis_t = np.asarray(recorded.axis_t_ns, dtype=np.int64)
     replay_dates = np.array([axis_t[axis_t <= t].max() for t in np.asarray(recorded.clearance_t_ns, np.int64)])
     live_dates = np.array([int(t) for t in re.findall(r"tilting clearance .* at axis stamp (\d+) ns",
                                                       (tmp_path / "node.log").read_text())], dtype=np.int64)
-    assert not mismatch, (mismatch, live_dates.tolist(), replay_dates.tolist())
     # the estimator's times pass through float64 (256 ns steps here); the axis samples are hours apart
     assert live_dates.size == 6 and np.all(np.abs(live_dates - replay_dates) < 1000), (live_dates.tolist(),
                                                                                       replay_dates.tolist())
-    assert float(live["fatigue_damage_upper_axial"]) == pytest.approx(offline["fatigue_damage_upper_axial"], rel=1e-9)
-
 
 
 def test_the_bag_size_guard_expects_the_duty_s_message_count(yaw_run):
