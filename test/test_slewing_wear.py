@@ -192,7 +192,8 @@ def test_live_yaw_bag_equals_replay_for_every_wear_key(tmp_path, ros_test_env):
     the same order). A Float64 reading has no stamp: the node's events executor (the default) handles messages
     in arrival order across topics, and the player sends a reading only once the data before it is in the
     node's reader queues, so the reading follows exactly the axis samples before it however far the node lags.
-    No settle time: the bag is played at the default rate, so a loaded node works through a backlog. (The
+    No settle time: the bag is played at the default rate, so a loaded node works through a backlog after the
+    player ends, and its status reaches replay's numbers once it has (waited for, up to 180 s). (The
     single-threaded executor, which takes one message per subscription per wait, dated readings up to 7 000 h
     of travel early on a loaded machine: k 24 % high.)"""
     import yaml
