@@ -131,6 +131,27 @@ def test_node_keys_stale_and_bad_messages(ros_context):
         node.destroy_node()
 
 
+@pytest.mark.parametrize(("overrides", "events"), [
+    ({}, True), ({"executor": "single_threaded"}, False), ({"sensor_qos": "best_effort"}, False),
+    ({"use_sim_time": True}, False), ({"executor": "events", "sensor_qos": "best_effort"}, True)])
+def test_node_spins_the_events_executor_unless_the_loss_count_or_sim_time_needs_the_other(ros_context, overrides,
+                                                                                         events):
+    """executor auto: events (arrival order across topics: a tilting clearance follows the axis samples received
+    before it) unless sensor_qos is best_effort (the exact loss count needs message info) or the node runs on
+    /clock; under events no subscription asks for message info (rclpy 7.1.6's EventsExecutor raises SystemError)."""
+    from rclpy.parameter import Parameter
+
+    from guide_health.nodes.slewing_monitor import SlewingMonitorNode
+
+    node = SlewingMonitorNode(context=ros_context, parameter_overrides=[
+        Parameter(name, value=value) for name, value in {"state_file": "none", **overrides}.items()])
+    try:
+        assert node.events is events
+        assert node.sensors.with_info is not events
+    finally:
+        node.destroy_node()
+
+
 @pytest.mark.ros
 def test_slewing_bag_through_bag_player_and_node_matches_offline(tmp_path, ros_test_env):
     from guide_health.io.bag.reader import read_slewing_bag

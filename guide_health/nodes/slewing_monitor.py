@@ -9,6 +9,14 @@ the status adds the fatigue damage and remaining life per row and the static saf
 The damage per row and the angle-counting state are committed every `checkpoint_period_s` (and at shutdown)
 to the SQLite `state_file` (guide_health/io/state_store.py) and restored at start; a saved state that does not
 read back is refused in one line and the damage starts at zero.
+
+Executor (parameter `executor`; `auto`, the default, is `events` unless `sensor_qos` is `best_effort` or the
+node runs on /clock, guide_health/nodes/qos.py resolve_executor): `events` spins rclpy's EventsExecutor, which
+handles the messages in arrival order across topics, so a header-less tilting clearance (Float64) is dated
+after every axis sample received before it (bag_player's barriers make the arrival order the bag's order).
+`single_threaded` (rclpy's SingleThreadedExecutor, with message info for the exact loss count of best-effort
+sensors) takes one message per subscription per wait: under a backlog a reading overtakes queued axis samples
+and is dated too early.
 """
 from __future__ import annotations
 
@@ -33,7 +41,7 @@ from guide_health.models.wear.input_rules import header_stamp_ns, joint_state_re
 from guide_health.models.wear.state_schema import fingerprint_mismatch
 from guide_health.nodes.common import run_node
 from guide_health.nodes.live_params import PeriodicTimers, apply_slewing_changes
-from guide_health.nodes.qos import SensorSubscriptions
+from guide_health.nodes.qos import SensorSubscriptions, resolve_executor
 from guide_health.nodes.status import StatusTask, StatusUpdater
 from guide_health.params import SLEWING_MONITOR_SCHEMA, declare_parameters
 from guide_health.params.typed import slewing_monitor_params
@@ -82,7 +90,9 @@ class SlewingMonitorNode(Node):
         self.updater.add(StatusTask(f"{p.bearing} roller contact", self._report,
                                     ROLLER_CONTACT_KEYS, EXTRA_KEYS, stale_inputs=("slewing/load",)))
         self.diag_pub = self.updater.publisher
-        self.sensors = SensorSubscriptions(self, p.sensor_qos, p.sensor_queue_depth, with_info=True)
+        # the events executor raises SystemError when a callback asks for message info (rclpy 7.1.6)
+        self.events = resolve_executor(p.executor, p.sensor_qos, self.get_parameter("use_sim_time").value) == "events"
+        self.sensors = SensorSubscriptions(self, p.sensor_qos, p.sensor_queue_depth, with_info=not self.events)
         self.sensors.subscribe(WrenchStamped, "slewing/load", self._on_load)
         self.axis_joint = p.axis_joint
         # loads and angles in stamp order, as the offline analysis takes them (models/slewing/stamp_merge.py)
@@ -252,7 +262,7 @@ class SlewingMonitorNode(Node):
 
 
 def main(argv: list[str] | None = None) -> int:
-    return run_node("slewing_monitor", SlewingMonitorNode, argv)
+    return run_node("slewing_monitor", SlewingMonitorNode, argv, events_executor=lambda node: node.events)
 
 
 if __name__ == "__main__":

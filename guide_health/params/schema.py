@@ -261,3 +261,11 @@ def alarm_and_sensor_qos_params(topics: str) -> tuple[Param, ...]:
               choices=("auto", "reliable", "best_effort")),
         Param("sensor_queue_depth", 1000, "-", "[1, 1000000]", "best-effort subscriptions: reader queue depth"),
     )
+
+
+def executor_param(events_description: str) -> Param:
+    """The ``executor`` parameter of the monitor nodes (one set of choices; the rule for ``auto`` is
+    guide_health/nodes/qos.py resolve_executor); ``events_description`` says what ``events`` brings the node."""
+    return Param("executor", "auto", "", "", f"events ({events_description}), single_threaded (message info: "
+                 "exact loss count of best-effort sensors) or auto (single_threaded when sensor_qos is best_effort "
+                 "or the node runs on /clock, else events)", choices=("auto", "events", "single_threaded"))

@@ -12,7 +12,7 @@ from typing import Any
 
 from guide_health.errors import InputError
 from guide_health.params.machine import MAINTENANCE_PARAMS
-from guide_health.params.schema import NodeSchema, NumberList, Param, alarm_and_sensor_qos_params
+from guide_health.params.schema import NodeSchema, NumberList, Param, alarm_and_sensor_qos_params, executor_param
 
 #: ISO 76:2006 static load rating reference: 4000 MPa contact stress at the most heavily loaded
 #: roller/raceway contact of roller bearings (through-hardened bearing steel, >= 58 HRC).
@@ -86,6 +86,8 @@ SLEWING_MONITOR_PARAMS = (
           "loads and axis angles are taken in stamp order; a sample waits up to this (wall time) for the other "
           "topic; 0 = on arrival"),
     Param("checkpoint_period_s", 10.0, "s", "[0.1, 86400]", "period of the SQLite state commit", dynamic=True),
+    executor_param("rclpy EventsExecutor: the messages in arrival order across topics, so a tilting clearance "
+                   "is dated after every axis sample received before it"),
     *alarm_and_sensor_qos_params("slewing/load"),
 )
 

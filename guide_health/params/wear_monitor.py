@@ -20,7 +20,7 @@ from guide_health.models.wear.effects.registry import (
 )
 from guide_health.models.wear.form_average import RUNNING_IN_FORMS
 from guide_health.params.machine import AXES_PARAM, MAINTENANCE_PARAMS, PLAN_PARAMS
-from guide_health.params.schema import NodeSchema, Param, alarm_and_sensor_qos_params
+from guide_health.params.schema import NodeSchema, Param, alarm_and_sensor_qos_params, executor_param
 
 _N = len(COVARIANCE_NAMES)
 
@@ -143,9 +143,7 @@ SLIDING_GUIDE_PARAMS = (
     Param("rejected_share_warn", 0.5, "-", "[0, 1]",
           "WARN when more than this share of a stream's recent samples was rejected (names the reason)",
           dynamic=True),
-    Param("executor", "auto", "", "", "events (rclpy EventsExecutor, raw CDR), single_threaded (message info: "
-          "exact loss count of best-effort sensors) or auto (single_threaded when sensor_qos is best_effort, "
-          "else events)", choices=("auto", "events", "single_threaded")),
+    executor_param("rclpy EventsExecutor, raw CDR"),
     *alarm_and_sensor_qos_params("the data topics"),
     Param("state_file", "auto", "", "",
           "SQLite state file; auto = $ROS_HOME/guide_health/<machine_id>/<node>.db (ROS_HOME: ~/.ros); "
