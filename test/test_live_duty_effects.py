@@ -435,7 +435,7 @@ def test_the_model_file_carries_the_gauge_offset_at_t_ref_by_its_jacobian():
     sigma = corr * np.outer(sd, sd)
     final = SimpleNamespace(values={"wear_coefficient": 4.4e-6, "thermal_drift_m_per_k": c, "thermal_offset_m": b},
                             extra={"covariance": {"names": names, "matrix": sigma}})
-    problem = SimpleNamespace(a0_free=False, a0_m=15e-6, load_reference_n=5000.0, retract_sign=-1,
+    problem = SimpleNamespace(a0_free=False, a0_m=15e-6, fit_references={"load_reference_n": 5000.0}, retract_sign=-1,
                               cells=SimpleNamespace(t0_ns=1_700_000_000 * 10 ** 9), temperature_first_c=t0)
     model = model_parameters(problem, final, ["thermal_drift"])
     assert model["thermal_reference_c"] == pytest.approx(t0 - b / c, rel=1e-12)

@@ -266,7 +266,8 @@ def test_a_fitted_a0_goes_into_the_model_file_with_its_covariance():
     corr[1, 3] = corr[3, 1] = -0.7
     corr[0, 3] = corr[3, 0] = 0.2
     sigma = corr * np.outer(sd, sd)
-    base = dict(load_reference_n=5000.0, retract_sign=-1, cells=SimpleNamespace(t0_ns=0), temperature_first_c=20.0)
+    base = dict(fit_references={"load_reference_n": 5000.0}, retract_sign=-1, cells=SimpleNamespace(t0_ns=0),
+                temperature_first_c=20.0)
     for a0_free, extra_name, a0_file in ((True, "straightness_initial_m", 14.6e-6),
                                          (False, "initial_offset_m", 15e-6 - 0.4e-6)):
         values = {"wear_coefficient": 4.4e-6, "running_in_ratio": 2.4, "running_in_distance_m": 310.0,
