@@ -191,3 +191,29 @@ def test_cli_simulate_life_test_and_life_test_bag(tmp_path, capsys):
     assert main(["life", "test", str(bag), "--params", str(cfg), "--json"]) in (0, None)
     out = json.loads(capsys.readouterr().out)
     assert out["c_ratio"] == pytest.approx(0.624, abs=0.003) and out["failure_interval_km"] == [445.0, 450.0]
+
+
+def test_noise_level_out_of_order_is_refused_and_counted():
+    """A level whose travel goes back (stamped before the start or before the previous level) raises, leaves the
+    trend unchanged, and the stamped feed counts it in rejected_levels; levels counts the accepted ones."""
+    import copy
+
+    from guide_health.analysis.life_signs import signs_from_params
+    from guide_health.models.rolling.life_signs import NoiseTrend, StampedLifeTest
+
+    trend = NoiseTrend(baseline_samples=3)
+    for i, db in enumerate((70.0, 70.4, 69.8, 71.0)):
+        trend.update(10.0 * i, db)
+    assert trend.levels == 4 and trend.last_travel_m == 30.0
+    kept = copy.deepcopy(trend)
+    for travel, db in ((29.9, 70.0), (-1.0, 70.0), (40.0, math.nan), (math.nan, 70.0)):
+        with pytest.raises(ValueError):
+            trend.update(travel, db)
+    assert trend == kept
+    trend.update(30.0, 70.0)                       # same travel: accepted (a stop)
+    assert trend.levels == 5
+
+    p = vibration_monitor_params(SCHEMAS["vibration_monitor"].defaults() | {"load_fraction": 0.3})
+    feed = StampedLifeTest(signs_from_params(p), 0.5, start_ns=10**9)
+    assert feed.on_level(2 * 10**9, 70.0) and not feed.on_level(10**9 // 2, 70.0)   # before the start: -0.25 m
+    assert feed.rejected_levels == 1 and feed.channels[""].noise.levels == 1

@@ -98,6 +98,7 @@ def vibration_status_values(feed: StampedLifeTest) -> dict:
     band = s["abnormal_band_hz"]
     return {
         "blocks": sum(c.blocks for c in feed.channels.values()), "channel": feed.worst_channel,
+        "levels": signs.noise.levels,
         "rejected_blocks": feed.rejected_blocks, "rejected_levels": feed.rejected_levels,
         "rejected_positions": feed.rejected_positions,
         "travel_km": s["last_travel_km"], "travel_source": feed.clock.source(),

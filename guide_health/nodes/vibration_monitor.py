@@ -52,7 +52,7 @@ VIBRATION_KEYS = ("blocks", "channel", "travel_km", "travel_source", "z_max", "z
                   "defect", "defect_frequency_hz", "defect_frequency_uncertainty_hz", "defect_resolution_hz",
                   "defect_spectrum", "noise_level_db", "noise_rise_db", "noise_sd_db", "noise_rise_km",
                   "noise_drop_km", "failure_travel_km", "band_energies_m2_s4")
-EXTRA_KEYS = ("rejected_blocks", "rejected_levels", "rejected_positions", "false_alarm_per_block",
+EXTRA_KEYS = ("levels", "rejected_blocks", "rejected_levels", "rejected_positions", "false_alarm_per_block",
               "false_alarm_k_of_n",
               "raceway_hz", "ball_defect_hz", "recirculation_hz", "callback_time_us", "block_model_time_us")
 

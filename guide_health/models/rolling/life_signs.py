@@ -118,10 +118,17 @@ class NoiseTrend:
     cusum_db: float = 0.0
     ewma_db: float = math.nan
     rise_travel_m: float | None = None
+    levels: int = 0                 # levels accepted
+    last_travel_m: float = 0.0      # travel of the last accepted level [m]
 
     def update(self, travel_m: float, level_db: float) -> None:
-        if not (math.isfinite(level_db) and math.isfinite(travel_m)):
-            raise ValueError(f"noise level and travel must be finite, got {level_db!r} dB at {travel_m!r} m")
+        """One level [dB] at ``travel_m``; raises ValueError (state unchanged) on a non-finite level or travel, or
+        travel that goes backwards (a level stamped before the start or before the previous level)."""
+        if not (math.isfinite(level_db) and math.isfinite(travel_m) and travel_m >= self.last_travel_m):
+            raise ValueError(f"noise level must be finite and its travel not decrease, got {level_db!r} dB at "
+                             f"{travel_m!r} m after {self.last_travel_m!r} m")
+        self.levels += 1
+        self.last_travel_m = travel_m
         self.ewma_db = level_db if math.isnan(self.ewma_db) else (
             self.ewma_weight * level_db + (1.0 - self.ewma_weight) * self.ewma_db)
         self.shift.update(travel_m, level_db)
