@@ -25,6 +25,8 @@ C_AXIAL = 1.0 * FC_THRUST * L_MM ** (7 / 9) * Z ** 0.75 * D_MM ** (29 / 27)     
 C_RADIAL = 1.1 * FC_RADIAL * L_MM ** (7 / 9) * Z ** 0.75 * D_MM ** (29 / 27)     # ISO 281 Eq. (7), b_m = 1.1
 C0_AXIAL = 220.0 * Z * L_MM * D_MM                                              # ISO 76, alpha = 90 deg
 C0_RADIAL = 44.0 * (1 - D_MM / DPW_MM) * Z * L_MM * D_MM                          # ISO 76, radial roller
+#: static hardness factor at 55 HRC: (HV_55 / HV_58)^2, HV = (223 HRC + 14500) / (100 - HRC) (Schlecht)
+F0H_55 = ((223 * 55 + 14500) / 45 / ((223 * 58 + 14500) / 42)) ** 2
 
 
 def ratings(hrc=58.0):
@@ -45,10 +47,12 @@ def test_capacities_equal_iso281_and_iso76_by_hand():
     assert r.dynamic_n["radial"] == pytest.approx(C_RADIAL, rel=1e-12)
     assert r.static_n["upper_axial"] == pytest.approx(C0_AXIAL, rel=1e-12)
     assert r.static_n["radial"] == pytest.approx(C0_RADIAL, rel=1e-12)
-    soft = ratings(55.0)                                  # hardness factor (55/58)^3.6 on C and C0
+    soft = ratings(55.0)                                  # (55/58)^3.6 on C; (HV_55 / HV_58)^2 on C0
     assert soft.dynamic_n["upper_axial"] == pytest.approx(C_AXIAL * (55 / 58) ** 3.6, rel=1e-12)
-    assert soft.static_n["radial"] == pytest.approx(C0_RADIAL * (55 / 58) ** 3.6, rel=1e-12)
-    assert hardness_factor(62.0) == 1.0
+    assert (223 * 58 + 14500) / 42 == pytest.approx(653.19, abs=0.01)   # HV_58
+    assert soft.static_n["radial"] == pytest.approx(C0_RADIAL * F0H_55, rel=1e-12)
+    assert soft.static_n["upper_axial"] == pytest.approx(C0_AXIAL * 0.8291, rel=1e-4)    # (594.78/653.19)^2
+    assert hardness_factor(62.0) == 1.0 and ratings(62.0).static_n["radial"] == pytest.approx(C0_RADIAL, rel=1e-12)
 
 
 def test_constant_axial_load_over_n_revolutions_gives_n_over_l10():
@@ -225,7 +229,7 @@ def test_node_takes_the_axis_angle_and_publishes_damage_and_static_safety(ros_co
         assert float(values["fatigue_damage_upper_axial"]) == pytest.approx(2 / l10, rel=1e-5)
         assert float(values["fatigue_damage_lower_axial"]) == 0.0
         assert values["fatigue_governing_row"] == "upper_axial"
-        assert float(values["static_safety_factor"]) == pytest.approx(C0_AXIAL * (55 / 58) ** 3.6 / 5.0e5, rel=1e-5)
+        assert float(values["static_safety_factor"]) == pytest.approx(C0_AXIAL * F0H_55 / 5.0e5, rel=1e-5)
         assert float(values["rejected_axis_angles"]) == 1
         assert float(values["fatigue_remaining_life_upper_axial_h"]) == pytest.approx(72 * (l10 / 2 - 1) / 3600,
                                                                                       rel=1e-5)

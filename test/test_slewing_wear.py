@@ -184,6 +184,34 @@ def test_simulate_cli_yaw_and_pitch_bags_carry_axis_and_clearances(tmp_path):
             assert swing.max() <= 1.0 + 1e-12
 
 
+def test_replay_text_of_a_yaw_bag_shows_fatigue_static_safety_and_wear(tmp_path, capsys):
+    """`replay` of a slewing bag with the axis and clearance readings: the text shows each row's damage and
+    remaining life, the governing row, S0 and the raceway wear's clearance, k and life, as report.json has
+    them (formatted from the same numbers)."""
+    import json
+
+    from guide_health.cli.app import main
+
+    params = tmp_path / "p.yaml"
+    params.write_text("guide_health_slewing_simulation:\n  ros__parameters:\n    duration_h: 0.5\n"
+                      "    yaw_dwell_mean_s: 300.0\n")
+    bag = tmp_path / "yaw"
+    assert main(["simulate", "--kind", "slewing", "--duty", "yaw", "--params", str(params), "--out", str(bag)]) == 0
+    capsys.readouterr()
+    node = tmp_path / "slewing.yaml"
+    node.write_text("slewing_monitor:\n  ros__parameters:\n    machine_id: yaw1\n")
+    assert main(["replay", str(bag), "--params", str(node), "--out", str(tmp_path / "rep"), "--no-plot"]) == 0
+    text = capsys.readouterr().out
+    report = json.loads((tmp_path / "rep" / "report.json").read_text())
+    for row in ("upper_axial", "lower_axial", "radial"):
+        assert (f"fatigue {row}:" in text and f"damage {report[f'fatigue_damage_{row}']:.3g}," in text), row
+    assert f"governing row:     {report['fatigue_governing_row']} (" in text
+    assert f"static safety S0:  {report['static_safety_factor']:.3g} ({report['static_safety_row']} row)" in text
+    assert report["tilting_clearance_measurements"] == 6 and "(6 readings)" in text
+    assert f"raceway wear k:    {report['raceway_wear_coefficient_m2_n']:.4g} m^2/N" in text
+    assert f"to the limit:      {report['raceway_wear_remaining_life_h']:.4g} h" in text
+
+
 @pytest.mark.ros
 def test_live_yaw_bag_equals_replay_for_every_wear_key(tmp_path, ros_test_env):
     """bag_player -> slewing_monitor (its tilting_clearance topic) == `replay` of the same bag: every reading

@@ -15,6 +15,7 @@ from guide_health.io.bag.bag_set import BagSet, resolve_bags
 from guide_health.io.bag.info import bag_topic_types
 from guide_health.io.outputs.progress import ProgressBar
 from guide_health.models.levels import LEVEL_NAMES
+from guide_health.models.slewing.rating import ROWS
 from guide_health.models.wear.fit_watch import parse_utc_ns, utc_text
 from guide_health.models.wear.model_load import ModelLoadError
 from guide_health.params import (
@@ -161,15 +162,7 @@ def format_text(report: dict) -> str:
     if "axes" in report:
         return format_machine_text(report)
     if report.get("kind") == "slewing":
-        return "\n".join([
-            f"slewing bearing report ({report['duration_h']:.2f} h, {report['messages']} loads)",
-            f"  worst roller:   {report.get('p_max_MPa', float('nan')):.0f} MPa at "
-            f"{report.get('roller_load_max_n', float('nan')) / 1e3:.1f} kN ({report['level_name']}: "
-            f"{report.get('message', '')})",
-            f"  samples:        {report['samples_ok']} OK, {report['samples_warn']} WARN, "
-            f"{report['samples_error']} ERROR, {report['rejected_loads']} rejected",
-            f"  files:          {', '.join(report['files'].values())}",
-        ])
+        return format_slewing_text(report)
     return "\n".join(with_rejection_lines([
         f"guide precision report ({report['duration_h']:.2f} h, {report['messages']} messages)",
         f"  status:                {report['level_name']}: {report['message']}",
@@ -185,6 +178,44 @@ def format_text(report: dict) -> str:
         *bag_set_lines(report, "  "),
         f"  files:                 {', '.join(report['files'].values())}",
     ], report.get("rejections", {})))
+
+
+def format_slewing_text(report: dict) -> str:
+    """The slewing report: the worst roller contact; with an axis angle in the bag also the fatigue damage and
+    remaining life per row, the static safety, and with tilting-clearance readings the raceway wear."""
+    nan = float("nan")
+    lines = [
+        f"slewing bearing report ({report['duration_h']:.2f} h, {report['messages']} loads)",
+        f"  worst roller:      {report.get('p_max_MPa', nan):.0f} MPa at "
+        f"{report.get('roller_load_max_n', nan) / 1e3:.1f} kN ({report['level_name']}: {report.get('message', '')})",
+        f"  samples:           {report['samples_ok']} OK, {report['samples_warn']} WARN, "
+        f"{report['samples_error']} ERROR, {report['rejected_loads']} rejected",
+    ]
+    if "fatigue_governing_row" in report:
+        for row in ROWS:
+            lines.append(f"  fatigue {row + ':':<13} damage {report[f'fatigue_damage_{row}']:.3g}, remaining "
+                         f"{report[f'fatigue_remaining_life_{row}_h']:.4g} h")
+        lines += [
+            f"  governing row:     {report['fatigue_governing_row']} ({report['fatigue_message']}); "
+            f"{report['oscillation_strokes']} strokes, {report['oscillation_strokes_below_critical']} below the "
+            "critical angle",
+            f"  static safety S0:  {report['static_safety_factor']:.3g} ({report['static_safety_row'] or '-'} row), "
+            f"limiting curve {report['limiting_curve_safety']:.3g}",
+        ]
+    if report.get("tilting_clearance_measurements"):
+        lines += [
+            f"  tilting clearance: {report['tilting_clearance_predicted_mm']:.4f} mm predicted, "
+            f"{report['tilting_clearance_measured_mm']:.4f} mm last measured "
+            f"({report['tilting_clearance_measurements']} readings), limit "
+            f"{report['tilting_clearance_limit_mm']:.3f} mm",
+            f"  raceway wear k:    {report['raceway_wear_coefficient_m2_n']:.4g} m^2/N (90 %: "
+            f"{report['raceway_wear_coefficient_low_m2_n']:.3g} .. {report['raceway_wear_coefficient_high_m2_n']:.3g})",
+            f"  to the limit:      {report['raceway_wear_remaining_life_h']:.4g} h (90 %: "
+            f"{report['raceway_wear_remaining_life_low_h']:.4g} .. "
+            f"{report['raceway_wear_remaining_life_high_h']:.4g} h)",
+        ]
+    lines.append(f"  files:             {', '.join(report['files'].values())}")
+    return "\n".join(lines)
 
 
 REPLAY = Command(add_arguments, run, format_text)

@@ -11,10 +11,16 @@ Sources
   C_r = b_m f_c (i L_we)^(7/9) Z^(3/4) D_we^(29/27),  C_a = b_m f_c L_we^(7/9) Z^(3/4) D_we^(29/27);
   b_m (ISO 281 Table 1): 1.1 cylindrical radial, 1.0 thrust cylindrical; f_c: ISO 281 Table 7 (radial) and
   Table 9 (thrust, alpha = 90 deg) against D_we / D_pw, linear interpolation as the standard allows.
-* Slewing-bearing reduction: induction-hardened raceways are softer than the 58 HRC ISO 281 assumes; the
-  capacity is multiplied by the hardness factor f_H = (HRC / 58)^3.6 (<= 1) (Harris & Kotzalas, Rolling
-  Bearing Analysis, 5th ed., Advanced Concepts; the reduction NREL DG03, Harris, Rumbarger & Butterfield 2009,
-  applies to yaw and pitch bearings).
+* Slewing-bearing reduction: induction-hardened raceways are softer than the 58 HRC ISO 281 and ISO 76
+  assume. Harris et al. 2009 (NREL DG03 and Harris & Kotzalas, Rolling Bearing Analysis, 5th ed.) reduce the
+  two capacities by two different factors:
+  - dynamic: C is multiplied by f_H = (HRC / 58)^3.6 (<= 1), a fatigue-life reduction;
+  - static: C_0 is multiplied by f_0H = (HV / HV_58)^2 (<= 1) for line contact. ISO 76 defines C_0 as the load
+    that takes the heaviest roller contact to 4000 MPa, the stress of a permanent deformation of 1e-4 D_we on
+    a 58 HRC raceway. That stress scales with the raceway's yield strength, i.e. with its hardness HV, and a
+    line contact's load grows with the square of its Hertz pressure (p_max = sqrt(Q E' / (pi l_e R'))), so
+    C_0 scales with HV^2 (a point contact would give HV^3). HV from HRC by Schlecht's conversion
+    HV = (223 HRC + 14500) / (100 - HRC) (HV_58 = 653.2).
 * Static capacity, ISO 76:2006 (4000 MPa at the heaviest roller contact), N with mm:
   C_0r = 44 (1 - D_we / D_pw) i Z L_we D_we (radial),  C_0a = 220 Z L_we D_we (thrust, alpha = 90 deg).
 * Rating life, ISO 281 Eq. (15)/(16) (roller bearings): L10 = (C / P)^(10/3) million revolutions.
@@ -50,9 +56,11 @@ REVOLUTIONS_PER_RATING_UNIT: float = 1.0e6
 #: ISO 281 Table 1: b_m of cylindrical roller bearings, radial and thrust
 B_M_RADIAL_CYLINDRICAL: float = 1.1
 B_M_THRUST_CYLINDRICAL: float = 1.0
-#: ISO 281 / ISO 76 reference hardness [HRC] and the hardness factor exponent (Harris & Kotzalas)
+#: ISO 281 / ISO 76 reference hardness [HRC] and the dynamic hardness factor's exponent (Harris & Kotzalas)
 REFERENCE_HARDNESS_HRC: float = 58.0
 HARDNESS_FACTOR_EXPONENT: float = 3.6
+#: exponent of HV / HV_58 in the static hardness factor: line contact, Q ~ p_max^2 (module doc)
+STATIC_HARDNESS_EXPONENT_LINE_CONTACT: float = 2.0
 
 #: D_we cos(alpha) / D_pw of ISO 281 Table 7 and Table 9
 _FC_RATIO = (0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08, 0.09, 0.10)
@@ -79,8 +87,20 @@ def fc_thrust_roller(diameter_ratio: float) -> float:
 
 
 def hardness_factor(raceway_hardness_hrc: float) -> float:
-    """f_H = min(1, (HRC/58)^3.6): capacity factor of a raceway softer than 58 HRC.  # Harris & Kotzalas"""
+    """f_H = min(1, (HRC/58)^3.6): dynamic capacity factor of a raceway softer than 58 HRC.  # Harris & Kotzalas"""
     return min(1.0, (raceway_hardness_hrc / REFERENCE_HARDNESS_HRC) ** HARDNESS_FACTOR_EXPONENT)
+
+
+def vickers_from_rockwell_c(hardness_hrc: float) -> float:
+    """HV = (223 HRC + 14500) / (100 - HRC) (Schlecht's conversion, steel, 20-68 HRC)."""
+    return (223.0 * hardness_hrc + 14500.0) / (100.0 - hardness_hrc)
+
+
+def static_hardness_factor(raceway_hardness_hrc: float) -> float:
+    """f_0H = min(1, (HV / HV_58)^2): static capacity factor of a line-contact raceway softer than 58 HRC
+    (ISO 76's 4000 MPa scaled with the hardness; module doc)."""
+    ratio = vickers_from_rockwell_c(raceway_hardness_hrc) / vickers_from_rockwell_c(REFERENCE_HARDNESS_HRC)
+    return min(1.0, ratio ** STATIC_HARDNESS_EXPONENT_LINE_CONTACT)
 
 
 @dataclass(frozen=True, slots=True)
@@ -92,18 +112,20 @@ class SlewingRatings:
     roller_count: int
     radial_roller_count: int
     raceway_diameter_m: float
-    hardness_factor: float
+    hardness_factor: float              # f_H on the dynamic capacities
+    static_hardness_factor: float       # f_0H on the static capacities
 
 
 def slewing_ratings(roller_count: int, radial_roller_count: int, roller_diameter_m: float, roller_length_m: float,
                     raceway_diameter_m: float, raceway_hardness_hrc: float = REFERENCE_HARDNESS_HRC) -> SlewingRatings:
-    """C and C_0 of the three rows (ISO 281 Eqs. (7)/(11), ISO 76, hardness factor f_H on C and C_0).
+    """C and C_0 of the three rows (ISO 281 Eqs. (7)/(11), ISO 76; hardness factors f_H on C, f_0H on C_0).
 
     Rollers of all rows share d and l_e; ``radial_roller_count`` is Z of the radial row. Lengths in m.
     """
     d_mm, l_mm = roller_diameter_m * 1e3, roller_length_m * 1e3
     ratio = roller_diameter_m / raceway_diameter_m
     f_h = hardness_factor(raceway_hardness_hrc)
+    f_0h = static_hardness_factor(raceway_hardness_hrc)
     thrust_c = B_M_THRUST_CYLINDRICAL * fc_thrust_roller(ratio) * l_mm ** (7 / 9) * roller_count ** 0.75 \
         * d_mm ** (29 / 27)
     radial_c = B_M_RADIAL_CYLINDRICAL * fc_radial_roller(ratio) * l_mm ** (7 / 9) * radial_roller_count ** 0.75 \
@@ -112,9 +134,9 @@ def slewing_ratings(roller_count: int, radial_roller_count: int, roller_diameter
     radial_c0 = 44.0 * (1.0 - ratio) * radial_roller_count * l_mm * d_mm
     return SlewingRatings(
         dynamic_n={"upper_axial": f_h * thrust_c, "lower_axial": f_h * thrust_c, "radial": f_h * radial_c},
-        static_n={"upper_axial": f_h * thrust_c0, "lower_axial": f_h * thrust_c0, "radial": f_h * radial_c0},
+        static_n={"upper_axial": f_0h * thrust_c0, "lower_axial": f_0h * thrust_c0, "radial": f_0h * radial_c0},
         roller_count=int(roller_count), radial_roller_count=int(radial_roller_count),
-        raceway_diameter_m=float(raceway_diameter_m), hardness_factor=f_h)
+        raceway_diameter_m=float(raceway_diameter_m), hardness_factor=f_h, static_hardness_factor=f_0h)
 
 
 def _life_mean(loads_n: np.ndarray) -> float:
