@@ -112,6 +112,7 @@ LAZY_IMPORTS = {
     ("guide_health/cli/diagnose.py", "guide_health.analysis.discrepancy.model"): "a machine of several axes",
     ("guide_health/cli/diagnose.py", "guide_health.analysis.machine_replay"): "a machine of several axes",
     ("guide_health/cli/diagnose.py", "guide_health.analysis.discrepancy.since"): "--since (imports the fit)",
+    ("guide_health/cli/diagnose.py", "guide_health.analysis.slewing_diagnose"): "143 ms: a slewing bag",
     ("guide_health/analysis/discrepancy/duty_process.py", "guide_health.analysis.discrepancy.duty"):
         "780 ms: in the forked child (or at result()), not before the fork",
     ("guide_health/analysis/discrepancy/duty_process.py", "guide_health.analysis.discrepancy.report"):

@@ -205,7 +205,7 @@ def test_a_slewing_bag_carries_its_axis_and_replay_reports_the_damage(tmp_path):
     the bag reports the damage keys of the in-memory run exactly; the bag is still a slewing bag."""
     from guide_health.analysis.replay import analyse_slewing_bag
     from guide_health.analysis.slewing_replay import analyse_slewing_run
-    from guide_health.cli.replay import is_slewing_bag
+    from guide_health.io.bag.info import is_slewing_bag
     from guide_health.io.bag.reader import read_slewing_bag
     from guide_health.io.bag.writer import write_slewing_bag
 

@@ -10,12 +10,14 @@ from guide_health.models.slewing.monitor import SlewingMonitor
 from guide_health.params.typed import slewing_monitor_params
 
 
-def analyse_slewing_run(run, params: dict, progress=None) -> tuple[SlewingMonitor, dict]:
+def analyse_slewing_run(run, params: dict, progress=None,
+                        monitor: SlewingMonitor | None = None) -> tuple[SlewingMonitor, dict]:
     """Every load sample of a SlewingLoadRun through SlewingMonitor (the node's rules); returns the
     monitor and a report: the worst roller of the whole run (its loads and time), counts of samples per
     level, and `p_max_MPa` per sample for plots (key `series`). ``params``: the slewing_monitor section as
-    loaded (a dict), made the typed, validated SlewingMonitorParams here as the node does."""
-    monitor = SlewingMonitor(slewing_monitor_params(params))
+    loaded (a dict), made the typed, validated SlewingMonitorParams here as the node does; ``monitor``: one made
+    from them by the caller (e.g. with its wear model watched), else a new one."""
+    monitor = SlewingMonitor(slewing_monitor_params(params)) if monitor is None else monitor
     n = int(np.asarray(run.t_ns).size)
     axis_t = np.asarray(run.axis_t_ns, dtype=np.int64).tolist()
     axis_angle = np.asarray(run.axis_angle_rad, dtype=float).tolist()

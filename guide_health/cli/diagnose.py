@@ -15,13 +15,16 @@ from guide_health.cli.command import Command, check_out_path
 from guide_health.cli.text import bag_set_lines
 from guide_health.errors import InputError
 from guide_health.io.bag.bag_set import BagSet, resolve_bags, source_events
+from guide_health.io.bag.info import is_slewing_bag
+from guide_health.io.bag.reader import read_slewing_bag
 from guide_health.io.outputs.files import write_text
 from guide_health.io.outputs.json_text import json_text
 from guide_health.io.outputs.progress import ProgressBar
 from guide_health.models.wear.fit_watch import parse_utc_ns
 from guide_health.models.wear.maintenance import relubrication_times_s, wear_resets
-from guide_health.params import validate_wear_params, wear_monitor_params
+from guide_health.params import slewing_monitor_params_from, validate_wear_params, wear_monitor_params
 from guide_health.params.machine import axes_params
+from guide_health.params.typed import slewing_monitor_params
 
 
 def add_arguments(parser) -> None:
@@ -54,6 +57,9 @@ def run(args) -> dict:
     if not 0.0 <= args.heldout_fraction < 0.9:
         raise InputError("--heldout-fraction must be in [0, 0.9)")
     threshold = _bic_threshold(args.bic_threshold)
+    first = Path(args.bag[0])
+    if len(args.bag) == 1 and first.exists() and is_slewing_bag(first):
+        return run_slewing(args, first, threshold)
     params = wear_monitor_params(args.params)
     if params["straightness_model"] != "eq7":
         print("guide-health diagnose: the effects are defined against Eq. 7; straightness_model "
@@ -147,6 +153,32 @@ def run_since(args, params: dict, bag, axis: str, threshold) -> dict:
     return result
 
 
+def run_slewing(args, bag: Path, threshold) -> dict:
+    """A slewing bag (``--params``: the slewing_monitor section): which raceway-wear effect the tilting-clearance
+    readings call for (analysis/slewing_diagnose.py); DIR/report.json and DIR/report.md."""
+    from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD
+    from guide_health.analysis.slewing_diagnose import diagnose_slewing, slewing_diagnose_lines
+
+    if args.since is not None or args.axis is not None:
+        raise InputError("--since and --axis are for machine bags; a slewing bag is diagnosed whole")
+    t0 = time.perf_counter()
+    params = slewing_monitor_params_from(args.params)
+    typed = slewing_monitor_params(params)
+    run = read_slewing_bag(bag, namespace=args.namespace, axis_topic=typed.axis_topic, axis_joint=typed.axis_joint)
+    try:
+        result = diagnose_slewing(run, params, BIC_THRESHOLD if threshold is None else threshold)
+    except ValueError as exc:
+        raise InputError(f"{bag}: {exc}") from None
+    out = report_dir(args)
+    out.mkdir(parents=True, exist_ok=True)
+    result["files"] = {"json": str(out / "report.json"), "md": str(out / "report.md")}
+    result["total_s"] = time.perf_counter() - t0
+    write_text(out / "report.md", "# Slewing bearing: diagnose\n\n```\n" + "\n".join(slewing_diagnose_lines(result))
+               + "\n```\n")
+    write_text(out / "report.json", json_text(result, indent=1) + "\n")
+    return result
+
+
 def report_dir(args) -> Path:
     """--out, else <bag>.diagnose beside the (first) bag named."""
     first = Path(args.bag[0])
@@ -169,6 +201,10 @@ def _bic_threshold(value: float | None) -> float | None:
 
 
 def format_text(result: dict) -> str:
+    if result.get("kind") == "slewing":
+        from guide_health.analysis.slewing_diagnose import slewing_diagnose_lines
+
+        return "\n".join(slewing_diagnose_lines(result) + [f"  files: {', '.join(result['files'].values())}"])
     if "change" in result:
         from guide_health.analysis.discrepancy.since import since_text_lines
 

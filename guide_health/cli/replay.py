@@ -12,19 +12,13 @@ from guide_health.cli.command import Command, check_out_path
 from guide_health.cli.text import bag_set_lines
 from guide_health.errors import InputError
 from guide_health.io.bag.bag_set import BagSet, resolve_bags
-from guide_health.io.bag.info import bag_topic_types
+from guide_health.io.bag.info import is_slewing_bag
 from guide_health.io.outputs.progress import ProgressBar
 from guide_health.models.levels import LEVEL_NAMES
 from guide_health.models.slewing.rating import ROWS
 from guide_health.models.wear.fit_watch import parse_utc_ns, utc_text
 from guide_health.models.wear.model_load import ModelLoadError
-from guide_health.params import (
-    SLEWING_MONITOR_DEFAULTS,
-    load_node_params,
-    validate_slewing_params,
-    validate_wear_params,
-    wear_monitor_params,
-)
+from guide_health.params import slewing_monitor_params_from, validate_wear_params, wear_monitor_params
 from guide_health.params.machine import axes_params
 from guide_health.params.typed import wear_axis_params
 
@@ -48,12 +42,6 @@ def add_arguments(parser) -> None:
                              "record's end)")
 
 
-def is_slewing_bag(bag: Path) -> bool:
-    topics = bag_topic_types(bag)
-    return (any(t.endswith("slewing/load") for t in topics)      # the slewing axis is no machine joint
-            and not any(t.endswith("joint_states") and not t.endswith("slewing/joint_states") for t in topics))
-
-
 def report_dir(args, bag) -> Path:
     """--out, else <bag>.report beside the bag (several bags: beside the first one named)."""
     first = Path(args.bag[0]) if isinstance(bag, BagSet) else bag
@@ -62,10 +50,7 @@ def report_dir(args, bag) -> Path:
 
 def run_slewing(args, bag: Path) -> dict:
     """A slewing bag: every load through the slewing_monitor core; the worst roller of the run."""
-    params = dict(SLEWING_MONITOR_DEFAULTS)
-    for path in args.params:
-        params = load_node_params(path, "slewing_monitor", params)
-    validate_slewing_params(params)
+    params = slewing_monitor_params_from(args.params)
     bar = ProgressBar("contact", force=args.progress)
     run, report, series, timing = analyse_slewing_bag(bag, params, namespace=args.namespace, progress=bar)
     bar.close()

@@ -15,7 +15,13 @@ The ``*_DEFAULTS`` dicts are views of the schemas ({name: default}) for the call
 from __future__ import annotations
 
 from guide_health.params.fleet_monitor import FLEET_MONITOR_SCHEMA
-from guide_health.params.loader import load_node_params, machine_axes_params, simulation_params, wear_monitor_params
+from guide_health.params.loader import (
+    load_node_params,
+    machine_axes_params,
+    simulation_params,
+    slewing_monitor_params_from,
+    wear_monitor_params,
+)
 from guide_health.params.ros import declare_parameters, descriptor_for
 from guide_health.params.schema import NodeSchema, Param, check_unknown_keys, markdown_table
 from guide_health.params.schemas import SCHEMAS, schema_for
@@ -34,6 +40,7 @@ __all__ = [
     "SLEWING_MONITOR_DEFAULTS", "SLEWING_MONITOR_SCHEMA", "SLEWING_SIMULATION_DEFAULTS", "SLEWING_SIMULATION_SCHEMA",
     "VIBRATION_MONITOR_SCHEMA", "WEAR_MONITOR_DEFAULTS", "WEAR_MONITOR_SCHEMA",
     "check_unknown_keys", "declare_parameters", "descriptor_for", "load_node_params", "machine_axes_params",
-    "markdown_table", "schema_for", "simulation_params", "slewing_simulation_params", "validate_slewing_params",
+    "markdown_table", "schema_for", "simulation_params", "slewing_monitor_params_from", "slewing_simulation_params",
+    "validate_slewing_params",
     "validate_wear_params", "wear_monitor_params",
 ]

@@ -32,6 +32,7 @@ from guide_health.params.rcl_yaml import VALUE_CHARS, applies, edit_distance, se
 from guide_health.params.schema import check_unknown_keys, coerce_value
 from guide_health.params.schemas import SCHEMAS, schema_for
 from guide_health.params.simulation import SIMULATION_SCHEMA
+from guide_health.params.slewing_monitor import SLEWING_MONITOR_SCHEMA, validate_slewing_params
 from guide_health.params.wear_monitor import WEAR_MONITOR_SCHEMA, hardness_units_warning, validate_wear_params
 
 #: parameters every rclpy node has (or reads) besides its schema's: accepted in any section, not returned
@@ -144,6 +145,15 @@ def _axis_values(path, node_name: str, section: dict, params: dict, defaults: di
     for name in dotted:
         default = axis_default(name.partition(".")[2], schema)
         params[name] = coerce_axis_value(name, section[name], default)
+
+
+def slewing_monitor_params_from(paths: list | tuple) -> dict[str, Any]:
+    """slewing_monitor parameters of several files merged in order (the later overriding), validated once."""
+    params = SLEWING_MONITOR_SCHEMA.defaults()
+    for path in paths:
+        params = load_node_params(path, SLEWING_MONITOR_SCHEMA.section, params)
+    validate_slewing_params(params)
+    return params
 
 
 def wear_monitor_params(path: str | Path | list | tuple | None) -> dict[str, Any]:

@@ -13,6 +13,14 @@ def bag_topic_types(path) -> dict[str, str]:
         return {c.topic: c.msgtype for c in storage.connections}
 
 
+def is_slewing_bag(path) -> bool:
+    """A slewing-bearing bag: `slewing/load` and no machine joint_states (the slewing axis's own are
+    `slewing/joint_states`)."""
+    topics = bag_topic_types(path)
+    return (any(t.endswith("slewing/load") for t in topics)
+            and not any(t.endswith("joint_states") and not t.endswith("slewing/joint_states") for t in topics))
+
+
 def bag_info(path) -> dict:
     """Topics (type, count), message count, duration, storage and run metadata of a bag.
 

@@ -95,6 +95,28 @@ def clearance_rate_per_k(roller_loads_n: np.ndarray, chi_table: tuple[np.ndarray
     return float(np.sum(loaded * chi)) / (4.0 * math.pi * raceway_diameter_m)
 
 
+def clearance_rate_per_k_load_power(roller_loads_n: np.ndarray, chi_table: tuple[np.ndarray, np.ndarray],
+                                    raceway_diameter_m: float, exponent: float, reference_load_n: float) -> np.ndarray:
+    """d c / (k d phi) when a roller pass wears as Q^n rather than Q (a load-dependent wear exponent n; n = 1 is
+    :func:`clearance_rate_per_k`): sum_j Q_j chi(Q_j) (Q_j / Q_ref)^(n - 1) / (4 pi D_pw), k keeping its meaning
+    at the reference roller load Q_ref [N]. ``roller_loads_n``: one row of roller loads per load sample; returns
+    one rate per row [m per (m^2/N) per rad]."""
+    loads = np.atleast_2d(np.asarray(roller_loads_n, dtype=float))
+    safe = np.where(loads > 0.0, loads, 1.0)
+    chi = np.interp(np.log(safe), *chi_table)
+    weight = np.where(loads > 0.0, loads * chi * (safe / reference_load_n) ** (exponent - 1.0), 0.0)
+    return weight.sum(axis=1) / (4.0 * math.pi * raceway_diameter_m)
+
+
+def axial_roller_loads_n(axial_load_n: float, tilting_moment_nm: float, roller_count: int,
+                         raceway_diameter_m: float) -> np.ndarray:
+    """The roller pair at each azimuth psi_j presses Q_j = |F_a / Z + (4 M_T / (Z D_pw)) cos psi_j| [N] on one
+    axial row or the other (seed 003 Eq. 1): the loads of both axial rows at once."""
+    z = int(roller_count)
+    cos = np.cos(2.0 * np.pi * np.arange(z) / z)
+    return np.abs(axial_load_n / z + (4.0 * abs(tilting_moment_nm) / (z * raceway_diameter_m)) * cos)
+
+
 class RacewayWear:
     """Tilting clearance from the angle travelled under the load in force, k from measured clearances.
 
@@ -110,7 +132,6 @@ class RacewayWear:
         self.chi_table = chi_table
         self.estimator = estimator
         self.clearance_limit_m = float(clearance_limit_m)
-        self._cos = np.cos(2.0 * np.pi * np.arange(self.roller_count) / self.roller_count)   # roller azimuths
         self.rate_per_k_rad = 0.0         # d g / d phi at the load in force [m per (m^2/N) per rad]
         self.clearance_per_k = 0.0        # g: clearance growth per unit k so far
 
@@ -118,8 +139,7 @@ class RacewayWear:
         """The rate at F_a [N], M_T [N m] (finite: the monitor's input rule). Both axial rows at once: the roller
         pair at psi_j presses Q_j = |F_a / Z + (4 M_T / (Z D_pw)) cos psi_j| on one row or the other (seed 003
         Eq. 1, row_loads.axial_row_roller_load_distributions), so sum over both rows = sum_j Q_j chi(Q_j)."""
-        z = self.roller_count
-        loads = np.abs(axial_load_n / z + (4.0 * abs(tilting_moment_nm) / (z * self.raceway_diameter_m)) * self._cos)
+        loads = axial_roller_loads_n(axial_load_n, tilting_moment_nm, self.roller_count, self.raceway_diameter_m)
         self.rate_per_k_rad = clearance_rate_per_k(loads, self.chi_table, self.raceway_diameter_m)
 
     def on_travel(self, travel_rad: float) -> None:
