@@ -166,3 +166,42 @@ def test_cli_diagnose_of_a_slewing_bag(tmp_path, capsys):
     report = json.loads((tmp_path / "d" / "report.json").read_text())
     assert report["kind"] == "slewing" and report["named_effects"] == ["wear_load_exponent"]
     assert "named: wear_load_exponent" in out and (tmp_path / "d" / "report.md").exists()
+
+
+def test_an_effect_within_3_sd_of_no_effect_is_not_named_and_the_model_drops_it(diagnose):
+    """The 3-sd rule on its own: a selection that put `clearance_offset` in (BIC alone) while its delta lies
+    within 3 sd of 0 ends as not separable, and the final model is refitted without it."""
+    from guide_health.analysis.discrepancy.selection import SelectionResult
+    from guide_health.analysis.slewing_diagnose import SlewingProblem, _result, watch_record
+    from guide_health.models.slewing.raceway_wear import sliding_weight_table
+    from guide_health.params.typed import slewing_monitor_params
+
+    p = slewing_monitor_params(PARAMS)
+    record, replay = watch_record(make_run(1), PARAMS)
+    problem = SlewingProblem(record, sliding_weight_table(p.roller_length_m, p.roller_diameter_m,
+                                                          p.youngs_modulus_pa, p.poisson),
+                             p.raceway_diameter_m, p.tilting_clearance_initial_m)
+    base, offset = problem.fit(()), problem.fit(("clearance_offset",))
+    assert abs(offset.values["delta_m"]) < 3 * offset.sd["delta_m"]            # 0.6 +- 1.5 um (seed 1)
+    selection = SelectionResult(named=["clearance_offset"], baseline=base, final=offset,
+                                rounds=[[{"effect": "clearance_offset", "fit": offset, "delta_bic": -11.0}]])
+    result = _result(problem, selection, p, replay, 10.0)
+    assert result["named_effects"] == [] and result["not_separable"] == ["clearance_offset"]
+    assert result["final"]["effects"] == [] and result["final"]["values"]["k"] == base.values["k"]
+
+
+def test_a_small_oscillation_column_equal_to_the_rest_has_infinite_sd():
+    """Every increment alternately in a small and a large stroke at one load: g_small = g_large at every
+    reading, so k and a cannot be told apart: a's sd is infinite (the columns merge), never a number."""
+    from guide_health.analysis.slewing_diagnose import SlewingProblem, SlewingRecord
+    from guide_health.models.slewing.raceway_wear import axial_roller_loads_n
+
+    n = 200
+    record = SlewingRecord(dphi_rad=np.full(n, 0.1), load_index=np.zeros(n, dtype=np.int64),
+                           small=np.arange(n) % 2 == 0,
+                           roller_loads_n=axial_roller_loads_n(6e5, 1.5e6, Z, D_PW)[None, :],
+                           reading_t_ns=np.arange(10), reading_m=C0 + 1e-5 * np.arange(1, 11),
+                           reading_travel=np.arange(20, 201, 20), critical_rad=0.037)
+    chi = (np.log([10.0, 1e7]), np.array([1.0, 1.0]))
+    fit = SlewingProblem(record, chi, D_PW, C0).fit(("small_oscillation_wear",))
+    assert math.isinf(fit.sd["a"]) and math.isinf(fit.sd["k"])

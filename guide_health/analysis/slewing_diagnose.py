@@ -208,12 +208,15 @@ class SlewingProblem:
         n_par = len(names) + int("wear_load_exponent" in effects)
         sigma2 = rss / (m - n_par) if m > n_par else math.nan
         values = dict(zip(names, (float(c) for c in coef)))
-        sd = {name: math.sqrt(max(cov[i, i], 0.0) * sigma2) for i, name in enumerate(names)}
+        separable = bool(np.all(np.isfinite(cov)))
+        sd = {name: math.sqrt(max(cov[i, i], 0.0) * sigma2) if separable else math.inf
+              for i, name in enumerate(names)}
         if "small_oscillation_wear" in effects:
             k, ka = values["k"], values.pop("ka")
             i, j = names.index("k"), names.index("ka")
             a = ka / k if k != 0.0 else math.nan
-            var = (cov[j, j] - 2 * a * cov[i, j] + a * a * cov[i, i]) * sigma2 / (k * k) if k != 0.0 else math.inf
+            var = ((cov[j, j] - 2 * a * cov[i, j] + a * a * cov[i, i]) * sigma2 / (k * k)
+                   if separable and k != 0.0 else math.inf)
             values["a"], sd["a"] = a, math.sqrt(max(var, 0.0))
             sd.pop("ka")
         if "wear_load_exponent" in effects:
