@@ -191,13 +191,14 @@ def test_an_effect_within_3_sd_of_no_effect_is_not_named_and_the_model_drops_it(
 
 
 def test_a_small_oscillation_column_equal_to_the_rest_has_infinite_sd():
-    """Every increment alternately in a small and a large stroke at one load: g_small = g_large at every
-    reading, so k and a cannot be told apart: a's sd is infinite (the columns merge), never a number."""
+    """Every increment alternately in a small and a large stroke at one load (lengths equal to 1e-7): g_small
+    = g_large at every reading to 2e-5, so k and a cannot be told apart: the sd are infinite (the columns
+    merge), never a number from a near-singular inverse."""
     from guide_health.analysis.slewing_diagnose import SlewingProblem, SlewingRecord
     from guide_health.models.slewing.raceway_wear import axial_roller_loads_n
 
     n = 200
-    record = SlewingRecord(dphi_rad=np.full(n, 0.1), load_index=np.zeros(n, dtype=np.int64),
+    record = SlewingRecord(dphi_rad=0.1 * (1.0 + 1e-7 * np.arange(n)), load_index=np.zeros(n, dtype=np.int64),
                            small=np.arange(n) % 2 == 0,
                            roller_loads_n=axial_roller_loads_n(6e5, 1.5e6, Z, D_PW)[None, :],
                            reading_t_ns=np.arange(10), reading_m=C0 + 1e-5 * np.arange(1, 11),
