@@ -98,12 +98,20 @@ def test_offline_analysis_finds_the_worst_roller_of_a_crane_duty():
 rclpy = pytest.importorskip("rclpy")
 
 
-def test_node_keys_stale_and_bad_messages(ros_context):
+def test_node_keys_stale_and_bad_messages(ros_context, monkeypatch):
+    """Keys, a counted bad message, and STALE once the loads stop for input_timeout_s. The status clock
+    (nodes/status.py's time.monotonic) is the test's: a loaded machine that pauses this process between two
+    calls cannot make the loads stale early, and no sleep is needed."""
+    import types
+
     from geometry_msgs.msg import WrenchStamped
     from rclpy.parameter import Parameter
 
+    from guide_health.nodes import status as status_module
     from guide_health.nodes.slewing_monitor import SlewingMonitorNode
 
+    clock = [1000.0]
+    monkeypatch.setattr(status_module, "time", types.SimpleNamespace(monotonic=lambda: clock[0]))
     node = SlewingMonitorNode(context=ros_context, parameter_overrides=[Parameter("input_timeout_s", value=0.3)])
     published = []
     node.diag_pub.publish = published.append
@@ -124,7 +132,10 @@ def test_node_keys_stale_and_bad_messages(ros_context):
         assert status.level == b"\x00" and float(values["rejected_loads"]) == 1
         assert float(values["roller_load_max_n"]) == pytest.approx(
             axial_row_roller_loads(6e5, 5e6, 170, 2.0).main_row_max_n)
-        time.sleep(0.4)                                      # loads stop: STALE
+        clock[0] += 0.29                     # within input_timeout_s: not stale (WARN: this period's only load was bad)
+        node.publish_diagnostics()
+        assert published[-1].status[0].level == b"\x01"
+        clock[0] += 0.02                                     # loads silent for 0.31 s: STALE
         node.publish_diagnostics()
         assert published[-1].status[0].level == b"\x03"
     finally:
