@@ -197,6 +197,8 @@ class SlewingProblem:
         return coef, cov, names, rss
 
     def fit(self, effects: tuple[str, ...], warm=None) -> SlewingFit:
+        """k and the parameters of ``effects`` (``warm``: forward_selection's start value, not needed here: the
+        fit is linear but for n, searched on EXPONENT_BOUNDS); sd from the residual variance."""
         effects = tuple(effects)
         exponent, exponent_sd = 1.0, 0.0
         if "wear_load_exponent" in effects:
@@ -225,12 +227,11 @@ class SlewingProblem:
             curvature = (above - 2 * rss + below) / h**2
             exponent_sd = math.sqrt(2.0 * sigma2 / curvature) if curvature > 0 else math.inf
             values["n"], sd["n"] = exponent, exponent_sd
-        y = self.record.reading_m - self.initial_clearance_m
-        predicted = self.predict_m(values, exponent)
         bic = m * math.log(max(rss, 1e-30) / m) + n_par * math.log(m)
-        return SlewingFit(effects, values, sd, rss, bic, y - (predicted - self.initial_clearance_m))
+        return SlewingFit(effects, values, sd, rss, bic, self.record.reading_m - self.predict_m(values, exponent))
 
     def predict_m(self, values: dict[str, float], exponent: float = 1.0) -> np.ndarray:
+        """The clearance [m] at each reading for fitted ``values`` (k, delta_m, a) at the load exponent."""
         large, small = self.columns(exponent)
         k = values["k"]
         return (self.initial_clearance_m + values.get("delta_m", 0.0) + k * large
