@@ -6,9 +6,9 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.guide_health-installed
 PYTEST_ARGS ?=
-# the suite on two pytest-xdist workers (CI's machine has two cores; each file's tests stay on one worker, so a
-# module fixture is built once). `make test XDIST=` runs it in one process.
-XDIST  ?= -n 2 --dist loadfile
+# the suite on three pytest-xdist workers on CI's two cores (a third worker computes while the live tests wait on
+# DDS); each file's tests stay on one worker, so a module fixture is built once. `make test XDIST=`: one process.
+XDIST  ?= -n 3 --dist loadfile
 
 .PHONY: venv demo test test-all bench clean
 

@@ -49,8 +49,8 @@ IMPORTS: dict[str, tuple[str, str | None]] = {
 #: tools the tests run as programs (no import): package.xml key, pip requirement, the test that runs it
 TOOLS = {"ruff": ("ruff", "ruff", "test_code_quality.py")}
 #: pytest plugins a command line loads (no import): package.xml key, pip requirement, the file and the option
-#: that load it (`make test` runs the suite on two xdist workers)
-PLUGINS = {"xdist": ("python3-pytest-xdist", "pytest-xdist", "Makefile", "-n 2")}
+#: that load it (`make test` runs the suite on three xdist workers)
+PLUGINS = {"xdist": ("python3-pytest-xdist", "pytest-xdist", "Makefile", "-n 3")}
 #: standard library from Python 3.14 on (guide_health/io/bag/mcap_records.py falls back to backports.zstd)
 STDLIB_LATER = {"compression"}
 #: namespace packages, named by their first two components
