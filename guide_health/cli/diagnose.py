@@ -57,14 +57,13 @@ def run(args) -> dict:
     if not 0.0 <= args.heldout_fraction < 0.9:
         raise InputError("--heldout-fraction must be in [0, 0.9)")
     threshold = _bic_threshold(args.bic_threshold)
-    first = Path(args.bag[0])
-    if len(args.bag) == 1 and first.exists() and is_slewing_bag(first):
-        return run_slewing(args, first, threshold)
+    bag = resolve_bags(args.bag)
+    if not isinstance(bag, BagSet) and bag.exists() and is_slewing_bag(bag):
+        return run_slewing(args, bag, threshold)
     params = wear_monitor_params(args.params)
     if params["straightness_model"] != "eq7":
         print("guide-health diagnose: the effects are defined against Eq. 7; straightness_model "
               f"{params['straightness_model']!r} is read as eq7", file=sys.stderr)
-    bag = resolve_bags(args.bag)
     if params["axes"]:
         if args.since is not None:
             raise InputError("--since: one axis at a time (a parameters file of that axis)")
