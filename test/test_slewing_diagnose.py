@@ -206,3 +206,20 @@ def test_a_small_oscillation_column_equal_to_the_rest_has_infinite_sd():
     chi = (np.log([10.0, 1e7]), np.array([1.0, 1.0]))
     fit = SlewingProblem(record, chi, D_PW, C0).fit(("small_oscillation_wear",))
     assert math.isinf(fit.sd["a"]) and math.isinf(fit.sd["k"])
+
+
+def test_a_directory_of_machine_bags_is_a_bag_set_not_a_slewing_bag(tmp_path, capsys):
+    """The slewing check comes after the bags are resolved: a directory of two machine bags reaches the bag set's
+    own rules (here: they overlap, one line), not 'not a readable rosbag2 bag' from reading the directory as one."""
+    from pathlib import Path
+
+    from guide_health.cli.app import main
+
+    bench = str(Path(__file__).resolve().parents[1] / "config" / "bench_000.yaml")
+    for name, seed in (("a", "1"), ("b", "2")):
+        assert main(["simulate", "--params", bench, "--out", str(tmp_path / "set" / name), "--hours", "0.02",
+                     "--seed", seed]) == 0
+    capsys.readouterr()
+    assert main(["diagnose", str(tmp_path / "set"), "--params", bench, "--out", str(tmp_path / "d")]) == 2
+    err = capsys.readouterr().err
+    assert "bags overlap" in err and "not a readable rosbag2 bag" not in err
