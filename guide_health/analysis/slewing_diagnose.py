@@ -31,6 +31,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 from scipy.special import gammaincinv
 
+from guide_health.analysis.discrepancy.analysis import FLAG_ALPHA  # the false-flag level, also of the chi^2 test here
 from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD, forward_selection
 from guide_health.analysis.slewing_replay import analyse_slewing_run
 from guide_health.models.slewing.fatigue import critical_amplitude_rad
@@ -50,7 +51,6 @@ SLEWING_EFFECTS: dict[str, tuple[str, str, float, str]] = {
     "small_oscillation_wear": ("a", "-", 1.0, "strokes below the critical angle wear a times as much per radian"),
 }
 EXPONENT_BOUNDS = (0.2, 5.0)        # the load exponent's search range
-FLAG_ALPHA = 0.01                   # the unexplained-structure test's level
 MIN_READINGS = 4                    # fewer readings: nothing is diagnosed (k and one effect need >= 4)
 SEPARABLE_CONDITION = 1e8           # condition number of the scaled normal equations beyond which columns merge
 
