@@ -113,8 +113,15 @@ def axial_roller_loads_n(axial_load_n: float, tilting_moment_nm: float, roller_c
     """The roller pair at each azimuth psi_j presses Q_j = |F_a / Z + (4 M_T / (Z D_pw)) cos psi_j| [N] on one
     axial row or the other (seed 003 Eq. 1): the loads of both axial rows at once."""
     z = int(roller_count)
-    cos = np.cos(2.0 * np.pi * np.arange(z) / z)
-    return np.abs(axial_load_n / z + (4.0 * abs(tilting_moment_nm) / (z * raceway_diameter_m)) * cos)
+    return np.abs(axial_load_n / z + (4.0 * abs(tilting_moment_nm) / (z * raceway_diameter_m)) * _azimuth_cosines(z))
+
+
+@functools.lru_cache(maxsize=8)
+def _azimuth_cosines(roller_count: int) -> np.ndarray:
+    """cos psi_j of the Z roller azimuths psi_j = 2 pi j / Z (built once per Z: the live node calls this per load)."""
+    cos = np.cos(2.0 * np.pi * np.arange(roller_count) / roller_count)
+    cos.flags.writeable = False
+    return cos
 
 
 class RacewayWear:
