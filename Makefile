@@ -9,14 +9,19 @@ PYTEST_ARGS ?=
 # the suite on three pytest-xdist workers on CI's two cores (a third worker computes while the live tests wait on
 # DDS); each file's tests stay on one worker, so a module fixture is built once. `make test XDIST=`: one process.
 XDIST  ?= -n 3 --dist loadfile
+# bytecode is written on first import, not by pip for every installed module: pip's compile of all of scipy, dask,
+# matplotlib, ... took 37 of the 80 s of the install, and with PYTHONDONTWRITEBYTECODE set (as on some CI hosts)
+# every test worker and every node or CLI subprocess of the suite compiled guide_health and the test files again.
+unexport PYTHONDONTWRITEBYTECODE
+PIP    := $(PY) -m pip install --quiet --disable-pip-version-check --no-compile
 
 .PHONY: venv demo test test-all bench clean
 
 $(STAMP): setup.py setup.cfg package.xml requirements.txt
 	$(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --disable-pip-version-check --upgrade pip setuptools wheel
-	$(PY) -m pip install --quiet --disable-pip-version-check -r requirements.txt
-	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation -e .
+	$(PIP) --upgrade pip setuptools wheel
+	$(PIP) -r requirements.txt
+	$(PIP) --no-deps --no-build-isolation -e .
 	touch $(STAMP)
 
 venv: $(STAMP)
