@@ -19,8 +19,6 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
-from scipy.special import stdtrit
-
 from guide_health.analysis.discrepancy.model_file import EFFECT_PARAMETERS, MATERIAL_EFFECTS
 from guide_health.errors import InputError
 from guide_health.io.bag.metadata import one_line
@@ -32,7 +30,7 @@ from guide_health.models.fleet import (
     random_effects_fit,
     wear_coefficient_prior,
 )
-from guide_health.models.wear.calibration import Z90
+from guide_health.models.wear.calibration import z90_for_measurements
 from guide_health.models.wear.effects.registry import COVARIANCE_NAMES
 
 PRIOR_SECTION = "/**/wear_monitor"          # rcl applies it to a wear_monitor in any namespace
@@ -69,7 +67,7 @@ def bag_log_k(entry: dict[str, Any]) -> tuple[float, float]:
         n = int(r["measurements"])
         if n == 0:
             return math.nan, math.inf
-        z = float(stdtrit(n - 1, 0.95)) if n >= 3 else Z90           # as WearCoefficientEstimator.interval90
+        z = z90_for_measurements(n)                      # the z of the replay's K interval
         sd_post = (number(r["wear_coefficient_high"], math.inf) - number(r["wear_coefficient_low"])) / (2.0 * z)
         prior = entry["summary"]["prior"]
         k, se = likelihood_from_posterior(number(r["wear_coefficient"]), sd_post, prior["wear_coefficient"],

@@ -10,8 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from scipy.optimize import brentq
-from scipy.special import ellipe, ellipk
+from guide_health.models.lazy_scipy import brentq, ellipe, ellipk
 
 
 def hertz_axis_ratio(radius_ratio: float) -> float:

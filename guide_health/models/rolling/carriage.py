@@ -31,9 +31,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from scipy.optimize import brentq
-
 from guide_health.models.contact.hertz_point import hertz_point_contact
+from guide_health.models.lazy_scipy import brentq
 
 
 def ball_stiffness_n_per_m15(radius_x_m: float, radius_y_m: float, effective_modulus_pa: float) -> float:

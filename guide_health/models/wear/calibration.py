@@ -8,7 +8,8 @@ from dataclasses import dataclass, field
 from statistics import NormalDist
 
 import numpy as np
-from scipy.special import stdtrit  # Student-t quantile; scipy.stats would cost ~0.5 s of imports
+
+from guide_health.models.lazy_scipy import stdtrit
 
 
 @dataclass
@@ -50,7 +51,7 @@ def fit_pin_on_disc(speed_m_s: np.ndarray, load_n: np.ndarray, wear_rate_m3_s: n
     dof = x.size - 1
     s2 = float((weight * residual) @ residual) / dof
     se_c = math.sqrt(s2 / float((weight * x) @ x))
-    t = float(stdtrit(dof, 0.5 + confidence / 2))      # Student-t quantile
+    t = float(stdtrit(dof, 0.5 + confidence / 2))
     ss_tot = float(((y - y.mean()) ** 2).sum())
     return PinOnDiscFit(
         wear_rate_per_load_speed=c,
@@ -64,6 +65,12 @@ def fit_pin_on_disc(speed_m_s: np.ndarray, load_n: np.ndarray, wear_rate_m3_s: n
 
 
 Z90 = NormalDist().inv_cdf(0.95)
+
+
+def z90_for_measurements(count: int) -> float:
+    """The 90 % interval's half-width in sd after ``count`` measurements: Student-t with count - 1 dof (the
+    scatter is estimated from them), the normal Z90 below 3."""
+    return float(stdtrit(count - 1, 0.95)) if count >= 3 else Z90
 
 
 @dataclass
@@ -124,7 +131,7 @@ class WearCoefficientEstimator:
         """(K low, K mean, K high): 90 % credible interval (Student-t when sigma comes from residuals)."""
         k, sd, _ = self.posterior(loss_per_k_m)
         n = self.count
-        z = float(stdtrit(n - 1, 0.95)) if n >= 3 else Z90
+        z = z90_for_measurements(n)
         return k - z * sd, k, k + z * sd
 
     def state(self) -> dict:

@@ -19,8 +19,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
+from guide_health.models.lazy_scipy import brentq
 from guide_health.models.wear.effect_wear import EffectWear, time_since_relubrication_s
 from guide_health.models.wear.effects.parameters import EffectParameters
 from guide_health.models.wear.effects.registry import (

@@ -28,8 +28,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.optimize import brentq
-from scipy.special import ndtr
+
+from guide_health.models.lazy_scipy import brentq, ndtr
 
 #: the running-in forms the model file averages over, in the order of its per-form lists (the library's first)
 RUNNING_IN_FORMS = ("exponential", "hyperbolic", "inverse_square")

@@ -14,7 +14,6 @@ import math
 from typing import Any
 
 import numpy as np
-from scipy.special import stdtrit
 
 from guide_health.models.rolling.rolling_guide import RollingGuideMonitor
 from guide_health.models.wear.archard import (
@@ -23,7 +22,7 @@ from guide_health.models.wear.archard import (
     WearIntegrator,
     straightness_from_wear_volume_m,
 )
-from guide_health.models.wear.calibration import Z90, WearCoefficientEstimator
+from guide_health.models.wear.calibration import WearCoefficientEstimator, z90_for_measurements
 from guide_health.models.wear.effect_life import (
     B_RATE_INDEX,
     W_INDEX,
@@ -307,8 +306,7 @@ class GuideWear:
 
     def life_z(self) -> float:
         """The 90 % interval's half-width in sd: Student-t with the measurements' count - 1 dof (normal below 3)."""
-        n = self.estimator.count
-        return float(stdtrit(n - 1, 0.95)) if n >= 3 else Z90
+        return z90_for_measurements(self.estimator.count)
 
     def measurement_losses_per_k_m(self) -> np.ndarray:
         """g_j of each measurement: for Eq. 7 recomputed with the present stroke estimate."""
