@@ -60,10 +60,40 @@ def one_run(args: tuple[str, str, float, int, float]) -> dict:
     cells = duty_cells_from_runs(run, params["slider_length_m"], sliding_deadband_m=params["sliding_deadband_m"])
     res = diagnose_cells(cells, params)
     s = res["unexplained_structure"]
+    oracle = (res["final"]["bic"] - oracle_bic(cells, params, gen.structure_m(shape, 1.0, run))) if shape else None
     return {"motion": motion, "shape": shape, "amplitude_um": amplitude_m * 1e6, "seed": seed,
             "named": res["named_effects"], "flag": s["present"], "min_p": s["statistic"]["min_p"],
-            "outside": sorted(s.get("outside_library", {})),
+            "outside": sorted(s.get("outside_library", {})), "oracle_dbic": oracle,
             "tests": {k: v for k, v in s["statistic"].items() if k != "min_p"}}
+
+
+def oracle_bic(cells, params: dict, form_m_per_m) -> float:
+    """BIC of a fit that knows the hidden structure's true form: the baseline's wear (linear in K) + a x the
+    writer's form at unit amplitude (a free), A0 free where the baseline frees it; on the workflow's fit span
+    and in its convention (n ln(RSS/n) + k ln n, RSS in um^2). The workflow's final BIC minus this is how well
+    the data could tell the true form from the named model (>= BIC_THRESHOLD: as well as the workflow needs to
+    name an effect)."""
+    import math
+
+    import numpy as np
+
+    from guide_health.analysis.discrepancy.model import WearProblem
+
+    problem = WearProblem(cells, params)
+    fit = problem.fit_mask
+    values = dict(problem.fit(()).values)
+    k0 = float(params["wear_coefficient"])
+    p1 = problem.predict_m({**values, "wear_coefficient": k0})
+    per_k0 = problem.predict_m({**values, "wear_coefficient": 2.0 * k0}) - p1     # the wear of K0
+    columns = [per_k0[fit], np.asarray(form_m_per_m, dtype=float)[fit]]
+    if problem.a0_free:
+        columns.append(np.ones(int(fit.sum())))
+    x = np.column_stack(columns)
+    y = problem.y_m[fit] - (p1 - per_k0)[fit]
+    coef, *_ = np.linalg.lstsq(x, y, rcond=None)
+    r_um = (x @ coef - y) * 1e6
+    n, k = x.shape
+    return n * math.log(float(r_um @ r_um) / n) + k * math.log(n)
 
 
 def flagged_at(r: dict, level: float) -> bool:
@@ -79,13 +109,19 @@ def upper_bound_95(k: int, n: int) -> float:
 
 
 def tables(rows: list[dict], alpha: float) -> list[str]:
-    out = ["| shape | amplitude [um] | runs | flagged | named without the flag |", "|---|---|---|---|---|"]
+    from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD
+
+    out = ["| shape | amplitude [um] | runs | flagged | named without the flag | of those, the true form "
+           f"better by >= {BIC_THRESHOLD:g} in BIC |", "|---|---|---|---|---|---|"]
     for shape in dict.fromkeys(r["shape"] for r in rows if r["shape"]):
         for amp in sorted({r["amplitude_um"] for r in rows if r["shape"] == shape}):
             mine = [r for r in rows if r["shape"] == shape and r["amplitude_um"] == amp]
             flagged = sum(flagged_at(r, alpha) for r in mine)
-            silent = sum(bool(r["named"]) and not flagged_at(r, alpha) for r in mine)
-            out.append(f"| {shape} | {amp:g} | {len(mine)} | {flagged} ({flagged / len(mine):.0%}) | {silent} |")
+            silent = [r for r in mine if r["named"] and not flagged_at(r, alpha)]
+            separable = [r for r in silent if (r.get("oracle_dbic") or 0.0) >= BIC_THRESHOLD]
+            margins = ", ".join(f"{r['oracle_dbic']:+.1f}" for r in silent if r.get("oracle_dbic") is not None)
+            out.append(f"| {shape} | {amp:g} | {len(mine)} | {flagged} ({flagged / len(mine):.0%}) | {len(silent)}"
+                       f"{f' (dBIC {margins})' if margins else ''} | {len(separable)} |")
     clean = [r for r in rows if not r["shape"]]
     if clean:
         flagged = sum(flagged_at(r, alpha) for r in clean)
