@@ -21,7 +21,9 @@ def test_a_wear_monitor_start_imports_neither_scipy_optimize_nor_special():
 
 
 def test_each_wrapper_is_scipys_function():
-    assert lazy_scipy.stdtrit(5, 0.95) == pytest.approx(2.015048372669157, rel=1e-12)    # t table, 5 dof
+    # the t quantile's closed forms: 1 dof (Cauchy) tan(pi (p - 1/2)), 2 dof (2p - 1) / sqrt(2 p (1 - p))
+    assert lazy_scipy.stdtrit(1, 0.95) == pytest.approx(math.tan(0.45 * math.pi), rel=1e-12)
+    assert lazy_scipy.stdtrit(2, 0.95) == pytest.approx(0.9 / math.sqrt(2 * 0.95 * 0.05), rel=1e-12)
     assert lazy_scipy.ndtr(1.6448536269514722) == pytest.approx(0.95, rel=1e-14)
     assert lazy_scipy.ellipk(0.0) == pytest.approx(math.pi / 2, rel=1e-15)
     assert lazy_scipy.ellipe(1.0) == pytest.approx(1.0, rel=1e-15)
