@@ -12,7 +12,7 @@ from guide_health.models import lazy_scipy
 
 
 def test_a_wear_monitor_start_imports_neither_scipy_optimize_nor_special():
-    """Both cost ~0.65 s of CPU at every node start (python -X importtime), and a node that never calls them
+    """Both cost ~0.9 s of CPU at every node start, and a node that never calls them
     must not pay it: import the node module (all it loads before spinning) in a fresh interpreter."""
     code = ("import sys, guide_health.nodes.wear_monitor, guide_health.cli.app; "
             "print(sorted(m for m in ('scipy.optimize', 'scipy.special', 'scipy.stats') if m in sys.modules))")
