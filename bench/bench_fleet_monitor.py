@@ -296,7 +296,7 @@ def main() -> int:
     ap.add_argument("--trend-days", type=float, default=30.0)
     ap.add_argument("--trend-period", type=float, default=3600.0,
                     help="seconds between a status's rows in the generated history (fleet_monitor's "
-                         "history_period_s; at 60 s, 30 days of 600 statuses are 26 M rows, ~50 GB)")
+                         "history_period_s; at 60 s, 30 days of 600 statuses are 26 M rows, ~5 GB at 191 bytes a row)")
     ap.add_argument("--skip-live", action="store_true")
     ap.add_argument("--skip-trend", action="store_true")
     ap.add_argument("--workdir", type=Path, default=Path(tempfile.gettempdir()) / "guide_health_fleet_bench")
