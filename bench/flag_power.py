@@ -68,11 +68,11 @@ def one_run(args: tuple[str, str, float, int, float]) -> dict:
 
 
 def oracle_bic(cells, params: dict, form_m_per_m) -> float:
-    """BIC of a fit that knows the hidden structure's true form: the baseline's wear (linear in K) + a x the
-    writer's form at unit amplitude (a free), A0 free where the baseline frees it; on the workflow's fit span
+    """BIC of a fit that knows the hidden structure's true form: the wear of K (linear in K) + a x the writer's
+    form at unit amplitude (a free), + the response to A0 where the workflow frees A0; on the workflow's fit span
     and in its convention (n ln(RSS/n) + k ln n, RSS in um^2). The workflow's final BIC minus this is how well
     the data could tell the true form from the named model (>= BIC_THRESHOLD: as well as the workflow needs to
-    name an effect)."""
+    name an effect). The columns are the model's own responses (predict_m at two values), so no fit is run."""
     import math
 
     import numpy as np
@@ -81,13 +81,13 @@ def oracle_bic(cells, params: dict, form_m_per_m) -> float:
 
     problem = WearProblem(cells, params)
     fit = problem.fit_mask
-    values = dict(problem.fit(()).values)
     k0 = float(params["wear_coefficient"])
-    p1 = problem.predict_m({**values, "wear_coefficient": k0})
-    per_k0 = problem.predict_m({**values, "wear_coefficient": 2.0 * k0}) - p1     # the wear of K0
+    at = {"wear_coefficient": k0, **({"straightness_initial_m": 0.0} if problem.a0_free else {})}
+    p1 = problem.predict_m(at)
+    per_k0 = problem.predict_m({**at, "wear_coefficient": 2.0 * k0}) - p1          # the wear of K0
     columns = [per_k0[fit], np.asarray(form_m_per_m, dtype=float)[fit]]
-    if problem.a0_free:
-        columns.append(np.ones(int(fit.sum())))
+    if problem.a0_free:                                                             # the response to 1 um of A0
+        columns.append((problem.predict_m({**at, "straightness_initial_m": 1e-6}) - p1)[fit])
     x = np.column_stack(columns)
     y = problem.y_m[fit] - (p1 - per_k0)[fit]
     coef, *_ = np.linalg.lstsq(x, y, rcond=None)
