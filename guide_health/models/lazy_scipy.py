@@ -8,37 +8,21 @@ its first call (then a dictionary lookup); the functions are scipy's own.
 """
 from __future__ import annotations
 
-
-def brentq(*args, **kwargs):
-    """scipy.optimize.brentq: a root bracketed by a sign change (Brent's method)."""
-    from scipy.optimize import brentq as _brentq
-
-    return _brentq(*args, **kwargs)
+import importlib
 
 
-def stdtrit(*args, **kwargs):
-    """scipy.special.stdtrit: the Student-t quantile."""
-    from scipy.special import stdtrit as _stdtrit
+def _imported_on_first_call(module: str, name: str, what: str):
+    """A function that calls ``module.name`` (imported on its first call; later calls find it in sys.modules)."""
+    def call(*args, **kwargs):
+        return getattr(importlib.import_module(module), name)(*args, **kwargs)
 
-    return _stdtrit(*args, **kwargs)
-
-
-def ndtr(*args, **kwargs):
-    """scipy.special.ndtr: the standard normal CDF."""
-    from scipy.special import ndtr as _ndtr
-
-    return _ndtr(*args, **kwargs)
+    call.__name__ = call.__qualname__ = name
+    call.__doc__ = f"{module}.{name}: {what}"
+    return call
 
 
-def ellipk(*args, **kwargs):
-    """scipy.special.ellipk: the complete elliptic integral of the first kind, K(m)."""
-    from scipy.special import ellipk as _ellipk
-
-    return _ellipk(*args, **kwargs)
-
-
-def ellipe(*args, **kwargs):
-    """scipy.special.ellipe: the complete elliptic integral of the second kind, E(m)."""
-    from scipy.special import ellipe as _ellipe
-
-    return _ellipe(*args, **kwargs)
+brentq = _imported_on_first_call("scipy.optimize", "brentq", "a root bracketed by a sign change (Brent's method)")
+stdtrit = _imported_on_first_call("scipy.special", "stdtrit", "the Student-t quantile")
+ndtr = _imported_on_first_call("scipy.special", "ndtr", "the standard normal CDF")
+ellipk = _imported_on_first_call("scipy.special", "ellipk", "the complete elliptic integral of the first kind, K(m)")
+ellipe = _imported_on_first_call("scipy.special", "ellipe", "the complete elliptic integral of the second kind, E(m)")
