@@ -174,7 +174,8 @@ def test_a_linear_decay_named_as_a_step_has_running_in_beside_it():
 def test_the_decay_alternative_is_the_best_of_its_decay_laws():
     """The decay with sliding distance in place of a step is fitted in every decay law of form_average, the
     lowest BIC kept (its law reported), and the problem's law is the library's again after the check."""
-    bic = {"exponential": 10.0, "hyperbolic": 4.0, "inverse_square": 7.0}
+    bic = {"exponential": 10.0, "hyperbolic": 4.0, "inverse_square": 7.0, "inverse_cube_root": 5.0,
+           "inverse_two_thirds_power": 4.5}
 
     class Problem:
         running_in_form = "exponential"

@@ -18,7 +18,7 @@ from guide_health.models.wear.effects.registry import (
     LIVE_EFFECT_IDS,
     LIVE_PARAMETERS,
 )
-from guide_health.models.wear.form_average import RUNNING_IN_FORMS
+from guide_health.models.wear.form_average import LEGACY_RUNNING_IN_FORMS, LIFE_FORMS
 from guide_health.params.machine import AXES_PARAM, MAINTENANCE_PARAMS, PLAN_PARAMS
 from guide_health.params.schema import NodeSchema, Param, alarm_and_sensor_qos_params, executor_param
 
@@ -102,12 +102,23 @@ SLIDING_GUIDE_PARAMS = (
           "fitted values; straightness_initial_m: A0 when fitted); widens the remaining-life interval (the "
           f"{' or '.join(f'{n} x {n}' for n in COVARIANCE_SIZES[:-1])} of an older model file loads as the "
           "leading block)"),
-    # the running-in form's uncertainty (models/wear/form_average.py; RUNNING_IN_FORMS order, the library's first)
-    Param("running_in_form_weights", [1.0] + [0.0] * (len(RUNNING_IN_FORMS) - 1), "-", "[0, 1]",
-          f"BIC weights of the running-in decay forms {', '.join(RUNNING_IN_FORMS)} (sum 1; written by diagnose "
-          "with the running-in effect named): the remaining-life interval averages their forecasts"),
-    Param("running_in_form_ln_life_offsets", [0.0] * len(RUNNING_IN_FORMS), "-", "[-50, 50]",
-          "ln(life of the form / life of the named exponential form) at the diagnosed record's end, per form"),
+    # the running-in form's uncertainty (models/wear/form_average.py; LIFE_FORMS order, the carried model first)
+    Param("life_form_weights", [1.0] + [0.0] * (len(LIFE_FORMS) - 1), "-", "[0, 1]",
+          f"BIC weights of the model the file carries and of the running-in in each decay law "
+          f"({', '.join(LIFE_FORMS)}; sum 1; written by diagnose): the remaining-life interval averages their "
+          "forecasts"),
+    Param("life_form_ln_life_offsets", [0.0] * len(LIFE_FORMS), "-", "[-50, 50]",
+          "ln(life of the form / life of the carried model) at the diagnosed record's end, per form"),
+    Param("life_form_ln_life_sd_ratios", [1.0] * len(LIFE_FORMS), "-", "(0, 1e3]",
+          "delta-method sd of ln(life) of each form over the carried model's, at the diagnosed record's end"),
+    Param("life_form_interval", "mixture", "", "", "how the forms' forecasts make the 90 % interval: mixture "
+          "(their BIC-weighted mixture's quantiles) or envelope (from the lowest form's low end to the highest's high "
+          "end: diagnose's choice when the record holds unexplained structure)", choices=("mixture", "envelope")),
+    Param("running_in_form_weights", [1.0] + [0.0] * (len(LEGACY_RUNNING_IN_FORMS) - 1), "-", "[0, 1]",
+          f"model files of earlier versions: BIC weights of {', '.join(LEGACY_RUNNING_IN_FORMS)} (the exponential "
+          "carried), read as life_form_weights when those are not given"),
+    Param("running_in_form_ln_life_offsets", [0.0] * len(LEGACY_RUNNING_IN_FORMS), "-", "[-50, 50]",
+          "model files of earlier versions: the offsets of running_in_form_weights' forms"),
     Param("life_warn_h", 500.0, "h", "(0, 1e7]", "WARN when the remaining precision life drops below this",
           dynamic=True),
     Param("life_error_h", 100.0, "h", "[0, 1e7]",
@@ -229,10 +240,9 @@ def _effect_checks(p: dict[str, Any]) -> None:
     problem = covariance_problem(p["effect_covariance"])
     if problem:
         raise InputError(f"parameter effect_covariance {problem}")
-    weights = p["running_in_form_weights"]
-    if abs(sum(weights) - 1.0) > 1e-6:
-        raise InputError(f"parameter running_in_form_weights must sum to 1 (weights of {', '.join(RUNNING_IN_FORMS)}), "
-                         f"got {weights!r}")
+    for key, forms in (("life_form_weights", LIFE_FORMS), ("running_in_form_weights", LEGACY_RUNNING_IN_FORMS)):
+        if abs(sum(p[key]) - 1.0) > 1e-6:
+            raise InputError(f"parameter {key} must sum to 1 (weights of {', '.join(forms)}), got {p[key]!r}")
 
 
 def _wear_cross_checks(p: dict[str, Any]) -> None:

@@ -29,6 +29,7 @@ from guide_health.io.outputs.files import write_text
 from guide_health.models.wear.effect_life import symmetrised
 from guide_health.models.wear.effects.registry import (
     BY_ID,
+    CONSISTENCY_ALTERNATIVES,
     COVARIANCE_ALIASES,
     COVARIANCE_INDEX,
     COVARIANCE_NAMES,
@@ -47,7 +48,7 @@ from guide_health.models.wear.effects.registry import (
 from guide_health.models.wear.form_average import RUNNING_IN_FORMS, bic_weights, running_in_form_life_s
 from guide_health.params import validate_wear_params
 
-__all__ = ["COVARIANCE_ALIASES", "EFFECT_PARAMETERS", "MATERIAL_EFFECTS", "model_parameters", "running_in_forms",
+__all__ = ["COVARIANCE_ALIASES", "EFFECT_PARAMETERS", "MATERIAL_EFFECTS", "model_parameters", "life_forms",
            "write_model_file"]
 
 
@@ -102,40 +103,89 @@ def model_parameters(problem, final, named: list[str]) -> dict[str, Any]:
 
 
 def form_life_s(problem, values: dict[str, float], form: str, limit_m: float) -> float:
-    """The remaining life [s] a fit of the running-in effect in ``form`` forecasts from the last measurement: the steady
-    rate (the model without running-in, over the record's last quarter: the present duty), the margin to the
-    limit from the fitted present straightness, the form's decay on the way (form_average.running_in_form_life_s)
-    at the last quarter's sliding speed."""
+    """The remaining life [s] a fit forecasts from the last measurement: the steady rate (the model without
+    running-in, over the record's last quarter: the present duty), the margin to the limit from the fitted
+    present straightness, and the running-in's decay in ``form`` on the way when the fit has one
+    (form_average.running_in_form_life_s) at the last quarter's sliding speed."""
     t, n, c = problem.t_s, problem.t_s.size, problem.cells
     j = max(0, int(0.75 * n) - 1)
-    steady = problem.predict_m(SLIDING_DECAY.steady(values))
+    decays = "running_in_ratio" in values
+    steady = problem.predict_m(SLIDING_DECAY.steady(values) if decays else values)
     rate = (steady[-1] - steady[j]) / max(t[-1] - t[j], 1e-9)
     distance = np.cumsum(np.bincount(np.clip(c.interval, 0, n), weights=c.distance_m, minlength=n + 1)[:n])
     speed = (distance[-1] - distance[j]) / max(t[-1] - t[j], 1e-9)
+    ratio, s0 = SLIDING_DECAY.fitted_decay(values) if decays else (0.0, 1.0)
     return running_in_form_life_s(form, limit_m - float(problem.predict_m(values)[-1]), float(rate),
-                                  *SLIDING_DECAY.fitted_decay(values), float(distance[-1]), float(speed))
+                                  ratio, s0, float(distance[-1]), float(speed))
 
 
-def running_in_forms(problem, final, named: list[str], limit_m: float) -> dict[str, list[float]]:
-    """With the running-in effect named: the model file's per-form BIC weights and ln-life offsets from the named
-    (exponential) form's forecast (models/wear/form_average.py, RUNNING_IN_FORMS order); each other form is
-    the same effect set refitted with that decay law on the same measurements. {} without it."""
-    if SLIDING_DECAY.id not in named:
+def form_ln_life_sd(problem, fit, form: str, limit_m: float) -> float:
+    """Delta-method sd of ln(:func:`form_life_s`) of a fit: g' Sigma g, g the central-difference gradient of
+    ln(life) in each fitted parameter (step 1 % of its sd, at most a quarter of its value), Sigma the fit's
+    covariance. NaN without a covariance or a finite life on each side."""
+    cov = fit.extra.get("covariance")
+    if cov is None:
+        return math.nan
+    names, sigma = cov["names"], np.asarray(cov["matrix"], dtype=float)
+    grad = np.zeros(len(names))
+    for i, name in enumerate(names):
+        sd, value = math.sqrt(max(sigma[i, i], 0.0)), fit.values[name]
+        step = min(0.01 * sd, 0.25 * abs(value)) if value != 0 else 0.01 * sd
+        if not (step > 0 and math.isfinite(step)):
+            continue
+        ends = [form_life_s(problem, {**fit.values, name: value + h}, form, limit_m) for h in (step, -step)]
+        if not all(math.isfinite(x) and x > 0 for x in ends):
+            return math.nan
+        grad[i] = (math.log(ends[0]) - math.log(ends[1])) / (2.0 * step)
+    var = float(grad @ np.where(np.isfinite(sigma), sigma, 0.0) @ grad)
+    return math.sqrt(var) if var > 0 else math.nan
+
+
+def decay_stand_in(carried: list[str]) -> str | None:
+    """The carried effect the running-in's decay laws are fitted in the place of: the running-in itself, or a
+    carried effect whose consistency check has the decay with sliding distance as an alternative (the step in
+    K); None: no form uncertainty to average."""
+    if SLIDING_DECAY.id in carried:
+        return SLIDING_DECAY.id
+    return next((e for e in carried if SLIDING_DECAY.id in CONSISTENCY_ALTERNATIVES.get(e, ())), None)
+
+
+def life_forms(problem, final, carried: list[str], limit_m: float) -> dict[str, list[float]]:
+    """The model file's ``life_form_*`` lists (models/wear/form_average.py, LIFE_FORMS order): the carried
+    model (``final``) first, then the running-in in each decay law, refitted on the same measurements in the
+    place of :func:`decay_stand_in` (the carried law's slot, the exponential's when the file carries the
+    running-in, weight 0): the BIC weights, the ln-life offsets from the carried model's forecast and the
+    ratios of their delta-method ln-life sd to its. {} without a stand-in or a finite life of each."""
+    stand_in = decay_stand_in(carried)
+    if stand_in is None:
         return {}
-    lives, bics = [], []
+    effects = tuple(e for e in carried if e != stand_in) + (SLIDING_DECAY.id,)
+    own_form = RUNNING_IN_FORMS[0] if stand_in == SLIDING_DECAY.id else None
+    lives = [form_life_s(problem, final.values, RUNNING_IN_FORMS[0], limit_m)]
+    bics, sds = [final.bic], [form_ln_life_sd(problem, final, RUNNING_IN_FORMS[0], limit_m)]
     try:
         for form in RUNNING_IN_FORMS:
+            if form == own_form:
+                lives.append(lives[0])
+                bics.append(math.inf)           # weight 0: it is the carried model
+                sds.append(sds[0])
+                continue
             problem.running_in_form = form
-            fit = final if form == RUNNING_IN_FORMS[0] else problem.fit(tuple(named), warm=final)
+            fit = problem.fit(effects, warm=final)
             lives.append(form_life_s(problem, fit.values, form, limit_m))
             bics.append(fit.bic)
+            sds.append(form_ln_life_sd(problem, fit, form, limit_m))
     finally:
         problem.running_in_form = RUNNING_IN_FORMS[0]
-    lives = np.asarray(lives)
+    lives, sds = np.asarray(lives), np.asarray(sds)
     if not (np.all(np.isfinite(lives)) and np.all(lives > 0)):
         return {}
-    return {"running_in_form_weights": [float(w) for w in bic_weights(np.asarray(bics))],
-            "running_in_form_ln_life_offsets": [float(x) for x in np.log(lives / lives[0])]}
+    # a form whose spread the delta method cannot give keeps the carried model's (ratio 1)
+    ratios = (np.where(np.isfinite(sds) & (sds > 0), sds, sds[0]) / sds[0] if math.isfinite(sds[0]) and sds[0] > 0
+              else np.ones(len(sds)))
+    return {"life_form_weights": [float(w) for w in bic_weights(np.asarray(bics))],
+            "life_form_ln_life_offsets": [float(x) for x in np.log(lives / lives[0])],
+            "life_form_ln_life_sd_ratios": [float(min(x, 1e3)) for x in ratios]}
 
 
 def live_parameter_text(model: dict[str, Any]) -> str:

@@ -22,7 +22,7 @@ from guide_health.analysis.discrepancy.consistency import (
 from guide_health.analysis.discrepancy.duty import DutyCells
 from guide_health.analysis.discrepancy.fit_pool import FitPool
 from guide_health.analysis.discrepancy.model import FitResult, WearProblem, rel_errors
-from guide_health.analysis.discrepancy.model_file import model_parameters, running_in_forms
+from guide_health.analysis.discrepancy.model_file import life_forms, model_parameters
 from guide_health.analysis.discrepancy.resolution import data_resolution, rejected_wear_check
 from guide_health.analysis.discrepancy.selection import BIC_THRESHOLD, forward_selection
 from guide_health.models.wear.effects.registry import BY_ID, EFFECTS, RECORD_REFERENCE_EFFECTS, SLIDING_DECAY
@@ -234,8 +234,10 @@ def _model_file_and_series(result: dict, problem: WearProblem, params: dict, fit
     base, final = fits
     whole = WearProblem(problem.cells, params, heldout_fraction=0.0, relubrication_t_s=relubrication_t_s)
     whole_fit = whole.fit(tuple(named), warm=final)
-    result["model_file"] = {**model_parameters(whole, whole_fit, named),
-                            **running_in_forms(whole, whole_fit, named, float(params["straightness_limit_m"]))}
+    forms = life_forms(whole, whole_fit, named, float(params["straightness_limit_m"]))
+    if forms and result["unexplained_structure"]["present"]:
+        forms["life_form_interval"] = "envelope"      # no form explains the record: none of their weights holds
+    result["model_file"] = {**model_parameters(whole, whole_fit, named), **forms}
     result["forecast"] = fit_forecast(whole, whole_fit, float(params["straightness_limit_m"]))
     result["series"] = {
         "t_h": problem.t_s / 3600.0, "measured_um": problem.y_m * 1e6,

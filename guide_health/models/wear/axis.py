@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from guide_health.models.wear.effects.registry import SLIDING_DECAY
+from guide_health.models.wear.form_average import life_form_lists
 from guide_health.models.wear.gate import InputGate
 from guide_health.models.wear.guide import GuideWear
 from guide_health.models.wear.input_rules import (
@@ -352,8 +352,11 @@ class AxisMonitor:
         effect = forms = None
         if guide.effect_wear is not None and math.isfinite(loss_per_k) and math.isfinite(rate_per_k):
             effect = guide.effect_life_inputs(k)
-            if SLIDING_DECAY.id in guide.effects.effects:     # the decay law's other forms averaged in
-                forms = (p.running_in_form_ln_life_offsets, p.running_in_form_weights, guide.life_z())
+            # the running-in's decay laws (in the step's place when the file carries the step) averaged in
+            weights, offsets, ratios = life_form_lists(
+                p.life_form_weights, p.life_form_ln_life_offsets, p.life_form_ln_life_sd_ratios,
+                p.running_in_form_weights, p.running_in_form_ln_life_offsets)
+            forms = (offsets, weights, guide.life_z(), ratios, p.life_form_interval == "envelope")
         # while the model-fit test says broken: the interval from the innovations' observed spread
         widen = guide.fit_watch.rms_sigma() if guide.fit_watch.model_fit == "broken" else None
         return LifeInputs(now, effect, widen, forms)

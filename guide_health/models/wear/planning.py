@@ -42,7 +42,8 @@ class LifeInputs:
     """What one guide's remaining life is computed from: ``now`` (life.LifeNow), ``effect`` (the arguments
     (k, k_sd, EffectParameters, EffectLifeNow, z) of effect_life.life_interval_s, None without the wear
     effects), ``widen_rms`` (the innovations' rms z while the model-fit test says broken, else None) and
-    ``forms`` (the sliding decay's other forms: (ln-life offsets, BIC weights, z) of form_average, or None)."""
+    ``forms`` (the decay laws' forecasts: (ln-life offsets, BIC weights, z, ln-sd ratios, envelope) of
+    form_average.form_averaged_interval_s, or None)."""
 
     now: LifeNow
     effect: tuple | None = None
