@@ -109,7 +109,7 @@ def form_life_s(problem, values: dict[str, float], form: str, limit_m: float) ->
     (form_average.running_in_form_life_s) at the last quarter's sliding speed."""
     t, n, c = problem.t_s, problem.t_s.size, problem.cells
     j = max(0, int(0.75 * n) - 1)
-    decays = "running_in_ratio" in values
+    decays = all(name in values for name in SLIDING_DECAY.fitted_to_file)     # the fit holds the decay
     steady = problem.predict_m(SLIDING_DECAY.steady(values) if decays else values)
     rate = (steady[-1] - steady[j]) / max(t[-1] - t[j], 1e-9)
     distance = np.cumsum(np.bincount(np.clip(c.interval, 0, n), weights=c.distance_m, minlength=n + 1)[:n])

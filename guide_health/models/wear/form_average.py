@@ -3,7 +3,7 @@
 
 The library's running-in is K(s) = K (1 + r e^(-s/s0)). A record of a few tens of hours cannot always tell it
 from other decay laws of the same two parameters, which forecast another remaining life (the tail of the
-decay differs), nor always from a step in K at one time (``wear_rate_change``). The other laws are power laws
+decay differs), nor always from a step in K at one time (the registry's RATE_STEP). The other laws are power laws
 K(s) / K = 1 + r (1 + s/s0)^-p (:data:`POWER_LAW_EXPONENTS`), from a fast tail to slow ones:
 
 - ``inverse_square`` p = 2; ``hyperbolic`` p = 1 (the extra wear grows as r s0 ln(1 + s/s0), without end);
