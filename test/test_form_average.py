@@ -1,7 +1,8 @@
-"""The running-in form's uncertainty in the remaining life (models/wear/form_average.py): the forms' closed
-forms against numerical integrals, the BIC-weighted interval's invariants, the model file's per-form lists
-through the params rules, live == offline with them, and on the bench: the interval contains the true life on
-a clear case and widens when the forms disagree (the calibration over 30 seeds per form is slow:
+"""The running-in form's uncertainty in the remaining life (models/wear/form_average.py): the decay laws' closed
+forms against numerical integrals, the BIC-weighted interval's invariants (per-form spreads, the envelope), the
+model file's per-form lists through the params rules (and an older file's), live == offline with them, and on
+the bench: the interval contains the true life on a clear case, widens when the forms disagree, and is the
+envelope under the unexplained-structure flag (the calibration over 60 seeds of five forms is slow:
 test_life_calibration_per_running_in_form, bench/life_calibration.py)."""
 from __future__ import annotations
 

@@ -177,9 +177,9 @@ def form_averaged_interval_s(life: tuple[float, float, float], ln_offsets, weigh
             and math.isfinite(high) and z > 0):
         return life
     sd = max(math.log(high / low) / (2.0 * z), 1e-9)
-    mid = 0.5 * math.log(high * low)           # the named form's ln-life centre (its interval's middle)
+    mid = 0.5 * math.log(high * low)           # the carried model's ln-life centre (its interval's middle)
     centres, shares, sds = mid + d[keep], w[keep] / w[keep].sum(), sd * c[keep]
-    # the named point sits at the interval's ln-middle (delta method); each form's point moves with its centre
+    # the carried point sits at the interval's ln-middle (delta method); each form's point moves with its centre
     shift = math.log(centre) - mid
     q_low, q_mid, q_high = (mixture_quantile(float(ndtr(x)), centres, shares, sds) for x in (-z, 0.0, z))
     if envelope:
