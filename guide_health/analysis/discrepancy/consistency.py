@@ -55,7 +55,7 @@ from typing import Any
 import numpy as np
 from scipy import special
 
-from guide_health.analysis.discrepancy.model import FitResult, WearProblem
+from guide_health.analysis.discrepancy.model import FitResult, WearProblem, in_decay_law
 from guide_health.models.wear.effects.base import ConsistencyRecord, FitParameter
 from guide_health.models.wear.effects.registry import (
     BY_ID,
@@ -271,12 +271,9 @@ def _alternative_fit(alt_problem: CheckProblem, effects: tuple[str, ...], form: 
     if form != SLIDING_DECAY.id:
         return alt_problem.fit(effects, warm=final), {}
     fits = []
-    try:
-        for law in RUNNING_IN_FORMS:
-            alt_problem.running_in_form = law
+    for law in RUNNING_IN_FORMS:
+        with in_decay_law(alt_problem, law):
             fits.append((alt_problem.fit(effects, warm=final), law))
-    finally:
-        alt_problem.running_in_form = RUNNING_IN_FORMS[0]
     f, law = min(fits, key=lambda fl: fl[0].bic if np.isfinite(fl[0].bic) else np.inf)
     return f, {"decay_law": law}
 

@@ -12,6 +12,7 @@ with m the product of the wear-rate multipliers of the effects in the model. The
 """
 from __future__ import annotations
 
+import contextlib
 import copy
 import dataclasses
 import math
@@ -41,6 +42,7 @@ from guide_health.models.wear.effects.registry import (
     RECORD_REFERENCE_EFFECTS,
     SLIDING_DECAY,
 )
+from guide_health.models.wear.form_average import RUNNING_IN_FORMS
 from guide_health.models.wear.input_rules import reading_in_force_index
 
 UM = 1e6
@@ -62,6 +64,17 @@ def _effect_specs(problem: WearProblem) -> dict[str, list[ParamSpec]]:
     """Each candidate's fitted parameters (bounds and starts from the effect's module, for this record)."""
     context = fit_context(problem)
     return {effect: fit(context) for effect, fit in FIT_PARAMETERS.items()}
+
+
+@contextlib.contextmanager
+def in_decay_law(problem, law: str):
+    """``problem`` (a WearProblem) with its sliding decay in ``law`` (models/wear/form_average.py
+    RUNNING_IN_FORMS) inside the block, its fits and predictions among them; the library's law again after."""
+    problem.running_in_form = law
+    try:
+        yield problem
+    finally:
+        problem.running_in_form = RUNNING_IN_FORMS[0]
 
 
 @dataclass
@@ -184,7 +197,7 @@ class WearProblem:
                                   if cells.epoch is not None else None)
         self.specs = _effect_specs(self)
         self._work_cache: tuple | None = None     # (multiplier parameters, G_j, P_j) of the last prediction
-        self.running_in_form = "exponential"     # the sliding decay's law (models/wear/form_average.py)
+        self.running_in_form = RUNNING_IN_FORMS[0]     # the sliding decay's law (the library's: in_decay_law)
 
     # --- candidates ---------------------------------------------------------------------------
     def available_effects(self) -> list[str]:

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from guide_health.analysis.discrepancy.model import in_decay_law
 from guide_health.io.outputs.files import write_text
 from guide_health.models.wear.effect_life import symmetrised
 from guide_health.models.wear.effects.registry import (
@@ -163,20 +164,17 @@ def life_forms(problem, final, carried: list[str], limit_m: float) -> dict[str, 
     own_form = RUNNING_IN_FORMS[0] if stand_in == SLIDING_DECAY.id else None
     lives = [form_life_s(problem, final.values, RUNNING_IN_FORMS[0], limit_m)]
     bics, sds = [final.bic], [form_ln_life_sd(problem, final, RUNNING_IN_FORMS[0], limit_m)]
-    try:
-        for form in RUNNING_IN_FORMS:
-            if form == own_form:
-                lives.append(lives[0])
-                bics.append(math.inf)           # weight 0: it is the carried model
-                sds.append(sds[0])
-                continue
-            problem.running_in_form = form
+    for form in RUNNING_IN_FORMS:
+        if form == own_form:
+            lives.append(lives[0])
+            bics.append(math.inf)           # weight 0: it is the carried model
+            sds.append(sds[0])
+            continue
+        with in_decay_law(problem, form):        # the fit and its forecasts in that law
             fit = problem.fit(effects, warm=final)
             lives.append(form_life_s(problem, fit.values, form, limit_m))
             bics.append(fit.bic)
             sds.append(form_ln_life_sd(problem, fit, form, limit_m))
-    finally:
-        problem.running_in_form = RUNNING_IN_FORMS[0]
     lives, sds = np.asarray(lives), np.asarray(sds)
     if not (np.all(np.isfinite(lives)) and np.all(lives > 0)):
         return {}
