@@ -235,7 +235,9 @@ def reml_by_contrasts(y, s) -> tuple[float, float]:
     i = int(np.argmin([minus_loglik(t) for t in grid]))
     lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
     best = minimize_scalar(minus_loglik, bounds=(lo, hi), method="bounded", options={"xatol": 1e-9})
-    tau = 0.0 if minus_loglik(0.0) <= best.fun else float(best.x)
+    # the boundary wins a tie within rounding: at tau ~ 1e-8 the likelihood equals tau = 0's to an ulp, and which
+    # side rounds lower depends on the BLAS (a tie was read as an interior maximum with numpy 2.4)
+    tau = 0.0 if minus_loglik(0.0) <= best.fun + 1e-12 * abs(best.fun) else float(best.x)
     w = 1.0 / (tau * tau + s * s)
     return tau, float(np.sum(w * y) / np.sum(w))
 

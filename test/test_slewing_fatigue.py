@@ -110,19 +110,44 @@ def oscillate(fatigue, amplitude_rad, cycles, per_half=200):
         fatigue.on_angle(float(phi), float(i))
 
 
-def test_oscillation_below_the_critical_angle_counts_the_rumbarger_jones_form():
-    """theta_crit = 360 deg / Z = 2.12 deg for the axial rows; 1 deg amplitude: L_osc = L10 (90/1)^(8/9) cycles."""
+def dg03_oscillating_rating_ratio(swing_deg, rollers):
+    """C_osc / C of a roller bearing below the critical angle, NREL DG03 after Rumbarger & Jones 1968:
+    (180 deg / phi)^(2/9) Z^0.028, phi the full swing in degrees."""
+    return (180.0 / swing_deg) ** (2.0 / 9.0) * rollers ** 0.028
+
+
+def test_oscillation_below_the_critical_angle_counts_the_dg03_oscillating_rating():
+    """theta_crit = 360 deg / Z = 2.12 deg for the axial rows; a 1 deg amplitude (2 deg swing) cycle uses
+    1 / L_osc, L_osc = (C_osc / P)^(10/3) 1e6 cycles with C_osc = C (180/2)^(2/9) 170^0.028."""
     fatigue = SlewingFatigue(ratings(), reversal_deadband_rad=1e-3)
     fatigue.on_loads(5.0e5, 0.0, 0.0)
     amp, cycles = math.radians(1.0), 7
     oscillate(fatigue, amp, cycles)
     fatigue.on_angle(amp - 2e-3, 1e6)                     # confirms the last reversal; 2e-3 rad open stroke
     l10 = (C_AXIAL / 5.0e5) ** (10 / 3) * 1e6
-    expected = cycles / (l10 * 90.0 ** (8 / 9)) + 2e-3 / (2 * math.pi * l10)
+    l_osc = (C_AXIAL * dg03_oscillating_rating_ratio(2.0, Z) / 5.0e5) ** (10 / 3) * 1e6
+    expected = cycles / l_osc + 2e-3 / (2 * math.pi * l10)
     assert fatigue.strokes == 2 * cycles and fatigue.small_strokes == 2 * cycles
     assert fatigue.row_damage()["upper_axial"] == pytest.approx(expected, rel=1e-6)
-    # angle equivalence would count 4 A per cycle: 90/1 = 90 times less life than 90^(8/9) -> a factor 1.65
-    assert expected > 1.6 * cycles * 4 * amp / (2 * math.pi * l10)
+    # angle equivalence would count 4 A per cycle: L_osc / L10 = 90 against 45.26 here, half the damage
+    assert l_osc / l10 == pytest.approx(45.265, rel=1e-4)
+    assert expected > 1.95 * cycles * 4 * amp / (2 * math.pi * l10)
+
+
+def test_small_oscillation_of_the_radial_row_takes_its_own_roller_count():
+    """A radial row of 120 rollers (theta_crit = 360 / 120 = 3 deg; the model takes gamma = 0 for every row): a
+    2 deg amplitude is below it for the radial row and above the axial rows' 2.12 deg."""
+    r = slewing_ratings(Z, 120, D_MM * 1e-3, L_MM * 1e-3, DPW_MM * 1e-3, 58.0)
+    fatigue = SlewingFatigue(r, reversal_deadband_rad=1e-3)
+    fatigue.on_loads(0.0, 4.0e5, 0.0)
+    amp, cycles = math.radians(2.0), 5
+    oscillate(fatigue, amp, cycles)
+    fatigue.on_angle(amp - 2e-3, 1e6)
+    loads = row_equivalent_loads(r, 0.0, 4.0e5, 0.0)
+    p_radial = loads.dynamic_n["radial"]
+    l10 = (r.dynamic_n["radial"] / p_radial) ** (10 / 3) * 1e6
+    l_osc = (r.dynamic_n["radial"] * dg03_oscillating_rating_ratio(4.0, 120) / p_radial) ** (10 / 3) * 1e6
+    assert fatigue.row_damage()["radial"] == pytest.approx(cycles / l_osc + 2e-3 / (2 * math.pi * l10), rel=1e-6)
 
 
 @pytest.mark.parametrize("amplitude_deg", [3.0, 10.0])
