@@ -136,6 +136,37 @@ def bytes_per_row(db: Path) -> tuple[float, int]:
     return db.stat().st_size / max(rows, 1), rows
 
 
+BARE = r'''
+import sys, time
+import rclpy
+from rclpy.experimental import EventsExecutor
+from diagnostic_msgs.msg import DiagnosticArray
+rclpy.init()
+node = rclpy.create_node("bench_fleet_bare")
+count = [0]
+def on_raw(raw):
+    count[0] += 1
+node.create_subscription(DiagnosticArray, "/diagnostics", on_raw, 100, raw=True)
+executor = EventsExecutor()
+executor.add_node(node)
+print("start", flush=True)
+try:
+    while rclpy.ok():
+        executor.spin_once(timeout_sec=0.1)
+except Exception:          # stopped by the bench
+    pass
+'''
+
+
+def start_bare(env) -> subprocess.Popen:
+    """The floor: a bare rclpy process with fleet_monitor's subscription (raw, depth 100, the events executor's
+    spin_once loop) whose callback only counts."""
+    proc = subprocess.Popen([sys.executable, "-c", BARE], env=env, stdout=subprocess.PIPE, text=True, cwd=ROOT)
+    while not proc.stdout.readline().startswith("start"):
+        pass
+    return proc
+
+
 def start_publishers(args, env) -> list[subprocess.Popen]:
     procs = [subprocess.Popen([sys.executable, "-c", PUBLISHER, str(i), str(args.publishers), str(args.machines),
                                str(args.axes), str(ROOT / "bench"), str(args.seconds + 60.0)],
@@ -181,6 +212,7 @@ def live(args, workdir: Path) -> None:
                       {"machine_id": "fleet", "history_file": str(db), "max_statuses": 10000}, env,
                       workdir / "fleet_monitor.log")
     pubs = []
+    bare = start_bare(env) if args.floor else None
     try:
         if collector.wait_for(FLEET_STATUS, timeout=60) is None:
             raise SystemExit(f"no fleet status: {(workdir / 'fleet_monitor.log').read_text()[-800:]}")
@@ -194,14 +226,16 @@ def live(args, workdir: Path) -> None:
         rows0 = history_rows(db)
         cpu0, t0 = cpu_seconds(node.pid), time.monotonic()
         pub_cpu0 = sum(cpu_seconds(p.pid) for p in pubs)
+        bare0 = cpu_seconds(bare.pid) if bare else 0.0
         time.sleep(args.seconds)
         cpu1, t1 = cpu_seconds(node.pid), time.monotonic()
+        bare1 = cpu_seconds(bare.pid) if bare else 0.0
         pub_cpu1 = sum(cpu_seconds(p.pid) for p in pubs)
         rows1 = history_rows(db)
         status = collector.get(FLEET_STATUS)
         rss1 = rss_mib(node.pid)
     finally:
-        stop_all(pubs)
+        stop_all(pubs + ([bare] if bare else []))
         stop_node(node)
         collector.close()
         clean_fastdds_shm()
@@ -215,6 +249,9 @@ def live(args, workdir: Path) -> None:
     print(f"  fleet_monitor CPU {100.0 * (cpu1 - cpu0) / window:.1f} % of one core over {window:.0f} s "
           f"({1e6 * (cpu1 - cpu0) / (window * statuses):.0f} us per status; target < 10 %); publishers "
           f"{100.0 * (pub_cpu1 - pub_cpu0) / window:.1f} % together")
+    if bare:
+        print(f"  floor: a bare raw subscriber of the same topic {100.0 * (bare1 - bare0) / window:.1f} % of one "
+              f"core; fleet_monitor / floor {(cpu1 - cpu0) / max(bare1 - bare0, 1e-9):.2f}")
     print(f"  fleet_monitor RSS {rss0:.0f} MiB before the fleet, {rss1:.0f} MiB with it")
     print(f"  history: {rows1 - rows0:,} rows in {window:.0f} s -> {(rows1 - rows0) * per_day / 1e6:.2f} M rows/day "
           f"(history_period_s 60: {statuses * 1440 / 1e6:.2f} M expected); {per_row:.0f} bytes per row in the "
@@ -222,29 +259,32 @@ def live(args, workdir: Path) -> None:
           f"{(rows1 - rows0) * per_day * per_row * 365 / 1e12:.2f} TB at the default retention of 365 d", flush=True)
 
 
-def write_history(db: Path, machines: int, axes: int, days: float, period_s: float) -> int:
-    """A fleet history of ``days`` (one row per status every period_s; remaining life falling 1 h per h)."""
-    from guide_health.io.outputs.fleet_history import HISTORY_SCHEMA, INSERT_ROW, history_row
+def write_history(db: Path, machines: int, axes: int, days: float, period_s: float,
+                  t_end: float | None = None) -> int:
+    """A fleet history of ``days``: one row per status every period_s, the remaining life falling 0.5-1.5 h per
+    h (the level WARN below 200 h, ERROR below 100 h), generated inside SQLite (a recursive CTE of the time
+    steps crossed with the statuses), so 26 M rows (30 days x 600 statuses at 60 s) take minutes."""
+    from guide_health.io.outputs.fleet_history import HISTORY_SCHEMA, VALUE_COLUMNS, history_row
 
     con = sqlite3.connect(db)
     con.executescript(HISTORY_SCHEMA)
-    t_end = time.time()
+    t_end = time.time() if t_end is None else t_end
     steps = int(days * 86400.0 / period_s)
-    texts = {(m, a): status_values(m, a) for m in range(machines) for a in AXES[:axes]}
-    n = 0
-    for k in range(steps):
-        t = t_end - (steps - k) * period_s
-        rows = []
-        for (m, a), values in texts.items():
-            life = 800.0 - m - k * period_s / 3600.0 * (0.5 + m / machines)
-            level = 0 if life > 200 else 1 if life > 100 else 2
-            values = dict(values, remaining_life_h=f"{life:.1f}")
-            rows.append(history_row(t, f"m{m:03d}", f"wear_monitor: {a} precision", level, "", values))
-        con.executemany(INSERT_ROW, rows)
-        n += len(rows)
-        if k % 1000 == 0:
-            con.commit()
+    con.execute(f"CREATE TEMP TABLE s (m, hardware_id, name, {', '.join(VALUE_COLUMNS)})")
+    for m in range(machines):
+        for a in AXES[:axes]:
+            row = history_row(0.0, f"m{m:03d}", f"wear_monitor: {a} precision", 0, "", status_values(m, a))
+            con.execute(f"INSERT INTO s VALUES ({', '.join('?' * (3 + len(VALUE_COLUMNS)))})", (m, *row[1:3], *row[5:]))
+    # the level from the unrounded life, the column to 0.1 h as the node's text has it
+    life = "(800.0 - s.m - k.k * :period / 3600.0 * (0.5 + s.m * 1.0 / :machines))"
+    values = ", ".join(f"ROUND({life}, 1)" if c == "remaining_life_h" else f"s.{c}" for c in VALUE_COLUMNS)
+    con.execute(f"""WITH RECURSIVE k(k) AS (SELECT 0 UNION ALL SELECT k + 1 FROM k WHERE k + 1 < :steps)
+                    INSERT INTO fleet_history SELECT :t_end - (:steps - k.k) * :period, s.hardware_id, s.name,
+                        CASE WHEN {life} > 200 THEN 0 WHEN {life} > 100 THEN 1 ELSE 2 END, '', {values}
+                    FROM k CROSS JOIN s ORDER BY k.k, s.rowid""",
+                {"period": period_s, "machines": machines, "steps": steps, "t_end": t_end})
     con.commit()
+    n = con.execute("SELECT COUNT(*) FROM fleet_history").fetchone()[0]
     con.close()
     return n
 
@@ -298,6 +338,8 @@ def main() -> int:
                     help="seconds between a status's rows in the generated history (fleet_monitor's "
                          "history_period_s; at 60 s, 30 days of 600 statuses are 26 M rows, ~5 GB at 191 bytes a row)")
     ap.add_argument("--skip-live", action="store_true")
+    ap.add_argument("--floor", action="store_true",
+                    help="also run a bare raw subscriber of /diagnostics beside the node (the floor's CPU)")
     ap.add_argument("--skip-trend", action="store_true")
     ap.add_argument("--workdir", type=Path, default=Path(tempfile.gettempdir()) / "guide_health_fleet_bench")
     args = ap.parse_args()
