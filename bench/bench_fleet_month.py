@@ -134,7 +134,7 @@ def main() -> int:
     ap.add_argument("--workdir", type=Path, default=Path(tempfile.gettempdir()) / "guide_health_bench")
     args = ap.parse_args()
     args.workdir.mkdir(parents=True, exist_ok=True)
-    print(f"load average at start: {os.getloadavg()[0]:.1f} (2 cores shared with 7 other sessions)", flush=True)
+    print(f"load average at start: {os.getloadavg()[0]:.1f} (on {os.cpu_count()} cores)", flush=True)
     fleet = build_fleet(args.machines, args.messages, args.files, args.workdir, args.take)
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     with tempfile.TemporaryDirectory() as tmp:

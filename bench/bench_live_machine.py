@@ -224,7 +224,7 @@ def main() -> int:
     args = ap.parse_args()
     env = isolated_ros_env()
     os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")})
-    print(f"load average at start: {os.getloadavg()[0]:.1f} (2 cores shared with 7 other sessions)", flush=True)
+    print(f"load average at start: {os.getloadavg()[0]:.1f} (on {os.cpu_count()} cores)", flush=True)
     for count in args.axes:
         axes = AXES[:count]
         ratios = []

@@ -42,6 +42,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 from read_limit import sqlite3_read_limit  # noqa: E402
 
 PARAMS = ROOT / "config" / "bench_000.yaml"
+LAST_RSS_SAMPLES: list[tuple[float, float]] = []
 
 
 def _copy_schema(src: sqlite3.Connection, dst: sqlite3.Connection) -> list[str]:
@@ -161,12 +162,46 @@ def month_view(paths: list[Path], count: int, cache: Path) -> Path:
     return view
 
 
+def _rss_mib(pid: int) -> float | None:
+    try:
+        with open(f"/proc/{pid}/status") as handle:
+            return next(float(line.split()[1]) / 1024.0 for line in handle if line.startswith("VmRSS:"))
+    except (OSError, StopIteration):
+        return None
+
+
+def rss_shape(samples: list[tuple[float, float]]) -> str:
+    """The child's RSS over its run (samples of (s, MiB) every 0.25 s): at a quarter, half, three quarters of
+    the run and its end, and the growth over the second half in MiB per quarter of the run (the messages
+    come at a steady rate, so a state that grows with the messages grows there; a bounded one does not)."""
+    if len(samples) < 8:
+        return "RSS samples: too few"
+    t_end = samples[-1][0]
+    at = [next(m for t, m in samples if t >= f * t_end) for f in (0.25, 0.5, 0.75)] + [samples[-1][1]]
+    return (f"RSS at 1/4, 1/2, 3/4, end of the run: {', '.join(f'{m:.0f}' for m in at)} MiB; second half "
+            f"{(at[3] - at[1]) / 2:+.1f} MiB per quarter")
+
+
 def run_child(args: list[str]) -> tuple[dict, str, float, float]:
-    """(json stdout, stderr, wall s, peak RSS MiB) of `guide-health ARGS --json` in a fresh process."""
+    """(json stdout, stderr, wall s, peak RSS MiB) of `guide-health ARGS --json` in a fresh process; its RSS
+    over the run (every 0.25 s) in the global LAST_RSS_SAMPLES."""
+    import threading
+
     cmd = [sys.executable, "-m", "guide_health.cli", *args, "--json"]
     with tempfile.TemporaryFile() as err:
         t0 = time.perf_counter()
         proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=err, cwd=ROOT)
+        LAST_RSS_SAMPLES.clear()
+
+        def sample() -> None:
+            while proc.poll() is None:
+                m = _rss_mib(proc.pid)
+                if m is not None:
+                    LAST_RSS_SAMPLES.append((time.perf_counter() - t0, m))
+                time.sleep(0.25)
+
+        sampler = threading.Thread(target=sample, daemon=True)
+        sampler.start()
         stdout = proc.stdout.read()
         _, status, usage = os.wait4(proc.pid, 0)
         wall = time.perf_counter() - t0
@@ -187,7 +222,7 @@ def main() -> int:
     ap.add_argument("--skip-diagnose", action="store_true")
     args = ap.parse_args()
     args.cache.mkdir(parents=True, exist_ok=True)
-    print(f"load average at start: {os.getloadavg()[0]:.1f} (2 cores shared with 7 other sessions)", flush=True)
+    print(f"load average at start: {os.getloadavg()[0]:.1f} (on {os.cpu_count()} cores)", flush=True)
     paths = build_month(int(args.messages), args.splits, args.cache)
     out = args.cache / "out"
     rows = []
@@ -204,7 +239,8 @@ def main() -> int:
         print(f"  replay, end to end        {wall:8.2f} s   (read {report['read_s']:.2f} s + model "
               f"{report['model_s']:.2f} s; {len(report.get('bags') or [])} bags; peak RSS {rss:.0f} MiB)")
         print(f"  ratio replay rate / loop rate  {t_loop / wall:5.2f}   (target >= 0.5)")
-        print(f"  progress bar: {len(bar)} redraws, last: {bar[-1].strip() if bar else 'NONE'}", flush=True)
+        print(f"  progress bar: {len(bar)} redraws, last: {bar[-1].strip() if bar else 'NONE'}")
+        print(f"  {rss_shape(LAST_RSS_SAMPLES)}", flush=True)
     if not args.skip_diagnose:
         size, n, t_loop = rows[-1][0], rows[-1][1], rows[-1][2]
         view = month_view(paths, size, args.cache)
@@ -213,7 +249,8 @@ def main() -> int:
         print(f"diagnose over {size} splits, {n:,} messages: {wall:.2f} s wall (read -> duty cells "
               f"{res['read_s']:.2f} s, fit {res['fit_s']:.2f} s, report {res['report_s']:.2f} s; peak RSS "
               f"{rss:.0f} MiB)")
-        print(f"  ratio diagnose time / loop time  {wall / t_loop:5.2f}   (target <= 2.5)", flush=True)
+        print(f"  ratio diagnose time / loop time  {wall / t_loop:5.2f}   (target <= 2.5)")
+        print(f"  {rss_shape(LAST_RSS_SAMPLES)}", flush=True)
     print("\nsplits   messages   loop [s]   replay [s]   replay rate/loop rate   us/msg   peak RSS [MiB]")
     for size, n, t_loop, wall, rss in rows:
         print(f"{size:6d} {n:10,} {t_loop:10.2f} {wall:12.2f} {t_loop / wall:23.2f} {wall / n * 1e6:8.2f} "

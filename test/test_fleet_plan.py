@@ -142,6 +142,25 @@ def test_history_dues_are_each_status_newest_readable_dates(tmp_path):
     dues, newest = dues_from_history(tmp_path / "fleet.db")
     assert newest == t0 + DAY_S
     assert sorted((d.machine, _iso_day(d.limit_low_s)) for d in dues) == [("m1", "2027-02-01"), ("m2", "2027-02-07")]
+    # the same through the rows alone (layout 2), and with m2's newest dated row deleted after its hourly row
+    # named it (retention keeps whole hours): its older dates, through the index
+    import shutil
+    import sqlite3
+
+    history.close()
+    layout2 = tmp_path / "layout2.db"
+    shutil.copy(tmp_path / "fleet.db", layout2)
+    con = sqlite3.connect(layout2)
+    con.executescript("DROP TABLE fleet_history_hourly; PRAGMA user_version = 2;")
+    con.close()
+    assert sorted((d.machine, d.limit_low_s) for d in dues_from_history(layout2)[0]) == sorted(
+        (d.machine, d.limit_low_s) for d in dues)
+    con = sqlite3.connect(tmp_path / "fleet.db")
+    con.execute("DELETE FROM fleet_history WHERE hardware_id = 'm2' AND t_unix_s = ?", (t0,))
+    con.commit()
+    con.close()
+    dues, _ = dues_from_history(tmp_path / "fleet.db")
+    assert sorted((d.machine, _iso_day(d.limit_low_s)) for d in dues) == [("m1", "2027-02-01"), ("m2", "2027-02-05")]
 
 
 def _iso_day(t_s: float) -> str:

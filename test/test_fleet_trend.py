@@ -249,7 +249,8 @@ def test_a_layout_1_history_is_migrated_by_fleet_monitor_with_the_same_trends(tm
     con = sqlite3.connect(db)
     assert con.execute("SELECT limit_date_utc_low FROM fleet_history WHERE limit_date_utc_low IS NOT NULL"
                        ).fetchall() == [("2027-01-05",)]
-    assert con.execute("PRAGMA user_version").fetchone()[0] == 2
+    assert con.execute("PRAGMA user_version").fetchone()[0] == 3     # layout 1 -> 2 -> 3 (the hourly rows)
+    assert con.execute("SELECT SUM(rows) FROM fleet_history_hourly").fetchone()[0] == 5
     assert "values_json" not in [r[1] for r in con.execute("PRAGMA table_info(fleet_history)")]
     con.close()
 
@@ -370,3 +371,164 @@ def test_a_machine_figure_drawn_again_equals_a_new_one(history, tmp_path):
         plot_machine_trend(tmp_path / f"alone{i}.png", trends[m])
         assert (tmp_path / f"reused{i}.png").read_bytes() == (tmp_path / f"alone{i}.png").read_bytes(), m
     assert sorted(figures._figures) == [2, 3, 4]    # panels: c1 1 key + levels; m1, m3 2 keys; m2 3 keys + levels
+
+
+# ---- the hourly rows (layout 3) and the trend read by the hour -------------------------------------------------
+
+def blip_history(db, commit_every=7):
+    """Three statuses over 30 h at uneven times (a row every 170-1900 s), written by FleetHistory (period 0)
+    with a commit every `commit_every` rows: levels that blip inside an hour and change at an hour's first row,
+    values that are sometimes not reported (NULL) or no number, an hour with no rows at all."""
+    rng = np.random.default_rng(5)
+    h = FleetHistory(str(db), 0.0)
+    t, n = T0_UNIX_S + 1234.5, 0
+    while t < T0_UNIX_S + 30 * 3600.0:
+        if not (T0_UNIX_S + 12 * 3600.0 <= t < T0_UNIX_S + 13 * 3600.0):       # hour 12: silent
+            for m, name in (("m1", "wear_monitor: x precision"), ("m1", "wear_monitor: y precision"),
+                            ("m2", "slewing_monitor: b1 roller contact")):
+                level = int(rng.choice([0, 0, 0, 0, 1, 2]))
+                values = {"remaining_life_h": repr(float(rng.uniform(10, 900))),
+                          "straightness_um": "banana" if rng.random() < 0.1 else repr(float(rng.normal(20, 3)))}
+                if rng.random() < 0.3:
+                    values.pop("remaining_life_h")
+                if name.startswith("slewing"):
+                    values = {"end_stress_ratio": repr(float(rng.uniform(0.5, 1.5)))}
+                elif rng.random() < 0.5:
+                    values.update(limit_date_utc_low="2027-05-01", limit_date_utc="2027-06-01")
+                h.record(t, m, name, level, f"level {level} at {t:.0f}", values)
+                n += 1
+                if n % commit_every == 0:
+                    h.commit()
+        t += float(rng.uniform(170.0, 1900.0))
+    h.close()
+    return db
+
+
+def hourly_by_hand(db):
+    """fleet_history_hourly as a loop over the rows in time order: {(hw, name, hour): row dict}."""
+    import sqlite3
+
+    con = sqlite3.connect(db)
+    keys = ("remaining_life_h", "straightness_um", "life_used_fraction", "end_stress_ratio")
+    rows = con.execute(f"SELECT t_unix_s, hardware_id, name, level, message, limit_date_utc_low, {', '.join(keys)} "
+                       "FROM fleet_history ORDER BY t_unix_s, rowid").fetchall()
+    con.close()
+    out = {}
+    for t, hw, name, level, message, low, *values in rows:
+        b = out.setdefault((hw, name, int(t // 3600)), {
+            "rows": 0, "t_first": t, "level_first": level, "level_min": level, "level_max": level, "dates_t_last": None,
+            **{f"{k}_{e}": None for k in keys for e in ("min", "max", "last", "t_last")}})
+        if low is not None:
+            b["dates_t_last"] = t
+        b["rows"] += 1
+        b.update(t_last=t, level_last=level, message_last=message, level_min=min(b["level_min"], level),
+                 level_max=max(b["level_max"], level))
+        for k, v in zip(keys, values):
+            if v is not None:
+                b[f"{k}_min"] = v if b[f"{k}_min"] is None else min(b[f"{k}_min"], v)
+                b[f"{k}_max"] = v if b[f"{k}_max"] is None else max(b[f"{k}_max"], v)
+                b[f"{k}_last"], b[f"{k}_t_last"] = v, t
+    return out
+
+
+def hourly_table(db):
+    import sqlite3
+
+    con = sqlite3.connect(db)
+    con.row_factory = sqlite3.Row
+    table = {(r["hardware_id"], r["name"], r["hour"]): {k: r[k] for k in r.keys()
+                                                        if k not in ("hardware_id", "name", "hour")}
+             for r in con.execute("SELECT * FROM fleet_history_hourly")}
+    con.close()
+    return table
+
+
+def test_hourly_rows_equal_an_aggregation_written_here_live_and_migrated(tmp_path):
+    """The hourly rows kept at each commit equal a loop over the rows; a layout-2 file (hourly rows dropped)
+    gets the same ones when fleet_monitor opens it."""
+    import sqlite3
+
+    db = blip_history(tmp_path / "h.db")
+    expected = hourly_by_hand(db)
+    assert hourly_table(db) == expected
+    assert sum(b["rows"] for b in expected.values()) > 250 and not any(k[2] == 12 + int(T0_UNIX_S // 3600)
+                                                                      for k in expected)
+    assert any(b["level_min"] != b["level_max"] for b in expected.values())
+    con = sqlite3.connect(db)
+    nulls = con.execute("SELECT COUNT(*) FROM fleet_history WHERE name LIKE '%precision' AND (straightness_um IS NULL "
+                        "OR remaining_life_h IS NULL)").fetchone()[0]
+    assert nulls > 20                                       # the NULL paths of min, max and last are taken
+    con.executescript("DROP TABLE fleet_history_hourly; PRAGMA user_version = 2;")
+    con.close()
+    FleetHistory(str(db), 60.0).close()                     # fleet_monitor's start migrates 2 -> 3
+    assert hourly_table(db) == expected
+
+
+def test_prune_deletes_whole_hours_of_the_hourly_rows(tmp_path):
+    db = blip_history(tmp_path / "h.db")
+    h = FleetHistory(str(db), 60.0, retention_days=1.0)
+    now = T0_UNIX_S + 30 * 3600.0
+    h.prune(now)
+    h.close()
+    hours = sorted({k[2] for k in hourly_table(db)})
+    assert hours[0] == int((now - 86400.0) // 3600)          # the hour the cutoff falls in stays, whole
+    assert all(b["t_last"] >= now - 86400.0 for b in hourly_table(db).values())
+
+
+def test_trend_read_by_the_hour_has_the_rows_ranking_and_every_level_change(tmp_path):
+    """The same history read by every row and by the hour: the same machines, row counts, latest values and
+    levels (the ranking), the same level changes, one by one (a blip inside an hour, a change at an hour's
+    first row); each hour's drawn points hold the least and largest value of its rows."""
+    from guide_health.analysis.fleet_trend import read_trends, write_trend_csv
+
+    db = blip_history(tmp_path / "h.db")
+    by_row, by_hour = read_trends(db, resolution="rows"), read_trends(db, resolution="hourly")
+    assert list(by_row) == list(by_hour) == ["m1", "m2"]
+    for m in by_row:
+        r, h = by_row[m], by_hour[m]
+        assert h.hourly is not None and r.hourly is None
+        assert h.row_count() == r.row_count() and h.first_t() == r.t_unix_s[0]
+        assert h.latest_level() == r.latest_level() and h.t_unix_s[-1] == r.t_unix_s[-1]
+        for key in ("remaining_life_h", "straightness_um", "end_stress_ratio"):
+            assert h.latest(key) == r.latest(key) or (np.isnan(h.latest(key)) and np.isnan(r.latest(key)))
+        assert h.level_changes() == r.level_changes() and len(r.level_changes()) > 20
+        t, v, status = h.points("remaining_life_h")
+        rt, rv, rstatus = r.points("remaining_life_h")
+        for name in set(r.status):
+            for hour in set((rt[rstatus == name] // 3600).astype(int).tolist()):
+                sel = (rstatus == name) & (rt // 3600 == hour) & np.isfinite(rv)
+                mine = (status == name) & (t // 3600 == hour) & np.isfinite(v)
+                if sel.any():
+                    assert (v[mine].min(), v[mine].max()) == (rv[sel].min(), rv[sel].max())
+    write_trend_csv(tmp_path / "m1.csv", by_hour["m1"])
+    with open(tmp_path / "m1.csv") as handle:
+        rows = list(csv.DictReader(handle))
+    assert sum(int(r["rows"]) for r in rows) == by_row["m1"].row_count()
+    assert rows[0]["hour_utc"].endswith(":00:00") and {r["level_worst"] for r in rows} >= {"ERROR"}
+
+
+def test_trend_resolution_auto_and_its_bad_uses(tmp_path, monkeypatch, capsys):
+    """auto reads by the hour above RAW_ROWS_MAX rows in the window; --resolution hourly of a layout-2 file and
+    an unknown resolution are one line each."""
+    import sqlite3
+
+    from guide_health.analysis import fleet_trend
+
+    db = blip_history(tmp_path / "h.db")
+    assert main(["fleet", "trend", str(db), "--out", str(tmp_path / "a"), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["resolution"] == "rows"
+    monkeypatch.setattr(fleet_trend, "RAW_ROWS_MAX", 100)
+    assert main(["fleet", "trend", str(db), "--out", str(tmp_path / "b"), "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["resolution"] == "hourly" and result["rows"] == fleet_trend.read_trends(db, resolution="rows")[
+        "m1"].row_count() + fleet_trend.read_trends(db, resolution="rows")["m2"].row_count()
+    check_page(Path(result["files"]["html"]))
+    assert "read by the hour" in Path(result["files"]["html"]).read_text()
+    con = sqlite3.connect(db)
+    con.executescript("DROP TABLE fleet_history_hourly; PRAGMA user_version = 2;")
+    con.close()
+    assert main(["fleet", "trend", str(db), "--resolution", "hourly", "--out", str(tmp_path / "c")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "layout 2 has no hourly rows" in err and "\n" not in err
+    assert main(["fleet", "trend", str(db), "--out", str(tmp_path / "d"), "--json"]) == 0   # auto: every row
+    assert json.loads(capsys.readouterr().out)["resolution"] == "rows"

@@ -76,25 +76,38 @@ def dues_from_fleet_dir(path: Path) -> list[Due]:
 
 def dues_from_history(db: Path) -> tuple[list[Due], float]:
     """From the fleet_monitor history: each machine's statuses' latest row with the limit dates (the axis is
-    the status name); and the newest row's time [unix s]. SQLite picks each status's newest row with a lower
-    date (index fleet_history_machine); only a status whose newest dates are unreadable reads its older rows."""
+    the status name); and the newest row's time [unix s]. Layout 3: the hourly rows name each status's newest
+    row with a lower date, read through the index fleet_history_machine; layout 2: SQLite finds it in every
+    row. Only a status whose newest dates are unreadable (or whose newest dated row retention just deleted)
+    reads its older rows, through the index."""
     dates, low = ", ".join(f"f.{k}" for k in LIMIT_KEYS), LIMIT_KEYS[1]
     try:
         con = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
         try:
-            check_history_layout(db, con)
+            layout = check_history_layout(db, con)
+            if layout >= 3:
+                newest_of = ("SELECT hardware_id, name, MAX(dates_t_last) AS t FROM fleet_history_hourly WHERE "
+                             "dates_t_last IS NOT NULL GROUP BY hardware_id, name")
+                dated = set(con.execute("SELECT DISTINCT hardware_id, name FROM fleet_history_hourly WHERE "
+                                        "dates_t_last IS NOT NULL").fetchall())
+            else:
+                newest_of = (f"SELECT hardware_id, name, MAX(t_unix_s) AS t FROM fleet_history WHERE {low} IS NOT "
+                             "NULL GROUP BY hardware_id, name")
             newest_rows = con.execute(
-                f"SELECT f.t_unix_s, f.hardware_id, f.name, {dates} FROM fleet_history f JOIN (SELECT hardware_id, "
-                f"name, MAX(t_unix_s) AS t FROM fleet_history WHERE {low} IS NOT NULL GROUP BY hardware_id, name) g "
+                f"SELECT f.t_unix_s, f.hardware_id, f.name, {dates} FROM fleet_history f JOIN ({newest_of}) g "
                 f"ON f.hardware_id = g.hardware_id AND f.name = g.name AND f.t_unix_s = g.t WHERE f.{low} IS NOT NULL "
                 "ORDER BY f.t_unix_s").fetchall()
             found = _newest_readable_dues(newest_rows)
             unread = {(machine, name) for _, machine, name, *_ in newest_rows} - found.keys()
-            if unread:
+            if layout >= 3:
+                unread |= dated - {(machine, name) for _, machine, name, *_ in newest_rows}
+            for machine, name in sorted(unread):
                 rows = con.execute(f"SELECT t_unix_s, hardware_id, name, {', '.join(LIMIT_KEYS)} FROM fleet_history "
-                                   f"WHERE {low} IS NOT NULL ORDER BY t_unix_s").fetchall()
-                found.update(_newest_readable_dues(r for r in rows if (r[1], r[2]) in unread))
-            newest = con.execute("SELECT MAX(t_unix_s) FROM fleet_history").fetchone()[0]
+                                   f"WHERE hardware_id = ? AND name = ? AND {low} IS NOT NULL ORDER BY t_unix_s",
+                                   (machine, name)).fetchall()
+                found.update(_newest_readable_dues(rows))
+            newest = con.execute("SELECT MAX(t_last) FROM fleet_history_hourly" if layout >= 3 else
+                                 "SELECT MAX(t_unix_s) FROM fleet_history").fetchone()[0]
         finally:
             con.close()
     except sqlite3.DatabaseError as exc:

@@ -90,13 +90,11 @@ def plot_machine_trend(path: Path, trend: MachineTrend, figures: MachineFigures 
     """A panel per quantity the machine reports (one line per status), then the level of each status;
     ``figures``: the page's figures to draw into (None: a figure of its own)."""
     keys = [(k, label) for k, label in TREND_KEYS if np.isfinite(trend.values[k]).any()]
-    t_all = np.asarray(trend.t_unix_s, dtype=float)
     fig, axes = (figures or MachineFigures()).axes(len(keys) + 1)
-    t0, t1 = trend.t_unix_s[0], trend.t_unix_s[-1]
-    status = np.asarray(trend.status)
+    t0, t1 = trend.first_t(), float(trend.t_unix_s[-1])
     names = sorted(set(trend.status))
     for ax, (key, label) in zip(axes, keys):
-        values = np.asarray(trend.values[key], dtype=float)
+        t_all, values, status = trend.points(key)
         for name in names:
             sel = (status == name) & np.isfinite(values)
             if sel.any():
@@ -106,9 +104,10 @@ def plot_machine_trend(path: Path, trend: MachineTrend, figures: MachineFigures 
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, loc="upper right")
     ax = axes[-1]
+    t_all, level, status = trend.points("level")
     for row, name in enumerate(names):
         sel = status == name
-        t, levels = min_max_per_bin(t_all[sel], np.asarray(trend.level, dtype=float)[sel], t0, t1)
+        t, levels = min_max_per_bin(t_all[sel], level[sel], t0, t1)
         ax.scatter(_hours(t, t0), np.full(levels.size, row), s=12,
                    c=[LEVEL_COLOURS.get(int(v), "#000") for v in levels])
     ax.set_yticks(range(len(names)))
@@ -125,13 +124,13 @@ def plot_fleet_overview(path: Path, trends: dict[str, MachineTrend], rows: list[
     """Left: every machine's remaining life over time; right: the ranking by latest remaining life."""
     fig = _agg_figure((11, 1.8 + 0.3 * max(4, len(rows))))
     left, right = fig.subplots(1, 2, gridspec_kw={"width_ratios": [3, 2]})
-    t0 = min(t.t_unix_s[0] for t in trends.values())
+    t0 = min(t.first_t() for t in trends.values())
     t1 = max(t.t_unix_s[-1] for t in trends.values())
     for m, trend in trends.items():
-        values = np.asarray(trend.values["remaining_life_h"], dtype=float)
+        t_all, values, _ = trend.points("remaining_life_h")
         sel = np.isfinite(values)
         if sel.any():
-            t, v = min_max_per_bin(np.asarray(trend.t_unix_s, dtype=float)[sel], values[sel], t0, t1)
+            t, v = min_max_per_bin(t_all[sel], values[sel], t0, t1)
             left.plot(_hours(t, t0), v, ".-", ms=3, label=m)
     left.set_xlabel(f"time [h] since {iso(t0)} UTC")
     left.set_ylabel("remaining precision life [h]")

@@ -27,10 +27,12 @@ DEFAULT_MACHINE_PLOTS = 24
 
 
 def write_trend_report(db: Path, out: Path, machine: str | None = None, days: float | None = None,
-                       max_plots: int = DEFAULT_MACHINE_PLOTS) -> dict:
+                       max_plots: int = DEFAULT_MACHINE_PLOTS, resolution: str = "auto") -> dict:
     """CSV per machine, a PNG for the first ``max_plots`` machines of the ranking (least remaining life
-    first), fleet_overview.png, ranking.csv and index.html in ``out``."""
-    trends = read_trends(db, machine, days)
+    first), fleet_overview.png, ranking.csv and index.html in ``out``; the history read at ``resolution``
+    (fleet_trend.read_trends)."""
+    trends = read_trends(db, machine, days, resolution)
+    hourly = next(iter(trends.values())).hourly is not None if trends else False
     if not trends:
         raise InputError(f"{db}: the fleet history is empty")
     out.mkdir(parents=True, exist_ok=True)
@@ -53,7 +55,8 @@ def write_trend_report(db: Path, out: Path, machine: str | None = None, days: fl
         writer.writerows(rows)
     page = out / "index.html"
     write_text(page, trend_html(db, rows, trends, overview, files, plan_section(db)))
-    return {"history": str(db), "machines": len(trends), "rows": sum(len(t.t_unix_s) for t in trends.values()),
+    return {"history": str(db), "machines": len(trends), "rows": sum(t.row_count() for t in trends.values()),
+            "resolution": "hourly" if hourly else "rows",
             "ranking": rows, "level_changes": {m: t.level_changes() for m, t in trends.items()},
             "files": {"html": str(page), "overview_png": str(overview), "ranking_csv": str(out / "ranking.csv"),
                       "machines": files}}
@@ -89,6 +92,8 @@ def trend_html(db: Path, rows: list[dict], trends: dict[str, MachineTrend], over
     """The static page: ranking table, the maintenance plan, fleet overview, per machine its plot and level
     changes."""
     e = html.escape
+    hourly = (" read by the hour (figures: each hour's least and largest value; tables: one row per status and "
+              "hour; level changes: every one)" if any(t.hourly is not None for t in trends.values()) else "")
     colour = {"OK": "#d5f5e3", "WARN": "#fdebd0", "ERROR": "#f5b7b1", "STALE": "#e5e7e9"}
     table = "".join(
         f"<tr style='background:{colour.get(r['level'], '#fff')}'><td>{i}</td>"
@@ -115,8 +120,8 @@ def trend_html(db: Path, rows: list[dict], trends: dict[str, MachineTrend], over
 td,th{{border:1px solid #999;padding:3px 8px;text-align:right}}td:nth-child(2),td:nth-child(3){{text-align:left}}
 img{{max-width:100%;border:1px solid #ccc}}</style></head><body>
 <h1>Fleet trend</h1>
-<p>History {e(str(db))}: {len(trends)} machines, {sum(len(t.t_unix_s) for t in trends.values())} status rows,
-{e(iso(min(t.t_unix_s[0] for t in trends.values())))} .. {e(iso(max(t.t_unix_s[-1] for t in trends.values())))} UTC.
+<p>History {e(str(db))}: {len(trends)} machines, {sum(t.row_count() for t in trends.values())} status rows{hourly},
+{e(iso(min(t.first_t() for t in trends.values())))} .. {e(iso(max(t.t_unix_s[-1] for t in trends.values())))} UTC.
 Ranked by the latest remaining precision life (least first).</p>
 <table><tr><th>#</th><th>machine</th><th>level</th><th>remaining life [h]</th><th>straightness [um]</th>
 <th>life used</th><th>end-stress ratio</th><th>level changes</th><th>last seen (UTC)</th></tr>{table}</table>

@@ -19,6 +19,7 @@ from pathlib import Path
 
 from guide_health.analysis.fleet import expand_bags, run_fleet
 from guide_health.analysis.fleet_report import plot_ranking, table_rows, write_tables
+from guide_health.analysis.fleet_trend import RAW_ROWS_MAX, RESOLUTIONS
 from guide_health.cli.app import load_command
 from guide_health.cli.command import Command
 from guide_health.cli.text import jsonable
@@ -167,6 +168,11 @@ def add_trend_arguments(parser) -> None:
     parser.add_argument("--out", default=None, help="output directory (default: <history>.trend beside it)")
     from guide_health.analysis.fleet_trend_report import DEFAULT_MACHINE_PLOTS
 
+    parser.add_argument("--resolution", choices=RESOLUTIONS, default="auto",
+                        help="rows: every history row; hourly: the history's hourly rows (figures keep each hour's "
+                             "least and largest value, level changes stay exact); auto (default): hourly above "
+                             f"{RAW_ROWS_MAX:,} rows in the window")
+
     parser.add_argument("--plots", type=int, default=DEFAULT_MACHINE_PLOTS, metavar="N",
                         help="per-machine figures for the first N machines of the ranking, least remaining life "
                              f"first (default {DEFAULT_MACHINE_PLOTS}; every machine keeps its CSV)")
@@ -181,11 +187,13 @@ def run_trend(args) -> dict:
         raise InputError("--plots must be >= 0")
     db = Path(args.history)
     out = Path(args.out) if args.out else db.with_name(db.name + ".trend")
-    return write_trend_report(db, out, args.machine, args.days, args.plots)
+    return write_trend_report(db, out, args.machine, args.days, args.plots, args.resolution)
 
 
 def format_trend_text(result: dict) -> str:
-    lines = [f"fleet trend: {result['machines']} machines, {result['rows']} status rows from {result['history']}"]
+    by_hour = " (read by the hour)" if result.get("resolution") == "hourly" else ""
+    lines = [f"fleet trend: {result['machines']} machines, {result['rows']} status rows{by_hour} from "
+             f"{result['history']}"]
     for r in result["ranking"]:
         lines.append(f"  {r['machine']:<16} {r['level']:<5} remaining life {r['remaining_life_h']:10.1f} h  "
                      f"straightness {r['straightness_um']:7.2f} um  {r['level_changes']} level changes")

@@ -9,6 +9,15 @@ dates as their text (FLEET_DATE_KEYS, for `fleet plan`); a status's other keys a
 used them, and their JSON was ~90 % of a row's bytes). A history of layout 1 (the status's values as one
 ``values_json`` text) is migrated when `fleet_monitor` opens it: one transaction in SQLite (json_extract
 of the same keys, so the readers' numbers are unchanged), the old table dropped.
+
+Layout 3 adds ``fleet_history_hourly``: per status and hour of UTC (hour = floor(t / 3600)) the number of
+rows, the first and last time, the level's first, last, least and worst value, the last message, and per
+trend value its minimum, maximum and last reported value with its time (NULL: none in that hour), and the
+time of the hour's last row with limit dates (`fleet plan` finds each status's newest dates through it).
+A trend page of a month of hundreds of machines at history_period_s 60 (26 M rows) reads these 432 000 rows
+instead: SQLite needs a sort to aggregate the rows themselves (~90 s on 26 M rows), while the hourly rows are
+kept up to date at each commit by one upsert of the rows added since the last one (ROLL_UP, the same
+statement that builds them for a layout-2 file when fleet_monitor opens it). Retention deletes whole hours.
 """
 from __future__ import annotations
 
@@ -21,10 +30,11 @@ from guide_health.errors import InputError
 from guide_health.models.fleet import FLEET_DATE_KEYS, FLEET_VALUE_KEYS
 
 PRUNE_PERIOD_S = 3600.0         # how often old rows are deleted
-LAYOUT = 2                      # PRAGMA user_version of the layout below
+LAYOUT = 3                      # PRAGMA user_version of the layout below
+SECONDS_PER_BUCKET = 3600.0     # the rollup's buckets: hours of UTC
 VALUE_COLUMNS = FLEET_VALUE_KEYS + FLEET_DATE_KEYS
 
-HISTORY_SCHEMA = f"""
+_TABLES = f"""
 CREATE TABLE IF NOT EXISTS fleet_history (
     t_unix_s REAL NOT NULL,
     hardware_id TEXT NOT NULL,
@@ -35,7 +45,56 @@ CREATE TABLE IF NOT EXISTS fleet_history (
     {", ".join(f"{k} TEXT" for k in FLEET_DATE_KEYS)}
 );
 CREATE INDEX IF NOT EXISTS fleet_history_machine ON fleet_history (hardware_id, name, t_unix_s);
-PRAGMA user_version = {LAYOUT};
+CREATE TABLE IF NOT EXISTS fleet_history_hourly (
+    hardware_id TEXT NOT NULL,
+    name TEXT NOT NULL,
+    hour INTEGER NOT NULL,
+    rows INTEGER NOT NULL,
+    t_first REAL NOT NULL,
+    t_last REAL NOT NULL,
+    level_first INTEGER NOT NULL,
+    level_last INTEGER NOT NULL,
+    level_min INTEGER NOT NULL,
+    level_max INTEGER NOT NULL,
+    message_last TEXT NOT NULL,
+    {", ".join(f"{k}_min REAL, {k}_max REAL, {k}_last REAL, {k}_t_last REAL" for k in FLEET_VALUE_KEYS)},
+    dates_t_last REAL,
+    PRIMARY KEY (hardware_id, name, hour)
+) WITHOUT ROWID;
+"""
+HISTORY_SCHEMA = f"{_TABLES}PRAGMA user_version = {LAYOUT};\n"
+#: floor(t_unix_s / 3600) in SQL (CAST truncates toward 0; SQLite's floor() is not built into every library)
+HOUR_OF_T = (f"(CAST(t_unix_s / {SECONDS_PER_BUCKET} AS INTEGER) - "
+             f"(t_unix_s < 0 AND t_unix_s / {SECONDS_PER_BUCKET} != CAST(t_unix_s / {SECONDS_PER_BUCKET} AS INTEGER)))")
+#: a row that reports value k (not NULL) at or after the hour's last report of it
+_NEWER = "excluded.{k}_last IS NOT NULL AND ({k}_t_last IS NULL OR excluded.{k}_t_last >= {k}_t_last)"
+#: the hourly rows of every fleet_history row with rowid > ?, in rowid order (the order they were recorded):
+#: counts add up, minima and maxima widen (SQLite's two-argument min/max are NULL if either is; coalesce keeps
+#: the other), the first and last level and message go by time, a value's last is its last reported (non-NULL)
+#: one, with its time ({k}_t_last: the trend's latest value of a machine is the newest of its statuses')
+ROLL_UP = f"""
+INSERT INTO fleet_history_hourly
+SELECT hardware_id, name, {HOUR_OF_T}, 1, t_unix_s, t_unix_s, level,
+       level, level, level, message,
+       {", ".join(f"{k}, {k}, {k}, CASE WHEN {k} IS NULL THEN NULL ELSE t_unix_s END" for k in FLEET_VALUE_KEYS)},
+       CASE WHEN {FLEET_DATE_KEYS[1]} IS NULL THEN NULL ELSE t_unix_s END
+FROM fleet_history WHERE rowid > ? ORDER BY rowid
+ON CONFLICT (hardware_id, name, hour) DO UPDATE SET
+    rows = rows + 1,
+    t_first = min(t_first, excluded.t_first),
+    level_first = CASE WHEN excluded.t_first < t_first THEN excluded.level_first ELSE level_first END,
+    t_last = max(t_last, excluded.t_last),
+    level_last = CASE WHEN excluded.t_last >= t_last THEN excluded.level_last ELSE level_last END,
+    message_last = CASE WHEN excluded.t_last >= t_last THEN excluded.message_last ELSE message_last END,
+    level_min = min(level_min, excluded.level_min),
+    level_max = max(level_max, excluded.level_max),
+    {(","+chr(10)+"    ").join(
+        f"{k}_min = coalesce(min({k}_min, excluded.{k}_min), {k}_min, excluded.{k}_min), "
+        f"{k}_max = coalesce(max({k}_max, excluded.{k}_max), {k}_max, excluded.{k}_max), "
+        f"{k}_last = CASE WHEN {_NEWER.format(k=k)} THEN excluded.{k}_last ELSE {k}_last END, "
+        f"{k}_t_last = CASE WHEN {_NEWER.format(k=k)} THEN excluded.{k}_t_last ELSE {k}_t_last END"
+        for k in FLEET_VALUE_KEYS)},
+    dates_t_last = coalesce(max(dates_t_last, excluded.dates_t_last), dates_t_last, excluded.dates_t_last)
 """
 INSERT_ROW = f"INSERT INTO fleet_history VALUES ({', '.join('?' * (5 + len(VALUE_COLUMNS)))})"
 #: layout 1 -> 2, in SQLite: the same keys out of values_json as the layout-1 trend reader took them
@@ -45,7 +104,8 @@ _MIGRATION = f"""
 BEGIN;
 DROP INDEX IF EXISTS fleet_history_machine;
 ALTER TABLE fleet_history RENAME TO fleet_history_layout1;
-{HISTORY_SCHEMA}
+{_TABLES}
+PRAGMA user_version = 2;
 INSERT INTO fleet_history SELECT t_unix_s, hardware_id, name, level, message, {_EXTRACTS}
     FROM fleet_history_layout1 ORDER BY rowid;
 DROP TABLE fleet_history_layout1;
@@ -77,7 +137,7 @@ def history_row(t_unix_s: float, hardware_id: str, name: str, level: int, messag
 
 
 def _open(path: Path) -> sqlite3.Connection:
-    """The history's connection in layout 2 (a layout-1 file migrated); InputError for a newer layout."""
+    """The history's connection in layout 3 (a layout-1 or -2 file migrated); InputError for a newer layout."""
     path.parent.mkdir(parents=True, exist_ok=True)
     os.close(os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, 0o600))
     db = sqlite3.connect(str(path), isolation_level=None, timeout=10.0)
@@ -85,6 +145,12 @@ def _open(path: Path) -> sqlite3.Connection:
     layout = history_layout(db)
     if layout == 1:
         db.executescript(_MIGRATION)
+    if layout in (1, 2):            # layout 2 -> 3: the hourly rows of every row so far, in one transaction
+        with db:
+            db.executescript(_TABLES)
+            db.execute("DELETE FROM fleet_history_hourly")
+            db.execute(ROLL_UP, (0,))
+            db.execute(f"PRAGMA user_version = {LAYOUT}")
     elif layout > LAYOUT:
         db.close()
         raise InputError(f"history file {path}: layout {layout} of a newer guide_health (this one writes "
@@ -110,6 +176,8 @@ class FleetHistory:
         self._last: dict[tuple[str, str], float] = {}
         self._last_level: dict[tuple[str, str], int] = {}
         self._pending: list[tuple] = []
+        # the newest row already in the hourly rows (the migration, or an earlier run, rolled up the rest)
+        self._rolled_rowid = self.db.execute("SELECT coalesce(MAX(rowid), 0) FROM fleet_history").fetchone()[0]
         self._pruned_at = -float("inf")
         self.deleted_rows = 0
 
@@ -122,9 +190,12 @@ class FleetHistory:
         self._pruned_at = now_unix_s
         if not self.retention_s > 0:
             return 0
+        cutoff = now_unix_s - self.retention_s
         with self.db:
-            deleted = self.db.execute("DELETE FROM fleet_history WHERE t_unix_s < ?",
-                                      (now_unix_s - self.retention_s,)).rowcount
+            deleted = self.db.execute("DELETE FROM fleet_history WHERE t_unix_s < ?", (cutoff,)).rowcount
+            # whole hours only: an hour the cutoff falls in stays (its counts include the rows just deleted)
+            self.db.execute("DELETE FROM fleet_history_hourly WHERE hour < ?",
+                            (math.floor(cutoff / SECONDS_PER_BUCKET),))
         self.deleted_rows += deleted
         return deleted
 
@@ -143,6 +214,8 @@ class FleetHistory:
         if self._pending:
             with self.db:
                 self.db.executemany(INSERT_ROW, self._pending)
+                self.db.execute(ROLL_UP, (self._rolled_rowid,))
+                self._rolled_rowid = self.db.execute("SELECT MAX(rowid) FROM fleet_history").fetchone()[0]
             self._pending.clear()
         if now_unix_s is not None and now_unix_s - self._pruned_at >= PRUNE_PERIOD_S:
             self.prune(now_unix_s)
