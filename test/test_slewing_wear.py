@@ -212,6 +212,55 @@ def test_replay_text_of_a_yaw_bag_shows_fatigue_static_safety_and_wear(tmp_path,
     assert f"to the limit:      {report['raceway_wear_remaining_life_h']:.4g} h" in text
 
 
+def test_fleet_replay_of_slewing_bearings_only(tmp_path, capsys):
+    """`fleet replay` of two slewing bags with a params file of a slewing_monitor section only: each row holds
+    its bag's governing row, that row's damage and remaining life, S0 and the life to the clearance limit as
+    the single `replay` has them; the ranking is by the governing row's remaining fatigue life; the text
+    has a line per bearing."""
+    import csv
+    import json
+    from pathlib import Path
+
+    from guide_health.analysis.fleet_report import ranking
+    from guide_health.cli.app import main
+
+    sim = tmp_path / "p.yaml"
+    sim.write_text("guide_health_slewing_simulation:\n  ros__parameters:\n    duration_h: 0.5\n"
+                   "    yaw_dwell_mean_s: 300.0\n")
+    for duty in ("yaw", "pitch"):
+        assert main(["simulate", "--kind", "slewing", "--duty", duty, "--params", str(sim),
+                     "--out", str(tmp_path / "fleet" / duty)]) == 0
+    node = tmp_path / "slewing.yaml"
+    node.write_text("slewing_monitor:\n  ros__parameters:\n    machine_id: b1\n")
+    singles = {}
+    for duty in ("yaw", "pitch"):
+        assert main(["replay", str(tmp_path / "fleet" / duty), "--params", str(node), "--out",
+                     str(tmp_path / f"one_{duty}"), "--no-plot"]) == 0
+        singles[duty] = json.loads((tmp_path / f"one_{duty}" / "report.json").read_text())
+    capsys.readouterr()
+    assert main(["fleet", "replay", str(tmp_path / "fleet"), "--params", str(node), "--workers", "0",
+                 "--out", str(tmp_path / "out")]) == 0
+    text = capsys.readouterr().out
+    with open(tmp_path / "out" / "fleet.csv") as handle:
+        rows = {Path(r["bag"]).name: r for r in csv.DictReader(handle)}
+    for duty, one in singles.items():
+        row, governing = rows[duty], one["fatigue_governing_row"]
+        assert row["fatigue_governing_row"] == governing and row["kind"] == "slewing"
+        assert float(row["fatigue_damage"]) == pytest.approx(one[f"fatigue_damage_{governing}"], rel=1e-5)
+        assert float(row["fatigue_remaining_life_h"]) == pytest.approx(
+            one[f"fatigue_remaining_life_{governing}_h"], rel=1e-5)
+        assert float(row["static_safety_factor"]) == pytest.approx(one["static_safety_factor"], rel=1e-5)
+        assert float(row["raceway_wear_remaining_life_h"]) == pytest.approx(one["raceway_wear_remaining_life_h"],
+                                                                            rel=1e-5)
+        assert f"fatigue {governing} row damage {one[f'fatigue_damage_{governing}']:.3g}," in text
+    result = json.loads((tmp_path / "out" / "fleet.json").read_text())
+    key, ranked = ranking([{**r, **{k: float(r[k]) for k in ("fatigue_remaining_life_h",) if r[k]}}
+                           for r in rows.values()])
+    assert key == "fatigue_remaining_life_h" and len(ranked) == 2
+    assert ranked[0]["fatigue_remaining_life_h"] <= ranked[1]["fatigue_remaining_life_h"]
+    assert result["summary"]["ok"] == 2 and (tmp_path / "out" / "fleet_ranking.png").stat().st_size > 1000
+
+
 @pytest.mark.ros
 def test_live_yaw_bag_equals_replay_for_every_wear_key(tmp_path, ros_test_env):
     """bag_player -> slewing_monitor (its tilting_clearance topic) == `replay` of the same bag: every reading

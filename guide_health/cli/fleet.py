@@ -100,12 +100,24 @@ def _bag_progress(force: bool):
     return progress
 
 
+def fleet_params(paths: list[str], command: str) -> dict:
+    """The parameters every bag's command reads, checked once before any worker starts (bad params: one
+    error): the wear_monitor section; a replay fleet of slewing bearings only (the files have a slewing_monitor
+    section and no wear_monitor one): the slewing_monitor section, with no machine type or K prior."""
+    from guide_health.params import node_sections, slewing_monitor_params_from, wear_monitor_params
+
+    slewing_only = command == "replay" and not any(node_sections(p, "wear_monitor", required=False) for p in paths) \
+        and any(node_sections(p, "slewing_monitor", required=False) for p in paths)
+    if not slewing_only:
+        return wear_monitor_params(paths)
+    slewing_monitor_params_from(paths)
+    return {"machine_type": "", "wear_coefficient": None, "wear_coefficient_prior_rel_sd": None}
+
+
 def run_fleet_command(args, command: str) -> dict:
     import time
 
-    from guide_health.params import wear_monitor_params
-
-    params = wear_monitor_params(args.params)              # bad params: one error, before any worker starts
+    params = fleet_params(args.params, command)
     workers = (os.cpu_count() or 1) if args.workers is None else args.workers
     if workers < 0:
         raise InputError("--workers must be >= 0")
@@ -133,14 +145,21 @@ def run_fleet_command(args, command: str) -> dict:
             "rows": rows, "files": files, "results": entries}
 
 
+def _hours(value) -> str:
+    return f"{value:.4g} h" if isinstance(value, float) else "not known"
+
+
 def format_fleet_text(result: dict) -> str:
     lines = [f"fleet {result['command']}: {result['bags']} bags on {result['engine']} in {result['wall_s']:.1f} s, "
              f"{result['ok']} ok, {result['failed']} failed"]
     for row in result["rows"]:
         if row["status"] != "ok":
             continue
-        if result["command"] == "replay" and not isinstance(row["remaining_life_h"], float):
-            lines.append(f"  {row['machine']:<16} {row['level_name']:<5} (a slewing bag: see its report)")
+        if result["command"] == "replay" and row.get("kind") == "slewing":
+            lines.append(f"  {row['machine']:<16} {row['level_name']:<5} fatigue {row['fatigue_governing_row']} row "
+                         f"damage {row['fatigue_damage']:.3g}, remaining {row['fatigue_remaining_life_h']:.4g} h; "
+                         f"S0 {row['static_safety_factor']:.3g}; to the clearance limit "
+                         f"{_hours(row['raceway_wear_remaining_life_h'])}")
         elif result["command"] == "replay":
             lines.append(f"  {row['machine']:<16} {row['level_name']:<5} remaining life "
                          f"{row['remaining_life_h']:10.1f} h  (90 %: {row['remaining_life_h_low']:.1f} .. "

@@ -18,6 +18,7 @@ from guide_health.params.fleet_monitor import FLEET_MONITOR_SCHEMA
 from guide_health.params.loader import (
     load_node_params,
     machine_axes_params,
+    node_sections,
     simulation_params,
     slewing_monitor_params_from,
     wear_monitor_params,
@@ -40,7 +41,7 @@ __all__ = [
     "SLEWING_MONITOR_DEFAULTS", "SLEWING_MONITOR_SCHEMA", "SLEWING_SIMULATION_DEFAULTS", "SLEWING_SIMULATION_SCHEMA",
     "VIBRATION_MONITOR_SCHEMA", "WEAR_MONITOR_DEFAULTS", "WEAR_MONITOR_SCHEMA",
     "check_unknown_keys", "declare_parameters", "descriptor_for", "load_node_params", "machine_axes_params",
-    "markdown_table", "schema_for", "simulation_params", "slewing_monitor_params_from", "slewing_simulation_params",
-    "validate_slewing_params",
+    "markdown_table", "node_sections", "schema_for", "simulation_params", "slewing_monitor_params_from",
+    "slewing_simulation_params", "validate_slewing_params",
     "validate_wear_params", "wear_monitor_params",
 ]
