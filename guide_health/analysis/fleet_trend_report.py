@@ -32,9 +32,9 @@ def write_trend_report(db: Path, out: Path, machine: str | None = None, days: fl
     first), fleet_overview.png, ranking.csv and index.html in ``out``; the history read at ``resolution``
     (fleet_trend.read_trends)."""
     trends = read_trends(db, machine, days, resolution)
-    hourly = next(iter(trends.values())).hourly is not None if trends else False
     if not trends:
         raise InputError(f"{db}: the fleet history is empty")
+    hourly = next(iter(trends.values())).hourly is not None
     out.mkdir(parents=True, exist_ok=True)
     rows = ranking(trends)
     plotted = {r["machine"] for r in rows[:max_plots]}
