@@ -475,6 +475,40 @@ def test_prune_deletes_whole_hours_of_the_hourly_rows(tmp_path):
     assert all(b["t_last"] >= now - 86400.0 for b in hourly_table(db).values())
 
 
+def test_rows_after_a_prune_of_every_row_are_rolled_up(tmp_path):
+    """Retention deletes every row (the fleet silent longer than it): SQLite numbers the next rows from 1
+    again, and they still reach the hourly rows."""
+    db = blip_history(tmp_path / "h.db")
+    h = FleetHistory(str(db), 0.0, retention_days=1.0)
+    later = T0_UNIX_S + 40 * 86400.0
+    assert h.prune(later) > 250 and hourly_table(db) == {}
+    for k in range(5):
+        h.record(later + 600.0 * k, "m7", "wear_monitor: x precision", k % 2, "", {"remaining_life_h": str(50 - k)})
+        h.commit()
+    h.close()
+    assert hourly_table(db) == hourly_by_hand(db) and sum(b["rows"] for b in hourly_table(db).values()) == 5
+
+
+def test_rows_and_hourly_rows_are_written_together_or_not_at_all(tmp_path, monkeypatch):
+    """A commit whose roll-up fails (here a broken statement) leaves neither the rows nor their hourly rows,
+    keeps the rows pending, and the next commit writes both."""
+    import guide_health.io.outputs.fleet_history as fleet_history
+
+    db = tmp_path / "h.db"
+    h = FleetHistory(str(db), 0.0)
+    h.record(T0_UNIX_S, "m1", "wear_monitor: x precision", 0, "", {"remaining_life_h": "9"})
+    good = fleet_history.ROLL_UP
+    broken = good.replace("INSERT INTO fleet_history_hourly", "INSERT INTO nowhere")
+    monkeypatch.setattr(fleet_history, "ROLL_UP", broken)
+    with pytest.raises(Exception, match="nowhere"):
+        h.commit()
+    assert h.db.execute("SELECT COUNT(*) FROM fleet_history").fetchone()[0] == 0 and hourly_table(db) == {}
+    monkeypatch.setattr(fleet_history, "ROLL_UP", good)
+    h.commit()
+    h.close()
+    assert hourly_table(db) == hourly_by_hand(db) and len(hourly_table(db)) == 1
+
+
 def test_trend_read_by_the_hour_has_the_rows_ranking_and_every_level_change(tmp_path):
     """The same history read by every row and by the hour: the same machines, row counts, latest values and
     levels (the ranking), the same level changes, one by one (a blip inside an hour, a change at an hour's

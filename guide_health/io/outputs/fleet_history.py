@@ -21,6 +21,7 @@ statement that builds them for a layout-2 file when fleet_monitor opens it). Ret
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import sqlite3
@@ -177,7 +178,7 @@ class FleetHistory:
         self._last_level: dict[tuple[str, str], int] = {}
         self._pending: list[tuple] = []
         # the newest row already in the hourly rows (the migration, or an earlier run, rolled up the rest)
-        self._rolled_rowid = self.db.execute("SELECT coalesce(MAX(rowid), 0) FROM fleet_history").fetchone()[0]
+        self._rolled_rowid = self._newest_rowid()
         self._pruned_at = -float("inf")
         self.deleted_rows = 0
 
@@ -191,13 +192,31 @@ class FleetHistory:
         if not self.retention_s > 0:
             return 0
         cutoff = now_unix_s - self.retention_s
-        with self.db:
+        with self._transaction():
             deleted = self.db.execute("DELETE FROM fleet_history WHERE t_unix_s < ?", (cutoff,)).rowcount
             # whole hours only: an hour the cutoff falls in stays (its counts include the rows just deleted)
             self.db.execute("DELETE FROM fleet_history_hourly WHERE hour < ?",
                             (math.floor(cutoff / SECONDS_PER_BUCKET),))
+            # every row left is rolled up; with none left SQLite numbers the next rows from 1 again
+            newest = self._newest_rowid()
+        self._rolled_rowid = newest
         self.deleted_rows += deleted
         return deleted
+
+    def _newest_rowid(self) -> int:
+        return self.db.execute("SELECT coalesce(MAX(rowid), 0) FROM fleet_history").fetchone()[0]
+
+    @contextlib.contextmanager
+    def _transaction(self):
+        """One transaction (the connection autocommits each statement): the rows and their hourly rows are
+        written, or deleted, together or not at all."""
+        self.db.execute("BEGIN IMMEDIATE")
+        try:
+            yield
+        except BaseException:
+            self.db.execute("ROLLBACK")
+            raise
+        self.db.execute("COMMIT")
 
     def record(self, t_unix_s: float, hardware_id: str, name: str, level: int, message: str, values: dict):
         key = (hardware_id, name)
@@ -212,10 +231,11 @@ class FleetHistory:
     def commit(self, now_unix_s: float | None = None) -> None:
         """Write the pending rows; with `now_unix_s`, prune at most every PRUNE_PERIOD_S."""
         if self._pending:
-            with self.db:
+            with self._transaction():
                 self.db.executemany(INSERT_ROW, self._pending)
                 self.db.execute(ROLL_UP, (self._rolled_rowid,))
-                self._rolled_rowid = self.db.execute("SELECT MAX(rowid) FROM fleet_history").fetchone()[0]
+                newest = self._newest_rowid()
+            self._rolled_rowid = newest
             self._pending.clear()
         if now_unix_s is not None and now_unix_s - self._pruned_at >= PRUNE_PERIOD_S:
             self.prune(now_unix_s)
