@@ -88,8 +88,7 @@ def dues_from_history(db: Path) -> tuple[list[Due], float]:
             if layout >= 3:
                 newest_of = ("SELECT hardware_id, name, MAX(dates_t_last) AS t FROM fleet_history_hourly WHERE "
                              "dates_t_last IS NOT NULL GROUP BY hardware_id, name")
-                dated = set(con.execute("SELECT DISTINCT hardware_id, name FROM fleet_history_hourly WHERE "
-                                        "dates_t_last IS NOT NULL").fetchall())
+                dated = {(machine, name) for machine, name, _ in con.execute(newest_of)}
             else:
                 newest_of = (f"SELECT hardware_id, name, MAX(t_unix_s) AS t FROM fleet_history WHERE {low} IS NOT "
                              "NULL GROUP BY hardware_id, name")

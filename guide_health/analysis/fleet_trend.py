@@ -140,12 +140,12 @@ def read_trends(db: Path, machine: str | None = None, days: float | None = None,
         con = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
         try:
             layout = check_history_layout(db, con)
-            hourly = layout >= 3 and (resolution == "hourly" or (
-                resolution == "auto" and _rows_in_window(con, machine, days) > RAW_ROWS_MAX))
             if resolution == "hourly" and layout < 3:
                 raise InputError(f"{db}: a history of layout {layout} has no hourly rows; open it once with "
                                  "fleet_monitor (history_file:=<this file>), which adds them")
-            trends = _hourly_trends(con, machine, days) if hourly else _row_trends(con, machine, days)
+            window = _hourly_where(con, machine, days) if layout >= 3 and resolution != "rows" else None
+            hourly = window is not None and (resolution == "hourly" or _rows_in_window(con, window) > RAW_ROWS_MAX)
+            trends = _hourly_trends(con, window) if hourly else _row_trends(con, machine, days)
         finally:
             con.close()
     except sqlite3.DatabaseError as exc:
@@ -156,11 +156,13 @@ def read_trends(db: Path, machine: str | None = None, days: float | None = None,
     return trends
 
 
+def _machine_where(machine: str | None) -> tuple[list[str], list]:
+    """The WHERE terms and arguments of the machine filter (none: every machine)."""
+    return (["1"], []) if machine is None else (["1", "hardware_id = ?"], [machine])
+
+
 def _row_trends(con: sqlite3.Connection, machine: str | None, days: float | None) -> dict[str, MachineTrend]:
-    where, args = ["1"], []
-    if machine is not None:
-        where.append("hardware_id = ?")
-        args.append(machine)
+    where, args = _machine_where(machine)
     if days is not None:
         where.append("t_unix_s >= (SELECT MAX(t_unix_s) FROM fleet_history) - ?")
         args.append(days * 86400.0)
@@ -170,11 +172,9 @@ def _row_trends(con: sqlite3.Connection, machine: str | None, days: float | None
 
 
 def _hourly_where(con: sqlite3.Connection, machine: str | None, days: float | None) -> tuple[str, list]:
-    """The hourly rows of the window: whole hours from the one holding (newest row - days)."""
-    where, args = ["1"], []
-    if machine is not None:
-        where.append("hardware_id = ?")
-        args.append(machine)
+    """The WHERE clause and arguments of the hourly rows of the window: whole hours from the one holding
+    (newest row - days)."""
+    where, args = _machine_where(machine)
     if days is not None:
         newest = con.execute("SELECT MAX(t_last) FROM fleet_history_hourly").fetchone()[0]
         if newest is not None:
@@ -183,16 +183,17 @@ def _hourly_where(con: sqlite3.Connection, machine: str | None, days: float | No
     return " AND ".join(where), args
 
 
-def _rows_in_window(con: sqlite3.Connection, machine: str | None, days: float | None) -> int:
-    where, args = _hourly_where(con, machine, days)
+def _rows_in_window(con: sqlite3.Connection, window: tuple[str, list]) -> int:
+    """The history rows the hourly rows of the window (_hourly_where) stand for."""
+    where, args = window
     return int(con.execute(f"SELECT coalesce(SUM(rows), 0) FROM fleet_history_hourly WHERE {where}",
                            args).fetchone()[0])
 
 
-def _hourly_trends(con: sqlite3.Connection, machine: str | None, days: float | None) -> dict[str, MachineTrend]:
-    """The trends from the hourly rows (points: each hour's last time, level, message and values), with the
-    exact level changes (_hourly_level_changes)."""
-    where, args = _hourly_where(con, machine, days)
+def _hourly_trends(con: sqlite3.Connection, window: tuple[str, list]) -> dict[str, MachineTrend]:
+    """The trends from the hourly rows of the window (_hourly_where; points: each hour's last time, level,
+    message and values), with the exact level changes (_hourly_level_changes)."""
+    where, args = window
     last = ", ".join(f"{k}_last" for k, _ in TREND_KEYS)
     rows = con.execute(f"SELECT t_last, hardware_id, name, level_last, message_last, {last}, "
                        f"{', '.join(HOURLY_COLUMNS)} FROM fleet_history_hourly WHERE {where} "

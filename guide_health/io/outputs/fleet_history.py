@@ -137,6 +137,19 @@ def history_row(t_unix_s: float, hardware_id: str, name: str, level: int, messag
             *(values.get(k) for k in FLEET_DATE_KEYS))
 
 
+@contextlib.contextmanager
+def transaction(db: sqlite3.Connection):
+    """One transaction on a connection that autocommits each statement: the rows and their hourly rows are
+    written, deleted or migrated together or not at all."""
+    db.execute("BEGIN IMMEDIATE")
+    try:
+        yield
+    except BaseException:
+        db.execute("ROLLBACK")
+        raise
+    db.execute("COMMIT")
+
+
 def _open(path: Path) -> sqlite3.Connection:
     """The history's connection in layout 3 (a layout-1 or -2 file migrated); InputError for a newer layout."""
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -147,8 +160,8 @@ def _open(path: Path) -> sqlite3.Connection:
     if layout == 1:
         db.executescript(_MIGRATION)
     if layout in (1, 2):            # layout 2 -> 3: the hourly rows of every row so far, in one transaction
-        with db:
-            db.executescript(_TABLES)
+        db.executescript(_TABLES)   # (executescript commits first: outside the transaction)
+        with transaction(db):
             db.execute("DELETE FROM fleet_history_hourly")
             db.execute(ROLL_UP, (0,))
             db.execute(f"PRAGMA user_version = {LAYOUT}")
@@ -192,7 +205,7 @@ class FleetHistory:
         if not self.retention_s > 0:
             return 0
         cutoff = now_unix_s - self.retention_s
-        with self._transaction():
+        with transaction(self.db):
             deleted = self.db.execute("DELETE FROM fleet_history WHERE t_unix_s < ?", (cutoff,)).rowcount
             # whole hours only: an hour the cutoff falls in stays (its counts include the rows just deleted)
             self.db.execute("DELETE FROM fleet_history_hourly WHERE hour < ?",
@@ -206,17 +219,6 @@ class FleetHistory:
     def _newest_rowid(self) -> int:
         return self.db.execute("SELECT coalesce(MAX(rowid), 0) FROM fleet_history").fetchone()[0]
 
-    @contextlib.contextmanager
-    def _transaction(self):
-        """One transaction (the connection autocommits each statement): the rows and their hourly rows are
-        written, or deleted, together or not at all."""
-        self.db.execute("BEGIN IMMEDIATE")
-        try:
-            yield
-        except BaseException:
-            self.db.execute("ROLLBACK")
-            raise
-        self.db.execute("COMMIT")
 
     def record(self, t_unix_s: float, hardware_id: str, name: str, level: int, message: str, values: dict):
         key = (hardware_id, name)
@@ -231,7 +233,7 @@ class FleetHistory:
     def commit(self, now_unix_s: float | None = None) -> None:
         """Write the pending rows; with `now_unix_s`, prune at most every PRUNE_PERIOD_S."""
         if self._pending:
-            with self._transaction():
+            with transaction(self.db):
                 self.db.executemany(INSERT_ROW, self._pending)
                 self.db.execute(ROLL_UP, (self._rolled_rowid,))
                 newest = self._newest_rowid()
